@@ -1,0 +1,185 @@
+//! Reading: the [`CdrDecode`] trait and the bounds-checked [`Reader`].
+
+use std::marker::PhantomData;
+
+use crate::endian::ByteOrder;
+use crate::error::{DecodeError, DecodeErrorKind};
+use crate::layout::align_up;
+
+/// Size of the encapsulation header, the origin of error offsets.
+pub(crate) const HEADER_LEN: usize = 4;
+
+/// A value that can be read from CDR, possibly borrowing from the input (`'de`).
+///
+/// Implementations never panic and never allocate more than the remaining input
+/// justifies: a sequence checks `count × MIN_WIRE_SIZE ≤ remaining` before it
+/// reserves anything.
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` cannot be decoded from CDR",
+    label = "no CDR decoding",
+    note = "borrowed fields can be &str, &[u8], Cow<str> or Cow<[T]>; other field types must be owned (Vec<T>, String, ...) or derive RosMessage"
+)]
+pub trait CdrDecode<'de>: Sized {
+    /// The fewest bytes one value can take on the wire (at least 1).
+    const MIN_WIRE_SIZE: usize;
+
+    /// Read one value at the reader's position.
+    fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError>;
+
+    /// Read `n` consecutive values (the caller has checked `n` against the input).
+    /// Primitives override this with a bulk copy.
+    #[inline]
+    fn decode_vec<B: ByteOrder>(r: &mut Reader<'de, B>, n: usize) -> Result<Vec<Self>, DecodeError> {
+        let mut out = Vec::with_capacity(n);
+        for _ in 0..n {
+            out.push(Self::decode(r)?);
+        }
+        Ok(out)
+    }
+
+    /// Read a fixed array of `N` values. Numbers override this with one copy onto
+    /// the stack; other types read element by element.
+    #[inline]
+    fn decode_array<B: ByteOrder, const N: usize>(r: &mut Reader<'de, B>) -> Result<[Self; N], DecodeError> {
+        let at = r.position();
+        let items = Self::decode_vec(r, N)?;
+        let got = items.len();
+        <[Self; N]>::try_from(items).map_err(|_| {
+            // Only a faulty `decode_vec` returns another count; report, don't panic.
+            r.error_at(at, DecodeErrorKind::UnexpectedEof { needed: N, remaining: got })
+        })
+    }
+
+    /// Read `n` consecutive values into a [`std::borrow::Cow`]: borrowed from the
+    /// input where the memory layout allows (bytes), owned otherwise.
+    #[inline]
+    fn decode_cow_slice<B: ByteOrder>(
+        r: &mut Reader<'de, B>,
+        n: usize,
+    ) -> Result<std::borrow::Cow<'de, [Self]>, DecodeError>
+    where
+        Self: Clone,
+    {
+        Self::decode_vec(r, n).map(std::borrow::Cow::Owned)
+    }
+}
+
+/// A type that decodes without borrowing from the input.
+pub trait DecodeOwned: for<'de> CdrDecode<'de> {}
+impl<T: for<'de> CdrDecode<'de>> DecodeOwned for T {}
+
+/// Reads CDR from a byte slice, checking every access.
+///
+/// Positions are counted from the byte after the encapsulation header; error
+/// offsets are reported from the start of the whole input.
+pub struct Reader<'de, B: ByteOrder> {
+    data: &'de [u8],
+    pos: usize,
+    order: PhantomData<B>,
+}
+
+impl<'de, B: ByteOrder> Reader<'de, B> {
+    /// A reader over a message body (the bytes after the encapsulation header).
+    pub fn new(body: &'de [u8]) -> Self {
+        Self {
+            data: body,
+            pos: 0,
+            order: PhantomData,
+        }
+    }
+
+    /// The current position, counted from the start of the body.
+    #[inline(always)]
+    pub fn position(&self) -> usize {
+        self.pos
+    }
+
+    /// Bytes left after the current position.
+    #[inline(always)]
+    pub fn remaining(&self) -> usize {
+        self.data.len() - self.pos
+    }
+
+
+    /// An error of `kind` at body position `pos`.
+    #[cold]
+    pub fn error_at(&self, pos: usize, kind: DecodeErrorKind) -> DecodeError {
+        DecodeError::new(kind, pos + HEADER_LEN)
+    }
+
+    #[cold]
+    fn eof(&self, needed: usize) -> DecodeError {
+        self.error_at(
+            self.pos,
+            DecodeErrorKind::UnexpectedEof {
+                needed,
+                remaining: self.remaining(),
+            },
+        )
+    }
+
+    /// Skip the padding before a value aligned to `align`, then take `len` bytes.
+    #[inline(always)]
+    fn take_aligned(&mut self, align: usize, len: usize) -> Result<&'de [u8], DecodeError> {
+        let start = align_up(self.pos, align);
+        match start.checked_add(len) {
+            Some(end) if end <= self.data.len() => {
+                self.pos = end;
+                Ok(&self.data[start..end])
+            }
+            _ => Err(self.eof(start - self.pos + len)),
+        }
+    }
+
+    /// Read one primitive of `N` bytes aligned to `N`, in wire byte order.
+    #[inline(always)]
+    pub fn read_primitive<const N: usize>(&mut self) -> Result<[u8; N], DecodeError> {
+        let start = align_up(self.pos, N);
+        let end = start + N;
+        match self.data.get(start..end) {
+            Some(bytes) => {
+                self.pos = end;
+                let mut out = [0u8; N];
+                out.copy_from_slice(bytes);
+                Ok(out)
+            }
+            None => Err(self.eof(end - self.pos)),
+        }
+    }
+
+    /// Take `len` raw bytes with no alignment, borrowed from the input.
+    #[inline(always)]
+    pub fn read_bytes(&mut self, len: usize) -> Result<&'de [u8], DecodeError> {
+        self.take_aligned(1, len)
+    }
+
+    /// Skip to `align`, then take `len` bytes borrowed from the input.
+    #[inline(always)]
+    pub fn read_aligned_bytes(&mut self, align: usize, len: usize) -> Result<&'de [u8], DecodeError> {
+        self.take_aligned(align, len)
+    }
+
+    /// Read a `u32` element count and check that `count` elements of at least
+    /// `min_element_size` bytes fit in the rest of the input, so that nothing is
+    /// allocated on the word of a hostile length prefix.
+    #[inline(always)]
+    pub fn read_count(&mut self, min_element_size: usize) -> Result<usize, DecodeError> {
+        let at = self.pos;
+        let count = u32::from_ne_bytes(self.read_primitive::<4>()?);
+        let count = if B::NATIVE { count } else { count.swap_bytes() };
+        let min = min_element_size.max(1);
+        let remaining = self.remaining();
+        // u32 × usize fits in u64 only for usize ≤ 32 bits; use checked arithmetic.
+        match (count as usize).checked_mul(min) {
+            Some(needed) if needed <= remaining => Ok(count as usize),
+            _ => Err(self.error_at(
+                at,
+                DecodeErrorKind::LengthExceedsInput {
+                    count,
+                    min_element_size: min,
+                    remaining,
+                },
+            )),
+        }
+    }
+}

@@ -1,0 +1,191 @@
+//! Compile-time layout facts used to size values exactly in O(1).
+//!
+//! CDR aligns every primitive to its size relative to the start of the stream, so
+//! the size of a value can depend on where it starts. All alignments divide 8, so
+//! it depends only on the start position modulo 8: a type whose encoding never
+//! depends on its value is described by the 8 end positions for the 8 possible
+//! start phases.
+
+/// Round `pos` up to a multiple of `align` (a power of two).
+#[inline(always)]
+pub const fn align_up(pos: usize, align: usize) -> usize {
+    (pos + (align - 1)) & !(align - 1)
+}
+
+/// The layout of a type whose encoded size does not depend on its value (only on
+/// the start position modulo 8): numbers, `bool`, fixed arrays of them and structs
+/// made only of those.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FixedLayout {
+    /// `ends[p]` is the position after the value when it starts at position `p`.
+    ends: [usize; 8],
+}
+
+impl FixedLayout {
+    /// The layout of a primitive of `size` bytes (aligned to its size).
+    pub const fn primitive(size: usize) -> Self {
+        let mut ends = [0; 8];
+        let mut p = 0;
+        while p < 8 {
+            ends[p] = align_up(p, size) + size;
+            p += 1;
+        }
+        Self { ends }
+    }
+
+    /// The end position of a value that starts at `start`.
+    #[inline(always)]
+    pub const fn end(&self, start: usize) -> usize {
+        let phase = start % 8;
+        (start - phase).saturating_add(self.ends[phase])
+    }
+
+    /// The encoded size of a value that starts at `start` (padding included).
+    pub const fn size_at(&self, start: usize) -> usize {
+        self.end(start) - start
+    }
+
+    /// The layout of this value followed directly by a value of layout `next` (the
+    /// next field of a struct).
+    pub const fn then(self, next: Self) -> Self {
+        let mut ends = [0; 8];
+        let mut p = 0;
+        while p < 8 {
+            ends[p] = next.end(self.ends[p]);
+            p += 1;
+        }
+        Self { ends }
+    }
+
+    /// The layout of `n` consecutive values of this layout (a fixed array).
+    pub const fn repeat(self, n: usize) -> Self {
+        let mut ends = [0; 8];
+        let mut p = 0;
+        while p < 8 {
+            ends[p] = self.repeat_end(p, n);
+            p += 1;
+        }
+        Self { ends }
+    }
+
+    /// The end position of `n` consecutive values starting at `start`, in O(1).
+    ///
+    /// The start phase of each element is a function of the previous one on 8
+    /// states, so after at most 8 elements the phases cycle with a period of at
+    /// most 8; whole cycles are skipped arithmetically. Saturates instead of
+    /// overflowing (a length that large cannot be encoded anyway).
+    pub const fn repeat_end(&self, start: usize, n: usize) -> usize {
+        let mut pos = start;
+        let mut done = 0;
+        while done < n && done < 8 {
+            pos = self.end(pos);
+            done += 1;
+        }
+        if done == n {
+            return pos;
+        }
+        // `pos` is on the cycle now: measure its length and stride.
+        let mut cycle_len = 0;
+        let mut p = pos;
+        loop {
+            p = self.end(p);
+            cycle_len += 1;
+            if p % 8 == pos % 8 {
+                break;
+            }
+        }
+        let stride = p - pos;
+        let left = n - done;
+        pos = pos.saturating_add((left / cycle_len).saturating_mul(stride));
+        let mut i = 0;
+        while i < left % cycle_len {
+            pos = self.end(pos);
+            i += 1;
+        }
+        pos
+    }
+
+    /// The smallest number of bytes a value of this layout takes, over all phases.
+    pub const fn min_size(&self) -> usize {
+        let mut min = usize::MAX;
+        let mut p = 0;
+        while p < 8 {
+            let size = self.ends[p] - p;
+            if size < min {
+                min = size;
+            }
+            p += 1;
+        }
+        min
+    }
+
+    /// Combine the layouts of a struct's fields, in order. `None` if any field has a
+    /// value-dependent size. An empty list describes a struct with no fields, which
+    /// CDR encodes as one `u8`.
+    pub const fn of_struct(fields: &[Option<FixedLayout>]) -> Option<FixedLayout> {
+        if fields.is_empty() {
+            return Some(Self::primitive(1));
+        }
+        let mut acc = Self { ends: [0, 1, 2, 3, 4, 5, 6, 7] };
+        let mut i = 0;
+        while i < fields.len() {
+            match fields[i] {
+                Some(next) => acc = acc.then(next),
+                None => return None,
+            }
+            i += 1;
+        }
+        Some(acc)
+    }
+
+    /// The layout of a fixed array of `n` elements of `element`'s layout.
+    pub const fn of_array(element: Option<FixedLayout>, n: usize) -> Option<FixedLayout> {
+        match element {
+            Some(layout) => Some(layout.repeat(n)),
+            None => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn naive_repeat_end(l: &FixedLayout, start: usize, n: usize) -> usize {
+        (0..n).fold(start, |pos, _| l.end(pos))
+    }
+
+    #[test]
+    fn repeat_end_matches_element_by_element_walk() {
+        // {u8, f64}, {u32, f64}, {f64, u8}, {u16, u8}, {u8}: every phase, many counts.
+        let p = FixedLayout::primitive;
+        let shapes = [
+            p(1).then(p(8)),
+            p(4).then(p(8)),
+            p(8).then(p(1)),
+            p(2).then(p(1)),
+            p(1),
+            p(4).then(p(2)).then(p(1)).then(p(8)).then(p(1)),
+        ];
+        for l in &shapes {
+            for start in 0..24 {
+                for n in 0..100 {
+                    assert_eq!(l.repeat_end(start, n), naive_repeat_end(l, start, n));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn struct_with_u8_then_f64_depends_on_phase() {
+        let l = FixedLayout::of_struct(&[
+            Some(FixedLayout::primitive(1)),
+            Some(FixedLayout::primitive(8)),
+        ])
+        .unwrap();
+        assert_eq!(l.size_at(0), 16);
+        assert_eq!(l.size_at(1), 15);
+        assert_eq!(l.size_at(7), 9);
+        assert_eq!(l.min_size(), 9);
+    }
+}

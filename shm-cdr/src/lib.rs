@@ -1,0 +1,166 @@
+//! ROS 2 CDR for hand-written Rust structs: exact sizes, byte-exact wire format,
+//! borrowed decoding, and no panics on hostile input.
+//!
+//! ```
+//! use shm_cdr::RosMessage;
+//!
+//! #[derive(RosMessage, Debug, PartialEq)]
+//! #[ros(type_name = "my_pkg/msg/Reading")]
+//! struct Reading {
+//!     id: u8,
+//!     value: f64,
+//!     label: String,
+//! }
+//!
+//! let msg = Reading { id: 7, value: 1.5, label: "a".into() };
+//! let bytes = shm_cdr::to_vec(&msg)?;
+//! assert_eq!(bytes.len(), shm_cdr::encoded_size(&msg)); // exact, always
+//! assert_eq!(&bytes[..4], [0x00, 0x01, 0x00, 0x00]); // little-endian CDR
+//! assert_eq!(shm_cdr::from_bytes::<Reading>(&bytes)?, msg);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! The wire format is ROS 2's classic CDR (XCDR1) as rmw_fastrtps and rmw_zenoh_cpp
+//! write it: a 4-byte encapsulation header, then every primitive aligned to its size
+//! counted from the byte after the header. Every padding byte is written as zero.
+#![warn(missing_docs)]
+#![forbid(unsafe_code)]
+
+mod bounded;
+mod decode;
+pub mod describe;
+mod encode;
+mod endian;
+mod error;
+pub mod layout;
+mod message;
+mod wire;
+
+pub use bounded::{BoundedString, BoundedVec, BoundedWString, WString};
+pub use decode::{CdrDecode, DecodeOwned, Reader};
+pub use describe::{RosElement, RosType};
+pub use encode::{CdrEncode, Writer};
+pub use endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
+pub use error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
+pub use message::RosMessage;
+
+/// `#[derive(RosMessage)]`: see the [crate documentation](crate).
+#[cfg(feature = "derive")]
+pub use shm_derive::RosMessage;
+
+/// Re-exports for derived code; not a public API.
+#[doc(hidden)]
+pub mod __private {
+    pub use std::sync::OnceLock;
+}
+
+use decode::HEADER_LEN;
+
+/// The exact number of bytes [`to_vec`] produces for `msg`, header included.
+#[inline]
+pub fn encoded_size<T: CdrEncode + ?Sized>(msg: &T) -> usize {
+    HEADER_LEN + msg.encoded_end(0)
+}
+
+/// Encode `msg` as little-endian CDR into the start of `buf`, returning the number
+/// of bytes written (always [`encoded_size`]). Never writes outside `buf`; a buffer
+/// that is too small is an [`EncodeErrorKind::BufferTooSmall`] error.
+#[inline]
+pub fn encode_into<T: CdrEncode + ?Sized>(msg: &T, buf: &mut [u8]) -> Result<usize, EncodeError> {
+    encode_into_with(msg, buf, Endianness::Little)
+}
+
+/// [`encode_into`] in the given byte order.
+#[inline]
+pub fn encode_into_with<T: CdrEncode + ?Sized>(
+    msg: &T,
+    buf: &mut [u8],
+    endianness: Endianness,
+) -> Result<usize, EncodeError> {
+    let result = match endianness {
+        Endianness::Little => encode_body::<T, LittleEndian>(msg, buf),
+        Endianness::Big => encode_body::<T, BigEndian>(msg, buf),
+    };
+    result.map_err(|mut e| {
+        if let EncodeErrorKind::BufferTooSmall { .. } = e.kind() {
+            e.set_kind(EncodeErrorKind::BufferTooSmall {
+                needed: encoded_size(msg),
+                available: buf.len(),
+            });
+        }
+        e
+    })
+}
+
+#[inline(always)]
+fn encode_body<T: CdrEncode + ?Sized, B: ByteOrder>(msg: &T, buf: &mut [u8]) -> Result<usize, EncodeError> {
+    let Some((header, body)) = buf.split_first_chunk_mut::<HEADER_LEN>() else {
+        return Err(EncodeError::new(EncodeErrorKind::BufferTooSmall {
+            needed: HEADER_LEN,
+            available: buf.len(),
+        }));
+    };
+    *header = B::ENDIANNESS.header();
+    let mut w = Writer::<B>::new(body);
+    msg.encode(&mut w)?;
+    Ok(HEADER_LEN + w.position())
+}
+
+/// Encode `msg` as little-endian CDR into a new `Vec` of exactly
+/// [`encoded_size`] bytes.
+#[inline]
+pub fn to_vec<T: CdrEncode + ?Sized>(msg: &T) -> Result<Vec<u8>, EncodeError> {
+    to_vec_with(msg, Endianness::Little)
+}
+
+/// [`to_vec`] in the given byte order.
+pub fn to_vec_with<T: CdrEncode + ?Sized>(msg: &T, endianness: Endianness) -> Result<Vec<u8>, EncodeError> {
+    let mut out = vec![0u8; encoded_size(msg)];
+    let written = encode_into_with(msg, &mut out, endianness)?;
+    debug_assert_eq!(written, out.len(), "encoded_end disagrees with encode");
+    out.truncate(written);
+    Ok(out)
+}
+
+/// Read the encapsulation header: the byte order of the message that follows.
+/// The two option bytes are ignored.
+pub fn read_header(bytes: &[u8]) -> Result<Endianness, DecodeError> {
+    match bytes {
+        [0x00, 0x01, _, _, ..] => Ok(Endianness::Little),
+        [0x00, 0x00, _, _, ..] => Ok(Endianness::Big),
+        [a, b, _, _, ..] => Err(DecodeError::new(DecodeErrorKind::UnknownEncapsulation([*a, *b]), 0)),
+        _ => Err(DecodeError::new(
+            DecodeErrorKind::UnexpectedEof {
+                needed: HEADER_LEN,
+                remaining: bytes.len(),
+            },
+            0,
+        )),
+    }
+}
+
+/// Decode a message from CDR in either byte order. `T` may borrow from `bytes`
+/// (`&str`, `&[u8]`, `Cow` fields). Up to 3 bytes of padding may follow the message;
+/// anything more is an error.
+pub fn from_bytes<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeError> {
+    let endianness = read_header(bytes)?;
+    let body = &bytes[HEADER_LEN..];
+    match endianness {
+        Endianness::Little => decode_body::<T, LittleEndian>(body),
+        Endianness::Big => decode_body::<T, BigEndian>(body),
+    }
+}
+
+#[inline(always)]
+fn decode_body<'de, T: CdrDecode<'de>, B: ByteOrder>(body: &'de [u8]) -> Result<T, DecodeError> {
+    let mut r = Reader::<B>::new(body);
+    let value = T::decode(&mut r)?;
+    let trailing = r.remaining();
+    if trailing > 3 {
+        return Err(r.error_at(
+            r.position(),
+            DecodeErrorKind::TrailingBytes { count: trailing },
+        ));
+    }
+    Ok(value)
+}

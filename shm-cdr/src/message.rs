@@ -1,0 +1,38 @@
+//! The [`RosMessage`] trait: a ROS 2 message type with its names and type hash.
+
+use crate::decode::HEADER_LEN;
+use crate::describe::{Field, RosElement, TypeDescription};
+use crate::encode::CdrEncode;
+
+/// A ROS 2 message type. Implement it with `#[derive(RosMessage)]`, which also
+/// implements [`CdrEncode`], [`CdrDecode`](crate::CdrDecode) and
+/// [`RosType`](crate::RosType).
+pub trait RosMessage: CdrEncode + RosElement {
+    /// The ROS 2 type name, e.g. `"sensor_msgs/msg/PointCloud2"`.
+    const TYPE_NAME: &'static str;
+
+    /// The DDS type name, e.g. `"sensor_msgs::msg::dds_::PointCloud2_"` (what
+    /// rmw_zenoh_cpp puts in key expressions).
+    const DDS_TYPE_NAME: &'static str;
+
+    /// The fields in declaration order, as they enter the type hash.
+    const FIELDS: &'static [Field];
+
+    /// The exact encoded size, header included, when it does not depend on the value
+    /// (e.g. `geometry_msgs/msg/Pose`: 60 bytes); `None` otherwise.
+    const ENCODED_SIZE: Option<usize> = match <Self as CdrEncode>::FIXED_LAYOUT {
+        Some(layout) => Some(HEADER_LEN + layout.end(0)),
+        None => None,
+    };
+
+    /// The REP 2011 type hash, `RIHS01_` and 64 hex digits, equal to rosidl's.
+    fn type_hash() -> &'static str;
+
+    /// This type's own description (referenced types excluded).
+    fn type_description() -> TypeDescription {
+        TypeDescription {
+            type_name: Self::TYPE_NAME,
+            fields: Self::FIELDS,
+        }
+    }
+}

@@ -1,0 +1,43 @@
+//! Fixed arrays `[T; N]`: the elements only, no length prefix.
+
+use crate::decode::{CdrDecode, Reader};
+use crate::describe::{FieldType, RosElement, RosType, TypeRegistry};
+use crate::encode::{CdrEncode, Writer};
+use crate::endian::ByteOrder;
+use crate::error::{DecodeError, EncodeError};
+use crate::layout::FixedLayout;
+
+impl<T: CdrEncode, const N: usize> CdrEncode for [T; N] {
+    const FIXED_LAYOUT: Option<FixedLayout> = FixedLayout::of_array(T::FIXED_LAYOUT, N);
+
+    #[inline]
+    fn encoded_end(&self, start: usize) -> usize {
+        T::slice_encoded_end(self, start)
+    }
+
+    #[inline]
+    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        T::encode_slice(self, w)
+    }
+}
+
+impl<'de, T: CdrDecode<'de>, const N: usize> CdrDecode<'de> for [T; N] {
+    const MIN_WIRE_SIZE: usize = {
+        // ROS has no empty arrays, and an element that takes no bytes would let a
+        // length prefix of a sequence of them claim billions of elements for free.
+        assert!(N > 0, "a fixed array field needs at least one element");
+        T::MIN_WIRE_SIZE * N
+    };
+
+    #[inline]
+    fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
+        T::decode_array(r)
+    }
+}
+
+impl<T: RosElement, const N: usize> RosType for [T; N] {
+    const FIELD_TYPE: FieldType = T::FIELD_TYPE.array(N);
+    fn register_types(registry: &mut TypeRegistry) {
+        T::register_types(registry);
+    }
+}

@@ -1,0 +1,221 @@
+//! Numbers and `bool`: aligned to their own size; sequences and arrays of them are
+//! copied in bulk when the wire byte order is the host's.
+
+use std::borrow::Cow;
+
+use crate::decode::{CdrDecode, Reader};
+use crate::describe::{FieldType, RosElement, RosType, TypeId};
+use crate::encode::{CdrEncode, Writer};
+use crate::endian::ByteOrder;
+use crate::error::{DecodeError, DecodeErrorKind, EncodeError};
+use crate::layout::{align_up, FixedLayout};
+
+macro_rules! number {
+    ($($ty:ty => $size:literal, $type_id:ident $(, $borrow:ident)?;)*) => {$(
+        impl CdrEncode for $ty {
+            const FIXED_LAYOUT: Option<FixedLayout> = Some(FixedLayout::primitive($size));
+
+            #[inline(always)]
+            fn encoded_end(&self, start: usize) -> usize {
+                align_up(start, $size) + $size
+            }
+
+            #[inline(always)]
+            fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+                w.write_primitive(if B::LITTLE { self.to_le_bytes() } else { self.to_be_bytes() })
+            }
+
+            #[inline]
+            fn slice_encoded_end(items: &[Self], start: usize) -> usize {
+                if items.is_empty() {
+                    // No element, no alignment.
+                    start
+                } else {
+                    align_up(start, $size) + items.len() * $size
+                }
+            }
+
+            #[inline]
+            fn encode_slice<B: ByteOrder>(items: &[Self], w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+                if items.is_empty() {
+                    return Ok(());
+                }
+                // A slice in memory is at most isize::MAX bytes, so this cannot overflow.
+                let slot = w.aligned_slot($size, std::mem::size_of_val(items))?;
+                if B::NATIVE {
+                    slot.copy_from_slice(bytemuck::cast_slice(items));
+                } else {
+                    for (dst, v) in slot.chunks_exact_mut($size).zip(items) {
+                        dst.copy_from_slice(&if B::LITTLE { v.to_le_bytes() } else { v.to_be_bytes() });
+                    }
+                }
+                Ok(())
+            }
+        }
+
+        impl<'de> CdrDecode<'de> for $ty {
+            const MIN_WIRE_SIZE: usize = $size;
+
+            #[inline(always)]
+            fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
+                let bytes = r.read_primitive::<$size>()?;
+                Ok(if B::LITTLE { <$ty>::from_le_bytes(bytes) } else { <$ty>::from_be_bytes(bytes) })
+            }
+
+            #[inline]
+            fn decode_vec<B: ByteOrder>(r: &mut Reader<'de, B>, n: usize) -> Result<Vec<Self>, DecodeError> {
+                if n == 0 {
+                    return Ok(Vec::new());
+                }
+                // Saturating: an impossible length fails the bounds check below.
+                let bytes = r.read_aligned_bytes($size, n.saturating_mul($size))?;
+                // Zeroed allocation is calloc: free for large buffers, then one copy.
+                let mut out: Vec<$ty> = vec![Default::default(); n];
+                copy_from_wire::<B, $ty>(&mut out, bytes);
+                Ok(out)
+            }
+
+            #[inline]
+            fn decode_array<B: ByteOrder, const N: usize>(r: &mut Reader<'de, B>) -> Result<[Self; N], DecodeError> {
+                let mut out = [<$ty>::default(); N];
+                if N > 0 {
+                    let bytes = r.read_aligned_bytes($size, std::mem::size_of_val(&out))?;
+                    copy_from_wire::<B, $ty>(&mut out, bytes);
+                }
+                Ok(out)
+            }
+
+            $(
+            #[inline]
+            fn decode_cow_slice<B: ByteOrder>(r: &mut Reader<'de, B>, n: usize) -> Result<Cow<'de, [Self]>, DecodeError> {
+                // Bytes need no alignment or swapping: lend them from the input.
+                let _ = stringify!($borrow);
+                r.read_bytes(n).map(Cow::Borrowed)
+            }
+            )?
+        }
+
+        impl RosType for $ty {
+            const FIELD_TYPE: FieldType = FieldType::scalar(TypeId::$type_id);
+        }
+        impl RosElement for $ty {}
+    )*};
+}
+
+/// Bulk read of numbers: one copy in host order, or a swap per element.
+#[inline(always)]
+fn copy_from_wire<B: ByteOrder, T: bytemuck::Pod + SwapBytes>(out: &mut [T], bytes: &[u8]) {
+    let dst: &mut [u8] = bytemuck::cast_slice_mut(out);
+    dst.copy_from_slice(bytes);
+    if !B::NATIVE {
+        for v in out.iter_mut() {
+            *v = v.swap();
+        }
+    }
+}
+
+/// Byte swapping for every number type, floats included.
+trait SwapBytes: Sized {
+    fn swap(self) -> Self;
+}
+
+macro_rules! swap_int {
+    ($($ty:ty),*) => {$(
+        impl SwapBytes for $ty {
+            #[inline(always)]
+            fn swap(self) -> Self { self.swap_bytes() }
+        }
+    )*};
+}
+swap_int!(u8, i8, u16, i16, u32, i32, u64, i64);
+
+macro_rules! float_swap {
+    ($($ty:ty),*) => {$(
+        impl SwapBytes for $ty {
+            #[inline(always)]
+            fn swap(self) -> Self { <$ty>::from_bits(self.to_bits().swap_bytes()) }
+        }
+    )*};
+}
+
+float_swap!(f32, f64);
+
+number! {
+    u8 => 1, Uint8, borrow;
+    i8 => 1, Int8;
+    u16 => 2, Uint16;
+    i16 => 2, Int16;
+    u32 => 4, Uint32;
+    i32 => 4, Int32;
+    u64 => 8, Uint64;
+    i64 => 8, Int64;
+    f32 => 4, Float32;
+    f64 => 8, Float64;
+}
+
+/// `&[u8]` and `Cow<[u8]>` fields borrow the bytes straight from the input.
+impl<'de: 'a, 'a> CdrDecode<'de> for &'a [u8] {
+    const MIN_WIRE_SIZE: usize = 4;
+
+    #[inline]
+    fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
+        let n = r.read_count(1)?;
+        r.read_bytes(n)
+    }
+}
+
+impl RosType for &[u8] {
+    const FIELD_TYPE: FieldType = FieldType::scalar(TypeId::Uint8).unbounded_sequence();
+}
+
+
+impl CdrEncode for bool {
+    const FIXED_LAYOUT: Option<FixedLayout> = Some(FixedLayout::primitive(1));
+
+    #[inline(always)]
+    fn encoded_end(&self, start: usize) -> usize {
+        start + 1
+    }
+
+    #[inline(always)]
+    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        w.write_primitive([u8::from(*self)])
+    }
+
+    #[inline]
+    fn encode_slice<B: ByteOrder>(items: &[Self], w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        let slot = w.aligned_slot(1, items.len())?;
+        for (dst, v) in slot.iter_mut().zip(items) {
+            *dst = u8::from(*v);
+        }
+        Ok(())
+    }
+}
+
+impl<'de> CdrDecode<'de> for bool {
+    const MIN_WIRE_SIZE: usize = 1;
+
+    #[inline(always)]
+    fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
+        let at = r.position();
+        match r.read_primitive::<1>()? {
+            [0] => Ok(false),
+            [1] => Ok(true),
+            [b] => Err(r.error_at(at, DecodeErrorKind::InvalidBool(b))),
+        }
+    }
+
+    #[inline]
+    fn decode_array<B: ByteOrder, const N: usize>(r: &mut Reader<'de, B>) -> Result<[Self; N], DecodeError> {
+        let mut out = [false; N];
+        for v in &mut out {
+            *v = Self::decode(r)?;
+        }
+        Ok(out)
+    }
+}
+
+impl RosType for bool {
+    const FIELD_TYPE: FieldType = FieldType::scalar(TypeId::Boolean);
+}
+impl RosElement for bool {}

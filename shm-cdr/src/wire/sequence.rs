@@ -1,0 +1,154 @@
+//! Sequences: a `u32` element count, then the elements. An empty sequence writes
+//! only its count (no alignment for absent elements).
+
+use std::borrow::Cow;
+
+use crate::bounded::BoundedVec;
+use crate::decode::{CdrDecode, Reader};
+use crate::describe::{FieldType, RosElement, RosType, TypeRegistry};
+use crate::encode::{CdrEncode, Writer};
+use crate::endian::ByteOrder;
+use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
+use crate::layout::{align_up, FixedLayout};
+
+#[inline(always)]
+fn sequence_end<T: CdrEncode>(items: &[T], start: usize) -> usize {
+    T::slice_encoded_end(items, align_up(start, 4) + 4)
+}
+
+#[inline(always)]
+fn write_sequence<T: CdrEncode, B: ByteOrder>(items: &[T], w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+    w.write_len(items.len())?;
+    T::encode_slice(items, w)
+}
+
+/// A sequence (`T[]`).
+impl<T: CdrEncode> CdrEncode for [T] {
+    #[inline]
+    fn encoded_end(&self, start: usize) -> usize {
+        sequence_end(self, start)
+    }
+
+    #[inline]
+    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        write_sequence(self, w)
+    }
+}
+
+impl<T: CdrEncode> CdrEncode for Vec<T> {
+    #[inline]
+    fn encoded_end(&self, start: usize) -> usize {
+        sequence_end(self, start)
+    }
+
+    #[inline]
+    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        write_sequence(self, w)
+    }
+}
+
+impl<'de, T: CdrDecode<'de>> CdrDecode<'de> for Vec<T> {
+    const MIN_WIRE_SIZE: usize = 4;
+
+    #[inline]
+    fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
+        let n = r.read_count(T::MIN_WIRE_SIZE)?;
+        T::decode_vec(r, n)
+    }
+}
+
+impl<T: CdrEncode + Clone> CdrEncode for Cow<'_, [T]> {
+    #[inline]
+    fn encoded_end(&self, start: usize) -> usize {
+        sequence_end(self, start)
+    }
+
+    #[inline]
+    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        write_sequence(self, w)
+    }
+}
+
+/// Borrows for `u8` elements, copies otherwise.
+impl<'de: 'a, 'a, T: CdrDecode<'de> + Clone + 'de> CdrDecode<'de> for Cow<'a, [T]> {
+    const MIN_WIRE_SIZE: usize = 4;
+
+    #[inline]
+    fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
+        let n = r.read_count(T::MIN_WIRE_SIZE)?;
+        T::decode_cow_slice(r, n)
+    }
+}
+
+impl<T: CdrEncode, const N: usize> CdrEncode for BoundedVec<T, N> {
+    #[inline]
+    fn encoded_end(&self, start: usize) -> usize {
+        sequence_end(self, start)
+    }
+
+    #[inline]
+    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        if self.len() > N {
+            return Err(EncodeError::new(EncodeErrorKind::BoundExceeded {
+                len: self.len(),
+                bound: N,
+            }));
+        }
+        write_sequence(self, w)
+    }
+}
+
+impl<'de, T: CdrDecode<'de>, const N: usize> CdrDecode<'de> for BoundedVec<T, N> {
+    const MIN_WIRE_SIZE: usize = 4;
+
+    #[inline]
+    fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
+        let at = r.position();
+        let n = r.read_count(T::MIN_WIRE_SIZE)?;
+        if n > N {
+            return Err(r.error_at(at, DecodeErrorKind::BoundExceeded { len: n, bound: N }));
+        }
+        T::decode_vec(r, n).map(Self)
+    }
+}
+
+/// A reference encodes as what it points to (`&str`, `&[u8]`, `&Msg`).
+impl<T: CdrEncode + ?Sized> CdrEncode for &T {
+    const FIXED_LAYOUT: Option<FixedLayout> = T::FIXED_LAYOUT;
+
+    #[inline(always)]
+    fn encoded_end(&self, start: usize) -> usize {
+        (**self).encoded_end(start)
+    }
+
+    #[inline(always)]
+    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        (**self).encode(w)
+    }
+}
+
+macro_rules! unbounded_sequence_type {
+    ($($ty:ty),*) => {$(
+        impl<T: RosElement> RosType for $ty {
+            const FIELD_TYPE: FieldType = T::FIELD_TYPE.unbounded_sequence();
+            fn register_types(registry: &mut TypeRegistry) {
+                T::register_types(registry);
+            }
+        }
+    )*};
+}
+unbounded_sequence_type!(Vec<T>, [T]);
+
+impl<T: RosElement + Clone> RosType for Cow<'_, [T]> {
+    const FIELD_TYPE: FieldType = T::FIELD_TYPE.unbounded_sequence();
+    fn register_types(registry: &mut TypeRegistry) {
+        T::register_types(registry);
+    }
+}
+
+impl<T: RosElement, const N: usize> RosType for BoundedVec<T, N> {
+    const FIELD_TYPE: FieldType = T::FIELD_TYPE.bounded_sequence(N);
+    fn register_types(registry: &mut TypeRegistry) {
+        T::register_types(registry);
+    }
+}
