@@ -52,6 +52,12 @@ pub use shm_derive::RosMessage;
 #[doc(hidden)]
 pub mod __private {
     pub use std::sync::OnceLock;
+
+    /// Fails to compile, at the field's type, unless it is a ROS 2 field type.
+    pub fn assert_field_type<T: ?Sized + crate::RosType + crate::CdrEncode>() {}
+
+    /// Fails to compile, at the attribute, unless the field is `u8`/`i8`-based.
+    pub fn assert_octet_type<T: ?Sized + crate::describe::OctetType>() {}
 }
 
 use decode::HEADER_LEN;

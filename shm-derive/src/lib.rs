@@ -1,1 +1,38 @@
-use proc_macro::TokenStream; #[proc_macro_derive(RosMessage, attributes(ros))] pub fn d(_: TokenStream) -> TokenStream { TokenStream::new() }
+//! `#[derive(RosMessage)]` for [shm-cdr](https://docs.rs/shm-cdr): generates the
+//! CDR writer, reader, exact size function and ROS 2 type description of a struct.
+//!
+//! Use it through `shm_cdr::RosMessage`; see that crate for the attributes.
+//!
+//! The macro reads the input into an IR (`ast`, `attr`) collecting every error
+//! with its span, validates it (`check`), then generates code (`expand`).
+
+mod ast;
+mod attr;
+mod check;
+mod ctxt;
+mod expand;
+
+use proc_macro::TokenStream;
+use syn::{parse_macro_input, DeriveInput};
+
+/// Derive `CdrEncode`, `CdrDecode`, `RosType` and `RosMessage` for a struct with
+/// named fields.
+///
+/// Struct attributes: `#[ros(type_name = "pkg/msg/Name")]` or
+/// `#[ros(package = "pkg")]` (required, one of them), `#[ros(crate = "path")]`.
+/// Field attributes: `#[ros(byte)]`, `#[ros(char)]` (on `u8`/`i8` fields and their
+/// sequences/arrays), `#[ros(rename = "ros_name")]`.
+#[proc_macro_derive(RosMessage, attributes(ros))]
+pub fn derive_ros_message(input: TokenStream) -> TokenStream {
+    let input = parse_macro_input!(input as DeriveInput);
+    let cx = ctxt::Ctxt::default();
+    let container = ast::Container::from_ast(&cx, &input);
+    if let Some(container) = &container {
+        check::check(&cx, container);
+    }
+    match (cx.check(), container) {
+        (Ok(()), Some(container)) => expand::expand(&container).into(),
+        (Err(errors), _) => errors.to_compile_error().into(),
+        (Ok(()), None) => TokenStream::new(),
+    }
+}

@@ -1,1 +1,158 @@
-//! Test-only crate: see `tests/`.
+//! Message definitions shared by the golden tests, property tests, fuzz corpus
+//! replay and benchmarks. They mirror the ROS 2 interfaces field for field, so their
+//! bytes and type hashes can be compared with rosidl / rosbags output.
+
+pub mod msgs {
+    //! Hand-written ROS 2 standard messages.
+    use shm_cdr::RosMessage;
+    use std::borrow::Cow;
+
+    /// builtin_interfaces/msg/Time
+    #[derive(RosMessage, Debug, Clone, Copy, Default, PartialEq)]
+    #[ros(type_name = "builtin_interfaces/msg/Time")]
+    pub struct Time {
+        pub sec: i32,
+        pub nanosec: u32,
+    }
+
+    /// std_msgs/msg/Header
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "std_msgs/msg/Header")]
+    pub struct Header {
+        pub stamp: Time,
+        pub frame_id: String,
+    }
+
+    /// std_msgs/msg/Header, borrowing its frame id from the input.
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "std_msgs/msg/Header")]
+    pub struct HeaderRef<'a> {
+        pub stamp: Time,
+        pub frame_id: &'a str,
+    }
+
+    /// std_msgs/msg/String
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "std_msgs/msg/String")]
+    pub struct StringMsg {
+        pub data: String,
+    }
+
+    /// std_msgs/msg/Char (.msg `char` is uint8 on the wire and in the hash)
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "std_msgs/msg/Char")]
+    pub struct Char {
+        #[ros(char)]
+        pub data: u8,
+    }
+
+    /// std_msgs/msg/Byte
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "std_msgs/msg/Byte")]
+    pub struct Byte {
+        #[ros(byte)]
+        pub data: u8,
+    }
+
+    /// std_msgs/msg/Empty
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "std_msgs/msg/Empty")]
+    pub struct Empty;
+
+    /// sensor_msgs/msg/Image
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "sensor_msgs/msg/Image")]
+    pub struct Image {
+        pub header: Header,
+        pub height: u32,
+        pub width: u32,
+        pub encoding: String,
+        pub is_bigendian: u8,
+        pub step: u32,
+        pub data: Vec<u8>,
+    }
+
+    /// sensor_msgs/msg/Image, borrowing strings and pixels from the input.
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "sensor_msgs/msg/Image")]
+    pub struct ImageRef<'a> {
+        pub header: HeaderRef<'a>,
+        pub height: u32,
+        pub width: u32,
+        pub encoding: Cow<'a, str>,
+        pub is_bigendian: u8,
+        pub step: u32,
+        pub data: &'a [u8],
+    }
+
+    /// sensor_msgs/msg/PointField
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "sensor_msgs/msg/PointField")]
+    pub struct PointField {
+        pub name: String,
+        pub offset: u32,
+        pub datatype: u8,
+        pub count: u32,
+    }
+
+    /// sensor_msgs/msg/PointCloud2
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "sensor_msgs/msg/PointCloud2")]
+    pub struct PointCloud2 {
+        pub header: Header,
+        pub height: u32,
+        pub width: u32,
+        pub fields: Vec<PointField>,
+        pub is_bigendian: bool,
+        pub point_step: u32,
+        pub row_step: u32,
+        pub data: Vec<u8>,
+        pub is_dense: bool,
+    }
+
+    /// sensor_msgs/msg/JointState
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "sensor_msgs/msg/JointState")]
+    pub struct JointState {
+        pub header: Header,
+        pub name: Vec<String>,
+        pub position: Vec<f64>,
+        pub velocity: Vec<f64>,
+        pub effort: Vec<f64>,
+    }
+
+    /// geometry_msgs/msg/Point
+    #[derive(RosMessage, Debug, Clone, Copy, Default, PartialEq)]
+    #[ros(type_name = "geometry_msgs/msg/Point")]
+    pub struct Point {
+        pub x: f64,
+        pub y: f64,
+        pub z: f64,
+    }
+
+    /// geometry_msgs/msg/Quaternion
+    #[derive(RosMessage, Debug, Clone, Copy, Default, PartialEq)]
+    #[ros(type_name = "geometry_msgs/msg/Quaternion")]
+    pub struct Quaternion {
+        pub x: f64,
+        pub y: f64,
+        pub z: f64,
+        pub w: f64,
+    }
+
+    /// geometry_msgs/msg/Pose
+    #[derive(RosMessage, Debug, Clone, Copy, Default, PartialEq)]
+    #[ros(type_name = "geometry_msgs/msg/Pose")]
+    pub struct Pose {
+        pub position: Point,
+        pub orientation: Quaternion,
+    }
+
+    /// geometry_msgs/msg/PoseArray
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "geometry_msgs/msg/PoseArray")]
+    pub struct PoseArray {
+        pub header: Header,
+        pub poses: Vec<Pose>,
+    }
+}

@@ -81,6 +81,18 @@ impl CdrEncode for String {
     }
 }
 
+impl CdrEncode for Cow<'_, str> {
+    #[inline]
+    fn encoded_end(&self, start: usize) -> usize {
+        string_end(start, self.len())
+    }
+
+    #[inline]
+    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        write_string(w, self)
+    }
+}
+
 impl<'de> CdrDecode<'de> for String {
     const MIN_WIRE_SIZE: usize = 4;
 
