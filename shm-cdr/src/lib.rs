@@ -34,6 +34,9 @@ mod endian;
 mod error;
 pub mod layout;
 mod message;
+#[cfg(any(feature = "proptest", feature = "arbitrary"))]
+mod strategies;
+pub mod testing;
 mod wire;
 
 pub use bounded::{BoundedString, BoundedVec, BoundedWString, WString};

@@ -64,6 +64,7 @@ impl<'a> Container<'a> {
                 );
                 None
             }
+            (None, None) if attrs.malformed => None,
             (None, None) => {
                 cx.error_spanned_by(
                     &input.ident,

@@ -14,6 +14,8 @@ pub struct ContainerAttrs {
     pub package: Option<LitStr>,
     /// `crate = "path"`: where shm_cdr is reachable from the user's crate.
     pub crate_path: Option<syn::Path>,
+    /// An attribute failed to parse (so a missing name is not reported twice).
+    pub malformed: bool,
 }
 
 /// How a `u8`/`i8` field is declared in .msg terms.
@@ -76,6 +78,7 @@ impl ContainerAttrs {
                 Ok(())
             });
             if let Err(e) = result {
+                out.malformed = true;
                 cx.syn_error(e);
             }
         }

@@ -1,0 +1,65 @@
+//! Checks of the encoding invariants for your own message types, for use in
+//! property tests (`proptest`, `quickcheck`) and fuzz targets.
+//!
+//! ```
+//! # use shm_cdr::RosMessage;
+//! #[derive(RosMessage, Debug)]
+//! #[ros(type_name = "my_pkg/msg/Sample")]
+//! struct Sample { id: u8, values: Vec<f64> }
+//!
+//! shm_cdr::testing::check_roundtrip(&Sample { id: 1, values: vec![2.0] }).unwrap();
+//! ```
+
+use crate::{encode_into_with, encoded_size, from_bytes, to_vec_with, CdrEncode, DecodeOwned, Endianness};
+
+/// Verify, in both byte orders, that:
+/// - [`encoded_size`] equals the length [`to_vec_with`] produces;
+/// - [`encode_into_with`] into a buffer of exactly that size, pre-filled with
+///   garbage, succeeds and produces the same bytes (so every padding byte is written);
+/// - a buffer one byte shorter fails cleanly without writing past its end;
+/// - decoding gives a value that prints the same (`Debug`) and re-encodes to the
+///   same bytes.
+///
+/// Returns a description of the first violation.
+pub fn check_roundtrip<T>(msg: &T) -> Result<(), String>
+where
+    T: CdrEncode + DecodeOwned + std::fmt::Debug,
+{
+    for endianness in [Endianness::Little, Endianness::Big] {
+        let bytes = to_vec_with(msg, endianness).map_err(|e| format!("to_vec: {e}"))?;
+        let size = encoded_size(msg);
+        if bytes.len() != size {
+            return Err(format!("encoded_size {size} but to_vec produced {} bytes", bytes.len()));
+        }
+        for garbage in [0x00, 0xA5, 0xFF] {
+            let mut buf = vec![garbage; size + 1];
+            let n = encode_into_with(msg, &mut buf[..size], endianness)
+                .map_err(|e| format!("encode_into an exact buffer: {e}"))?;
+            if n != size || buf[..size] != bytes[..] {
+                return Err(format!("encode_into over {garbage:#04x} differs from to_vec"));
+            }
+            if buf[size] != garbage {
+                return Err("encode_into wrote past the buffer".into());
+            }
+        }
+        if size > 0 {
+            let mut short = vec![0x5A; size];
+            if encode_into_with(msg, &mut short[..size - 1], endianness).is_ok() {
+                return Err("encode_into succeeded in a buffer one byte short".into());
+            }
+            if short[size - 1] != 0x5A {
+                return Err("encode_into wrote past a short buffer".into());
+            }
+        }
+        let decoded: T = from_bytes(&bytes).map_err(|e| format!("decode: {e}"))?;
+        let (before, after) = (format!("{msg:?}"), format!("{decoded:?}"));
+        if before != after {
+            return Err(format!("decoded value differs:\n  sent {before}\n  got  {after}"));
+        }
+        let again = to_vec_with(&decoded, endianness).map_err(|e| format!("re-encode: {e}"))?;
+        if again != bytes {
+            return Err("re-encoding the decoded value gives other bytes".into());
+        }
+    }
+    Ok(())
+}

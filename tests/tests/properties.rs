@@ -1,0 +1,261 @@
+//! Property tests over many message shapes: `encoded_size == to_vec().len()`,
+//! `encode_into` an exact garbage-filled buffer equals `to_vec`, one byte short
+//! fails cleanly, and decode(encode(x)) == x, in both byte orders
+//! (`shm_cdr::testing::check_roundtrip`). Shapes are shifted to odd start phases by
+//! wrapper structs so that alignment is exercised at every offset.
+
+use proptest::prelude::*;
+use proptest_derive::Arbitrary;
+use shm_cdr::testing::check_roundtrip;
+use shm_cdr::{BoundedString, BoundedVec, BoundedWString, RosMessage, WString};
+use shm_cdr_tests::msgs::{HeaderRef, Image, ImageRef, Time};
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/Scalars")]
+struct Scalars {
+    b: bool,
+    u8: u8,
+    i8: i8,
+    u16: u16,
+    i16: i16,
+    u32: u32,
+    i32: i32,
+    u64: u64,
+    i64: i64,
+    f32: f32,
+    f64: f64,
+}
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/Texts")]
+struct Texts {
+    s: String,
+    many: Vec<String>,
+    bounded: BoundedString<5>,
+    bounded_many: BoundedVec<BoundedString<3>, 4>,
+    wide: WString,
+    wide_bounded: BoundedWString<4>,
+    wide_many: Vec<WString>,
+    trio: [String; 3],
+}
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, Copy, PartialEq)]
+#[ros(type_name = "prop/msg/Stamp")]
+struct Stamp {
+    sec: i32,
+    nanosec: u32,
+}
+
+/// CDR pads between `stamp` and `value` only when the element starts 8-aligned + 4.
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/Stamped")]
+struct Stamped {
+    stamp: Stamp,
+    value: f64,
+}
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/PairU32")]
+struct PairU32 {
+    a: u32,
+    b: u32,
+}
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/OddTail")]
+struct OddTail {
+    x: f64,
+    tag: u8,
+}
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/Nested")]
+struct Nested {
+    lead: u8,
+    stamped: Vec<Stamped>,
+    pairs: Vec<PairU32>,
+    odd: Vec<OddTail>,
+    mid: u16,
+    pair_in_struct: PairU32,
+    fixed: [Stamped; 2],
+    label: String,
+    tail: u8,
+}
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/Arrays")]
+struct Arrays {
+    lead: u8,
+    f: [f64; 3],
+    b: [bool; 4],
+    i: [i16; 5],
+    u: [u8; 7],
+    odd: [OddTail; 3],
+}
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/Seqs")]
+struct Seqs {
+    lead: u8,
+    v8: Vec<u8>,
+    v16: Vec<i16>,
+    v32: Vec<f32>,
+    v64: Vec<u64>,
+    vb: Vec<bool>,
+    vf: Vec<f64>,
+    vi8: Vec<i8>,
+}
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/Bounded")]
+struct Bounded {
+    ints: BoundedVec<i32, 3>,
+    stamped: BoundedVec<Stamped, 2>,
+    octets: BoundedVec<u8, 16>,
+}
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/Nothing")]
+struct Nothing;
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/WithEmpty")]
+struct WithEmpty {
+    a: u8,
+    e: Nothing,
+    many: Vec<Nothing>,
+    f: f64,
+}
+
+#[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+#[ros(type_name = "prop/msg/Octets")]
+struct Octets {
+    #[ros(byte)]
+    b: u8,
+    #[ros(char)]
+    c: i8,
+    #[ros(byte)]
+    blob: Vec<u8>,
+}
+
+macro_rules! shifted {
+    ($($name:ident($lead:ty, $inner:ty)),* $(,)?) => {$(
+        /// `$inner` starting after a `$lead`, i.e. at another alignment phase.
+        #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
+        #[ros(package = "prop")]
+        struct $name {
+            lead: $lead,
+            inner: $inner,
+        }
+    )*};
+}
+
+shifted! {
+    NestedAt1(u8, Nested),
+    NestedAt2(u16, Nested),
+    NestedAt4(u32, Nested),
+    ArraysAt1(u8, Arrays),
+    ArraysAt4(u32, Arrays),
+    SeqsAt1(u8, Seqs),
+    ScalarsAt1(u8, Scalars),
+    ScalarsAt2(u16, Scalars),
+    TextsAt1(u8, Texts),
+    BoundedAt1(u8, Bounded),
+    WithEmptyAt4(u32, WithEmpty),
+}
+
+macro_rules! roundtrip_properties {
+    ($($test:ident: $ty:ty),* $(,)?) => {
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(256))]
+            $(
+                #[test]
+                fn $test(msg in any::<$ty>()) {
+                    if let Err(why) = check_roundtrip(&msg) {
+                        prop_assert!(false, "{}", why);
+                    }
+                }
+            )*
+        }
+    };
+}
+
+roundtrip_properties! {
+    scalars: Scalars,
+    texts: Texts,
+    nested: Nested,
+    arrays: Arrays,
+    seqs: Seqs,
+    bounded: Bounded,
+    nothing: Nothing,
+    with_empty: WithEmpty,
+    octets: Octets,
+    nested_at_1: NestedAt1,
+    nested_at_2: NestedAt2,
+    nested_at_4: NestedAt4,
+    arrays_at_1: ArraysAt1,
+    arrays_at_4: ArraysAt4,
+    seqs_at_1: SeqsAt1,
+    scalars_at_1: ScalarsAt1,
+    scalars_at_2: ScalarsAt2,
+    texts_at_1: TextsAt1,
+    bounded_at_1: BoundedAt1,
+    with_empty_at_4: WithEmptyAt4,
+}
+
+fn image_strategy() -> impl Strategy<Value = Image> {
+    (any::<(i32, u32, String, u32, u32, String, u8, u32)>(), any::<Vec<u8>>()).prop_map(
+        |((sec, nanosec, frame_id, height, width, encoding, is_bigendian, step), data)| Image {
+            header: shm_cdr_tests::msgs::Header {
+                stamp: Time { sec, nanosec },
+                frame_id,
+            },
+            height,
+            width,
+            encoding,
+            is_bigendian,
+            step,
+            data,
+        },
+    )
+}
+
+proptest! {
+    /// The borrowed and owned forms of a message read the same bytes alike.
+    #[test]
+    fn borrowed_decode_equals_owned(image in image_strategy()) {
+        let bytes = shm_cdr::to_vec(&image).unwrap();
+        let borrowed: ImageRef = shm_cdr::from_bytes(&bytes).unwrap();
+        prop_assert_eq!(borrowed.header.frame_id, image.header.frame_id.as_str());
+        prop_assert_eq!(&*borrowed.encoding, image.encoding.as_str());
+        prop_assert_eq!(borrowed.data, image.data.as_slice());
+        prop_assert_eq!(&shm_cdr::to_vec(&borrowed).unwrap(), &bytes);
+        let _: HeaderRef = borrowed.header;
+    }
+
+    /// Fixed-layout types report the same size from their compile-time layout as
+    /// the writer actually produces, at every start phase.
+    #[test]
+    fn fixed_layout_matches_writer(arrays in any::<Arrays>(), lead in 0usize..8) {
+        use shm_cdr::CdrEncode;
+        let layout = Arrays::FIXED_LAYOUT.expect("Arrays has a fixed layout");
+        let shifted = (vec![0u8; lead], arrays);
+        // Encode `lead` single bytes then the struct, by hand, to reach phase `lead`.
+        let mut buf = vec![0u8; 4 + lead + layout.size_at(lead) ];
+        let (head, body) = buf.split_at_mut(4);
+        head.copy_from_slice(&[0, 1, 0, 0]);
+        let mut w = shm_cdr::Writer::<shm_cdr::LittleEndian>::new(body);
+        for b in &shifted.0 { b.encode(&mut w).unwrap(); }
+        shifted.1.encode(&mut w).unwrap();
+        prop_assert_eq!(w.position(), layout.end(lead));
+        prop_assert_eq!(shifted.1.encoded_end(lead), layout.end(lead));
+    }
+}
+
+#[test]
+fn fixed_layouts_are_known_at_compile_time() {
+    assert!(Scalars::ENCODED_SIZE.is_some());
+    assert!(Arrays::ENCODED_SIZE.is_some());
+    assert!(Nothing::ENCODED_SIZE == Some(5));
+    assert!(Nested::ENCODED_SIZE.is_none());
+}
