@@ -31,9 +31,9 @@ impl<'a> Container<'a> {
             Data::Struct(data) => match &data.fields {
                 Fields::Named(named) => named.named.iter().filter_map(|f| Field::from_ast(cx, f)).collect(),
                 Fields::Unit => Vec::new(),
-                Fields::Unnamed(_) => {
+                Fields::Unnamed(unnamed) => {
                     cx.error_spanned_by(
-                        input,
+                        unnamed,
                         "RosMessage needs named fields (ROS fields have names): write `struct Name { field: Type }`",
                     );
                     return None;

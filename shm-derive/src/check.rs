@@ -152,7 +152,9 @@ fn check_type(cx: &Ctxt, ty: &Type, top: bool) {
                 "ROS 2 has no tuples: use a nested struct that derives RosMessage"
             },
         ),
-        Type::Slice(_) => cx.error_spanned_by(ty, "an unsized slice cannot be a field: use `Vec<T>`, `&'a [u8]` or `[T; N]`"),
+        Type::Slice(_) if top => cx.error_spanned_by(ty, "an unsized slice cannot be a field: use `Vec<T>`, `&'a [u8]` or `[T; N]`"),
+        // `Cow<'a, [T]>`: check the element.
+        Type::Slice(slice) => check_type(cx, &slice.elem, false),
         Type::Ptr(_) | Type::BareFn(_) | Type::TraitObject(_) | Type::ImplTrait(_) | Type::Never(_) => {
             cx.error_spanned_by(ty, "not a ROS 2 field type: use numbers, bool, strings, sequences, arrays or a struct that derives RosMessage")
         }

@@ -1,0 +1,7 @@
+#[derive(shm_cdr::RosMessage)]
+#[ros(package = "ui_msgs")]
+struct Grid {
+    rows: Vec<Vec<f64>>,
+}
+
+fn main() {}
