@@ -4,7 +4,7 @@ use std::marker::PhantomData;
 
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind};
-use crate::layout::align_up;
+use crate::layout::{align_up, plain_vec, PlainLayout};
 
 /// Size of the encapsulation header, the origin of error offsets.
 pub(crate) const HEADER_LEN: usize = 4;
@@ -23,13 +23,28 @@ pub trait CdrDecode<'de>: Sized {
     /// The fewest bytes one value can take on the wire (at least 1).
     const MIN_WIRE_SIZE: usize;
 
+    /// Set when every CDR encoding of `Self` is a valid `Self` in memory, so
+    /// sequences of it are read with one copy (see [`PlainLayout`]).
+    const PLAIN: Option<PlainLayout<Self>> = None;
+
     /// Read one value at the reader's position.
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError>;
 
-    /// Read `n` consecutive values (the caller has checked `n` against the input).
-    /// Primitives override this with a bulk copy.
+    /// Read `n` consecutive values (the caller has checked `n` against the input):
+    /// one copy for [plain](Self::PLAIN) types in host byte order at a suitable
+    /// phase, element by element otherwise.
     #[inline]
     fn decode_vec<B: ByteOrder>(r: &mut Reader<'de, B>, n: usize) -> Result<Vec<Self>, DecodeError> {
+        if let (true, Some(plain)) = (B::NATIVE, Self::PLAIN) {
+            if n > 0 && align_up(r.position(), plain.first_align()) % plain.align() == 0 {
+                let len = n.saturating_mul(std::mem::size_of::<Self>());
+                let at = r.position();
+                let bytes = r.read_aligned_bytes(plain.first_align(), len)?;
+                return plain_vec(plain, bytes, n).ok_or_else(|| {
+                    r.error_at(at, DecodeErrorKind::UnexpectedEof { needed: len, remaining: bytes.len() })
+                });
+            }
+        }
         let mut out = Vec::with_capacity(n);
         for _ in 0..n {
             out.push(Self::decode(r)?);

@@ -4,7 +4,7 @@ use std::marker::PhantomData;
 
 use crate::endian::ByteOrder;
 use crate::error::{EncodeError, EncodeErrorKind};
-use crate::layout::{align_up, FixedLayout};
+use crate::layout::{align_up, plain_bytes, FixedLayout, PlainLayout};
 
 /// A value with a CDR encoding and an exact encoded size.
 ///
@@ -23,6 +23,11 @@ pub trait CdrEncode {
     /// Set when the encoded size never depends on the value, only on the start
     /// phase. Lets sequences and arrays of this type be sized in O(1).
     const FIXED_LAYOUT: Option<FixedLayout> = None;
+
+    /// Set when a `Self` in memory is its CDR encoding (numbers, and structs and
+    /// arrays packed from them): sequences of it are then copied in bulk whenever
+    /// their start phase allows. See [`PlainLayout`] for the proof it carries.
+    const PLAIN: Option<PlainLayout<Self>> = None;
 
     /// The position after this value when it is encoded starting at `start`.
     fn encoded_end(&self, start: usize) -> usize;
@@ -43,13 +48,22 @@ pub trait CdrEncode {
         }
     }
 
-    /// Write the elements of a sequence or array (no length prefix). Primitives
-    /// override this with a bulk copy.
+    /// Write the elements of a sequence or array (no length prefix): one copy when
+    /// the type is [plain](Self::PLAIN), the byte order is the host's and the first
+    /// element lands at a phase where memory and wire layout agree; element by
+    /// element otherwise.
     #[inline]
     fn encode_slice<B: ByteOrder>(items: &[Self], w: &mut Writer<'_, B>) -> Result<(), EncodeError>
     where
         Self: Sized,
     {
+        if let (true, Some(plain)) = (B::NATIVE, Self::PLAIN) {
+            if !items.is_empty() && align_up(w.position(), plain.first_align()) % plain.align() == 0 {
+                let bytes = plain_bytes(plain, items);
+                w.aligned_slot(plain.first_align(), bytes.len())?.copy_from_slice(bytes);
+                return Ok(());
+            }
+        }
         items.iter().try_for_each(|item| item.encode(w))
     }
 }

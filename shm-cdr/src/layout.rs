@@ -189,3 +189,161 @@ mod tests {
         assert_eq!(l.min_size(), 9);
     }
 }
+
+/// Proof that a `T` in memory is byte for byte its CDR encoding in host byte order,
+/// whenever the value starts at a stream position that is a multiple of
+/// [`align`](Self::align). Lets sequences and arrays of `T` be copied in bulk.
+///
+/// # Invariant
+/// A `PlainLayout<T>` exists only if:
+/// - `T` has no padding and no uninitialized bytes;
+/// - every bit pattern is a valid `T` (no `bool`, no references, no enums);
+/// - `size_of::<T>()` is a multiple of `align`, and equals the CDR size of a `T`
+///   starting at a multiple of `align`;
+/// - at such a start, every primitive inside `T` is at the same offset in memory as
+///   on the wire.
+///
+/// It is typed by `T` so that one type's proof cannot be reused for another; it can
+/// be created only through the `unsafe` constructors below, and the derive creates it
+/// only after checking the above with `offset_of!` and `size_of` at compile time.
+pub struct PlainLayout<T: ?Sized> {
+    align: usize,
+    first_align: usize,
+    ty: std::marker::PhantomData<fn() -> *const T>,
+}
+
+impl<T: ?Sized> Clone for PlainLayout<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T: ?Sized> Copy for PlainLayout<T> {}
+
+impl<T: ?Sized> std::fmt::Debug for PlainLayout<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PlainLayout")
+            .field("align", &self.align)
+            .field("first_align", &self.first_align)
+            .finish()
+    }
+}
+
+/// One field of a struct, for [`PlainLayout::of_struct`].
+#[derive(Debug)]
+pub struct PlainField {
+    /// `offset_of!` the field.
+    pub offset: usize,
+    /// `size_of` the field's type.
+    pub size: usize,
+    /// The field type's proof, erased to its numbers.
+    pub plain: Option<(usize, usize)>,
+}
+
+impl<T: ?Sized> PlainLayout<T> {
+    /// # Safety
+    /// `T` must satisfy the type's invariant for `align`, where `first_align` is the
+    /// alignment of its first primitive.
+    #[allow(unsafe_code)]
+    pub const unsafe fn new_unchecked(align: usize, first_align: usize) -> Self {
+        Self {
+            align,
+            first_align,
+            ty: std::marker::PhantomData,
+        }
+    }
+
+    /// The largest CDR alignment of any primitive inside `T`.
+    pub const fn align(&self) -> usize {
+        self.align
+    }
+
+    /// The CDR alignment of the first primitive of `T` (where a sequence element
+    /// starts).
+    pub const fn first_align(&self) -> usize {
+        self.first_align
+    }
+
+    /// The numbers of this proof, to pass to [`PlainLayout::of_struct`].
+    pub const fn erase(this: Option<Self>) -> Option<(usize, usize)> {
+        match this {
+            Some(p) => Some((p.align, p.first_align)),
+            None => None,
+        }
+    }
+
+    /// The proof for a struct, if its fields are all plain, packed with no padding
+    /// in CDR order at the offsets CDR gives them, and its size is a multiple of its
+    /// alignment. `None` otherwise (the struct is then encoded field by field).
+    ///
+    /// # Safety
+    /// `fields` must list every field of `T` in declaration order, with `offset_of!`
+    /// and `size_of` taken from `T` itself, and each `plain` taken from that field
+    /// type's own `PlainLayout`; `size` must be `size_of::<T>()`.
+    #[allow(unsafe_code)]
+    pub const unsafe fn of_struct(fields: &[PlainField], size: usize) -> Option<Self> {
+        if fields.is_empty() {
+            // An empty struct is one byte on the wire but none in memory.
+            return None;
+        }
+        let mut pos = 0;
+        let mut align = 1;
+        let mut first_align = 1;
+        let mut i = 0;
+        while i < fields.len() {
+            let field = &fields[i];
+            let Some((field_align, field_first)) = field.plain else {
+                return None;
+            };
+            // Packed (no gap, so no padding byte), at its declared offset, and at a
+            // phase where the field's own proof holds.
+            if field.offset != pos || pos % field_align != 0 || align_up(pos, field_first) != pos {
+                return None;
+            }
+            if i == 0 {
+                first_align = field_first;
+            }
+            if field_align > align {
+                align = field_align;
+            }
+            pos += field.size;
+            i += 1;
+        }
+        if pos != size || size % align != 0 {
+            return None;
+        }
+        // SAFETY: every field is plain (its own proof), they tile `0..size` with no
+        // gap in declaration order at CDR's offsets for a start that is a multiple of
+        // `align` (each field's offset is a multiple of its own `align`, which divides
+        // ours), and `size` is a multiple of `align`; the caller vouches that the
+        // fields are all of `T`'s fields with their real offsets and sizes.
+        Some(unsafe { Self::new_unchecked(align, first_align) })
+    }
+}
+
+/// The bytes of `items`, which are their CDR encoding (see [`PlainLayout`]).
+#[allow(unsafe_code)]
+pub(crate) fn plain_bytes<T>(_proof: PlainLayout<T>, items: &[T]) -> &[u8] {
+    // SAFETY: the proof guarantees `T` has no padding or uninitialized bytes, so all
+    // `size_of_val(items)` bytes behind the valid slice pointer are initialized; `u8`
+    // needs no alignment; the returned borrow keeps `items` borrowed immutably.
+    unsafe { std::slice::from_raw_parts(items.as_ptr().cast::<u8>(), std::mem::size_of_val(items)) }
+}
+
+/// `n` values of `T` read from their CDR bytes (see [`PlainLayout`]). `None` if
+/// `bytes` is not exactly `n` values long.
+#[allow(unsafe_code)]
+pub(crate) fn plain_vec<T>(_proof: PlainLayout<T>, bytes: &[u8], n: usize) -> Option<Vec<T>> {
+    if Some(bytes.len()) != n.checked_mul(std::mem::size_of::<T>()) {
+        return None;
+    }
+    let mut out = Vec::<T>::with_capacity(n);
+    // SAFETY: `out` owns a fresh allocation of at least `n` values, which cannot
+    // overlap `bytes`; exactly `n * size_of::<T>()` bytes are copied into it, and the
+    // proof guarantees every bit pattern is a valid `T`, so the first `n` elements are
+    // initialized before `set_len`. Byte copies need no alignment of the source.
+    unsafe {
+        std::ptr::copy_nonoverlapping(bytes.as_ptr(), out.as_mut_ptr().cast::<u8>(), bytes.len());
+        out.set_len(n);
+    }
+    Some(out)
+}

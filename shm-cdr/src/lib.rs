@@ -24,7 +24,7 @@
 //! write it: a 4-byte encapsulation header, then every primitive aligned to its size
 //! counted from the byte after the header. Every padding byte is written as zero.
 #![warn(missing_docs)]
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 mod bounded;
 mod decode;

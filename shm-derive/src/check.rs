@@ -134,7 +134,7 @@ fn check_type(cx: &Ctxt, ty: &Type, top: bool) {
                 Type::Slice(s) => matches!(&*s.elem, Type::Path(p) if p.path.is_ident("u8")),
                 _ => false,
             };
-            if reference.mutability.is_some() || !borrowable || !top {
+            if reference.mutability.is_some() || !borrowable {
                 cx.error_spanned_by(
                     ty,
                     "borrowed fields can only be `&'a str` or `&'a [u8]`: use an owned type such as `String` or `Vec<T>`, or `Cow<'a, [T]>`",

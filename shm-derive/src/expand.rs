@@ -50,6 +50,30 @@ pub fn expand(container: &Container) -> TokenStream {
         }
     };
 
+    // --- bulk-copy proof ----------------------------------------------------------
+    let plain = |trait_path: TokenStream| {
+        if empty {
+            return quote!(::core::option::Option::None);
+        }
+        quote! {
+            // SAFETY: the list holds every field of `Self` in declaration order, with
+            // its `offset_of!` and `size_of` taken from `Self` itself and the proof of
+            // the field's own type, as `of_struct` requires.
+            unsafe {
+                #krate::layout::PlainLayout::of_struct(
+                    &[ #(
+                        #krate::layout::PlainField {
+                            offset: ::core::mem::offset_of!(Self, #members),
+                            size: ::core::mem::size_of::<#types>(),
+                            plain: #krate::layout::PlainLayout::erase(<#types as #trait_path>::PLAIN),
+                        }
+                    ),* ],
+                    ::core::mem::size_of::<Self>(),
+                )
+            }
+        }
+    };
+
     // --- decode -----------------------------------------------------------------
     let de = Lifetime::new("'__de", proc_macro2::Span::call_site());
     let mut de_generics = container.generics.clone();
@@ -59,6 +83,8 @@ pub fn expand(container: &Container) -> TokenStream {
     de_generics.params.insert(0, GenericParam::Lifetime(de_param));
     let (de_impl_generics, _, _) = de_generics.split_for_impl();
 
+    let plain_encode = plain(quote!(#krate::CdrEncode));
+    let plain_decode = plain(quote!(#krate::CdrDecode<#de>));
     let min_wire_size = if empty {
         quote!(1)
     } else {
@@ -137,6 +163,8 @@ pub fn expand(container: &Container) -> TokenStream {
                         #( <#types as #krate::CdrEncode>::FIXED_LAYOUT, )*
                     ]);
 
+                const PLAIN: ::core::option::Option<#krate::layout::PlainLayout<Self>> = #plain_encode;
+
                 #[inline]
                 fn encoded_end(&self, start: usize) -> usize {
                     if let ::core::option::Option::Some(layout) = Self::FIXED_LAYOUT {
@@ -156,6 +184,8 @@ pub fn expand(container: &Container) -> TokenStream {
 
             impl #de_impl_generics #krate::CdrDecode<#de> for #ident #ty_generics #where_clause {
                 const MIN_WIRE_SIZE: usize = #min_wire_size;
+
+                const PLAIN: ::core::option::Option<#krate::layout::PlainLayout<Self>> = #plain_decode;
 
                 #[inline]
                 fn decode<__B: #krate::ByteOrder>(

@@ -110,6 +110,32 @@ pub mod msgs {
         pub is_dense: bool,
     }
 
+    /// sensor_msgs/msg/PointCloud2, borrowing its point data from the input.
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "sensor_msgs/msg/PointCloud2")]
+    pub struct PointCloud2Ref<'a> {
+        pub header: HeaderRef<'a>,
+        pub height: u32,
+        pub width: u32,
+        pub fields: Vec<PointField>,
+        pub is_bigendian: bool,
+        pub point_step: u32,
+        pub row_step: u32,
+        pub data: &'a [u8],
+        pub is_dense: bool,
+    }
+
+    /// sensor_msgs/msg/JointState, borrowing joint names from the input.
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "sensor_msgs/msg/JointState")]
+    pub struct JointStateRef<'a> {
+        pub header: HeaderRef<'a>,
+        pub name: Vec<&'a str>,
+        pub position: Vec<f64>,
+        pub velocity: Vec<f64>,
+        pub effort: Vec<f64>,
+    }
+
     /// sensor_msgs/msg/JointState
     #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
     #[ros(type_name = "sensor_msgs/msg/JointState")]
@@ -154,5 +180,76 @@ pub mod msgs {
     pub struct PoseArray {
         pub header: Header,
         pub poses: Vec<Pose>,
+    }
+}
+
+pub mod samples {
+    //! Deterministic sample messages of realistic sizes, for benchmarks and tests.
+    use crate::msgs::*;
+
+    fn header(frame_id: &str) -> Header {
+        Header {
+            stamp: Time {
+                sec: 1_700_000_000,
+                nanosec: 123_456_789,
+            },
+            frame_id: frame_id.into(),
+        }
+    }
+
+    /// An XYZ+intensity cloud (16-byte points) of about `bytes` bytes of point data.
+    pub fn point_cloud(bytes: usize) -> PointCloud2 {
+        let point_step = 16;
+        let width = (bytes / point_step) as u32;
+        let field = |name: &str, offset| PointField {
+            name: name.into(),
+            offset,
+            datatype: 7, // FLOAT32
+            count: 1,
+        };
+        PointCloud2 {
+            header: header("lidar"),
+            height: 1,
+            width,
+            fields: vec![field("x", 0), field("y", 4), field("z", 8), field("intensity", 12)],
+            is_bigendian: false,
+            point_step: point_step as u32,
+            row_step: width * point_step as u32,
+            data: (0..width as usize * point_step).map(|i| (i * 31 % 251) as u8).collect(),
+            is_dense: true,
+        }
+    }
+
+    /// A robot arm's joint state with `joints` joints.
+    pub fn joint_state(joints: usize) -> JointState {
+        JointState {
+            header: header("base_link"),
+            name: (0..joints).map(|i| format!("arm_joint_{i}")).collect(),
+            position: (0..joints).map(|i| i as f64 * 0.1).collect(),
+            velocity: (0..joints).map(|i| i as f64 * -0.01).collect(),
+            effort: (0..joints).map(|i| i as f64 * 2.5).collect(),
+        }
+    }
+
+    /// A pose array of `n` poses.
+    pub fn pose_array(n: usize) -> PoseArray {
+        PoseArray {
+            header: header("map"),
+            poses: (0..n)
+                .map(|i| Pose {
+                    position: Point {
+                        x: i as f64,
+                        y: i as f64 * 2.0,
+                        z: 0.5,
+                    },
+                    orientation: Quaternion {
+                        x: 0.0,
+                        y: 0.0,
+                        z: (i as f64).sin(),
+                        w: (i as f64).cos(),
+                    },
+                })
+                .collect(),
+        }
     }
 }

@@ -5,10 +5,19 @@ use crate::describe::{FieldType, RosElement, RosType, TypeRegistry};
 use crate::encode::{CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, EncodeError};
-use crate::layout::FixedLayout;
+use crate::layout::{FixedLayout, PlainLayout};
 
 impl<T: CdrEncode, const N: usize> CdrEncode for [T; N] {
     const FIXED_LAYOUT: Option<FixedLayout> = FixedLayout::of_array(T::FIXED_LAYOUT, N);
+
+    const PLAIN: Option<PlainLayout<Self>> = match T::PLAIN {
+        // SAFETY: `[T; N]` is `N` values of `T` back to back with no gap, and
+        // `size_of::<T>()` is a multiple of the proof's alignment, so every element
+        // starts at a phase where `T`'s own proof holds.
+        #[allow(unsafe_code)]
+        Some(p) if N > 0 => Some(unsafe { PlainLayout::new_unchecked(p.align(), p.first_align()) }),
+        _ => None,
+    };
 
     #[inline]
     fn encoded_end(&self, start: usize) -> usize {
@@ -27,6 +36,13 @@ impl<'de, T: CdrDecode<'de>, const N: usize> CdrDecode<'de> for [T; N] {
         // length prefix of a sequence of them claim billions of elements for free.
         assert!(N > 0, "a fixed array field needs at least one element");
         T::MIN_WIRE_SIZE * N
+    };
+
+    const PLAIN: Option<PlainLayout<Self>> = match T::PLAIN {
+        // SAFETY: as for encoding: `N` valid `T`s back to back are a valid array.
+        #[allow(unsafe_code)]
+        Some(p) if N > 0 => Some(unsafe { PlainLayout::new_unchecked(p.align(), p.first_align()) }),
+        _ => None,
     };
 
     #[inline]

@@ -8,12 +8,17 @@ use crate::describe::{FieldType, RosElement, RosType, TypeId};
 use crate::encode::{CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError};
-use crate::layout::{align_up, FixedLayout};
+use crate::layout::{align_up, FixedLayout, PlainLayout};
 
 macro_rules! number {
     ($($ty:ty => $size:literal, $type_id:ident $(, $borrow:ident)?;)*) => {$(
         impl CdrEncode for $ty {
             const FIXED_LAYOUT: Option<FixedLayout> = Some(FixedLayout::primitive($size));
+
+            // SAFETY: a number is its own `$size` bytes in host order with no padding,
+            // aligned to its size on the wire, and every bit pattern is a valid value.
+            #[allow(unsafe_code)]
+            const PLAIN: Option<PlainLayout<Self>> = Some(unsafe { PlainLayout::new_unchecked($size, $size) });
 
             #[inline(always)]
             fn encoded_end(&self, start: usize) -> usize {
@@ -55,6 +60,8 @@ macro_rules! number {
 
         impl<'de> CdrDecode<'de> for $ty {
             const MIN_WIRE_SIZE: usize = $size;
+
+            const PLAIN: Option<PlainLayout<Self>> = <$ty as CdrEncode>::PLAIN;
 
             #[inline(always)]
             fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
