@@ -10,6 +10,7 @@ pub mod msgs {
     /// builtin_interfaces/msg/Time
     #[derive(RosMessage, Debug, Clone, Copy, Default, PartialEq)]
     #[ros(type_name = "builtin_interfaces/msg/Time")]
+    #[repr(C)] // field order in memory = CDR order: sequences copy in bulk
     pub struct Time {
         pub sec: i32,
         pub nanosec: u32,
@@ -150,6 +151,7 @@ pub mod msgs {
     /// geometry_msgs/msg/Point
     #[derive(RosMessage, Debug, Clone, Copy, Default, PartialEq)]
     #[ros(type_name = "geometry_msgs/msg/Point")]
+    #[repr(C)] // field order in memory = CDR order: sequences copy in bulk
     pub struct Point {
         pub x: f64,
         pub y: f64,
@@ -159,6 +161,7 @@ pub mod msgs {
     /// geometry_msgs/msg/Quaternion
     #[derive(RosMessage, Debug, Clone, Copy, Default, PartialEq)]
     #[ros(type_name = "geometry_msgs/msg/Quaternion")]
+    #[repr(C)] // field order in memory = CDR order: sequences copy in bulk
     pub struct Quaternion {
         pub x: f64,
         pub y: f64,
@@ -169,6 +172,7 @@ pub mod msgs {
     /// geometry_msgs/msg/Pose
     #[derive(RosMessage, Debug, Clone, Copy, Default, PartialEq)]
     #[ros(type_name = "geometry_msgs/msg/Pose")]
+    #[repr(C)] // field order in memory = CDR order: sequences copy in bulk
     pub struct Pose {
         pub position: Point,
         pub orientation: Quaternion,

@@ -37,8 +37,11 @@ struct Strings {
     pair: [String; 2],
 }
 
+/// `#[repr(C)]` makes it plain: sequences starting at phase 0 mod 8 (`stamped_seq`)
+/// take the bulk copy, others (`stamped_first`) go element by element.
 #[derive(RosMessage, Debug, PartialEq)]
 #[ros(type_name = "shm_test/msg/Stamped")]
+#[repr(C)]
 struct Stamped {
     stamp: Time,
     value: f64,
@@ -51,6 +54,15 @@ struct StampedSeq {
     items: Vec<Stamped>,
     tail: Vec<u16>,
     last: i64,
+}
+
+/// The sequence count is at offset 0, so the first element starts at phase 4 and
+/// CDR pads *inside* it (after `stamp`): the bulk copy must not be used.
+#[derive(RosMessage, Debug, PartialEq)]
+#[ros(type_name = "shm_test/msg/StampedFirst")]
+struct StampedFirst {
+    items: Vec<Stamped>,
+    last: u8,
 }
 
 #[derive(RosMessage, Debug, PartialEq)]
@@ -139,6 +151,11 @@ fn check<T: RosMessage + DecodeOwned + PartialEq + std::fmt::Debug>(name: &str, 
 }
 
 #[test]
+fn stamped_is_plain() {
+    assert!(<Stamped as shm_cdr::CdrEncode>::PLAIN.is_some());
+}
+
+#[test]
 fn primitives() {
     check(
         "primitives",
@@ -191,6 +208,17 @@ fn sequence_of_structs_with_mixed_alignment() {
             items: vec![],
             tail: vec![],
             last: 1,
+        },
+    );
+}
+
+#[test]
+fn sequence_of_structs_at_a_phase_where_layouts_differ() {
+    check(
+        "stamped_first",
+        &StampedFirst {
+            items: vec![stamped(1, 2, 0.5), stamped(3, 4, -1.5)],
+            last: 6,
         },
     );
 }
