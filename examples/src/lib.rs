@@ -1,1 +1,1 @@
-//! Examples live in `examples/`.
+//! Runnable examples: `cargo run -p shm-cdr-examples --example <name>`.
