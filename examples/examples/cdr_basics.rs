@@ -38,7 +38,10 @@ struct ScanView<'a> {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scan = Scan {
-        stamp: Time { sec: 1_700_000_000, nanosec: 5 },
+        stamp: Time {
+            sec: 1_700_000_000,
+            nanosec: 5,
+        },
         frame_id: "laser".into(),
         ranges: vec![1.0, 1.5, 2.25],
         status: 0x2a,
@@ -70,10 +73,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("big-endian {}", hex(&big));
 
     // A 4-billion-element length prefix is refused before anything is allocated.
-    let hostile = [0x00, 0x01, 0x00, 0x00, 0, 0, 0, 0, 0, 0, 0, 0, 0xff, 0xff, 0xff, 0xff];
-    println!("hostile   {}", shm_cdr::from_bytes::<Scan>(&hostile).unwrap_err());
+    let hostile = [
+        0x00, 0x01, 0x00, 0x00, 0, 0, 0, 0, 0, 0, 0, 0, 0xff, 0xff, 0xff, 0xff,
+    ];
+    println!(
+        "hostile   {}",
+        shm_cdr::from_bytes::<Scan>(&hostile).unwrap_err()
+    );
     let short = &buf[..size - 1];
-    println!("truncated {}", shm_cdr::from_bytes::<Scan>(short).unwrap_err());
+    println!(
+        "truncated {}",
+        shm_cdr::from_bytes::<Scan>(short).unwrap_err()
+    );
     Ok(())
 }
 

@@ -34,14 +34,23 @@ pub trait CdrDecode<'de>: Sized {
     /// one copy for [plain](Self::PLAIN) types in host byte order at a suitable
     /// phase, element by element otherwise.
     #[inline]
-    fn decode_vec<B: ByteOrder>(r: &mut Reader<'de, B>, n: usize) -> Result<Vec<Self>, DecodeError> {
+    fn decode_vec<B: ByteOrder>(
+        r: &mut Reader<'de, B>,
+        n: usize,
+    ) -> Result<Vec<Self>, DecodeError> {
         if let (true, Some(plain)) = (B::NATIVE, Self::PLAIN) {
             if n > 0 && align_up(r.position(), plain.first_align()) % plain.align() == 0 {
                 let len = n.saturating_mul(std::mem::size_of::<Self>());
                 let at = r.position();
                 let bytes = r.read_aligned_bytes(plain.first_align(), len)?;
                 return plain_vec(plain, bytes, n).ok_or_else(|| {
-                    r.error_at(at, DecodeErrorKind::UnexpectedEof { needed: len, remaining: bytes.len() })
+                    r.error_at(
+                        at,
+                        DecodeErrorKind::UnexpectedEof {
+                            needed: len,
+                            remaining: bytes.len(),
+                        },
+                    )
                 });
             }
         }
@@ -55,13 +64,21 @@ pub trait CdrDecode<'de>: Sized {
     /// Read a fixed array of `N` values. Numbers override this with one copy onto
     /// the stack; other types read element by element.
     #[inline]
-    fn decode_array<B: ByteOrder, const N: usize>(r: &mut Reader<'de, B>) -> Result<[Self; N], DecodeError> {
+    fn decode_array<B: ByteOrder, const N: usize>(
+        r: &mut Reader<'de, B>,
+    ) -> Result<[Self; N], DecodeError> {
         let at = r.position();
         let items = Self::decode_vec(r, N)?;
         let got = items.len();
         <[Self; N]>::try_from(items).map_err(|_| {
             // Only a faulty `decode_vec` returns another count; report, don't panic.
-            r.error_at(at, DecodeErrorKind::UnexpectedEof { needed: N, remaining: got })
+            r.error_at(
+                at,
+                DecodeErrorKind::UnexpectedEof {
+                    needed: N,
+                    remaining: got,
+                },
+            )
         })
     }
 
@@ -114,7 +131,6 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
     pub fn remaining(&self) -> usize {
         self.data.len() - self.pos
     }
-
 
     /// An error of `kind` at body position `pos`.
     #[cold]
@@ -170,7 +186,11 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
 
     /// Skip to `align`, then take `len` bytes borrowed from the input.
     #[inline(always)]
-    pub fn read_aligned_bytes(&mut self, align: usize, len: usize) -> Result<&'de [u8], DecodeError> {
+    pub fn read_aligned_bytes(
+        &mut self,
+        align: usize,
+        len: usize,
+    ) -> Result<&'de [u8], DecodeError> {
         self.take_aligned(align, len)
     }
 

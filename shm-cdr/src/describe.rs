@@ -183,7 +183,9 @@ impl TypeRegistry {
     /// Add a description; returns `false` if that type was already present (so
     /// recursion stops).
     pub fn insert(&mut self, description: TypeDescription) -> bool {
-        self.types.insert(description.type_name, description).is_none()
+        self.types
+            .insert(description.type_name, description)
+            .is_none()
     }
 
     /// The registered descriptions, sorted by type name.
@@ -241,7 +243,11 @@ impl OctetType for bytes::Bytes {}
 
 fn write_type_description(out: &mut String, description: &TypeDescription) {
     // Names are validated ASCII identifiers, so no JSON escaping is ever needed.
-    let _ = write!(out, "{{\"type_name\": \"{}\", \"fields\": [", description.type_name);
+    let _ = write!(
+        out,
+        "{{\"type_name\": \"{}\", \"fields\": [",
+        description.type_name
+    );
     for (i, field) in description.fields.iter().enumerate() {
         if i > 0 {
             out.push_str(", ");
@@ -297,7 +303,10 @@ pub fn message_description_json<T: crate::RosMessage + ?Sized>() -> String {
     let mut registry = TypeRegistry::default();
     T::register_types(&mut registry);
     let own = T::type_description();
-    type_description_json(&own, registry.iter().filter(|d| d.type_name != own.type_name))
+    type_description_json(
+        &own,
+        registry.iter().filter(|d| d.type_name != own.type_name),
+    )
 }
 
 /// Compute the `RIHS01` hash of message type `T` (derived code caches it).

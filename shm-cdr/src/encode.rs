@@ -58,9 +58,11 @@ pub trait CdrEncode {
         Self: Sized,
     {
         if let (true, Some(plain)) = (B::NATIVE, Self::PLAIN) {
-            if !items.is_empty() && align_up(w.position(), plain.first_align()) % plain.align() == 0 {
+            if !items.is_empty() && align_up(w.position(), plain.first_align()) % plain.align() == 0
+            {
                 let bytes = plain_bytes(plain, items);
-                w.aligned_slot(plain.first_align(), bytes.len())?.copy_from_slice(bytes);
+                w.aligned_slot(plain.first_align(), bytes.len())?
+                    .copy_from_slice(bytes);
                 return Ok(());
             }
         }

@@ -126,7 +126,9 @@ impl FixedLayout {
         if fields.is_empty() {
             return Some(Self::primitive(1));
         }
-        let mut acc = Self { ends: [0, 1, 2, 3, 4, 5, 6, 7] };
+        let mut acc = Self {
+            ends: [0, 1, 2, 3, 4, 5, 6, 7],
+        };
         let mut i = 0;
         while i < fields.len() {
             match fields[i] {

@@ -102,7 +102,10 @@ pub fn encode_into_with<T: CdrEncode + ?Sized>(
 }
 
 #[inline(always)]
-fn encode_body<T: CdrEncode + ?Sized, B: ByteOrder>(msg: &T, buf: &mut [u8]) -> Result<usize, EncodeError> {
+fn encode_body<T: CdrEncode + ?Sized, B: ByteOrder>(
+    msg: &T,
+    buf: &mut [u8],
+) -> Result<usize, EncodeError> {
     let Some((header, body)) = buf.split_first_chunk_mut::<HEADER_LEN>() else {
         return Err(EncodeError::new(EncodeErrorKind::BufferTooSmall {
             needed: HEADER_LEN,
@@ -123,7 +126,10 @@ pub fn to_vec<T: CdrEncode + ?Sized>(msg: &T) -> Result<Vec<u8>, EncodeError> {
 }
 
 /// [`to_vec`] in the given byte order.
-pub fn to_vec_with<T: CdrEncode + ?Sized>(msg: &T, endianness: Endianness) -> Result<Vec<u8>, EncodeError> {
+pub fn to_vec_with<T: CdrEncode + ?Sized>(
+    msg: &T,
+    endianness: Endianness,
+) -> Result<Vec<u8>, EncodeError> {
     let mut out = vec![0u8; encoded_size(msg)];
     let written = encode_into_with(msg, &mut out, endianness)?;
     debug_assert_eq!(written, out.len(), "encoded_end disagrees with encode");
@@ -137,7 +143,10 @@ pub fn read_header(bytes: &[u8]) -> Result<Endianness, DecodeError> {
     match bytes {
         [0x00, 0x01, _, _, ..] => Ok(Endianness::Little),
         [0x00, 0x00, _, _, ..] => Ok(Endianness::Big),
-        [a, b, _, _, ..] => Err(DecodeError::new(DecodeErrorKind::UnknownEncapsulation([*a, *b]), 0)),
+        [a, b, _, _, ..] => Err(DecodeError::new(
+            DecodeErrorKind::UnknownEncapsulation([*a, *b]),
+            0,
+        )),
         _ => Err(DecodeError::new(
             DecodeErrorKind::UnexpectedEof {
                 needed: HEADER_LEN,

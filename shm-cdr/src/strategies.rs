@@ -33,7 +33,9 @@ mod proptest_impls {
         type Parameters = ();
         type Strategy = BoxedStrategy<Self>;
         fn arbitrary_with((): ()) -> Self::Strategy {
-            any::<String>().prop_map(|s| Self(truncate_bytes(s, N))).boxed()
+            any::<String>()
+                .prop_map(|s| Self(truncate_bytes(s, N)))
+                .boxed()
         }
     }
 
@@ -41,7 +43,9 @@ mod proptest_impls {
         type Parameters = ();
         type Strategy = BoxedStrategy<Self>;
         fn arbitrary_with((): ()) -> Self::Strategy {
-            any::<String>().prop_map(|s| Self(truncate_utf16(s, N))).boxed()
+            any::<String>()
+                .prop_map(|s| Self(truncate_utf16(s, N)))
+                .boxed()
         }
     }
 
@@ -57,7 +61,9 @@ mod proptest_impls {
         type Parameters = ();
         type Strategy = BoxedStrategy<Self>;
         fn arbitrary_with((): ()) -> Self::Strategy {
-            proptest::collection::vec(any::<T>(), 0..=N).prop_map(Self).boxed()
+            proptest::collection::vec(any::<T>(), 0..=N)
+                .prop_map(Self)
+                .boxed()
         }
     }
 }
@@ -88,7 +94,10 @@ mod arbitrary_impls {
     impl<'a, T: Arbitrary<'a>, const N: usize> Arbitrary<'a> for BoundedVec<T, N> {
         fn arbitrary(u: &mut Unstructured<'a>) -> Result<Self> {
             let len = u.int_in_range(0..=N)?;
-            (0..len).map(|_| T::arbitrary(u)).collect::<Result<Vec<T>>>().map(Self)
+            (0..len)
+                .map(|_| T::arbitrary(u))
+                .collect::<Result<Vec<T>>>()
+                .map(Self)
         }
     }
 }

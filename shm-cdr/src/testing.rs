@@ -10,7 +10,9 @@
 //! shm_cdr::testing::check_roundtrip(&Sample { id: 1, values: vec![2.0] }).unwrap();
 //! ```
 
-use crate::{encode_into_with, encoded_size, from_bytes, to_vec_with, CdrEncode, DecodeOwned, Endianness};
+use crate::{
+    encode_into_with, encoded_size, from_bytes, to_vec_with, CdrEncode, DecodeOwned, Endianness,
+};
 
 /// Verify, in both byte orders, that:
 /// - [`encoded_size`] equals the length [`to_vec_with`] produces;
@@ -29,14 +31,19 @@ where
         let bytes = to_vec_with(msg, endianness).map_err(|e| format!("to_vec: {e}"))?;
         let size = encoded_size(msg);
         if bytes.len() != size {
-            return Err(format!("encoded_size {size} but to_vec produced {} bytes", bytes.len()));
+            return Err(format!(
+                "encoded_size {size} but to_vec produced {} bytes",
+                bytes.len()
+            ));
         }
         for garbage in [0x00, 0xA5, 0xFF] {
             let mut buf = vec![garbage; size + 1];
             let n = encode_into_with(msg, &mut buf[..size], endianness)
                 .map_err(|e| format!("encode_into an exact buffer: {e}"))?;
             if n != size || buf[..size] != bytes[..] {
-                return Err(format!("encode_into over {garbage:#04x} differs from to_vec"));
+                return Err(format!(
+                    "encode_into over {garbage:#04x} differs from to_vec"
+                ));
             }
             if buf[size] != garbage {
                 return Err("encode_into wrote past the buffer".into());
@@ -54,7 +61,9 @@ where
         let decoded: T = from_bytes(&bytes).map_err(|e| format!("decode: {e}"))?;
         let (before, after) = (format!("{msg:?}"), format!("{decoded:?}"));
         if before != after {
-            return Err(format!("decoded value differs:\n  sent {before}\n  got  {after}"));
+            return Err(format!(
+                "decoded value differs:\n  sent {before}\n  got  {after}"
+            ));
         }
         let again = to_vec_with(&decoded, endianness).map_err(|e| format!("re-encode: {e}"))?;
         if again != bytes {

@@ -29,7 +29,11 @@ impl<'a> Container<'a> {
         let attrs = ContainerAttrs::from_ast(cx, &input.attrs);
         let fields = match &input.data {
             Data::Struct(data) => match &data.fields {
-                Fields::Named(named) => named.named.iter().filter_map(|f| Field::from_ast(cx, f)).collect(),
+                Fields::Named(named) => named
+                    .named
+                    .iter()
+                    .filter_map(|f| Field::from_ast(cx, f))
+                    .collect(),
                 Fields::Unit => Vec::new(),
                 Fields::Unnamed(unnamed) => {
                     cx.error_spanned_by(
@@ -56,7 +60,10 @@ impl<'a> Container<'a> {
         };
         let type_name = match (&attrs.type_name, &attrs.package) {
             (Some(name), None) => Some((name.value(), name.span())),
-            (None, Some(package)) => Some((format!("{}/msg/{}", package.value(), input.ident), package.span())),
+            (None, Some(package)) => Some((
+                format!("{}/msg/{}", package.value(), input.ident),
+                package.span(),
+            )),
             (Some(name), Some(_)) => {
                 cx.error_spanned_by(
                     name,
@@ -94,7 +101,10 @@ impl<'a> Field<'a> {
             Some(rename) => (rename.value(), rename.span()),
             None => {
                 let name = member.to_string();
-                (name.strip_prefix("r#").unwrap_or(&name).to_owned(), member.span())
+                (
+                    name.strip_prefix("r#").unwrap_or(&name).to_owned(),
+                    member.span(),
+                )
             }
         };
         Some(Self {

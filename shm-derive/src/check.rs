@@ -53,7 +53,8 @@ fn validate_type_name(name: &str) -> Result<(), String> {
     };
     let lower_ident = |s: &str| {
         s.chars().next().is_some_and(|c| c.is_ascii_lowercase())
-            && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+            && s.chars()
+                .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
     };
     if !lower_ident(package) {
         return Err(format!(
@@ -61,7 +62,9 @@ fn validate_type_name(name: &str) -> Result<(), String> {
         ));
     }
     if !lower_ident(namespace) {
-        return Err(format!("invalid namespace `{namespace}` in `{name}`: {hint}"));
+        return Err(format!(
+            "invalid namespace `{namespace}` in `{name}`: {hint}"
+        ));
     }
     let camel = ty.chars().next().is_some_and(|c| c.is_ascii_uppercase())
         && ty.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
@@ -77,7 +80,9 @@ fn validate_type_name(name: &str) -> Result<(), String> {
 /// with a letter and not ending with `_`.
 fn validate_field_name(name: &str) -> Result<(), String> {
     let ok = name.chars().next().is_some_and(|c| c.is_ascii_lowercase())
-        && name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
         && !name.contains("__")
         && !name.ends_with('_');
     if ok {

@@ -16,13 +16,21 @@ pub fn expand(container: &Container) -> TokenStream {
     };
     let ident = container.ident;
     let rust_name = ident.to_string();
-    let type_name = container.type_name.as_ref().map(|(name, _)| name.clone()).unwrap_or_default();
+    let type_name = container
+        .type_name
+        .as_ref()
+        .map(|(name, _)| name.clone())
+        .unwrap_or_default();
     let dds_name = dds_type_name(&type_name);
     let (impl_generics, ty_generics, where_clause) = container.generics.split_for_impl();
 
     let members: Vec<_> = container.fields.iter().map(|f| f.member).collect();
     let types: Vec<_> = container.fields.iter().map(|f| f.ty).collect();
-    let ros_names: Vec<_> = container.fields.iter().map(|f| f.ros_name.as_str()).collect();
+    let ros_names: Vec<_> = container
+        .fields
+        .iter()
+        .map(|f| f.ros_name.as_str())
+        .collect();
     let empty = container.fields.is_empty();
 
     // --- size -------------------------------------------------------------------
@@ -77,10 +85,16 @@ pub fn expand(container: &Container) -> TokenStream {
     // --- decode -----------------------------------------------------------------
     let de = Lifetime::new("'__de", proc_macro2::Span::call_site());
     let mut de_generics = container.generics.clone();
-    let bounds: Vec<Lifetime> = container.generics.lifetimes().map(|l| l.lifetime.clone()).collect();
+    let bounds: Vec<Lifetime> = container
+        .generics
+        .lifetimes()
+        .map(|l| l.lifetime.clone())
+        .collect();
     let mut de_param = LifetimeParam::new(de.clone());
     de_param.bounds.extend(bounds);
-    de_generics.params.insert(0, GenericParam::Lifetime(de_param));
+    de_generics
+        .params
+        .insert(0, GenericParam::Lifetime(de_param));
     let (de_impl_generics, _, _) = de_generics.split_for_impl();
 
     let plain_encode = plain(quote!(#krate::CdrEncode));
@@ -139,9 +153,10 @@ pub fn expand(container: &Container) -> TokenStream {
     // Assertions spanned at each field's type, so a wrong type is reported there.
     let field_checks = container.fields.iter().map(|f| {
         let ty = f.ty;
-        let octet = f.attrs.octet.map(|(_, span)| {
-            quote_spanned!(span=> #krate::__private::assert_octet_type::<#ty>();)
-        });
+        let octet = f
+            .attrs
+            .octet
+            .map(|(_, span)| quote_spanned!(span=> #krate::__private::assert_octet_type::<#ty>();));
         let span = ty.span();
         quote_spanned! {span=>
             #krate::__private::assert_field_type::<#ty>();

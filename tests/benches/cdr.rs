@@ -56,8 +56,18 @@ fn messages(c: &mut Criterion) {
         // Nothing in a PoseArray can be borrowed: the owned decode is the reference.
         black_box(from_bytes::<PoseArray>(bytes).unwrap());
     }
-    bench_message(c, "PointCloud2 1MiB", &samples::point_cloud(1 << 20), cloud_ref);
-    bench_message(c, "PointCloud2 8MiB", &samples::point_cloud(8 << 20), cloud_ref);
+    bench_message(
+        c,
+        "PointCloud2 1MiB",
+        &samples::point_cloud(1 << 20),
+        cloud_ref,
+    );
+    bench_message(
+        c,
+        "PointCloud2 8MiB",
+        &samples::point_cloud(8 << 20),
+        cloud_ref,
+    );
     bench_message(c, "JointState 40", &samples::joint_state(40), joints_ref);
     bench_message(c, "PoseArray 10k", &samples::pose_array(10_000), poses);
 }

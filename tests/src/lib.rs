@@ -215,11 +215,18 @@ pub mod samples {
             header: header("lidar"),
             height: 1,
             width,
-            fields: vec![field("x", 0), field("y", 4), field("z", 8), field("intensity", 12)],
+            fields: vec![
+                field("x", 0),
+                field("y", 4),
+                field("z", 8),
+                field("intensity", 12),
+            ],
             is_bigendian: false,
             point_step: point_step as u32,
             row_step: width * point_step as u32,
-            data: (0..width as usize * point_step).map(|i| (i * 31 % 251) as u8).collect(),
+            data: (0..width as usize * point_step)
+                .map(|i| (i * 31 % 251) as u8)
+                .collect(),
             is_dense: true,
         }
     }
@@ -273,7 +280,9 @@ pub mod fuzzing {
     where
         T: shm_cdr::DecodeOwned + shm_cdr::CdrEncode + std::fmt::Debug,
     {
-        let Ok(value) = from_bytes::<T>(data) else { return };
+        let Ok(value) = from_bytes::<T>(data) else {
+            return;
+        };
         if let Err(why) = check_roundtrip(&value) {
             panic!("decoded {value:?}: {why}");
         }
@@ -285,7 +294,9 @@ pub mod fuzzing {
     where
         T: shm_cdr::CdrDecode<'a> + shm_cdr::CdrEncode,
     {
-        let Ok(value) = from_bytes::<T>(data) else { return };
+        let Ok(value) = from_bytes::<T>(data) else {
+            return;
+        };
         let bytes = shm_cdr::to_vec(&value).expect("a decoded value re-encodes");
         assert_eq!(bytes.len(), shm_cdr::encoded_size(&value));
     }

@@ -39,7 +39,10 @@ fn huge_length_prefix_is_rejected_before_allocating() {
     let input = [0x00, 0x01, 0x00, 0x00, 0xff, 0xff, 0xff, 0xff];
     let err = from_bytes::<PointCloud2>(&input).unwrap_err();
     // The first field is the header's stamp; the first length is frame_id's.
-    assert!(matches!(err.kind(), DecodeErrorKind::UnexpectedEof { .. }), "{err}");
+    assert!(
+        matches!(err.kind(), DecodeErrorKind::UnexpectedEof { .. }),
+        "{err}"
+    );
 
     let err = from_bytes::<StringMsg>(&input).unwrap_err();
     assert_eq!(
@@ -83,7 +86,11 @@ fn truncated_input_reports_offset() {
             ),
             "cut at {cut}: {err}"
         );
-        assert!(err.offset() <= cut.max(4), "cut at {cut}: offset {}", err.offset());
+        assert!(
+            err.offset() <= cut.max(4),
+            "cut at {cut}: offset {}",
+            err.offset()
+        );
     }
 }
 
@@ -133,7 +140,10 @@ fn unknown_encapsulation() {
 
 #[test]
 fn header_option_bytes_are_ignored() {
-    assert_eq!(from_bytes::<Flag>(&[0, 1, 0xaa, 0xbb, 1]).unwrap(), Flag { on: true });
+    assert_eq!(
+        from_bytes::<Flag>(&[0, 1, 0xaa, 0xbb, 1]).unwrap(),
+        Flag { on: true }
+    );
 }
 
 #[test]
@@ -155,7 +165,10 @@ fn bounds_are_enforced_both_ways() {
         values: vec![1].into(),
     };
     let err = to_vec(&over_label).unwrap_err();
-    assert_eq!(err.kind(), &EncodeErrorKind::BoundExceeded { len: 4, bound: 3 });
+    assert_eq!(
+        err.kind(),
+        &EncodeErrorKind::BoundExceeded { len: 4, bound: 3 }
+    );
     assert_eq!(err.field_path().collect::<Vec<_>>(), ["label"]);
 
     let over_values = Limited {
@@ -163,7 +176,10 @@ fn bounds_are_enforced_both_ways() {
         values: vec![1, 2, 3].into(),
     };
     let err = to_vec(&over_values).unwrap_err();
-    assert_eq!(err.kind(), &EncodeErrorKind::BoundExceeded { len: 3, bound: 2 });
+    assert_eq!(
+        err.kind(),
+        &EncodeErrorKind::BoundExceeded { len: 3, bound: 2 }
+    );
 
     // Bytes of an over-bound value, as an unbounded writer would send them.
     #[derive(RosMessage)]
@@ -178,7 +194,10 @@ fn bounds_are_enforced_both_ways() {
     })
     .unwrap();
     let err = from_bytes::<Limited>(&bytes).unwrap_err();
-    assert_eq!(err.kind(), &DecodeErrorKind::BoundExceeded { len: 4, bound: 3 });
+    assert_eq!(
+        err.kind(),
+        &DecodeErrorKind::BoundExceeded { len: 4, bound: 3 }
+    );
     assert_eq!(err.offset(), 4);
     let bytes = to_vec(&Unlimited {
         label: "abc".into(),
@@ -186,7 +205,10 @@ fn bounds_are_enforced_both_ways() {
     })
     .unwrap();
     let err = from_bytes::<Limited>(&bytes).unwrap_err();
-    assert_eq!(err.kind(), &DecodeErrorKind::BoundExceeded { len: 3, bound: 2 });
+    assert_eq!(
+        err.kind(),
+        &DecodeErrorKind::BoundExceeded { len: 3, bound: 2 }
+    );
     assert_eq!(err.field_path().collect::<Vec<_>>(), ["values"]);
 }
 
@@ -215,13 +237,19 @@ fn wstring_layout_and_errors() {
     let mut bad = expected.clone();
     bad[8..12].copy_from_slice(&0x1_0000u32.to_le_bytes());
     let err = from_bytes::<Wide>(&bad).unwrap_err();
-    assert_eq!(err.kind(), &DecodeErrorKind::InvalidUtf16 { unit: 0x1_0000 });
+    assert_eq!(
+        err.kind(),
+        &DecodeErrorKind::InvalidUtf16 { unit: 0x1_0000 }
+    );
     assert_eq!(err.offset(), 8);
 
     let mut lone = expected.clone();
     lone[16..20].copy_from_slice(&0x62u32.to_le_bytes()); // high surrogate then 'b'
     let err = from_bytes::<Wide>(&lone).unwrap_err();
-    assert!(matches!(err.kind(), DecodeErrorKind::InvalidUtf16 { .. }), "{err}");
+    assert!(
+        matches!(err.kind(), DecodeErrorKind::InvalidUtf16 { .. }),
+        "{err}"
+    );
 
     let too_long = Wide {
         text: "".into(),

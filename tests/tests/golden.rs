@@ -32,7 +32,9 @@ fn header_map() -> Header {
 
 #[test]
 fn string_hello() {
-    let msg = StringMsg { data: "hello".into() };
+    let msg = StringMsg {
+        data: "hello".into(),
+    };
     assert_golden(&msg, "000100000600000068656c6c6f00");
     let be = hex("000000000000000668656c6c6f00");
     assert_eq!(to_vec_with(&msg, Endianness::Big).unwrap(), be);
@@ -53,7 +55,10 @@ struct U8F64 {
 
 #[test]
 fn u8_then_f64_pads_to_eight() {
-    assert_golden(&U8F64 { a: 7, b: 1.5 }, "000100000700000000000000000000000000f83f");
+    assert_golden(
+        &U8F64 { a: 7, b: 1.5 },
+        "000100000700000000000000000000000000f83f",
+    );
 }
 
 #[derive(RosMessage, Debug, PartialEq)]
@@ -65,7 +70,13 @@ struct EmptySeqThenU32 {
 
 #[test]
 fn empty_f64_sequence_adds_no_alignment() {
-    assert_golden(&EmptySeqThenU32 { values: vec![], after: 7 }, "000100000000000007000000");
+    assert_golden(
+        &EmptySeqThenU32 {
+            values: vec![],
+            after: 7,
+        },
+        "000100000000000007000000",
+    );
 }
 
 fn image_2x2() -> Image {
@@ -96,7 +107,10 @@ fn image_borrowed_points_into_the_input() {
     assert!(matches!(image.encoding, std::borrow::Cow::Borrowed(_)));
     assert_eq!(image.data, (0..12).collect::<Vec<u8>>());
     let input = bytes.as_ptr_range();
-    assert!(input.contains(&image.data.as_ptr()), "data must borrow, not copy");
+    assert!(
+        input.contains(&image.data.as_ptr()),
+        "data must borrow, not copy"
+    );
     assert!(input.contains(&image.header.frame_id.as_ptr()));
     // The borrowed form encodes to the same bytes.
     assert_eq!(to_vec(&image).unwrap(), bytes);
@@ -152,13 +166,19 @@ fn reference_type_hashes() {
 #[test]
 fn header_description_text_matches_rosidl() {
     let expected = r#"{"type_description": {"type_name": "std_msgs/msg/Header", "fields": [{"name": "stamp", "type": {"type_id": 1, "capacity": 0, "string_capacity": 0, "nested_type_name": "builtin_interfaces/msg/Time"}}, {"name": "frame_id", "type": {"type_id": 17, "capacity": 0, "string_capacity": 0, "nested_type_name": ""}}]}, "referenced_type_descriptions": [{"type_name": "builtin_interfaces/msg/Time", "fields": [{"name": "sec", "type": {"type_id": 6, "capacity": 0, "string_capacity": 0, "nested_type_name": ""}}, {"name": "nanosec", "type": {"type_id": 7, "capacity": 0, "string_capacity": 0, "nested_type_name": ""}}]}]}"#;
-    assert_eq!(shm_cdr::describe::message_description_json::<Header>(), expected);
+    assert_eq!(
+        shm_cdr::describe::message_description_json::<Header>(),
+        expected
+    );
 }
 
 #[test]
 fn names() {
     assert_eq!(PointCloud2::TYPE_NAME, "sensor_msgs/msg/PointCloud2");
-    assert_eq!(PointCloud2::DDS_TYPE_NAME, "sensor_msgs::msg::dds_::PointCloud2_");
+    assert_eq!(
+        PointCloud2::DDS_TYPE_NAME,
+        "sensor_msgs::msg::dds_::PointCloud2_"
+    );
 }
 
 #[test]

@@ -204,20 +204,24 @@ roundtrip_properties! {
 }
 
 fn image_strategy() -> impl Strategy<Value = Image> {
-    (any::<(i32, u32, String, u32, u32, String, u8, u32)>(), any::<Vec<u8>>()).prop_map(
-        |((sec, nanosec, frame_id, height, width, encoding, is_bigendian, step), data)| Image {
-            header: shm_cdr_tests::msgs::Header {
-                stamp: Time { sec, nanosec },
-                frame_id,
-            },
-            height,
-            width,
-            encoding,
-            is_bigendian,
-            step,
-            data,
-        },
+    (
+        any::<(i32, u32, String, u32, u32, String, u8, u32)>(),
+        any::<Vec<u8>>(),
     )
+        .prop_map(
+            |((sec, nanosec, frame_id, height, width, encoding, is_bigendian, step), data)| Image {
+                header: shm_cdr_tests::msgs::Header {
+                    stamp: Time { sec, nanosec },
+                    frame_id,
+                },
+                height,
+                width,
+                encoding,
+                is_bigendian,
+                step,
+                data,
+            },
+        )
 }
 
 proptest! {

@@ -145,9 +145,18 @@ fn check<T: RosMessage + DecodeOwned + PartialEq + std::fmt::Debug>(name: &str, 
         let ours = to_vec_with(msg, endianness).unwrap();
         assert_eq!(&ours, expected, "{name} {order}: bytes differ from rosbags");
         assert_eq!(shm_cdr::encoded_size(msg), expected.len(), "{name}: size");
-        assert_eq!(&from_bytes::<T>(expected).unwrap(), msg, "{name} {order}: decode");
+        assert_eq!(
+            &from_bytes::<T>(expected).unwrap(),
+            msg,
+            "{name} {order}: decode"
+        );
     }
-    assert_eq!(T::type_hash(), f.hashes[T::TYPE_NAME], "{}: type hash", T::TYPE_NAME);
+    assert_eq!(
+        T::type_hash(),
+        f.hashes[T::TYPE_NAME],
+        "{}: type hash",
+        T::TYPE_NAME
+    );
 }
 
 #[test]
@@ -184,7 +193,10 @@ fn strings() {
             plain: "héllo wörld".into(),
             bounded: "ten chars!".into(),
             many: ["", "a", "bc", "def", "ghij"].map(String::from).to_vec(),
-            bounded_many: ["abcd", "", "x"].map(BoundedString::from).into_iter().collect(),
+            bounded_many: ["abcd", "", "x"]
+                .map(BoundedString::from)
+                .into_iter()
+                .collect(),
             pair: ["left".into(), "right side".into()],
         },
     );
@@ -196,7 +208,11 @@ fn sequence_of_structs_with_mixed_alignment() {
         "stamped_seq",
         &StampedSeq {
             tag: 9,
-            items: vec![stamped(1, 2, 0.5), stamped(-3, 4, 1e300), stamped(5, 6, -0.0)],
+            items: vec![
+                stamped(1, 2, 0.5),
+                stamped(-3, 4, 1e300),
+                stamped(5, 6, -0.0),
+            ],
             tail: vec![1, 2, 3],
             last: -7,
         },

@@ -175,7 +175,6 @@ impl RosType for &[u8] {
     const FIELD_TYPE: FieldType = FieldType::scalar(TypeId::Uint8).unbounded_sequence();
 }
 
-
 impl CdrEncode for bool {
     const FIXED_LAYOUT: Option<FixedLayout> = Some(FixedLayout::primitive(1));
 
@@ -190,7 +189,10 @@ impl CdrEncode for bool {
     }
 
     #[inline]
-    fn encode_slice<B: ByteOrder>(items: &[Self], w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+    fn encode_slice<B: ByteOrder>(
+        items: &[Self],
+        w: &mut Writer<'_, B>,
+    ) -> Result<(), EncodeError> {
         let slot = w.aligned_slot(1, items.len())?;
         for (dst, v) in slot.iter_mut().zip(items) {
             *dst = u8::from(*v);
@@ -213,7 +215,9 @@ impl<'de> CdrDecode<'de> for bool {
     }
 
     #[inline]
-    fn decode_array<B: ByteOrder, const N: usize>(r: &mut Reader<'de, B>) -> Result<[Self; N], DecodeError> {
+    fn decode_array<B: ByteOrder, const N: usize>(
+        r: &mut Reader<'de, B>,
+    ) -> Result<[Self; N], DecodeError> {
         let mut out = [false; N];
         for v in &mut out {
             *v = Self::decode(r)?;

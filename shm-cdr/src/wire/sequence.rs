@@ -17,7 +17,10 @@ fn sequence_end<T: CdrEncode>(items: &[T], start: usize) -> usize {
 }
 
 #[inline(always)]
-fn write_sequence<T: CdrEncode, B: ByteOrder>(items: &[T], w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+fn write_sequence<T: CdrEncode, B: ByteOrder>(
+    items: &[T],
+    w: &mut Writer<'_, B>,
+) -> Result<(), EncodeError> {
     w.write_len(items.len())?;
     T::encode_slice(items, w)
 }

@@ -45,7 +45,10 @@ fn read_str<'de, B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<&'de str, Decod
         return Ok("");
     };
     if last != 0 {
-        return Err(r.error_at(at + with_nul - 1, DecodeErrorKind::MissingNul { found: last }));
+        return Err(r.error_at(
+            at + with_nul - 1,
+            DecodeErrorKind::MissingNul { found: last },
+        ));
     }
     std::str::from_utf8(contents).map_err(|e| {
         r.error_at(

@@ -17,10 +17,17 @@ fn wstring_end(start: usize, s: &str) -> usize {
     align_up(start, 4) + 4 + 4 * utf16_len(s)
 }
 
-fn write_wstring<B: ByteOrder>(w: &mut Writer<'_, B>, s: &str, bound: Option<usize>) -> Result<(), EncodeError> {
+fn write_wstring<B: ByteOrder>(
+    w: &mut Writer<'_, B>,
+    s: &str,
+    bound: Option<usize>,
+) -> Result<(), EncodeError> {
     let units = utf16_len(s);
     if let Some(bound) = bound.filter(|&bound| units > bound) {
-        return Err(EncodeError::new(EncodeErrorKind::BoundExceeded { len: units, bound }));
+        return Err(EncodeError::new(EncodeErrorKind::BoundExceeded {
+            len: units,
+            bound,
+        }));
     }
     w.write_len(units)?;
     // The count left the writer 4-aligned, so the units follow with no padding.
@@ -36,7 +43,10 @@ fn write_wstring<B: ByteOrder>(w: &mut Writer<'_, B>, s: &str, bound: Option<usi
     Ok(())
 }
 
-fn read_wstring<B: ByteOrder>(r: &mut Reader<'_, B>, bound: Option<usize>) -> Result<String, DecodeError> {
+fn read_wstring<B: ByteOrder>(
+    r: &mut Reader<'_, B>,
+    bound: Option<usize>,
+) -> Result<String, DecodeError> {
     let at = r.position();
     let units = r.read_count(4)?;
     if let Some(bound) = bound.filter(|&bound| units > bound) {
