@@ -204,7 +204,7 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
         let count = if B::NATIVE { count } else { count.swap_bytes() };
         let min = min_element_size.max(1);
         let remaining = self.remaining();
-        // u32 × usize fits in u64 only for usize ≤ 32 bits; use checked arithmetic.
+        // Checked: on 32-bit targets count × min can exceed usize.
         match (count as usize).checked_mul(min) {
             Some(needed) if needed <= remaining => Ok(count as usize),
             _ => Err(self.error_at(

@@ -1,5 +1,8 @@
-//! Numbers and `bool`: aligned to their own size; sequences and arrays of them are
-//! copied in bulk when the wire byte order is the host's.
+//! Numbers and `bool`: aligned to their own size. Numbers are [plain], so
+//! sequences of them take the one-copy path of `CdrEncode::encode_slice` /
+//! `CdrDecode::decode_vec` in host byte order; fixed arrays decode onto the stack.
+//!
+//! [plain]: crate::layout::PlainLayout
 
 use std::borrow::Cow;
 
@@ -29,33 +32,6 @@ macro_rules! number {
             fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
                 w.write_primitive(if B::LITTLE { self.to_le_bytes() } else { self.to_be_bytes() })
             }
-
-            #[inline]
-            fn slice_encoded_end(items: &[Self], start: usize) -> usize {
-                if items.is_empty() {
-                    // No element, no alignment.
-                    start
-                } else {
-                    align_up(start, $size) + items.len() * $size
-                }
-            }
-
-            #[inline]
-            fn encode_slice<B: ByteOrder>(items: &[Self], w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
-                if items.is_empty() {
-                    return Ok(());
-                }
-                // A slice in memory is at most isize::MAX bytes, so this cannot overflow.
-                let slot = w.aligned_slot($size, std::mem::size_of_val(items))?;
-                if B::NATIVE {
-                    slot.copy_from_slice(bytemuck::cast_slice(items));
-                } else {
-                    for (dst, v) in slot.chunks_exact_mut($size).zip(items) {
-                        dst.copy_from_slice(&if B::LITTLE { v.to_le_bytes() } else { v.to_be_bytes() });
-                    }
-                }
-                Ok(())
-            }
         }
 
         impl<'de> CdrDecode<'de> for $ty {
@@ -67,19 +43,6 @@ macro_rules! number {
             fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
                 let bytes = r.read_primitive::<$size>()?;
                 Ok(if B::LITTLE { <$ty>::from_le_bytes(bytes) } else { <$ty>::from_be_bytes(bytes) })
-            }
-
-            #[inline]
-            fn decode_vec<B: ByteOrder>(r: &mut Reader<'de, B>, n: usize) -> Result<Vec<Self>, DecodeError> {
-                if n == 0 {
-                    return Ok(Vec::new());
-                }
-                // Saturating: an impossible length fails the bounds check below.
-                let bytes = r.read_aligned_bytes($size, n.saturating_mul($size))?;
-                // Zeroed allocation is calloc: free for large buffers, then one copy.
-                let mut out: Vec<$ty> = vec![Default::default(); n];
-                copy_from_wire::<B, $ty>(&mut out, bytes);
-                Ok(out)
             }
 
             #[inline]
