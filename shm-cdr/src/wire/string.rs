@@ -60,41 +60,22 @@ fn read_str<'de, B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<&'de str, Decod
     })
 }
 
-impl CdrEncode for str {
-    #[inline]
-    fn encoded_end(&self, start: usize) -> usize {
-        string_end(start, self.len())
-    }
+macro_rules! unbounded_string_encode {
+    ($($ty:ty),*) => {$(
+        impl CdrEncode for $ty {
+            #[inline]
+            fn encoded_end(&self, start: usize) -> usize {
+                string_end(start, self.len())
+            }
 
-    #[inline]
-    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
-        write_string(w, self)
-    }
+            #[inline]
+            fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+                write_string(w, self)
+            }
+        }
+    )*};
 }
-
-impl CdrEncode for String {
-    #[inline]
-    fn encoded_end(&self, start: usize) -> usize {
-        string_end(start, self.len())
-    }
-
-    #[inline]
-    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
-        write_string(w, self)
-    }
-}
-
-impl CdrEncode for Cow<'_, str> {
-    #[inline]
-    fn encoded_end(&self, start: usize) -> usize {
-        string_end(start, self.len())
-    }
-
-    #[inline]
-    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
-        write_string(w, self)
-    }
-}
+unbounded_string_encode!(str, String, Cow<'_, str>);
 
 impl<'de> CdrDecode<'de> for String {
     const MIN_WIRE_SIZE: usize = 4;
