@@ -19,9 +19,42 @@ pub const fn align_up(pos: usize, align: usize) -> usize {
 pub struct FixedLayout {
     /// `ends[p]` is the position after the value when it starts at position `p`.
     ends: [usize; 8],
+    /// `steady[p]`: when a run of values starts at phase `p`, every value after the
+    /// first takes exactly this many bytes (0 if the sizes keep varying). Computed at
+    /// compile time so that sizing a sequence is one multiplication.
+    steady: [usize; 8],
 }
 
 impl FixedLayout {
+    const fn from_ends(ends: [usize; 8]) -> Self {
+        let mut layout = Self {
+            ends,
+            steady: [0; 8],
+        };
+        let mut p = 0;
+        while p < 8 {
+            // After the first value the run is at phase `q`; it is steady if every
+            // phase reachable by whole strides yields the same size.
+            let q = layout.end(p) % 8;
+            let stride = layout.size_at(q);
+            let mut r = q;
+            let mut uniform = true;
+            let mut k = 0;
+            while k < 8 {
+                if layout.size_at(r) != stride {
+                    uniform = false;
+                }
+                r = (r + stride) % 8;
+                k += 1;
+            }
+            if uniform {
+                layout.steady[p] = stride;
+            }
+            p += 1;
+        }
+        layout
+    }
+
     /// The layout of a primitive of `size` bytes (aligned to its size).
     pub const fn primitive(size: usize) -> Self {
         let mut ends = [0; 8];
@@ -30,7 +63,7 @@ impl FixedLayout {
             ends[p] = align_up(p, size) + size;
             p += 1;
         }
-        Self { ends }
+        Self::from_ends(ends)
     }
 
     /// The end position of a value that starts at `start`.
@@ -54,7 +87,7 @@ impl FixedLayout {
             ends[p] = next.end(self.ends[p]);
             p += 1;
         }
-        Self { ends }
+        Self::from_ends(ends)
     }
 
     /// The layout of `n` consecutive values of this layout (a fixed array).
@@ -65,7 +98,7 @@ impl FixedLayout {
             ends[p] = self.repeat_end(p, n);
             p += 1;
         }
-        Self { ends }
+        Self::from_ends(ends)
     }
 
     /// The end position of `n` consecutive values starting at `start`, in O(1).
@@ -75,6 +108,15 @@ impl FixedLayout {
     /// most 8; whole cycles are skipped arithmetically. Saturates instead of
     /// overflowing (a length that large cannot be encoded anyway).
     pub const fn repeat_end(&self, start: usize, n: usize) -> usize {
+        if n == 0 {
+            return start;
+        }
+        let steady = self.steady[start % 8];
+        if steady != 0 {
+            return self
+                .end(start)
+                .saturating_add((n - 1).saturating_mul(steady));
+        }
         let mut pos = start;
         let mut done = 0;
         while done < n && done < 8 {
@@ -126,9 +168,7 @@ impl FixedLayout {
         if fields.is_empty() {
             return Some(Self::primitive(1));
         }
-        let mut acc = Self {
-            ends: [0, 1, 2, 3, 4, 5, 6, 7],
-        };
+        let mut acc = Self::from_ends([0, 1, 2, 3, 4, 5, 6, 7]);
         let mut i = 0;
         while i < fields.len() {
             match fields[i] {
