@@ -100,13 +100,30 @@ pub trait CdrDecode<'de>: Sized {
 pub trait DecodeOwned: for<'de> CdrDecode<'de> {}
 impl<T: for<'de> CdrDecode<'de>> DecodeOwned for T {}
 
-/// Reads CDR from a byte slice, checking every access.
+/// Most segments a [`Reader`] walks (a spliced payload has two per shared-memory
+/// field, plus one).
+pub const MAX_SEGMENTS: usize = 16;
+
+/// Reads CDR from a byte slice, or from a few consecutive slices (a payload that
+/// arrived in fragments), checking every access.
 ///
-/// Positions are counted from the byte after the encapsulation header; error
-/// offsets are reported from the start of the whole input.
+/// Positions are stream positions counted from the byte after the encapsulation
+/// header, so alignment is right across fragments; error offsets are reported from
+/// the start of the whole input.
 pub struct Reader<'de, B: ByteOrder> {
+    /// The current segment.
     data: &'de [u8],
+    /// Stream position of `data[0]`.
+    base: usize,
+    /// Stream position of the next byte to read.
     pos: usize,
+    /// Stream length over all segments.
+    end: usize,
+    /// Segments after the current one; `None` for a single slice, so the common
+    /// case costs nothing to set up.
+    rest: Option<Box<[&'de [u8]]>>,
+    /// Index in `rest` of the next segment.
+    next: usize,
     order: PhantomData<B>,
 }
 
@@ -115,9 +132,28 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
     pub fn new(body: &'de [u8]) -> Self {
         Self {
             data: body,
+            base: 0,
             pos: 0,
+            end: body.len(),
+            rest: None,
+            next: 0,
             order: PhantomData,
         }
+    }
+
+    /// A reader over a body that arrived as consecutive segments. Values inside one
+    /// segment are borrowed from it; a value that straddles two segments is a
+    /// [`DecodeErrorKind::Fragmented`] error (then decode a contiguous copy).
+    /// `None` if there are more than [`MAX_SEGMENTS`] segments.
+    pub fn from_segments(segments: &[&'de [u8]]) -> Option<Self> {
+        let (first, others) = segments.split_first()?;
+        if segments.len() > MAX_SEGMENTS {
+            return None;
+        }
+        let mut reader = Self::new(first);
+        reader.end += others.iter().map(|s| s.len()).sum::<usize>();
+        reader.rest = Some(others.into());
+        Some(reader)
     }
 
     /// The current position, counted from the start of the body.
@@ -129,7 +165,7 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
     /// Bytes left after the current position.
     #[inline(always)]
     pub fn remaining(&self) -> usize {
-        self.data.len() - self.pos
+        self.end - self.pos
     }
 
     /// An error of `kind` at body position `pos`.
@@ -138,27 +174,50 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
         DecodeError::new(kind, pos + HEADER_LEN)
     }
 
-    #[cold]
-    fn eof(&self, needed: usize) -> DecodeError {
-        self.error_at(
-            self.pos,
-            DecodeErrorKind::UnexpectedEof {
-                needed,
-                remaining: self.remaining(),
-            },
-        )
-    }
-
     /// Skip the padding before a value aligned to `align`, then take `len` bytes.
     #[inline(always)]
     fn take_aligned(&mut self, align: usize, len: usize) -> Result<&'de [u8], DecodeError> {
         let start = align_up(self.pos, align);
-        match start.checked_add(len) {
-            Some(end) if end <= self.data.len() => {
-                self.pos = end;
-                Ok(&self.data[start..end])
+        let lo = start - self.base;
+        match lo.checked_add(len) {
+            Some(hi) if hi <= self.data.len() => {
+                self.pos = start + len;
+                Ok(&self.data[lo..hi])
             }
-            _ => Err(self.eof(start - self.pos + len)),
+            _ => self.take_slow(start, len),
+        }
+    }
+
+    /// `take_aligned` when the value is not in the current segment: move to the
+    /// segment that holds its start, or report why it cannot be read.
+    #[cold]
+    fn take_slow(&mut self, start: usize, len: usize) -> Result<&'de [u8], DecodeError> {
+        match start.checked_add(len) {
+            Some(stop) if stop <= self.end => {}
+            _ => {
+                return Err(self.error_at(
+                    self.pos,
+                    DecodeErrorKind::UnexpectedEof {
+                        needed: start.saturating_add(len) - self.pos,
+                        remaining: self.remaining(),
+                    },
+                ))
+            }
+        }
+        if let Some(rest) = &self.rest {
+            while start >= self.base + self.data.len() && self.next < rest.len() {
+                self.base += self.data.len();
+                self.data = rest[self.next];
+                self.next += 1;
+            }
+        }
+        let lo = start - self.base;
+        match self.data.get(lo..lo + len) {
+            Some(bytes) => {
+                self.pos = start + len;
+                Ok(bytes)
+            }
+            None => Err(self.error_at(start, DecodeErrorKind::Fragmented { len })),
         }
     }
 
@@ -166,16 +225,18 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
     #[inline(always)]
     pub fn read_primitive<const N: usize>(&mut self) -> Result<[u8; N], DecodeError> {
         let start = align_up(self.pos, N);
-        let end = start + N;
-        match self.data.get(start..end) {
+        // No overflow: `start` is at most 7 bytes past a position inside the input.
+        let lo = start - self.base;
+        let bytes = match self.data.get(lo..lo + N) {
             Some(bytes) => {
-                self.pos = end;
-                let mut out = [0u8; N];
-                out.copy_from_slice(bytes);
-                Ok(out)
+                self.pos = start + N;
+                bytes
             }
-            None => Err(self.eof(end - self.pos)),
-        }
+            None => self.take_slow(start, N)?,
+        };
+        let mut out = [0u8; N];
+        out.copy_from_slice(bytes);
+        Ok(out)
     }
 
     /// Take `len` raw bytes with no alignment, borrowed from the input.

@@ -78,6 +78,13 @@ pub enum DecodeErrorKind {
     InvalidBool(u8),
     /// The encapsulation header names a representation other than classic CDR.
     UnknownEncapsulation([u8; 2]),
+    /// A value of `len` bytes straddles two segments of a fragmented input (see
+    /// [`Reader::from_segments`](crate::Reader::from_segments)); decode a contiguous
+    /// copy instead.
+    Fragmented {
+        /// The value's length.
+        len: usize,
+    },
     /// Bytes follow the message beyond the 0..=3 padding bytes a transport may add.
     TrailingBytes {
         /// How many bytes follow the message.
@@ -118,6 +125,10 @@ impl fmt::Display for DecodeErrorKind {
             Self::UnknownEncapsulation([a, b]) => write!(
                 f,
                 "encapsulation {a:02x} {b:02x} is not classic CDR (00 00 big-endian or 00 01 little-endian)"
+            ),
+            Self::Fragmented { len } => write!(
+                f,
+                "a {len}-byte value straddles two fragments of the input (decode a contiguous copy)"
             ),
             Self::TrailingBytes { count } => write!(
                 f,

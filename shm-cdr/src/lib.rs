@@ -34,13 +34,15 @@ mod endian;
 mod error;
 pub mod layout;
 mod message;
+#[cfg(feature = "msgs")]
+pub mod msgs;
 #[cfg(any(feature = "proptest", feature = "arbitrary"))]
 mod strategies;
 pub mod testing;
 mod wire;
 
 pub use bounded::{BoundedString, BoundedVec, BoundedWString, WString};
-pub use decode::{CdrDecode, DecodeOwned, Reader};
+pub use decode::{CdrDecode, DecodeOwned, Reader, MAX_SEGMENTS};
 pub use describe::{RosElement, RosType};
 pub use encode::{CdrEncode, Writer};
 pub use endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
@@ -63,7 +65,8 @@ pub mod __private {
     pub fn assert_octet_type<T: ?Sized + crate::describe::OctetType>() {}
 }
 
-use decode::HEADER_LEN;
+/// Length of the encapsulation header that starts every message.
+pub const HEADER_LEN: usize = decode::HEADER_LEN;
 
 /// The exact number of bytes [`to_vec`] produces for `msg`, header included.
 #[inline]
@@ -169,10 +172,46 @@ pub fn from_bytes<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeE
     }
 }
 
+/// Decode a message that arrived as consecutive fragments (e.g. a Zenoh payload
+/// with a spliced shared-memory block), borrowing from each fragment. A value that
+/// straddles two fragments gives [`DecodeErrorKind::Fragmented`]: decode a
+/// contiguous copy with [`from_bytes`] then. The header must be in the first
+/// fragment; at most [`MAX_SEGMENTS`] fragments.
+pub fn from_segments<'de, T: CdrDecode<'de>>(segments: &[&'de [u8]]) -> Result<T, DecodeError> {
+    let first = segments.first().copied().unwrap_or_default();
+    let endianness = read_header(first)?;
+    let mut body = [&[][..]; MAX_SEGMENTS];
+    if segments.len() > MAX_SEGMENTS {
+        return Err(DecodeError::new(DecodeErrorKind::Fragmented { len: 0 }, 0));
+    }
+    body[0] = &first[HEADER_LEN..];
+    body[1..segments.len()].copy_from_slice(&segments[1..]);
+    let body = &body[..segments.len()];
+    match endianness {
+        Endianness::Little => decode_reader::<T, LittleEndian>(Reader::from_segments(body)),
+        Endianness::Big => decode_reader::<T, BigEndian>(Reader::from_segments(body)),
+    }
+}
+
+fn decode_reader<'de, T: CdrDecode<'de>, B: ByteOrder>(
+    reader: Option<Reader<'de, B>>,
+) -> Result<T, DecodeError> {
+    match reader {
+        Some(mut r) => finish_decode(&mut r),
+        None => Err(DecodeError::new(DecodeErrorKind::Fragmented { len: 0 }, 0)),
+    }
+}
+
 #[inline(always)]
 fn decode_body<'de, T: CdrDecode<'de>, B: ByteOrder>(body: &'de [u8]) -> Result<T, DecodeError> {
-    let mut r = Reader::<B>::new(body);
-    let value = T::decode(&mut r)?;
+    finish_decode(&mut Reader::<B>::new(body))
+}
+
+#[inline(always)]
+fn finish_decode<'de, T: CdrDecode<'de>, B: ByteOrder>(
+    r: &mut Reader<'de, B>,
+) -> Result<T, DecodeError> {
+    let value = T::decode(r)?;
     let trailing = r.remaining();
     if trailing > 3 {
         return Err(r.error_at(

@@ -1,9 +1,80 @@
-//! Zenoh shared-memory glue for [`shm_cdr`] messages.
+//! Publish and receive ROS 2 messages through Zenoh shared memory, inside your own
+//! `zenoh::Session`.
 //!
-//! Not built yet: this crate will size a Zenoh `ZShmMut` with
-//! [`shm_cdr::encoded_size`], encode straight into it with [`shm_cdr::encode_into`]
-//! and publish it inside the caller's own `zenoh::Session`. Until then it only
-//! re-exports the wire format so downstream code can depend on the final crate name.
+//! A publisher asks [`shm_cdr::encoded_size`] for the exact size, allocates a
+//! shared-memory buffer of exactly that size (at or above the threshold; heap
+//! below it) and encodes straight into it; a [`ShmBytes`] field the application
+//! already wrote into shared memory is spliced in without a copy. Subscribers decode
+//! borrowing from the received buffers.
+//!
+//! ```no_run
+//! use shm_runtime::{SessionExt, ShmConfig, ShmContext};
+//! use zenoh::Wait;
+//! # #[derive(shm_cdr::RosMessage)] #[ros(type_name = "my_pkg/msg/Blob")] struct Blob { data: Vec<u8> }
+//!
+//! let session = zenoh::open(zenoh::Config::default()).wait()?;
+//! let shm = ShmContext::new(ShmConfig::enabled())?;
+//! let publisher = session.declare_ros_publisher::<Blob>("blobs").shm(&shm).wait()?;
+//! let outcome = publisher.publish(&Blob { data: vec![7; 1 << 20] }).wait()?;
+//! println!("{outcome:?}"); // kind: Shm, size: 1048584
+//! # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+//! ```
 #![warn(missing_docs)]
 
+mod config;
+mod node;
+mod payload;
+mod pool;
+mod publisher;
+pub mod rmw;
+mod shm_bytes;
+mod subscriber;
+
+pub use config::{ConfigError, ShmConfig};
+pub use node::{RosNode, RosNodeBuilder};
+pub use payload::{EncodedPayload, PayloadKind};
+pub use pool::{ShmContext, ShmStats};
+pub use publisher::{PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher};
+pub use shm_bytes::ShmBytes;
+pub use subscriber::{
+    CallbackSubscriber, CallbackSubscriberBuilder, RecvError, RosSample, RosSubscriber,
+    SubscriberBuilder,
+};
+
 pub use shm_cdr;
+
+use shm_cdr::RosMessage;
+use zenoh::Session;
+
+/// Typed publishers and subscribers on a plain key expression of your choice,
+/// declared on any `zenoh::Session`. For rmw_zenoh-compatible topics, declare them
+/// on a [`RosNode`] instead.
+pub trait SessionExt {
+    /// A publisher of `T` on `key_expr` (heap only unless `.shm(..)` is given).
+    fn declare_ros_publisher<T: RosMessage>(
+        &self,
+        key_expr: impl Into<String>,
+    ) -> PublisherBuilder<'_, T>;
+
+    /// A subscriber to `T` on `key_expr`.
+    fn declare_ros_subscriber<T: RosMessage>(
+        &self,
+        key_expr: impl Into<String>,
+    ) -> SubscriberBuilder<'_, T>;
+}
+
+impl SessionExt for Session {
+    fn declare_ros_publisher<T: RosMessage>(
+        &self,
+        key_expr: impl Into<String>,
+    ) -> PublisherBuilder<'_, T> {
+        PublisherBuilder::new(self, key_expr.into())
+    }
+
+    fn declare_ros_subscriber<T: RosMessage>(
+        &self,
+        key_expr: impl Into<String>,
+    ) -> SubscriberBuilder<'_, T> {
+        SubscriberBuilder::new(self, key_expr.into())
+    }
+}

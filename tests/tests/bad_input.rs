@@ -101,7 +101,7 @@ fn invalid_utf8() {
     assert_eq!(err.kind(), &DecodeErrorKind::InvalidUtf8 { valid_up_to: 1 });
     assert_eq!(err.offset(), 9);
     assert!(err.to_string().contains("at byte 9"), "{err}");
-    assert!(err.to_string().contains("StringMsg.data"), "{err}");
+    assert!(err.to_string().contains("(in String.data)"), "{err}");
 }
 
 #[test]

@@ -158,6 +158,10 @@ fn reference_type_hashes() {
         Image::type_hash(),
         "RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47"
     );
+    assert_eq!(
+        shm_cdr::msgs::geometry_msgs::Twist::type_hash(),
+        "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a"
+    );
     // Borrowed variants describe the same ROS type.
     assert_eq!(HeaderRef::type_hash(), Header::type_hash());
     assert_eq!(ImageRef::type_hash(), Image::type_hash());

@@ -274,16 +274,44 @@ fn nested_sequences_of_bounded() {
 
 #[test]
 fn standard_message_hashes() {
+    use shm_cdr::msgs::{
+        builtin_interfaces as bi, geometry_msgs as gm, sensor_msgs as sm, std_msgs as sd,
+    };
+    fn entry<T: RosMessage>() -> (&'static str, &'static str) {
+        (T::TYPE_NAME, T::type_hash())
+    }
     let f = fixture();
-    for (name, ours) in [
-        (JointState::TYPE_NAME, JointState::type_hash()),
-        (PoseArray::TYPE_NAME, PoseArray::type_hash()),
-        (Pose::TYPE_NAME, Pose::type_hash()),
-        (PointField::TYPE_NAME, PointField::type_hash()),
-        (Empty::TYPE_NAME, Empty::type_hash()),
-        (Byte::TYPE_NAME, Byte::type_hash()),
-        (Stamped::TYPE_NAME, Stamped::type_hash()),
-    ] {
-        assert_eq!(ours, f.hashes[name], "{name}");
+    let ours = [
+        entry::<bi::Time>(),
+        entry::<bi::Duration>(),
+        entry::<sd::Header>(),
+        entry::<sd::String>(),
+        entry::<sd::Empty>(),
+        entry::<sd::Byte>(),
+        entry::<gm::Point>(),
+        entry::<gm::Vector3>(),
+        entry::<gm::Quaternion>(),
+        entry::<gm::Pose>(),
+        entry::<gm::PoseArray>(),
+        entry::<gm::Twist>(),
+        entry::<sm::PointField>(),
+        entry::<sm::PointCloud2>(),
+        entry::<sm::Image>(),
+        entry::<sm::LaserScan>(),
+        entry::<sm::Imu>(),
+        entry::<sm::JointState>(),
+        entry::<sm::NavSatStatus>(),
+        entry::<sm::NavSatFix>(),
+        entry::<sm::RegionOfInterest>(),
+        entry::<sm::CameraInfo>(),
+        entry::<Stamped>(),
+        // Borrowing variants describe the same ROS types.
+        entry::<sm::PointCloud2Ref>(),
+        entry::<sm::ImageRef>(),
+        entry::<sm::JointStateRef>(),
+        entry::<sd::HeaderRef>(),
+    ];
+    for (name, hash) in ours {
+        assert_eq!(hash, f.hashes[name], "{name}");
     }
 }

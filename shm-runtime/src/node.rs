@@ -1,0 +1,172 @@
+//! [`RosNode`]: rmw_zenoh_cpp-compatible topics on the caller's session, with a
+//! shared shared-memory default for the node's publishers.
+
+use std::future::IntoFuture;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use shm_cdr::RosMessage;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::{Resolvable, Session, Wait};
+
+use crate::pool::ShmContext;
+use crate::publisher::{PublisherBuilder, RmwPublisher};
+use crate::rmw::{topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
+use crate::subscriber::SubscriberBuilder;
+
+/// Entity ids are unique per process, hence per session as rmw_zenoh requires.
+static NEXT_ENTITY_ID: AtomicU64 = AtomicU64::new(0);
+
+/// A ROS 2 node on a Zenoh session, visible to rmw_zenoh_cpp's graph through its
+/// liveliness token. Undeclared when dropped.
+pub struct RosNode {
+    session: Session,
+    info: NodeInfo,
+    shm: Option<ShmContext>,
+    _token: LivelinessToken,
+}
+
+impl std::fmt::Debug for RosNode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RosNode")
+            .field("info", &self.info)
+            .field("shm", &self.shm)
+            .finish()
+    }
+}
+
+impl RosNode {
+    /// Start declaring a node called `name` on `session`.
+    pub fn builder<'a>(session: &'a Session, name: &str) -> RosNodeBuilder<'a> {
+        RosNodeBuilder {
+            session,
+            name: name.to_owned(),
+            namespace: "/".to_owned(),
+            enclave: "/".to_owned(),
+            domain_id: std::env::var("ROS_DOMAIN_ID")
+                .ok()
+                .and_then(|d| d.parse().ok())
+                .unwrap_or(0),
+            shm: None,
+        }
+    }
+
+    /// The node's identity in liveliness tokens.
+    pub fn info(&self) -> &NodeInfo {
+        &self.info
+    }
+
+    /// The shared-memory default of the node's publishers.
+    pub fn shm(&self) -> Option<&ShmContext> {
+        self.shm.as_ref()
+    }
+
+    /// A publisher of `T` on ROS topic `topic` (e.g. `"/chatter"`), with
+    /// rmw_zenoh's key expression, liveliness token, GID and attachment. It uses the
+    /// node's shared memory unless overridden on the builder.
+    pub fn declare_publisher<T: RosMessage>(&self, topic: &str) -> PublisherBuilder<'_, T> {
+        self.declare_publisher_with_qos(topic, Qos::default())
+    }
+
+    /// [`declare_publisher`](Self::declare_publisher) with an explicit QoS for the
+    /// liveliness token.
+    pub fn declare_publisher_with_qos<T: RosMessage>(
+        &self,
+        topic: &str,
+        qos: Qos,
+    ) -> PublisherBuilder<'_, T> {
+        let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
+        let token = self
+            .info
+            .topic_token::<T>(entity_id, EntityKind::Publisher, topic, &qos);
+        let mut builder = PublisherBuilder::new(
+            &self.session,
+            topic_key_expr::<T>(self.info.domain_id, topic),
+        );
+        builder.inherited = self.shm.clone();
+        builder.rmw = Some(RmwPublisher {
+            gid: Gid::from_token(&token),
+            token,
+            liveliness: None,
+        });
+        builder
+    }
+
+    /// A subscriber to `T` on ROS topic `topic`.
+    pub fn declare_subscriber<T: RosMessage>(&self, topic: &str) -> SubscriberBuilder<'_, T> {
+        SubscriberBuilder::new(
+            &self.session,
+            topic_key_expr::<T>(self.info.domain_id, topic),
+        )
+    }
+}
+
+/// Builder of a [`RosNode`]; resolve with `.wait()` or `.await`.
+#[must_use = "resolve the builder with .wait() or .await"]
+pub struct RosNodeBuilder<'a> {
+    session: &'a Session,
+    name: String,
+    namespace: String,
+    enclave: String,
+    domain_id: u32,
+    shm: Option<ShmContext>,
+}
+
+impl RosNodeBuilder<'_> {
+    /// The node's namespace (default `/`).
+    pub fn namespace(mut self, namespace: &str) -> Self {
+        self.namespace = namespace.to_owned();
+        self
+    }
+
+    /// The ROS domain (default: `ROS_DOMAIN_ID`, else 0).
+    pub fn domain_id(mut self, domain_id: u32) -> Self {
+        self.domain_id = domain_id;
+        self
+    }
+
+    /// The shared-memory pool the node's publishers use by default.
+    pub fn shm(mut self, context: &ShmContext) -> Self {
+        self.shm = Some(context.clone());
+        self
+    }
+
+    fn build(self) -> zenoh::Result<RosNode> {
+        let info = NodeInfo {
+            domain_id: self.domain_id,
+            zid: self.session.zid().to_string(),
+            node_id: NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1,
+            enclave: self.enclave,
+            namespace: self.namespace,
+            name: self.name,
+        };
+        let token = self
+            .session
+            .liveliness()
+            .declare_token(info.node_token())
+            .wait()?;
+        Ok(RosNode {
+            session: self.session.clone(),
+            info,
+            shm: self.shm,
+            _token: token,
+        })
+    }
+}
+
+impl Resolvable for RosNodeBuilder<'_> {
+    type To = zenoh::Result<RosNode>;
+}
+
+impl Wait for RosNodeBuilder<'_> {
+    fn wait(self) -> Self::To {
+        self.build()
+    }
+}
+
+impl IntoFuture for RosNodeBuilder<'_> {
+    type Output = zenoh::Result<RosNode>;
+    type IntoFuture = std::future::Ready<Self::Output>;
+    fn into_future(self) -> Self::IntoFuture {
+        std::future::ready(self.build())
+    }
+}

@@ -1,0 +1,154 @@
+//! The shared-memory pool: one Zenoh POSIX provider shared by the publishers of a
+//! context, with bounded waiting and counted heap fallbacks.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use zenoh::shm::{
+    Defragment, GarbageCollect, PosixShmProviderBackend, ShmProvider, ShmProviderBuilder, ZShmMut,
+};
+use zenoh::Wait;
+
+use crate::config::ShmConfig;
+
+/// A shared-memory pool and the settings publishers use with it. Cheap to clone;
+/// clones share the pool and the counters.
+#[derive(Clone)]
+pub struct ShmContext {
+    inner: Arc<Inner>,
+}
+
+struct Inner {
+    provider: ShmProvider<PosixShmProviderBackend>,
+    config: ShmConfig,
+    stats: Counters,
+}
+
+#[derive(Default)]
+struct Counters {
+    shm: AtomicU64,
+    heap: AtomicU64,
+    fallbacks: AtomicU64,
+}
+
+/// How many messages went where (see [`ShmContext::stats`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ShmStats {
+    /// Messages encoded into shared memory (including zero-copy splices).
+    pub shm: u64,
+    /// Messages below the threshold, encoded on the heap by design.
+    pub heap: u64,
+    /// Messages above the threshold that found the pool full after the bounded
+    /// wait and were published from the heap instead.
+    pub fallbacks: u64,
+}
+
+impl std::fmt::Debug for ShmContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ShmContext")
+            .field("config", &self.inner.config)
+            .field("stats", &self.stats())
+            .finish()
+    }
+}
+
+impl ShmContext {
+    /// Create a pool of `config.pool_size` bytes.
+    pub fn new(config: ShmConfig) -> zenoh::Result<Self> {
+        let provider = ShmProviderBuilder::default_backend(config.pool_size).wait()?;
+        Ok(Self {
+            inner: Arc::new(Inner {
+                provider,
+                config,
+                stats: Counters::default(),
+            }),
+        })
+    }
+
+    /// A pool configured from `ZENOH_SHM_ALLOC_SIZE` /
+    /// `ZENOH_SHM_MESSAGE_SIZE_THRESHOLD`, or `None` if neither is set.
+    pub fn from_env() -> zenoh::Result<Option<Self>> {
+        match ShmConfig::from_env()? {
+            Some(config) => Ok(Some(Self::new(config)?)),
+            None => Ok(None),
+        }
+    }
+
+    /// The settings of this pool.
+    pub fn config(&self) -> ShmConfig {
+        self.inner.config
+    }
+
+    /// The underlying Zenoh provider, to allocate buffers for user-managed fields
+    /// (see [`ShmBytes`](crate::ShmBytes)).
+    pub fn provider(&self) -> &ShmProvider<PosixShmProviderBackend> {
+        &self.inner.provider
+    }
+
+    /// Allocate exactly `len` bytes of shared memory for the application to fill
+    /// (e.g. the point data of a cloud), waiting at most the configured timeout for
+    /// space. `None` if the pool stays full.
+    pub fn alloc(&self, len: usize) -> Option<ZShmMut> {
+        self.alloc_bounded(len, self.inner.config.alloc_timeout)
+    }
+
+    /// Counters since the pool was created.
+    pub fn stats(&self) -> ShmStats {
+        let c = &self.inner.stats;
+        ShmStats {
+            shm: c.shm.load(Ordering::Relaxed),
+            heap: c.heap.load(Ordering::Relaxed),
+            fallbacks: c.fallbacks.load(Ordering::Relaxed),
+        }
+    }
+
+    /// Try to allocate `len` bytes: reclaim buffers the readers have dropped
+    /// (garbage collection), then defragment; if the pool is still full, retry
+    /// with short sleeps until `timeout` has passed. Never blocks longer.
+    pub(crate) fn alloc_bounded(&self, len: usize, timeout: Duration) -> Option<ZShmMut> {
+        if len == 0 || len > self.inner.config.pool_size {
+            return None;
+        }
+        let deadline = Instant::now() + timeout;
+        let mut pause = Duration::from_micros(20);
+        loop {
+            match self
+                .inner
+                .provider
+                .alloc(len)
+                .with_policy::<Defragment<GarbageCollect>>()
+                .wait()
+            {
+                Ok(buffer) => return Some(buffer),
+                Err(error) => {
+                    let now = Instant::now();
+                    if now >= deadline {
+                        tracing::debug!(len, ?error, "shared-memory pool full after waiting");
+                        return None;
+                    }
+                    std::thread::sleep(pause.min(deadline - now));
+                    pause = (pause * 2).min(Duration::from_millis(1));
+                }
+            }
+        }
+    }
+
+    pub(crate) fn count_shm(&self) {
+        self.inner.stats.shm.fetch_add(1, Ordering::Relaxed);
+    }
+
+    pub(crate) fn count_heap(&self) {
+        self.inner.stats.heap.fetch_add(1, Ordering::Relaxed);
+    }
+
+    pub(crate) fn count_fallback(&self, size: usize) {
+        let n = self.inner.stats.fallbacks.fetch_add(1, Ordering::Relaxed) + 1;
+        tracing::warn!(
+            size,
+            fallbacks = n,
+            pool_size = self.inner.config.pool_size,
+            "shared-memory pool exhausted: message published from the heap"
+        );
+    }
+}

@@ -1,0 +1,319 @@
+//! Typed publishers: exact-size encoding into shared memory or the heap, put
+//! through the caller's own `zenoh::Session`.
+
+use std::fmt;
+use std::future::{Future, IntoFuture};
+use std::marker::PhantomData;
+use std::pin::Pin;
+use std::sync::atomic::{AtomicI64, Ordering};
+use std::time::{SystemTime, UNIX_EPOCH};
+
+use shm_cdr::{EncodeError, RosMessage};
+use zenoh::bytes::ZBytes;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::{Resolvable, Session, Wait};
+
+use crate::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
+use crate::pool::ShmContext;
+use crate::rmw::{Attachment, Gid};
+
+/// Why a publish failed. A full pool is not a failure: the message then goes on
+/// the heap ([`PayloadKind::HeapFallback`]).
+#[derive(Debug)]
+pub enum PublishError {
+    /// The message could not be encoded (e.g. a bounded field over its bound).
+    Encode(EncodeError),
+    /// Zenoh refused the put.
+    Zenoh(zenoh::Error),
+}
+
+impl fmt::Display for PublishError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Encode(e) => write!(f, "publish: {e}"),
+            Self::Zenoh(e) => write!(f, "publish: zenoh: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for PublishError {}
+
+impl From<EncodeError> for PublishError {
+    fn from(e: EncodeError) -> Self {
+        Self::Encode(e)
+    }
+}
+
+/// What one publish did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PublishOutcome {
+    /// Where the bytes went.
+    pub kind: PayloadKind,
+    /// Encoded size in bytes, header included.
+    pub size: usize,
+    /// The rmw_zenoh sequence number attached, for ROS-style publishers.
+    pub sequence_number: Option<i64>,
+}
+
+/// Shared-memory choice of one publisher, overriding its context's default.
+#[derive(Debug, Clone, Default)]
+pub(crate) enum ShmChoice {
+    /// Use the default of where the publisher was declared (none for a bare
+    /// session).
+    #[default]
+    Inherit,
+    /// Use this pool.
+    Use(ShmContext),
+    /// Heap only.
+    Off,
+}
+
+/// rmw_zenoh identity of a ROS-style publisher.
+pub(crate) struct RmwPublisher {
+    pub(crate) gid: Gid,
+    pub(crate) token: String,
+    pub(crate) liveliness: Option<LivelinessToken>,
+}
+
+/// Builder of a [`RosPublisher`]; resolve with `.wait()` or `.await`.
+#[must_use = "resolve the builder with .wait() or .await"]
+pub struct PublisherBuilder<'a, T> {
+    pub(crate) session: &'a Session,
+    pub(crate) key_expr: String,
+    pub(crate) inherited: Option<ShmContext>,
+    pub(crate) shm: ShmChoice,
+    pub(crate) threshold: Option<usize>,
+    pub(crate) rmw: Option<RmwPublisher>,
+    pub(crate) message: PhantomData<fn(&T)>,
+}
+
+impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
+    pub(crate) fn new(session: &'a Session, key_expr: String) -> Self {
+        Self {
+            session,
+            key_expr,
+            inherited: None,
+            shm: ShmChoice::Inherit,
+            threshold: None,
+            rmw: None,
+            message: PhantomData,
+        }
+    }
+
+    /// Publish through this shared-memory pool (overrides the context default).
+    pub fn shm(mut self, context: &ShmContext) -> Self {
+        self.shm = ShmChoice::Use(context.clone());
+        self
+    }
+
+    /// Use shared memory for messages of at least `bytes` encoded bytes (overrides
+    /// the pool's threshold).
+    pub fn shm_threshold(mut self, bytes: usize) -> Self {
+        self.threshold = Some(bytes);
+        self
+    }
+
+    /// Never use shared memory for this publisher.
+    pub fn without_shm(mut self) -> Self {
+        self.shm = ShmChoice::Off;
+        self
+    }
+
+    fn policy(&self) -> Option<ShmPolicy> {
+        let context = match &self.shm {
+            ShmChoice::Inherit => self.inherited.clone()?,
+            ShmChoice::Use(context) => context.clone(),
+            ShmChoice::Off => return None,
+        };
+        let threshold = self.threshold.unwrap_or(context.config().threshold);
+        Some(ShmPolicy { context, threshold })
+    }
+
+    fn build(self) -> zenoh::Result<RosPublisher<T>> {
+        let policy = self.policy();
+        let publisher = self.session.declare_publisher(self.key_expr).wait()?;
+        let rmw = match self.rmw {
+            Some(mut rmw) => {
+                rmw.liveliness = Some(
+                    self.session
+                        .liveliness()
+                        .declare_token(rmw.token.clone())
+                        .wait()?,
+                );
+                Some(rmw)
+            }
+            None => None,
+        };
+        Ok(RosPublisher {
+            publisher,
+            policy,
+            rmw,
+            sequence: AtomicI64::new(0),
+            message: PhantomData,
+        })
+    }
+}
+
+impl<T: RosMessage> Resolvable for PublisherBuilder<'_, T> {
+    type To = zenoh::Result<RosPublisher<T>>;
+}
+
+impl<T: RosMessage> Wait for PublisherBuilder<'_, T> {
+    fn wait(self) -> Self::To {
+        self.build()
+    }
+}
+
+impl<'a, T: RosMessage> IntoFuture for PublisherBuilder<'a, T> {
+    type Output = zenoh::Result<RosPublisher<T>>;
+    type IntoFuture = std::future::Ready<Self::Output>;
+
+    fn into_future(self) -> Self::IntoFuture {
+        // Declaring is local bookkeeping in Zenoh; nothing to await.
+        std::future::ready(self.build())
+    }
+}
+
+/// Publishes messages of type `T`.
+pub struct RosPublisher<T> {
+    publisher: zenoh::pubsub::Publisher<'static>,
+    policy: Option<ShmPolicy>,
+    rmw: Option<RmwPublisher>,
+    sequence: AtomicI64,
+    message: PhantomData<fn(&T)>,
+}
+
+impl<T> fmt::Debug for RosPublisher<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("RosPublisher")
+            .field("key_expr", &self.publisher.key_expr().as_str())
+            .field("shm", &self.policy)
+            .field("gid", &self.rmw.as_ref().map(|r| r.gid))
+            .finish()
+    }
+}
+
+impl<T: RosMessage> RosPublisher<T> {
+    /// Publish `msg`; resolve with `.wait()` or `.await`.
+    pub fn publish<'p>(&'p self, msg: &'p T) -> PublishBuilder<'p, T> {
+        PublishBuilder {
+            publisher: self,
+            msg,
+        }
+    }
+
+    /// The key expression published on.
+    pub fn key_expr(&self) -> &str {
+        self.publisher.key_expr().as_str()
+    }
+
+    /// The rmw_zenoh GID, for ROS-style publishers.
+    pub fn gid(&self) -> Option<Gid> {
+        self.rmw.as_ref().map(|r| r.gid)
+    }
+
+    /// The rmw_zenoh liveliness token, for ROS-style publishers.
+    pub fn liveliness_token(&self) -> Option<&str> {
+        self.rmw.as_ref().map(|r| r.token.as_str())
+    }
+
+    /// The shared-memory pool used, if any.
+    pub fn shm_context(&self) -> Option<&ShmContext> {
+        self.policy.as_ref().map(|p| &p.context)
+    }
+
+    /// Encode `msg` exactly as [`publish`](Self::publish) would, without sending.
+    pub fn encode(&self, msg: &T) -> Result<EncodedPayload, EncodeError> {
+        encode_payload(msg, self.policy.as_ref())
+    }
+
+    /// Encode `msg` and build its attachment: everything a put needs.
+    fn prepare(&self, msg: &T) -> Result<Prepared, PublishError> {
+        let encoded = self.encode(msg)?;
+        let mut outcome = PublishOutcome {
+            kind: encoded.kind,
+            size: encoded.size,
+            sequence_number: None,
+        };
+        let attachment = self.rmw.as_ref().map(|rmw| {
+            let sequence_number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;
+            outcome.sequence_number = Some(sequence_number);
+            let source_timestamp = SystemTime::now()
+                .duration_since(UNIX_EPOCH)
+                .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
+            ZBytes::from(
+                Attachment {
+                    sequence_number,
+                    source_timestamp,
+                    gid: rmw.gid,
+                }
+                .to_bytes(),
+            )
+        });
+        Ok(Prepared {
+            outcome,
+            payload: encoded.bytes,
+            attachment,
+        })
+    }
+}
+
+/// An encoded message with its attachment, ready to put.
+struct Prepared {
+    outcome: PublishOutcome,
+    payload: ZBytes,
+    attachment: Option<ZBytes>,
+}
+
+impl Prepared {
+    fn put<'a>(
+        self,
+        publisher: &'a zenoh::pubsub::Publisher<'static>,
+    ) -> (PublishOutcome, zenoh::pubsub::PublisherPutBuilder<'a>) {
+        let put = publisher.put(self.payload);
+        let put = match self.attachment {
+            Some(attachment) => put.attachment(attachment),
+            None => put,
+        };
+        (self.outcome, put)
+    }
+}
+
+/// One pending publish; resolve with `.wait()` or `.await`.
+#[must_use = "resolve the publish with .wait() or .await"]
+pub struct PublishBuilder<'p, T> {
+    publisher: &'p RosPublisher<T>,
+    msg: &'p T,
+}
+
+impl<T: RosMessage> Resolvable for PublishBuilder<'_, T> {
+    type To = Result<PublishOutcome, PublishError>;
+}
+
+impl<T: RosMessage> Wait for PublishBuilder<'_, T> {
+    fn wait(self) -> Self::To {
+        let (outcome, put) = self
+            .publisher
+            .prepare(self.msg)?
+            .put(&self.publisher.publisher);
+        put.wait().map_err(PublishError::Zenoh)?;
+        Ok(outcome)
+    }
+}
+
+impl<'p, T: RosMessage> IntoFuture for PublishBuilder<'p, T> {
+    type Output = Result<PublishOutcome, PublishError>;
+    type IntoFuture = Pin<Box<dyn Future<Output = Self::Output> + Send + 'p>>;
+
+    fn into_future(self) -> Self::IntoFuture {
+        // Encoding is synchronous CPU work: do it now, so the future only holds the
+        // finished payload (and `T` need not be `Sync`).
+        let prepared = self.publisher.prepare(self.msg);
+        let publisher = &self.publisher.publisher;
+        Box::pin(async move {
+            let (outcome, put) = prepared?.put(publisher);
+            put.await.map_err(PublishError::Zenoh)?;
+            Ok(outcome)
+        })
+    }
+}

@@ -1,0 +1,349 @@
+//! rmw_zenoh_cpp naming, so ROS 2 nodes using rmw_zenoh talk to us: data key
+//! expressions, the per-sample attachment, liveliness tokens and GIDs.
+
+use std::fmt;
+
+use shm_cdr::RosMessage;
+
+/// The data key expression of a topic:
+/// `<domain>/<topic without leading/trailing '/'>/<pkg>::msg::dds_::<Name>_/<RIHS01 hash>`.
+pub fn topic_key_expr<T: RosMessage>(domain_id: u32, topic: &str) -> String {
+    format!(
+        "{domain_id}/{}/{}/{}",
+        topic.trim_matches('/'),
+        T::DDS_TYPE_NAME,
+        T::type_hash()
+    )
+}
+
+/// The 33-byte attachment rmw_zenoh_cpp puts on every sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Attachment {
+    /// Per-publisher sequence number, from 1.
+    pub sequence_number: i64,
+    /// Source timestamp in nanoseconds since the Unix epoch.
+    pub source_timestamp: i64,
+    /// The publisher's GID.
+    pub gid: Gid,
+}
+
+/// Length of an encoded [`Attachment`].
+pub const ATTACHMENT_LEN: usize = 33;
+
+impl Attachment {
+    /// `seq` (i64 LE), `timestamp` (i64 LE), `0x10` (the GID length as LEB128), GID.
+    pub fn to_bytes(&self) -> [u8; ATTACHMENT_LEN] {
+        let mut out = [0u8; ATTACHMENT_LEN];
+        out[..8].copy_from_slice(&self.sequence_number.to_le_bytes());
+        out[8..16].copy_from_slice(&self.source_timestamp.to_le_bytes());
+        out[16] = 16;
+        out[17..].copy_from_slice(&self.gid.0);
+        out
+    }
+
+    /// Parse an attachment; a wrong length or GID size is an error.
+    pub fn parse(bytes: &[u8]) -> Result<Self, AttachmentError> {
+        let Ok(bytes) = <&[u8; ATTACHMENT_LEN]>::try_from(bytes) else {
+            return Err(AttachmentError::Length(bytes.len()));
+        };
+        if bytes[16] != 16 {
+            return Err(AttachmentError::GidLength(bytes[16]));
+        }
+        let mut seq = [0u8; 8];
+        seq.copy_from_slice(&bytes[..8]);
+        let mut ts = [0u8; 8];
+        ts.copy_from_slice(&bytes[8..16]);
+        let mut gid = [0u8; 16];
+        gid.copy_from_slice(&bytes[17..]);
+        Ok(Self {
+            sequence_number: i64::from_le_bytes(seq),
+            source_timestamp: i64::from_le_bytes(ts),
+            gid: Gid(gid),
+        })
+    }
+}
+
+/// An attachment that is not rmw_zenoh_cpp's.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum AttachmentError {
+    /// Not 33 bytes long.
+    Length(usize),
+    /// The GID length byte is not 16.
+    GidLength(u8),
+}
+
+impl fmt::Display for AttachmentError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Length(n) => write!(
+                f,
+                "attachment is {n} bytes, rmw_zenoh's is {ATTACHMENT_LEN}"
+            ),
+            Self::GidLength(n) => write!(f, "attachment GID length is {n}, expected 16"),
+        }
+    }
+}
+
+impl std::error::Error for AttachmentError {}
+
+/// A 16-byte entity GID: XXH3-128 of the entity's liveliness token, low 64 bits
+/// then high 64 bits, each little-endian (as rmw_zenoh_cpp computes it).
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Gid(pub [u8; 16]);
+
+impl Gid {
+    /// The GID of the entity whose liveliness token is `token`.
+    pub fn from_token(token: &str) -> Self {
+        let hash = xxhash_rust::xxh3::xxh3_128(token.as_bytes());
+        let mut out = [0u8; 16];
+        out[..8].copy_from_slice(&(hash as u64).to_le_bytes());
+        out[8..].copy_from_slice(&((hash >> 64) as u64).to_le_bytes());
+        Self(out)
+    }
+}
+
+impl fmt::Debug for Gid {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for b in self.0 {
+            write!(f, "{b:02x}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Reliability QoS (rmw values).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reliability {
+    /// `RMW_QOS_POLICY_RELIABILITY_RELIABLE` (1), rmw_zenoh's default.
+    Reliable = 1,
+    /// `RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT` (2).
+    BestEffort = 2,
+}
+
+/// Durability QoS (rmw values).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Durability {
+    /// `RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL` (1), rmw_zenoh's default.
+    TransientLocal = 1,
+    /// `RMW_QOS_POLICY_DURABILITY_VOLATILE` (2), what ROS 2 nodes usually ask for.
+    Volatile = 2,
+}
+
+/// History QoS (rmw values).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum History {
+    /// `RMW_QOS_POLICY_HISTORY_KEEP_LAST` (1) with this depth.
+    KeepLast(usize),
+    /// `RMW_QOS_POLICY_HISTORY_KEEP_ALL` (2).
+    KeepAll,
+}
+
+/// The QoS that goes into a liveliness token. Deadline, lifespan and liveliness
+/// are left at rmw_zenoh's defaults (infinite, automatic).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Qos {
+    /// Reliability.
+    pub reliability: Reliability,
+    /// Durability.
+    pub durability: Durability,
+    /// History and depth.
+    pub history: History,
+}
+
+impl Default for Qos {
+    /// ROS 2's default profile: reliable, volatile, keep last 10.
+    fn default() -> Self {
+        Self {
+            reliability: Reliability::Reliable,
+            durability: Durability::Volatile,
+            history: History::KeepLast(10),
+        }
+    }
+}
+
+impl Qos {
+    /// rmw_zenoh_cpp's `qos_to_keyexpr`: `rel:dur:hist,depth:dl_s,dl_ns:ls_s,ls_ns:liv,lease_s,lease_ns`,
+    /// each field empty when it equals rmw_zenoh's default (reliable,
+    /// transient-local, keep-last 42, no deadline/lifespan, automatic liveliness).
+    pub fn to_key_expr(&self) -> String {
+        let reliability = match self.reliability {
+            Reliability::Reliable => String::new(),
+            other => (other as u8).to_string(),
+        };
+        let durability = match self.durability {
+            Durability::TransientLocal => String::new(),
+            other => (other as u8).to_string(),
+        };
+        let (history, depth) = match self.history {
+            History::KeepLast(42) => (String::new(), String::new()),
+            History::KeepLast(depth) => (String::new(), depth.to_string()),
+            History::KeepAll => ("2".to_owned(), String::new()),
+        };
+        format!("{reliability}:{durability}:{history},{depth}:,:,:,,")
+    }
+}
+
+/// A name as it appears in a liveliness token: `/` becomes `%`, empty becomes `%`.
+pub fn mangle_name(name: &str) -> String {
+    if name.is_empty() {
+        "%".to_owned()
+    } else {
+        name.replace('/', "%")
+    }
+}
+
+/// The node part of liveliness tokens.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NodeInfo {
+    /// ROS domain id.
+    pub domain_id: u32,
+    /// The Zenoh session id, as text.
+    pub zid: String,
+    /// The node's entity id within the session.
+    pub node_id: u64,
+    /// The security enclave (`/` if none).
+    pub enclave: String,
+    /// The namespace (`/` for the root).
+    pub namespace: String,
+    /// The node name.
+    pub name: String,
+}
+
+impl NodeInfo {
+    fn prefix(&self, entity_id: u64, kind: &str) -> String {
+        format!(
+            "@ros2_lv/{}/{}/{}/{entity_id}/{kind}/{}/{}/{}",
+            self.domain_id,
+            self.zid,
+            self.node_id,
+            mangle_name(&self.enclave),
+            mangle_name(&self.namespace),
+            mangle_name(&self.name)
+        )
+    }
+
+    /// The node's own liveliness token (`NN`).
+    pub fn node_token(&self) -> String {
+        self.prefix(self.node_id, "NN")
+    }
+
+    /// The liveliness token of a publisher (`MP`) or subscriber (`MS`) of message
+    /// type `T` on `topic`.
+    pub fn topic_token<T: RosMessage>(
+        &self,
+        entity_id: u64,
+        kind: EntityKind,
+        topic: &str,
+        qos: &Qos,
+    ) -> String {
+        format!(
+            "{}/{}/{}/{}/{}",
+            self.prefix(entity_id, kind.as_str()),
+            mangle_name(topic),
+            T::DDS_TYPE_NAME,
+            T::type_hash(),
+            qos.to_key_expr()
+        )
+    }
+}
+
+/// The kind of a topic entity in a liveliness token.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EntityKind {
+    /// `MP`
+    Publisher,
+    /// `MS`
+    Subscriber,
+}
+
+impl EntityKind {
+    fn as_str(self) -> &'static str {
+        match self {
+            Self::Publisher => "MP",
+            Self::Subscriber => "MS",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(shm_cdr::RosMessage)]
+    #[ros(type_name = "std_msgs/msg/String")]
+    struct StringMsg {
+        data: String,
+    }
+
+    fn hex(bytes: &[u8]) -> String {
+        bytes.iter().map(|b| format!("{b:02x}")).collect()
+    }
+
+    #[test]
+    fn data_key_expression() {
+        assert_eq!(
+            topic_key_expr::<StringMsg>(0, "/chatter/"),
+            "0/chatter/std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18"
+        );
+    }
+
+    #[test]
+    fn attachment_bytes() {
+        let mut gid = [0u8; 16];
+        for (i, b) in gid.iter_mut().enumerate() {
+            *b = i as u8;
+        }
+        let a = Attachment {
+            sequence_number: 1,
+            source_timestamp: 1_700_000_000_123_456_789,
+            gid: Gid(gid),
+        };
+        assert_eq!(
+            hex(&a.to_bytes()),
+            "010000000000000015cd853dfe9c971710000102030405060708090a0b0c0d0e0f"
+        );
+        assert_eq!(Attachment::parse(&a.to_bytes()).unwrap(), a);
+        assert_eq!(
+            Attachment::parse(&[0; 32]),
+            Err(AttachmentError::Length(32))
+        );
+        let mut bad = a.to_bytes();
+        bad[16] = 8;
+        assert_eq!(Attachment::parse(&bad), Err(AttachmentError::GidLength(8)));
+    }
+
+    #[test]
+    fn liveliness_token_and_gid() {
+        let node = NodeInfo {
+            domain_id: 2,
+            zid: "8b20917502ee955ac4476e0266340d5c".into(),
+            node_id: 0,
+            enclave: "/".into(),
+            namespace: "/".into(),
+            name: "talker".into(),
+        };
+        let qos = Qos {
+            reliability: Reliability::Reliable,
+            durability: Durability::TransientLocal,
+            history: History::KeepLast(7),
+        };
+        let token = node.topic_token::<StringMsg>(10, EntityKind::Publisher, "/chatter", &qos);
+        assert_eq!(
+            token,
+            "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/10/MP/%/%/talker/%chatter/std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18/::,7:,:,:,,"
+        );
+        assert_eq!(
+            format!("{:?}", Gid::from_token(&token)),
+            "ac170f31eadcd9ff0cd86d7a17907d1c"
+        );
+        assert_eq!(
+            node.node_token(),
+            "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/0/NN/%/%/talker"
+        );
+    }
+
+    #[test]
+    fn ros_default_qos_string() {
+        assert_eq!(Qos::default().to_key_expr(), ":2:,10:,:,:,,");
+    }
+}

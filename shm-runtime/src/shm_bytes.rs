@@ -1,0 +1,200 @@
+//! [`ShmBytes`]: a `uint8[]` field whose bytes the application already wrote into
+//! shared memory. Publishing splices that block into the payload as its own
+//! fragment instead of copying it.
+//!
+//! How the splice keeps CDR intact: while a publisher encodes, a shared-memory
+//! `ShmBytes` of `len` bytes writes its length prefix and then only `len % 8`
+//! filler bytes, and records where its data belongs. Everything after it is thus
+//! shifted by a multiple of 8 bytes, so every later alignment is unchanged. The
+//! payload is then assembled as: metadata before, the application's block, the
+//! metadata after (filler dropped). The scope is a thread-local set only for the
+//! duration of one synchronous encode.
+
+use std::cell::RefCell;
+use std::ops::Deref;
+
+use shm_cdr::describe::{FieldType, OctetType, TypeId};
+use shm_cdr::{ByteOrder, CdrDecode, CdrEncode, DecodeError, EncodeError, Reader, RosType, Writer};
+use zenoh::bytes::ZBytes;
+use zenoh::shm::{ZShm, ZShmMut};
+
+use crate::payload::{EncodedPayload, PayloadKind};
+
+/// Bytes of a `uint8[]` field, in shared memory (published without a copy) or on
+/// the heap (e.g. after decoding).
+#[derive(Clone, Debug)]
+pub enum ShmBytes {
+    /// A shared-memory block written by the application.
+    Shm(ZShm),
+    /// Ordinary bytes.
+    Heap(bytes::Bytes),
+}
+
+impl ShmBytes {
+    /// The bytes.
+    pub fn as_slice(&self) -> &[u8] {
+        match self {
+            Self::Shm(shm) => shm,
+            Self::Heap(bytes) => bytes,
+        }
+    }
+
+    /// Whether the bytes are in shared memory.
+    pub fn is_shm(&self) -> bool {
+        matches!(self, Self::Shm(_))
+    }
+}
+
+impl Default for ShmBytes {
+    fn default() -> Self {
+        Self::Heap(bytes::Bytes::new())
+    }
+}
+
+impl Deref for ShmBytes {
+    type Target = [u8];
+    fn deref(&self) -> &[u8] {
+        self.as_slice()
+    }
+}
+
+impl PartialEq for ShmBytes {
+    fn eq(&self, other: &Self) -> bool {
+        self.as_slice() == other.as_slice()
+    }
+}
+
+impl From<ZShmMut> for ShmBytes {
+    fn from(buffer: ZShmMut) -> Self {
+        Self::Shm(buffer.into())
+    }
+}
+
+impl From<ZShm> for ShmBytes {
+    fn from(buffer: ZShm) -> Self {
+        Self::Shm(buffer)
+    }
+}
+
+impl From<Vec<u8>> for ShmBytes {
+    fn from(bytes: Vec<u8>) -> Self {
+        Self::Heap(bytes.into())
+    }
+}
+
+impl From<bytes::Bytes> for ShmBytes {
+    fn from(bytes: bytes::Bytes) -> Self {
+        Self::Heap(bytes)
+    }
+}
+
+/// Splice bookkeeping of the encode running on this thread, if any.
+#[derive(Default)]
+struct SpliceScope {
+    /// Shared-memory fields met while sizing.
+    fields: usize,
+    /// Bytes those fields will not write (`len - len % 8` each).
+    skipped: usize,
+    /// `(body position of the data, block)`, in stream order, while writing.
+    splices: Vec<(usize, ZShm)>,
+}
+
+thread_local! {
+    static SCOPE: RefCell<Option<SpliceScope>> = const { RefCell::new(None) };
+}
+
+/// Run `f` with a splice scope on this thread and return the scope's records.
+fn with_scope<R>(f: impl FnOnce() -> R) -> (R, SpliceScope) {
+    // Restores the previous state even if `f` panics.
+    struct Reset(Option<SpliceScope>);
+    impl Drop for Reset {
+        fn drop(&mut self) {
+            let previous = self.0.take();
+            SCOPE.with(|s| *s.borrow_mut() = previous);
+        }
+    }
+    let previous = SCOPE.with(|s| s.borrow_mut().replace(SpliceScope::default()));
+    let reset = Reset(previous);
+    let result = f();
+    let scope = SCOPE.with(|s| s.borrow_mut().take()).unwrap_or_default();
+    drop(reset);
+    (result, scope)
+}
+
+fn in_scope<R>(f: impl FnOnce(&mut SpliceScope) -> R) -> Option<R> {
+    SCOPE.with(|s| s.borrow_mut().as_mut().map(f))
+}
+
+impl CdrEncode for ShmBytes {
+    fn encoded_end(&self, start: usize) -> usize {
+        let data_start = shm_cdr::layout::align_up(start, 4) + 4;
+        let len = self.len();
+        if let Self::Shm(_) = self {
+            let spliced = in_scope(|scope| {
+                scope.fields += 1;
+                scope.skipped += len - len % 8;
+            });
+            if spliced.is_some() {
+                return data_start + len % 8;
+            }
+        }
+        data_start + len
+    }
+
+    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        w.write_len(self.len())?;
+        if let Self::Shm(block) = self {
+            let at = w.position();
+            if in_scope(|scope| scope.splices.push((at, block.clone()))).is_some() {
+                // Filler with the data's length modulo 8 keeps later alignment.
+                return w.write_bytes(&[0u8; 8][..self.len() % 8]);
+            }
+        }
+        w.write_bytes(self)
+    }
+}
+
+/// Decoding copies onto the heap; to borrow the bytes of a received sample
+/// (shared memory included) decode into a type with a `&[u8]` field instead.
+impl<'de> CdrDecode<'de> for ShmBytes {
+    const MIN_WIRE_SIZE: usize = 4;
+
+    fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
+        <&[u8]>::decode(r).map(|bytes| Self::Heap(bytes::Bytes::copy_from_slice(bytes)))
+    }
+}
+
+impl RosType for ShmBytes {
+    const FIELD_TYPE: FieldType = FieldType::scalar(TypeId::Uint8).unbounded_sequence();
+}
+
+impl OctetType for ShmBytes {}
+
+/// Encode a message that holds shared-memory [`ShmBytes`] as heap metadata around
+/// the untouched blocks. `None` if it holds none (use the ordinary paths).
+pub(crate) fn encode_spliced<T: CdrEncode + ?Sized>(
+    msg: &T,
+) -> Result<Option<EncodedPayload>, EncodeError> {
+    let (reduced, sizing) = with_scope(|| shm_cdr::encoded_size(msg));
+    if sizing.fields == 0 {
+        return Ok(None);
+    }
+    let mut buffer = vec![0u8; reduced];
+    let (written, scope) = with_scope(|| shm_cdr::encode_into(msg, &mut buffer));
+    let written = written?;
+    let metadata = bytes::Bytes::from(buffer);
+    let mut payload = ZBytes::writer();
+    let mut cursor = 0;
+    for (body_pos, block) in scope.splices {
+        let at = shm_cdr::HEADER_LEN + body_pos;
+        payload.append(ZBytes::from(metadata.slice(cursor..at)));
+        cursor = at + block.len() % 8;
+        payload.append(ZBytes::from(block));
+    }
+    payload.append(ZBytes::from(metadata.slice(cursor..written)));
+    Ok(Some(EncodedPayload {
+        bytes: payload.finish(),
+        kind: PayloadKind::Spliced,
+        size: reduced + sizing.skipped,
+    }))
+}
