@@ -22,6 +22,7 @@
 #![warn(missing_docs)]
 
 mod config;
+pub mod msgs;
 mod node;
 mod payload;
 mod pool;

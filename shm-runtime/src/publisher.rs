@@ -202,6 +202,27 @@ impl<T: RosMessage> RosPublisher<T> {
         }
     }
 
+    /// Wait until at least one subscriber matches this publisher, or `timeout`
+    /// passes; returns whether one did. (Zenoh drops what is published before a
+    /// subscriber is known, like any pub/sub.)
+    pub fn wait_for_subscribers(&self, timeout: std::time::Duration) -> bool {
+        let deadline = std::time::Instant::now() + timeout;
+        loop {
+            if self
+                .publisher
+                .matching_status()
+                .wait()
+                .is_ok_and(|s| s.matching())
+            {
+                return true;
+            }
+            if std::time::Instant::now() >= deadline {
+                return false;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+    }
+
     /// The key expression published on.
     pub fn key_expr(&self) -> &str {
         self.publisher.key_expr().as_str()
