@@ -57,6 +57,7 @@ impl ShmContext {
     /// Create a pool of `config.pool_size` bytes.
     pub fn new(config: ShmConfig) -> zenoh::Result<Self> {
         let provider = ShmProviderBuilder::default_backend(config.pool_size).wait()?;
+        prefault(&provider, config.pool_size);
         Ok(Self {
             inner: Arc::new(Inner {
                 provider,
@@ -112,6 +113,10 @@ impl ShmContext {
         }
         let deadline = Instant::now() + timeout;
         let mut pause = Duration::from_micros(20);
+        // Reclaim what readers have dropped *before* allocating: the allocator then
+        // reuses the chunk just freed, whose pages are still in cache, instead of
+        // walking on into cold memory (measured: 80 µs vs 22 µs to fill 1 MiB).
+        self.inner.provider.garbage_collect();
         loop {
             match self
                 .inner
@@ -151,4 +156,27 @@ impl ShmContext {
             "shared-memory pool exhausted: message published from the heap"
         );
     }
+}
+
+/// Touch every page of the pool once, so that publishing never pays first-touch
+/// page faults (about 0.25 µs per 4 KiB page, i.e. ~60 µs for each fresh MiB the
+/// allocator moves on to). Best effort: whatever cannot be allocated is skipped.
+fn prefault(provider: &ShmProvider<PosixShmProviderBackend>, pool_size: usize) {
+    const CHUNK: usize = 1 << 20;
+    let mut held = Vec::new();
+    let mut left = pool_size;
+    while left > 0 {
+        let len = left.min(CHUNK);
+        match provider.alloc(len).wait() {
+            Ok(mut buffer) => {
+                buffer.fill(0);
+                held.push(buffer);
+                left -= len;
+            }
+            Err(_) => break,
+        }
+    }
+    drop(held);
+    provider.garbage_collect();
+    provider.defragment();
 }
