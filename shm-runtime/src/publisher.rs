@@ -11,6 +11,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use shm_cdr::{EncodeError, RosMessage};
 use zenoh::bytes::ZBytes;
 use zenoh::liveliness::LivelinessToken;
+use zenoh::qos::CongestionControl;
 use zenoh::{Resolvable, Session, Wait};
 
 use crate::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
@@ -84,6 +85,7 @@ pub struct PublisherBuilder<'a, T> {
     pub(crate) shm: ShmChoice,
     pub(crate) threshold: Option<usize>,
     pub(crate) rmw: Option<RmwPublisher>,
+    pub(crate) congestion_control: CongestionControl,
     pub(crate) message: PhantomData<fn(&T)>,
 }
 
@@ -96,8 +98,17 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             shm: ShmChoice::Inherit,
             threshold: None,
             rmw: None,
+            congestion_control: CongestionControl::Block,
             message: PhantomData,
         }
+    }
+
+    /// What Zenoh does when its transmit queue is full: `Block` (the default here,
+    /// so no message is lost) or `Drop` (Zenoh's own default, for data where only
+    /// the latest matters).
+    pub fn congestion_control(mut self, congestion_control: CongestionControl) -> Self {
+        self.congestion_control = congestion_control;
+        self
     }
 
     /// Publish through this shared-memory pool (overrides the context default).
@@ -131,7 +142,11 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
 
     fn build(self) -> zenoh::Result<RosPublisher<T>> {
         let policy = self.policy();
-        let publisher = self.session.declare_publisher(self.key_expr).wait()?;
+        let publisher = self
+            .session
+            .declare_publisher(self.key_expr)
+            .congestion_control(self.congestion_control)
+            .wait()?;
         let rmw = match self.rmw {
             Some(mut rmw) => {
                 rmw.liveliness = Some(

@@ -85,7 +85,10 @@ fn above_threshold_is_shared_memory_below_is_heap_and_bytes_are_exact() {
         assert_eq!(outcome.kind, expected, "{size}-byte image");
         assert_eq!(outcome.size, shm_cdr::encoded_size(&msg));
 
-        let sample = subscriber.recv().unwrap();
+        let sample = subscriber
+            .recv_timeout(TIMEOUT)
+            .unwrap()
+            .expect("message lost");
         assert_eq!(
             sample.is_shm(),
             expected == PayloadKind::Shm,
@@ -136,7 +139,7 @@ fn without_shm_and_threshold_override() {
     assert_eq!(off.publish(&msg).wait().unwrap().kind, PayloadKind::Heap);
     assert_eq!(high.publish(&msg).wait().unwrap().kind, PayloadKind::Heap);
     for sub in [&sub_off, &sub_high] {
-        let sample = sub.recv().unwrap();
+        let sample = sub.recv_timeout(TIMEOUT).unwrap().expect("message lost");
         assert!(!sample.is_shm());
         assert_eq!(sample.decode::<Image>().unwrap(), msg);
     }
@@ -192,7 +195,10 @@ fn user_managed_shared_memory_field_is_spliced_without_a_copy() {
     assert_eq!(outcome.kind, PayloadKind::Spliced);
     assert_eq!(outcome.size, expected.len());
 
-    let sample = subscriber.recv().unwrap();
+    let sample = subscriber
+        .recv_timeout(TIMEOUT)
+        .unwrap()
+        .expect("message lost");
     assert_eq!(
         sample.fragments(),
         3,
@@ -339,7 +345,10 @@ fn rmw_zenoh_key_expression_attachment_and_liveliness() {
             publisher.publish(&msg).wait().unwrap().sequence_number,
             Some(seq)
         );
-        let sample = subscriber.recv().unwrap();
+        let sample = subscriber
+            .recv_timeout(TIMEOUT)
+            .unwrap()
+            .expect("message lost");
         assert_eq!(sample.key_expr(), publisher.key_expr());
         let attachment = sample.attachment().unwrap().unwrap();
         assert_eq!(attachment.sequence_number, seq);
@@ -385,7 +394,10 @@ async fn async_publish_and_receive() {
         publisher.publish(&msg).await.unwrap().kind,
         PayloadKind::Shm
     );
-    let sample = subscriber.recv_async().await.unwrap();
+    let sample = tokio::time::timeout(TIMEOUT, subscriber.recv_async())
+        .await
+        .expect("message lost")
+        .unwrap();
     assert!(sample.is_shm());
     assert_eq!(sample.decode::<Image>().unwrap(), msg);
     assert_eq!(Image::TYPE_NAME, "sensor_msgs/msg/Image");
