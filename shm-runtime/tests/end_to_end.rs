@@ -402,3 +402,35 @@ async fn async_publish_and_receive() {
     assert_eq!(sample.decode::<Image>().unwrap(), msg);
     assert_eq!(Image::TYPE_NAME, "sensor_msgs/msg/Image");
 }
+
+#[test]
+fn callback_subscriber_decodes_borrowed_inside_the_callback() {
+    let (a, b) = session_pair();
+    let shm = ShmContext::new(ShmConfig::enabled()).unwrap();
+    let publisher = a
+        .declare_ros_publisher::<Image>("e2e/callback")
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let _subscriber = b
+        .declare_ros_subscriber::<Image>("e2e/callback")
+        .callback(move |sample| {
+            // Borrow from the sample inside the callback: no copy of the pixels.
+            let view: ImageRef = sample.decode().unwrap();
+            let first = sample.payload().slices().next().unwrap().as_ptr_range();
+            let _ = tx.send((
+                view.data.len(),
+                first.contains(&view.data.as_ptr()),
+                sample.is_shm(),
+            ));
+        })
+        .wait()
+        .unwrap();
+    assert!(publisher.wait_for_subscribers(TIMEOUT));
+    let msg = image(128 * 1024);
+    publisher.publish(&msg).wait().unwrap();
+    let (len, borrowed, shm_seen) = rx.recv_timeout(TIMEOUT).unwrap();
+    assert_eq!(len, msg.data.len());
+    assert!(borrowed && shm_seen);
+}
