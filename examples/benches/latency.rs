@@ -44,24 +44,11 @@ fn sessions(port: u16, shm: bool) -> (Session, Session) {
 }
 
 fn cloud_fields(bytes: usize) -> (Header, u32, Vec<PointField>) {
-    let fields = ["x", "y", "z", "intensity"]
-        .iter()
-        .enumerate()
-        .map(|(i, n)| PointField {
-            name: (*n).into(),
-            offset: 4 * i as u32,
-            datatype: PointField::FLOAT32,
-            count: 1,
-        })
-        .collect();
-    (
-        Header {
-            frame_id: "lidar".into(),
-            ..Default::default()
-        },
-        (bytes / 16) as u32,
-        fields,
-    )
+    let header = Header {
+        frame_id: "lidar".into(),
+        ..Default::default()
+    };
+    (header, (bytes / 16) as u32, shm_cdr_examples::xyzi_fields())
 }
 
 fn vec_cloud(bytes: usize) -> PointCloud2 {
@@ -183,25 +170,9 @@ fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 6] {
     let mut samples: [Vec<Duration>; 6] = Default::default();
     for round in 0..rounds(bytes) + 10 {
         let keep = round >= 10; // the first rounds warm up
-                                // (a)
-        let t = Instant::now();
-        pub_a.publish(&msg_a).wait().unwrap();
-        let sample = sub_a.recv_timeout(TIMEOUT).unwrap().unwrap();
-        let cloud: PointCloud2Ref = sample.decode().unwrap();
-        std::hint::black_box(cloud.data.len());
-        let da = t.elapsed();
-        drop(cloud);
-        drop(sample);
-        // (b)
-        let t = Instant::now();
-        pub_b.publish(&msg).wait().unwrap();
-        let sample = sub_b.recv_timeout(TIMEOUT).unwrap().unwrap();
-        let cloud: PointCloud2Ref = sample.decode().unwrap();
-        std::hint::black_box(cloud.data.len());
-        let db = t.elapsed();
-        drop(cloud);
-        drop(sample);
-        // (c)
+        let da = ros_round(&pub_a, &sub_a, &msg_a); // (a)
+        let db = ros_round(&pub_b, &sub_b, &msg); // (b)
+                                                  // (c)
         let t = Instant::now();
         pub_c.put(shm_cdr::to_vec(&msg).unwrap()).wait().unwrap();
         let sample = sub_c.recv_timeout(TIMEOUT).unwrap().unwrap();
@@ -210,16 +181,8 @@ fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 6] {
         let dc = t.elapsed();
         drop(cloud);
         drop(sample);
-        // (d)
-        let t = Instant::now();
-        pub_d.publish(&msg).wait().unwrap();
-        let sample = sub_d.recv_timeout(TIMEOUT).unwrap().unwrap();
-        let cloud: PointCloud2Ref = sample.decode().unwrap();
-        std::hint::black_box(cloud.data.len());
-        let dd = t.elapsed();
-        drop(cloud);
-        drop(sample);
-        // (e): the buffer is allocated and filled before the clock starts.
+        let dd = ros_round(&pub_d, &sub_d, &msg); // (d)
+                                                  // (e): the buffer is allocated and filled before the clock starts.
         let mut block = shm.alloc(bytes).unwrap();
         block.fill(5);
         let t = Instant::now();
@@ -268,6 +231,21 @@ fn main() {
     }
     print_table(&rows, &copies);
     plot(&rows);
+}
+
+/// Publish `msg` with our publisher and decode it borrowed at the subscriber:
+/// the time from the publish call to holding the decoded message.
+fn ros_round<T: shm_cdr::RosMessage>(
+    publisher: &shm_runtime::RosPublisher<T>,
+    subscriber: &shm_runtime::RosSubscriber<PointCloud2>,
+    msg: &T,
+) -> Duration {
+    let t = Instant::now();
+    publisher.publish(msg).wait().unwrap();
+    let sample = subscriber.recv_timeout(TIMEOUT).unwrap().unwrap();
+    let cloud: PointCloud2Ref = sample.decode().unwrap();
+    std::hint::black_box(cloud.data.len());
+    t.elapsed()
 }
 
 fn wait_matching(publisher: &zenoh::pubsub::Publisher<'_>) {

@@ -12,7 +12,7 @@
 use std::time::{Duration, Instant};
 
 use shm_cdr::msgs::builtin_interfaces::Time;
-use shm_cdr::msgs::sensor_msgs::{PointCloud2, PointCloud2Ref, PointField};
+use shm_cdr::msgs::sensor_msgs::{PointCloud2, PointCloud2Ref};
 use shm_cdr::msgs::std_msgs::Header;
 use shm_cdr_examples::loopback_pair;
 use shm_runtime::msgs::PointCloud2Shm;
@@ -21,19 +21,6 @@ use zenoh::Wait;
 
 const POINTS: u32 = 65_536; // 16-byte points: 1 MiB of point data
 const POINT_STEP: u32 = 16;
-
-fn fields() -> Vec<PointField> {
-    ["x", "y", "z", "intensity"]
-        .iter()
-        .enumerate()
-        .map(|(i, name)| PointField {
-            name: (*name).into(),
-            offset: 4 * i as u32,
-            datatype: PointField::FLOAT32,
-            count: 1,
-        })
-        .collect()
-}
 
 fn header() -> Header {
     Header {
@@ -130,7 +117,7 @@ fn main() -> zenoh::Result<()> {
         header: header(),
         height: 1,
         width: POINTS,
-        fields: fields(),
+        fields: shm_cdr_examples::xyzi_fields(),
         is_bigendian: false,
         point_step: POINT_STEP,
         row_step: POINTS * POINT_STEP,
@@ -151,7 +138,7 @@ fn main() -> zenoh::Result<()> {
         header: header(),
         height: 1,
         width: POINTS,
-        fields: fields(),
+        fields: shm_cdr_examples::xyzi_fields(),
         is_bigendian: false,
         point_step: POINT_STEP,
         row_step: POINTS * POINT_STEP,
