@@ -5,7 +5,7 @@ use shm_cdr::{CdrEncode, EncodeError};
 use zenoh::bytes::ZBytes;
 
 use crate::pool::ShmContext;
-use crate::shm_bytes;
+use crate::shm_bytes::{self, Splice};
 
 /// Where a published message's bytes went.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -45,13 +45,15 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
     msg: &T,
     policy: Option<&ShmPolicy>,
 ) -> Result<EncodedPayload, EncodeError> {
-    if let Some(spliced) = shm_bytes::encode_spliced(msg)? {
-        if let Some(policy) = policy {
-            policy.context.count_shm();
+    let size = match shm_bytes::encode_spliced(msg)? {
+        Splice::Done(spliced) => {
+            if let Some(policy) = policy {
+                policy.context.count_shm();
+            }
+            return Ok(spliced);
         }
-        return Ok(spliced);
-    }
-    let size = shm_cdr::encoded_size(msg);
+        Splice::NotNeeded(size) => size,
+    };
     let mut kind = PayloadKind::Heap;
     if let Some(policy) = policy.filter(|p| size >= p.threshold) {
         match policy
@@ -77,8 +79,11 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
     } else if let Some(policy) = policy {
         policy.context.count_heap();
     }
+    // Heap path: a buffer of exactly `size` bytes, written once.
+    let mut buffer = vec![0u8; size];
+    shm_cdr::encode_into(msg, &mut buffer)?;
     Ok(EncodedPayload {
-        bytes: ZBytes::from(shm_cdr::to_vec(msg)?),
+        bytes: ZBytes::from(buffer),
         kind,
         size,
     })

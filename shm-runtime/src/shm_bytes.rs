@@ -170,14 +170,20 @@ impl RosType for ShmBytes {
 
 impl OctetType for ShmBytes {}
 
+/// The result of [`encode_spliced`].
+pub(crate) enum Splice {
+    /// The message holds shared-memory fields: here is the assembled payload.
+    Done(EncodedPayload),
+    /// It holds none; its exact encoded size, for the ordinary paths.
+    NotNeeded(usize),
+}
+
 /// Encode a message that holds shared-memory [`ShmBytes`] as heap metadata around
-/// the untouched blocks. `None` if it holds none (use the ordinary paths).
-pub(crate) fn encode_spliced<T: CdrEncode + ?Sized>(
-    msg: &T,
-) -> Result<Option<EncodedPayload>, EncodeError> {
+/// the untouched blocks. Sizes the message once either way.
+pub(crate) fn encode_spliced<T: CdrEncode + ?Sized>(msg: &T) -> Result<Splice, EncodeError> {
     let (reduced, sizing) = with_scope(|| shm_cdr::encoded_size(msg));
     if sizing.fields == 0 {
-        return Ok(None);
+        return Ok(Splice::NotNeeded(reduced));
     }
     let mut buffer = vec![0u8; reduced];
     let (written, scope) = with_scope(|| shm_cdr::encode_into(msg, &mut buffer));
@@ -192,7 +198,7 @@ pub(crate) fn encode_spliced<T: CdrEncode + ?Sized>(
         payload.append(ZBytes::from(block));
     }
     payload.append(ZBytes::from(metadata.slice(cursor..written)));
-    Ok(Some(EncodedPayload {
+    Ok(Splice::Done(EncodedPayload {
         bytes: payload.finish(),
         kind: PayloadKind::Spliced,
         size: reduced + sizing.skipped,
