@@ -3,6 +3,8 @@
 //! [`loopback_pair`] opens two Zenoh peer sessions in this process, connected over
 //! TCP on 127.0.0.1 with multicast scouting off: no router and no network needed.
 
+pub mod interop;
+
 use shm_cdr::msgs::sensor_msgs::PointField;
 use zenoh::{Config, Session, Wait};
 
