@@ -91,12 +91,21 @@ impl RosNode {
         builder
     }
 
-    /// A subscriber to `T` on ROS topic `topic`.
+    /// A subscriber to `T` on ROS topic `topic`, announced to the ROS graph by
+    /// its `MS` liveliness token.
     pub fn declare_subscriber<T: RosMessage>(&self, topic: &str) -> SubscriberBuilder<'_, T> {
-        SubscriberBuilder::new(
+        let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
+        let mut builder = SubscriberBuilder::new(
             &self.session,
             topic_key_expr::<T>(self.info.domain_id, topic),
-        )
+        );
+        builder.liveliness = Some(self.info.topic_token::<T>(
+            entity_id,
+            EntityKind::Subscriber,
+            topic,
+            &Qos::default(),
+        ));
+        builder
     }
 }
 

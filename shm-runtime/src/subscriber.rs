@@ -11,6 +11,7 @@ use std::time::Duration;
 use shm_cdr::{CdrDecode, DecodeError, DecodeErrorKind, RosMessage};
 use zenoh::bytes::ZBytes;
 use zenoh::handlers::FifoChannelHandler;
+use zenoh::liveliness::LivelinessToken;
 use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
 
@@ -21,6 +22,8 @@ use crate::rmw::{Attachment, AttachmentError};
 pub struct SubscriberBuilder<'a, T> {
     pub(crate) session: &'a Session,
     pub(crate) key_expr: String,
+    /// rmw_zenoh liveliness token (`MS`) to declare, for node subscribers.
+    pub(crate) liveliness: Option<String>,
     pub(crate) message: PhantomData<fn() -> T>,
 }
 
@@ -29,7 +32,20 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         Self {
             session,
             key_expr,
+            liveliness: None,
             message: PhantomData,
+        }
+    }
+
+    fn declare_token(&self) -> zenoh::Result<Option<LivelinessToken>> {
+        match &self.liveliness {
+            Some(token) => Ok(Some(
+                self.session
+                    .liveliness()
+                    .declare_token(token.clone())
+                    .wait()?,
+            )),
+            None => Ok(None),
         }
     }
 
@@ -47,9 +63,11 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
     }
 
     fn build(self) -> zenoh::Result<RosSubscriber<T>> {
+        let token = self.declare_token()?;
         let subscriber = self.session.declare_subscriber(self.key_expr).wait()?;
         Ok(RosSubscriber {
             subscriber,
+            _token: token,
             message: PhantomData,
         })
     }
@@ -83,11 +101,13 @@ pub struct CallbackSubscriberBuilder<'a, T, F> {
 /// A subscriber that hands every sample to a callback; undeclared when dropped.
 pub struct CallbackSubscriber<T> {
     _subscriber: zenoh::pubsub::Subscriber<()>,
+    _token: Option<LivelinessToken>,
     message: PhantomData<fn() -> T>,
 }
 
 impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> CallbackSubscriberBuilder<'_, T, F> {
     fn build(self) -> zenoh::Result<CallbackSubscriber<T>> {
+        let token = self.inner.declare_token()?;
         let callback = self.callback;
         let subscriber = self
             .inner
@@ -97,6 +117,7 @@ impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> CallbackSubscriber
             .wait()?;
         Ok(CallbackSubscriber {
             _subscriber: subscriber,
+            _token: token,
             message: PhantomData,
         })
     }
@@ -130,6 +151,7 @@ impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> IntoFuture
 /// variant of the same ROS type).
 pub struct RosSubscriber<T> {
     subscriber: zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>,
+    _token: Option<LivelinessToken>,
     message: PhantomData<fn() -> T>,
 }
 

@@ -331,6 +331,16 @@ fn rmw_zenoh_key_expression_attachment_and_liveliness() {
     );
     assert_eq!(publisher.gid(), Some(Gid::from_token(&token)));
 
+    // A node subscriber on the other session announces itself with an `MS` token.
+    let listener = RosNode::builder(&b, "listener")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let _node_subscriber = listener
+        .declare_subscriber::<std_msgs::String>("/chatter")
+        .wait()
+        .unwrap();
+
     // A raw subscriber on the other session sees the key and the attachment.
     let subscriber = b
         .declare_ros_subscriber::<std_msgs::String>("0/chatter/**")
@@ -373,6 +383,8 @@ fn rmw_zenoh_key_expression_attachment_and_liveliness() {
     }
     assert!(keys.contains(&token), "{keys:?}");
     assert!(keys.contains(&node.info().node_token()), "{keys:?}");
+    let ms = "/MS/%/%/listener/%chatter/std_msgs::msg::dds_::String_/RIHS01_";
+    assert!(keys.iter().any(|k| k.contains(ms)), "{keys:?}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
