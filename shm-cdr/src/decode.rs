@@ -4,7 +4,7 @@ use std::marker::PhantomData;
 
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind};
-use crate::layout::{align_up, plain_vec, PlainLayout};
+use crate::layout::{align_up, plain_extend, PlainLayout};
 
 /// Size of the encapsulation header, the origin of error offsets.
 pub(crate) const HEADER_LEN: usize = 4;
@@ -31,31 +31,41 @@ pub trait CdrDecode<'de>: Sized {
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError>;
 
     /// Read `n` consecutive values (the caller has checked `n` against the input):
-    /// one copy for [plain](Self::PLAIN) types in host byte order at a suitable
-    /// phase, element by element otherwise.
+    /// one copy for [plain](Self::PLAIN) types in host byte order, element by
+    /// element otherwise. As in [`CdrEncode::encode_slice`], a plain run that starts
+    /// at a phase where memory and wire layout differ reads its first elements one
+    /// by one until they agree.
     #[inline]
     fn decode_vec<B: ByteOrder>(
         r: &mut Reader<'de, B>,
         n: usize,
     ) -> Result<Vec<Self>, DecodeError> {
+        let mut out = Vec::with_capacity(n);
         if let (true, Some(plain)) = (B::NATIVE, Self::PLAIN) {
-            if n > 0 && align_up(r.position(), plain.first_align()) % plain.align() == 0 {
-                let len = n.saturating_mul(std::mem::size_of::<Self>());
-                let at = r.position();
-                let bytes = r.read_aligned_bytes(plain.first_align(), len)?;
-                return plain_vec(plain, bytes, n).ok_or_else(|| {
-                    r.error_at(
-                        at,
-                        DecodeErrorKind::UnexpectedEof {
-                            needed: len,
-                            remaining: bytes.len(),
-                        },
-                    )
-                });
+            for _ in 0..8 {
+                let left = n - out.len();
+                if left == 0 {
+                    return Ok(out);
+                }
+                if plain.bulk_at(r.position()) {
+                    let len = left.saturating_mul(std::mem::size_of::<Self>());
+                    let at = r.position();
+                    let bytes = r.read_aligned_bytes(plain.first_align(), len)?;
+                    return match plain_extend(plain, &mut out, bytes, left) {
+                        Some(()) => Ok(out),
+                        None => Err(r.error_at(
+                            at,
+                            DecodeErrorKind::UnexpectedEof {
+                                needed: len,
+                                remaining: bytes.len(),
+                            },
+                        )),
+                    };
+                }
+                out.push(Self::decode(r)?);
             }
         }
-        let mut out = Vec::with_capacity(n);
-        for _ in 0..n {
+        while out.len() < n {
             out.push(Self::decode(r)?);
         }
         Ok(out)

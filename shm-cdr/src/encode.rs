@@ -49,24 +49,50 @@ pub trait CdrEncode {
     }
 
     /// Write the elements of a sequence or array (no length prefix): one copy when
-    /// the type is [plain](Self::PLAIN), the byte order is the host's and the first
-    /// element lands at a phase where memory and wire layout agree; element by
-    /// element otherwise.
+    /// the type is [plain](Self::PLAIN) and the byte order is the host's, element by
+    /// element otherwise. A plain run whose first element starts at a phase where
+    /// memory and wire layout differ (e.g. `{Time, f64}` right after a `u32` count)
+    /// writes its first elements one by one until the stream reaches a phase where
+    /// they agree, then copies the rest at once.
     #[inline]
     fn encode_slice<B: ByteOrder>(items: &[Self], w: &mut Writer<'_, B>) -> Result<(), EncodeError>
     where
         Self: Sized,
     {
+        let mut rest = items;
         if let (true, Some(plain)) = (B::NATIVE, Self::PLAIN) {
-            if !items.is_empty() && align_up(w.position(), plain.first_align()) % plain.align() == 0
-            {
-                let bytes = plain_bytes(plain, items);
-                w.aligned_slot(plain.first_align(), bytes.len())?
-                    .copy_from_slice(bytes);
-                return Ok(());
+            // The phase repeats with period 8, so 8 elements always suffice to find
+            // a matching phase if there is one.
+            for _ in 0..8 {
+                let Some((first, others)) = rest.split_first() else {
+                    return Ok(());
+                };
+                if plain.bulk_at(w.position()) {
+                    let bytes = plain_bytes(plain, rest);
+                    w.aligned_slot(plain.first_align(), bytes.len())?
+                        .copy_from_slice(bytes);
+                    return Ok(());
+                }
+                first.encode(w)?;
+                rest = others;
             }
         }
-        items.iter().try_for_each(|item| item.encode(w))
+        rest.iter().try_for_each(|item| item.encode(w))
+    }
+}
+
+/// Zero alignment padding (0 to 7 bytes) with fixed-size stores: a plain loop or
+/// `fill` becomes a call into `memset` for every padded field.
+#[inline(always)]
+pub(crate) fn zero_padding(padding: &mut [u8]) {
+    let n = padding.len();
+    if n >= 4 {
+        padding[..4].copy_from_slice(&[0; 4]);
+        padding[n - 4..].copy_from_slice(&[0; 4]);
+    } else if n > 0 {
+        padding[0] = 0;
+        padding[n / 2] = 0;
+        padding[n - 1] = 0;
     }
 }
 
@@ -110,7 +136,7 @@ impl<'a, B: ByteOrder> Writer<'a, B> {
     /// Reserve `pad` zeroed padding bytes followed by `len` bytes, returning the
     /// latter.
     #[inline(always)]
-    fn reserve(&mut self, pad: usize, len: usize) -> Result<&mut [u8], EncodeError> {
+    pub(crate) fn reserve(&mut self, pad: usize, len: usize) -> Result<&mut [u8], EncodeError> {
         let start = self.pos;
         let end = start
             .checked_add(pad + len)
@@ -122,9 +148,7 @@ impl<'a, B: ByteOrder> Writer<'a, B> {
         let (padding, slot) = self.buf[start..end].split_at_mut(pad);
         // Buffers (shared-memory pools especially) are reused: padding must not leak
         // whatever the previous message left there.
-        for b in padding {
-            *b = 0;
-        }
+        zero_padding(padding);
         Ok(slot)
     }
 

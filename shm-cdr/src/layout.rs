@@ -305,6 +305,15 @@ impl<T: ?Sized> PlainLayout<T> {
         self.first_align
     }
 
+    /// Whether a run of `T` whose first element is written at stream position
+    /// `pos` is, from its first aligned byte on, exactly the memory image of the
+    /// run: the element starts at a multiple of its largest alignment, so every
+    /// field's CDR alignment matches its offset in memory.
+    #[inline(always)]
+    pub const fn bulk_at(&self, pos: usize) -> bool {
+        align_up(pos, self.first_align) % self.align == 0
+    }
+
     /// The numbers of this proof, to pass to [`PlainLayout::of_struct`].
     pub const fn erase(this: Option<Self>) -> Option<(usize, usize)> {
         match this {
@@ -371,21 +380,33 @@ pub(crate) fn plain_bytes<T>(_proof: PlainLayout<T>, items: &[T]) -> &[u8] {
     unsafe { std::slice::from_raw_parts(items.as_ptr().cast::<u8>(), std::mem::size_of_val(items)) }
 }
 
-/// `n` values of `T` read from their CDR bytes (see [`PlainLayout`]). `None` if
-/// `bytes` is not exactly `n` values long.
+/// Append `n` values of `T` read from their CDR bytes (see [`PlainLayout`]) to
+/// `out`. `None` (and `out` unchanged) if `bytes` is not exactly `n` values long.
 #[allow(unsafe_code)]
-pub(crate) fn plain_vec<T>(_proof: PlainLayout<T>, bytes: &[u8], n: usize) -> Option<Vec<T>> {
+pub(crate) fn plain_extend<T>(
+    _proof: PlainLayout<T>,
+    out: &mut Vec<T>,
+    bytes: &[u8],
+    n: usize,
+) -> Option<()> {
     if Some(bytes.len()) != n.checked_mul(std::mem::size_of::<T>()) {
         return None;
     }
-    let mut out = Vec::<T>::with_capacity(n);
-    // SAFETY: `out` owns a fresh allocation of at least `n` values, which cannot
-    // overlap `bytes`; exactly `n * size_of::<T>()` bytes are copied into it, and the
-    // proof guarantees every bit pattern is a valid `T`, so the first `n` elements are
-    // initialized before `set_len`. Byte copies need no alignment of the source.
+    out.reserve(n);
+    let len = out.len();
+    // SAFETY: after `reserve`, `out` owns room for at least `len + n` values, and the
+    // `n` slots after the first `len` are spare capacity that cannot overlap `bytes`
+    // (a borrowed slice `out` does not own). Exactly `n * size_of::<T>()` bytes are
+    // copied into them, and the proof guarantees every bit pattern is a valid `T`,
+    // so the first `len + n` elements are initialized before `set_len`. Byte copies
+    // need no alignment of the source.
     unsafe {
-        std::ptr::copy_nonoverlapping(bytes.as_ptr(), out.as_mut_ptr().cast::<u8>(), bytes.len());
-        out.set_len(n);
+        std::ptr::copy_nonoverlapping(
+            bytes.as_ptr(),
+            out.as_mut_ptr().add(len).cast::<u8>(),
+            bytes.len(),
+        );
+        out.set_len(len + n);
     }
-    Some(out)
+    Some(())
 }

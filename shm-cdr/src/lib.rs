@@ -79,7 +79,9 @@ pub fn encoded_size<T: CdrEncode + ?Sized>(msg: &T) -> usize {
 /// that is too small is an [`EncodeErrorKind::BufferTooSmall`] error.
 #[inline]
 pub fn encode_into<T: CdrEncode + ?Sized>(msg: &T, buf: &mut [u8]) -> Result<usize, EncodeError> {
-    encode_into_with(msg, buf, Endianness::Little)
+    // Straight to the little-endian body: no run-time byte-order dispatch on the
+    // path every publisher takes.
+    encode_body::<T, LittleEndian>(msg, buf).map_err(|e| with_needed(e, msg, buf.len()))
 }
 
 /// [`encode_into`] in the given byte order.
@@ -93,15 +95,24 @@ pub fn encode_into_with<T: CdrEncode + ?Sized>(
         Endianness::Little => encode_body::<T, LittleEndian>(msg, buf),
         Endianness::Big => encode_body::<T, BigEndian>(msg, buf),
     };
-    result.map_err(|mut e| {
-        if let EncodeErrorKind::BufferTooSmall { .. } = e.kind() {
-            e.set_kind(EncodeErrorKind::BufferTooSmall {
-                needed: encoded_size(msg),
-                available: buf.len(),
-            });
-        }
-        e
-    })
+    result.map_err(|e| with_needed(e, msg, buf.len()))
+}
+
+/// A too-small buffer is detected deep in the writer, which does not know the
+/// message's size; fill it in here.
+#[cold]
+fn with_needed<T: CdrEncode + ?Sized>(
+    mut e: EncodeError,
+    msg: &T,
+    available: usize,
+) -> EncodeError {
+    if let EncodeErrorKind::BufferTooSmall { .. } = e.kind() {
+        e.set_kind(EncodeErrorKind::BufferTooSmall {
+            needed: encoded_size(msg),
+            available,
+        });
+    }
+    e
 }
 
 #[inline(always)]
@@ -125,7 +136,11 @@ fn encode_body<T: CdrEncode + ?Sized, B: ByteOrder>(
 /// [`encoded_size`] bytes.
 #[inline]
 pub fn to_vec<T: CdrEncode + ?Sized>(msg: &T) -> Result<Vec<u8>, EncodeError> {
-    to_vec_with(msg, Endianness::Little)
+    let mut out = vec![0u8; encoded_size(msg)];
+    let written = encode_into(msg, &mut out)?;
+    debug_assert_eq!(written, out.len(), "encoded_end disagrees with encode");
+    out.truncate(written);
+    Ok(out)
 }
 
 /// [`to_vec`] in the given byte order.
@@ -163,12 +178,15 @@ pub fn read_header(bytes: &[u8]) -> Result<Endianness, DecodeError> {
 /// Decode a message from CDR in either byte order. `T` may borrow from `bytes`
 /// (`&str`, `&[u8]`, `Cow` fields). Up to 3 bytes of padding may follow the message;
 /// anything more is an error.
+#[inline]
 pub fn from_bytes<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeError> {
-    let endianness = read_header(bytes)?;
-    let body = &bytes[HEADER_LEN..];
-    match endianness {
-        Endianness::Little => decode_body::<T, LittleEndian>(body),
-        Endianness::Big => decode_body::<T, BigEndian>(body),
+    match bytes {
+        // The common case first, without a call: little-endian plain CDR.
+        [0x00, 0x01, _, _, body @ ..] => decode_body::<T, LittleEndian>(body),
+        [0x00, 0x00, _, _, body @ ..] => decode_body::<T, BigEndian>(body),
+        _ => Err(read_header(bytes).err().unwrap_or_else(|| {
+            DecodeError::new(DecodeErrorKind::UnknownEncapsulation([0xff, 0xff]), 0)
+        })),
     }
 }
 

@@ -5,7 +5,7 @@ use std::borrow::Cow;
 use crate::bounded::BoundedString;
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::{FieldType, RosElement, RosType, TypeId};
-use crate::encode::{CdrEncode, Writer};
+use crate::encode::{zero_padding, CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
 use crate::layout::align_up;
@@ -15,22 +15,86 @@ fn string_end(start: usize, len: usize) -> usize {
     align_up(start, 4) + 4 + len + 1
 }
 
-#[inline]
-fn write_string<B: ByteOrder>(w: &mut Writer<'_, B>, s: &str) -> Result<(), EncodeError> {
+/// Copy `src` into `dst` (same length). Strings in messages are mostly short
+/// (frame ids, joint names): up to 16 bytes this is two overlapping fixed-size
+/// moves instead of a call into `memcpy`.
+#[inline(always)]
+fn copy_short(dst: &mut [u8], src: &[u8]) {
+    let n = src.len();
+    match n {
+        0 => {}
+        1..=3 => {
+            dst[0] = src[0];
+            dst[n / 2] = src[n / 2];
+            dst[n - 1] = src[n - 1];
+        }
+        4..=7 => {
+            dst[..4].copy_from_slice(&src[..4]);
+            dst[n - 4..n].copy_from_slice(&src[n - 4..n]);
+        }
+        8..=16 => {
+            dst[..8].copy_from_slice(&src[..8]);
+            dst[n - 8..n].copy_from_slice(&src[n - 8..n]);
+        }
+        _ => dst[..n].copy_from_slice(src),
+    }
+}
+
+/// Write one string (prefix, contents, NUL) into `out`, which is exactly
+/// `4 + len + 1` bytes.
+#[inline(always)]
+fn put_string<B: ByteOrder>(out: &mut [u8], s: &str) -> Result<(), EncodeError> {
     let len = s.len();
     let with_nul = u32::try_from(len + 1)
         .map_err(|_| EncodeError::new(EncodeErrorKind::LengthOverflow { len }))?;
-    // One bounds check for prefix, contents and NUL together.
-    let slot = w.aligned_slot(4, 4 + len + 1)?;
-    let (prefix, rest) = slot.split_at_mut(4);
+    let (prefix, rest) = out.split_at_mut(4);
     prefix.copy_from_slice(&if B::LITTLE {
         with_nul.to_le_bytes()
     } else {
         with_nul.to_be_bytes()
     });
     let (contents, nul) = rest.split_at_mut(len);
-    contents.copy_from_slice(s.as_bytes());
-    nul.fill(0);
+    copy_short(contents, s.as_bytes());
+    if let Some(nul) = nul.first_mut() {
+        *nul = 0;
+    }
+    Ok(())
+}
+
+#[inline]
+fn write_string<B: ByteOrder>(w: &mut Writer<'_, B>, s: &str) -> Result<(), EncodeError> {
+    // One bounds check for prefix, contents and NUL together.
+    put_string::<B>(w.aligned_slot(4, 4 + s.len() + 1)?, s)
+}
+
+/// A sequence of strings: one bounds check for the whole run, then each string
+/// written in place.
+#[inline]
+fn write_strings<B: ByteOrder, S: AsRef<str>>(
+    w: &mut Writer<'_, B>,
+    items: &[S],
+) -> Result<(), EncodeError> {
+    let start = w.position();
+    let end = items
+        .iter()
+        .fold(start, |pos, s| string_end(pos, s.as_ref().len()));
+    let region = w.reserve(0, end - start)?;
+    let mut at = 0;
+    for s in items {
+        let s = s.as_ref();
+        let pad = (start + at).wrapping_neg() % 4;
+        let total = pad + 4 + s.len() + 1;
+        let Some(slot) = region.get_mut(at..at + total) else {
+            // Unreachable: `end` summed exactly these lengths. Report, don't panic.
+            return Err(EncodeError::new(EncodeErrorKind::LengthOverflow {
+                len: s.len(),
+            }));
+        };
+        let (padding, out) = slot.split_at_mut(pad);
+        zero_padding(padding);
+        put_string::<B>(out, s)?;
+        at += total;
+    }
     Ok(())
 }
 
@@ -50,7 +114,7 @@ fn read_str<'de, B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<&'de str, Decod
             DecodeErrorKind::MissingNul { found: last },
         ));
     }
-    std::str::from_utf8(contents).map_err(|e| {
+    utf8(contents).map_err(|e| {
         r.error_at(
             at + e.valid_up_to(),
             DecodeErrorKind::InvalidUtf8 {
@@ -60,8 +124,23 @@ fn read_str<'de, B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<&'de str, Decod
     })
 }
 
+/// `str::from_utf8` with an ASCII fast path: names and frame ids are ASCII, and
+/// for short strings the general validator's setup dominates (measured: 1 000
+/// short strings decode in 9.1 µs with `from_utf8` alone; see `peer-bench`).
+#[inline(always)]
+#[allow(unsafe_code)]
+fn utf8(bytes: &[u8]) -> Result<&str, std::str::Utf8Error> {
+    if bytes.is_ascii() {
+        // SAFETY: every byte is below 0x80, and a sequence of such bytes is valid
+        // UTF-8 (each is a one-byte code point).
+        Ok(unsafe { std::str::from_utf8_unchecked(bytes) })
+    } else {
+        std::str::from_utf8(bytes)
+    }
+}
+
 macro_rules! unbounded_string_encode {
-    ($($ty:ty),*) => {$(
+    ($($ty:ty $({ $($slice:tt)* })?),*) => {$(
         impl CdrEncode for $ty {
             #[inline]
             fn encoded_end(&self, start: usize) -> usize {
@@ -72,10 +151,27 @@ macro_rules! unbounded_string_encode {
             fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
                 write_string(w, self)
             }
+
+            $($($slice)*)?
         }
     )*};
 }
-unbounded_string_encode!(str, String, Cow<'_, str>);
+// `str` is unsized (no slices of it); `&str` goes through the blanket `&T` impl.
+unbounded_string_encode!(
+    str,
+    String {
+        #[inline]
+        fn encode_slice<B: ByteOrder>(items: &[Self], w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+            write_strings(w, items)
+        }
+    },
+    Cow<'_, str> {
+        #[inline]
+        fn encode_slice<B: ByteOrder>(items: &[Self], w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+            write_strings(w, items)
+        }
+    }
+);
 
 impl<'de> CdrDecode<'de> for String {
     const MIN_WIRE_SIZE: usize = 4;
@@ -156,3 +252,39 @@ impl<const N: usize> RosType for BoundedString<N> {
     const FIELD_TYPE: FieldType = FieldType::bounded_string(TypeId::BoundedString, N);
 }
 impl<const N: usize> RosElement for BoundedString<N> {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::endian::LittleEndian;
+
+    /// Every short-copy length class, in sequences that start at every phase,
+    /// against the obvious byte-by-byte encoding.
+    #[test]
+    fn string_runs_match_the_plain_encoding_at_every_length_and_phase() {
+        let strings: Vec<String> = (0..40)
+            .map(|n| "é".repeat(n % 3) + &"x".repeat(n))
+            .collect();
+        for phase in 0..4 {
+            let mut expected = vec![0u8; phase];
+            for s in &strings {
+                expected.resize(expected.len().next_multiple_of(4), 0);
+                expected.extend_from_slice(&(s.len() as u32 + 1).to_le_bytes());
+                expected.extend_from_slice(s.as_bytes());
+                expected.push(0);
+            }
+            // Garbage where padding goes: it must come out zeroed.
+            let mut buf = vec![0xAA; expected.len()];
+            let mut w = Writer::<LittleEndian>::new(&mut buf);
+            w.write_bytes(&vec![0; phase]).unwrap();
+            String::encode_slice(&strings, &mut w).unwrap();
+            assert_eq!(w.position(), expected.len());
+            assert_eq!(buf, expected, "phase {phase}");
+
+            let mut r = Reader::<LittleEndian>::new(&buf);
+            r.read_bytes(phase).unwrap();
+            let back = <&str>::decode_vec(&mut r, strings.len()).unwrap();
+            assert_eq!(back, strings);
+        }
+    }
+}
