@@ -21,7 +21,6 @@ fn main() {
 
     let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("set by cargo"));
     let ci_venv = manifest.join("../target/interop-venv");
-    println!("cargo:rerun-if-changed={}", ci_venv.join("lib").display());
     let candidates = [
         env::var_os("FASTCDR_PREFIX").map(PathBuf::from),
         env::var_os("VIRTUAL_ENV").map(PathBuf::from),
@@ -35,6 +34,10 @@ fn main() {
         return;
     };
     let prefix = prefix.canonicalize().unwrap_or(prefix);
+    println!(
+        "cargo:rerun-if-changed={}",
+        prefix.join("lib/libfastcdr.so").display()
+    );
     cc::Build::new()
         .cpp(true)
         .std("c++17")

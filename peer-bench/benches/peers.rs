@@ -181,12 +181,14 @@ fn fmt_ns(ns: f64) -> String {
     }
 }
 
-fn fmt_cell(m: &Median) -> String {
-    let gbps = m.bytes as f64 / m.ns;
-    if gbps >= 0.1 {
-        format!("{} ({gbps:.1} GB/s)", fmt_ns(m.ns))
-    } else {
-        fmt_ns(m.ns)
+/// A median, with the message's bytes per second for operations that move every
+/// byte (a size computation or a borrowed decode does not).
+fn fmt_cell(m: &Median, op: &str) -> String {
+    match op {
+        "encode" | "to_vec" | "decode" => {
+            format!("{} ({:.1} GB/s)", fmt_ns(m.ns), m.bytes as f64 / m.ns)
+        }
+        _ => fmt_ns(m.ns),
     }
 }
 
@@ -230,7 +232,7 @@ fn write_report(
                     // A memcpy of the message's bytes is the reference for every
                     // operation that moves them, not for computing a size.
                     Some(_) if lib == MEMCPY && op == "size" => String::new(),
-                    Some(m) => fmt_cell(m),
+                    Some(m) => fmt_cell(m, if lib == MEMCPY { "encode" } else { op }),
                     None if lib == MEMCPY || lib == OURS || op == "decode_borrowed" => "–".into(),
                     None if verdicts
                         .iter()

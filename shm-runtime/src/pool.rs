@@ -141,6 +141,29 @@ impl ShmContext {
         }
     }
 
+    /// Reclaim buffers whose readers are gone: chunks still counted as borrowed
+    /// whose Zenoh watchdog has expired because no process confirmed them for a
+    /// watchdog period (100 ms in Zenoh 1.10). This is how a publisher gets back
+    /// the shared memory that a crashed subscriber process was holding; the
+    /// automatic collection never does it, because a dead reader's reference is
+    /// never released. Returns the size of the largest chunk reclaimed (0 if none).
+    ///
+    /// # Safety
+    /// No live reader of this pool, in any process, may be holding a sample whose
+    /// watchdog expired: a reader stalled for longer than the watchdog period while
+    /// borrowing a sample would have the chunk reused, and its contents
+    /// overwritten, under it. Call it when a subscriber process is known to have
+    /// died (e.g. after its supervisor reports the exit), not on a timer.
+    pub unsafe fn reclaim_abandoned(&self) -> usize {
+        // SAFETY: forwarded to the caller (see above); this is exactly Zenoh's
+        // contract for `garbage_collect_unsafe`, which frees refcounted chunks
+        // only when their watchdog is invalidated.
+        let largest = unsafe { self.inner.provider.garbage_collect_unsafe() };
+        self.inner.provider.defragment();
+        tracing::info!(largest, "reclaimed shared memory abandoned by dead readers");
+        largest
+    }
+
     pub(crate) fn count_shm(&self) {
         self.inner.stats.shm.fetch_add(1, Ordering::Relaxed);
     }

@@ -1,0 +1,239 @@
+//! A subscriber process SIGKILLed while it holds shared-memory samples: the
+//! publisher keeps publishing without loss, and the memory the dead process held
+//! comes back to the pool once its Zenoh watchdog expires and the application
+//! calls `ShmContext::reclaim_abandoned`.
+//!
+//! The subscriber is this same test binary, re-executed with `CRASH_CHILD_PORT`
+//! set: it connects, keeps every sample it receives, and reports on stdout.
+
+use std::io::{BufRead, BufReader, Write};
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use shm_cdr::msgs::sensor_msgs::Image;
+use shm_cdr::msgs::std_msgs::Header;
+use shm_runtime::{PayloadKind, SessionExt, ShmConfig, ShmContext};
+use zenoh::{Config, Wait};
+
+const CHILD_ENV: &str = "CRASH_CHILD_PORT";
+const TEST_NAME: &str = "killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed";
+const TIMEOUT: Duration = Duration::from_secs(20);
+/// Marks the child's report lines among libtest's.
+const TAG: &str = "crash-child: ";
+
+/// Kills the subscriber process if the test fails before it does.
+struct KillOnDrop(std::process::Child);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn config(port: u16, listen: bool) -> Config {
+    let mut c = Config::default();
+    c.insert_json5("mode", "\"peer\"").unwrap();
+    c.insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    let key = if listen {
+        "listen/endpoints"
+    } else {
+        "connect/endpoints"
+    };
+    c.insert_json5(key, &format!("[\"tcp/127.0.0.1:{port}\"]"))
+        .unwrap();
+    c
+}
+
+/// The subscriber process: hold every sample (so its shared memory stays
+/// borrowed) until killed.
+fn child(port: u16) -> ! {
+    let session = zenoh::open(config(port, false)).wait().unwrap();
+    let subscriber = session
+        .declare_ros_subscriber::<Image>("crash/images")
+        .wait()
+        .unwrap();
+    // If the test process dies without killing us, our stdin closes: exit too.
+    std::thread::spawn(|| {
+        let _ = std::io::copy(&mut std::io::stdin(), &mut std::io::sink());
+        std::process::exit(0);
+    });
+    // libtest prints `test <name> ... ` without a newline first: start our own line.
+    let mut out = std::io::stdout();
+    writeln!(out, "\n{TAG}ready").unwrap();
+    out.flush().unwrap();
+    let mut held = Vec::new();
+    loop {
+        if let Some(sample) = subscriber.recv_timeout(Duration::from_secs(60)).unwrap() {
+            let shm = sample.is_shm();
+            held.push(sample);
+            writeln!(out, "{TAG}held {} shm={shm}", held.len()).unwrap();
+            out.flush().unwrap();
+        }
+    }
+}
+
+fn image(i: u32) -> Image {
+    Image {
+        header: Header {
+            stamp: shm_cdr::msgs::builtin_interfaces::Time { sec: 0, nanosec: i },
+            frame_id: "crash".into(),
+        },
+        height: 1,
+        width: 120 * 1024,
+        encoding: "mono8".into(),
+        is_bigendian: 0,
+        step: 120 * 1024,
+        data: (0..120 * 1024).map(|k| (k as u32 ^ i) as u8).collect(),
+    }
+}
+
+#[test]
+fn killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed() {
+    if let Ok(port) = std::env::var(CHILD_ENV) {
+        child(port.parse().unwrap());
+    }
+    let port = 27000 + (std::process::id() % 2000) as u16;
+    let publisher_side = zenoh::open(config(port, true)).wait().unwrap();
+    let local_side = zenoh::open(config(port, false)).wait().unwrap();
+    // Eight 120 KiB images fill the 1 MiB pool.
+    let shm = ShmContext::new(
+        ShmConfig::enabled()
+            .pool_size(1 << 20)
+            .threshold(1024)
+            .alloc_timeout(Duration::from_millis(5)),
+    )
+    .unwrap();
+    let publisher = publisher_side
+        .declare_ros_publisher::<Image>("crash/images")
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    let local = local_side
+        .declare_ros_subscriber::<Image>("crash/images")
+        .wait()
+        .unwrap();
+
+    let mut process = KillOnDrop(
+        Command::new(std::env::current_exe().unwrap())
+            .args([TEST_NAME, "--exact", "--nocapture", "--test-threads=1"])
+            .env(CHILD_ENV, port.to_string())
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let (lines_tx, lines) = mpsc::channel();
+    let stdout = process.0.stdout.take().unwrap();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if lines_tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let wait_for = |prefix: &str| loop {
+        let line = lines
+            .recv_timeout(TIMEOUT)
+            .expect("the subscriber process went quiet");
+        if let Some(report) = line.strip_prefix(TAG) {
+            if report.starts_with(prefix) {
+                return report.to_string();
+            }
+        }
+    };
+    wait_for("ready");
+    assert!(publisher.wait_for_subscribers(TIMEOUT));
+    // The publisher's first match may be the local subscriber: give the child's
+    // declaration time to arrive before publishing what it must receive.
+    std::thread::sleep(Duration::from_millis(500));
+
+    // Publish one message and check the local subscriber gets it intact.
+    let mut next = 0u32;
+    let mut publish = |kinds: &mut Vec<PayloadKind>| {
+        let outcome = publisher.publish(&image(next)).wait().unwrap();
+        kinds.push(outcome.kind);
+        let sample = local
+            .recv_timeout(TIMEOUT)
+            .unwrap()
+            .expect("a message was lost");
+        let got: Image = sample.decode().unwrap();
+        assert_eq!(got, image(next), "bytes intact, in order");
+        next += 1;
+    };
+    let shm_count =
+        |kinds: &[PayloadKind]| kinds.iter().filter(|k| **k == PayloadKind::Shm).count();
+
+    // 1. The child takes six samples and keeps them: 720 KiB of the pool.
+    let mut before = Vec::new();
+    for _ in 0..6 {
+        publish(&mut before);
+    }
+    let held = wait_for("held 6");
+    assert_eq!(shm_count(&before), 6, "{before:?}");
+    assert!(
+        held.ends_with("shm=true"),
+        "the child saw shared memory: {held}"
+    );
+
+    // 2. SIGKILL it while it holds them. Publishing goes on with the rest of the
+    // pool (and the heap if needed); nothing is lost.
+    process.0.kill().unwrap();
+    let status = process.0.wait().unwrap();
+    let mut after_kill = Vec::new();
+    for _ in 0..20 {
+        publish(&mut after_kill);
+    }
+
+    // How many messages' worth of shared memory can be taken at once now.
+    let chunk = shm_cdr::encoded_size(&image(0));
+    let capacity = || {
+        let held: Vec<_> = (0..16).map_while(|_| shm.alloc(chunk)).collect();
+        held.len()
+    };
+    let capacity_after_kill = capacity();
+    assert!(
+        capacity_after_kill <= 2,
+        "the dead reader's 6 chunks are still borrowed"
+    );
+
+    // 3. Once the dead reader's watchdog has expired (no process confirms its
+    // chunks), reclaiming gives the memory back.
+    let deadline = Instant::now() + TIMEOUT;
+    let capacity_reclaimed = loop {
+        // SAFETY: the only live reader of this pool is `local`, in this process;
+        // it drops each sample right after decoding it and holds none now, and the
+        // test's own probe allocations are dropped too: no live holder has a chunk
+        // whose watchdog expired.
+        unsafe { shm.reclaim_abandoned() };
+        let room = capacity();
+        if room >= capacity_after_kill + 6 || Instant::now() > deadline {
+            break room;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert_eq!(
+        capacity_reclaimed,
+        capacity_after_kill + 6,
+        "the dead reader's 6 chunks came back"
+    );
+    let fallbacks_before = shm.stats().fallbacks;
+    let mut recovered = Vec::new();
+    for _ in 0..20 {
+        publish(&mut recovered);
+    }
+    assert_eq!(shm_count(&recovered), 20, "{recovered:?}");
+    assert_eq!(shm.stats().fallbacks, fallbacks_before);
+
+    println!(
+        "crash: subscriber process killed ({status}) holding 6 SHM samples of {chunk} B \
+         in a 1 MiB pool; 20/20 delivered after the kill ({} SHM, {} heap fallback); \
+         pool room {capacity_after_kill} messages with the dead reader's chunks, \
+         {capacity_reclaimed} after reclaim_abandoned; 20/20 delivered after, all SHM; \
+         {next} published, {next} received, 0 lost",
+        shm_count(&after_kill),
+        after_kill.len() - shm_count(&after_kill),
+    );
+}
