@@ -35,6 +35,17 @@ fn config(port: u16, listen: bool) -> Config {
     };
     c.insert_json5(key, &format!("[\"tcp/127.0.0.1:{port}\"]"))
         .unwrap();
+    // Zenoh's implicit SHM copy of large non-SHM payloads (our heap fallbacks)
+    // allocates with an *unsafe* garbage collection that reclaims chunks whose
+    // watchdog expired even while a reader holds them. On 2 busy cores a reader
+    // stalled past 100 ms then sees its sample overwritten: CI saw one corrupted
+    // message in this test that way. Our own pool collects safely; turn the
+    // implicit copy off, as the README recommends next to shm-runtime.
+    c.insert_json5(
+        "transport/shared_memory/transport_optimization/enabled",
+        "false",
+    )
+    .unwrap();
     c
 }
 
