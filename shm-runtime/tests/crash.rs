@@ -106,6 +106,13 @@ fn killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed() {
             .alloc_timeout(Duration::from_millis(5)),
     )
     .unwrap();
+    // How many messages' worth of shared memory can be taken at once.
+    let chunk = shm_cdr::encoded_size(&image(0));
+    let capacity = || {
+        let held: Vec<_> = (0..16).map_while(|_| shm.alloc(chunk)).collect();
+        held.len()
+    };
+    let room_empty = capacity();
     let publisher = publisher_side
         .declare_ros_publisher::<Image>("crash/images")
         .shm(&shm)
@@ -187,15 +194,9 @@ fn killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed() {
         publish(&mut after_kill);
     }
 
-    // How many messages' worth of shared memory can be taken at once now.
-    let chunk = shm_cdr::encoded_size(&image(0));
-    let capacity = || {
-        let held: Vec<_> = (0..16).map_while(|_| shm.alloc(chunk)).collect();
-        held.len()
-    };
     let capacity_after_kill = capacity();
     assert!(
-        capacity_after_kill <= 2,
+        capacity_after_kill + 6 <= room_empty,
         "the dead reader's 6 chunks are still borrowed"
     );
 
@@ -209,14 +210,13 @@ fn killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed() {
         // whose watchdog expired.
         unsafe { shm.reclaim_abandoned() };
         let room = capacity();
-        if room >= capacity_after_kill + 6 || Instant::now() > deadline {
+        if room >= room_empty || Instant::now() > deadline {
             break room;
         }
         std::thread::sleep(Duration::from_millis(50));
     };
     assert_eq!(
-        capacity_reclaimed,
-        capacity_after_kill + 6,
+        capacity_reclaimed, room_empty,
         "the dead reader's 6 chunks came back"
     );
     let fallbacks_before = shm.stats().fallbacks;
@@ -230,7 +230,7 @@ fn killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed() {
     println!(
         "crash: subscriber process killed ({status}) holding 6 SHM samples of {chunk} B \
          in a 1 MiB pool; 20/20 delivered after the kill ({} SHM, {} heap fallback); \
-         pool room {capacity_after_kill} messages with the dead reader's chunks, \
+         pool room {room_empty} messages empty, {capacity_after_kill} with the dead reader's chunks, \
          {capacity_reclaimed} after reclaim_abandoned; 20/20 delivered after, all SHM; \
          {next} published, {next} received, 0 lost",
         shm_count(&after_kill),

@@ -140,7 +140,22 @@ fn utf8(bytes: &[u8]) -> Result<&str, std::str::Utf8Error> {
 }
 
 macro_rules! unbounded_string_encode {
-    ($($ty:ty $({ $($slice:tt)* })?),*) => {$(
+    ($ty:ty) => {
+        unbounded_string_encode!($ty, {});
+    };
+    // Sized string types also write sequences of themselves as one run.
+    ($ty:ty, runs) => {
+        unbounded_string_encode!($ty, {
+            #[inline]
+            fn encode_slice<B: ByteOrder>(
+                items: &[Self],
+                w: &mut Writer<'_, B>,
+            ) -> Result<(), EncodeError> {
+                write_strings(w, items)
+            }
+        });
+    };
+    ($ty:ty, { $($slice:tt)* }) => {
         impl CdrEncode for $ty {
             #[inline]
             fn encoded_end(&self, start: usize) -> usize {
@@ -152,26 +167,14 @@ macro_rules! unbounded_string_encode {
                 write_string(w, self)
             }
 
-            $($($slice)*)?
+            $($slice)*
         }
-    )*};
+    };
 }
 // `str` is unsized (no slices of it); `&str` goes through the blanket `&T` impl.
-unbounded_string_encode!(
-    str,
-    String {
-        #[inline]
-        fn encode_slice<B: ByteOrder>(items: &[Self], w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
-            write_strings(w, items)
-        }
-    },
-    Cow<'_, str> {
-        #[inline]
-        fn encode_slice<B: ByteOrder>(items: &[Self], w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
-            write_strings(w, items)
-        }
-    }
-);
+unbounded_string_encode!(str);
+unbounded_string_encode!(String, runs);
+unbounded_string_encode!(Cow<'_, str>, runs);
 
 impl<'de> CdrDecode<'de> for String {
     const MIN_WIRE_SIZE: usize = 4;
