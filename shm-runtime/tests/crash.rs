@@ -14,7 +14,10 @@ use std::time::{Duration, Instant};
 use shm_cdr::msgs::sensor_msgs::Image;
 use shm_cdr::msgs::std_msgs::Header;
 use shm_runtime::{PayloadKind, SessionExt, ShmConfig, ShmContext};
-use zenoh::{Config, Wait};
+use zenoh::Wait;
+
+mod common;
+use common::peer_config;
 
 const CHILD_ENV: &str = "CRASH_CHILD_PORT";
 const TEST_NAME: &str = "killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed";
@@ -32,25 +35,10 @@ impl Drop for KillOnDrop {
     }
 }
 
-fn config(port: u16, listen: bool) -> Config {
-    let mut c = Config::default();
-    c.insert_json5("mode", "\"peer\"").unwrap();
-    c.insert_json5("scouting/multicast/enabled", "false")
-        .unwrap();
-    let key = if listen {
-        "listen/endpoints"
-    } else {
-        "connect/endpoints"
-    };
-    c.insert_json5(key, &format!("[\"tcp/127.0.0.1:{port}\"]"))
-        .unwrap();
-    c
-}
-
 /// The subscriber process: hold every sample (so its shared memory stays
 /// borrowed) until killed.
 fn child(port: u16) -> ! {
-    let session = zenoh::open(config(port, false)).wait().unwrap();
+    let session = zenoh::open(peer_config(port, false)).wait().unwrap();
     let subscriber = session
         .declare_ros_subscriber::<Image>("crash/images")
         .wait()
@@ -96,8 +84,8 @@ fn killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed() {
         child(port.parse().unwrap());
     }
     let port = 27000 + (std::process::id() % 2000) as u16;
-    let publisher_side = zenoh::open(config(port, true)).wait().unwrap();
-    let local_side = zenoh::open(config(port, false)).wait().unwrap();
+    let publisher_side = zenoh::open(peer_config(port, true)).wait().unwrap();
+    let local_side = zenoh::open(peer_config(port, false)).wait().unwrap();
     // Eight 120 KiB images fill the 1 MiB pool.
     let shm = ShmContext::new(
         ShmConfig::enabled()

@@ -12,7 +12,10 @@ use shm_cdr::RosMessage;
 use shm_runtime::rmw::{topic_key_expr, Gid};
 use shm_runtime::{PayloadKind, RosNode, SessionExt, ShmBytes, ShmConfig, ShmContext};
 use zenoh::shm::ShmBufUnsafeMut;
-use zenoh::{Config, Session, Wait};
+use zenoh::{Session, Wait};
+
+mod common;
+use common::peer_config;
 
 const TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -22,22 +25,8 @@ static NEXT_PORT: AtomicU16 = AtomicU16::new(0);
 fn session_pair() -> (Session, Session) {
     let port =
         24000 + (std::process::id() % 1000) as u16 * 10 + NEXT_PORT.fetch_add(1, Ordering::Relaxed);
-    let config = |listen: bool| {
-        let mut c = Config::default();
-        c.insert_json5("mode", "\"peer\"").unwrap();
-        c.insert_json5("scouting/multicast/enabled", "false")
-            .unwrap();
-        let endpoint = format!("[\"tcp/127.0.0.1:{port}\"]");
-        let key = if listen {
-            "listen/endpoints"
-        } else {
-            "connect/endpoints"
-        };
-        c.insert_json5(key, &endpoint).unwrap();
-        c
-    };
-    let a = zenoh::open(config(true)).wait().unwrap();
-    let b = zenoh::open(config(false)).wait().unwrap();
+    let a = zenoh::open(peer_config(port, true)).wait().unwrap();
+    let b = zenoh::open(peer_config(port, false)).wait().unwrap();
     (a, b)
 }
 

@@ -10,6 +10,9 @@ use shm_cdr::DecodeErrorKind;
 use shm_runtime::{PayloadKind, SessionExt, ShmConfig, ShmContext};
 use zenoh::{Config, Session, Wait};
 
+mod common;
+use common::peer_config;
+
 const TIMEOUT: Duration = Duration::from_secs(20);
 static NEXT_PORT: AtomicU16 = AtomicU16::new(0);
 
@@ -24,17 +27,7 @@ fn serial() -> std::sync::MutexGuard<'static, ()> {
 }
 
 fn config(port: u16, listen: bool) -> Config {
-    let mut c = Config::default();
-    c.insert_json5("mode", "\"peer\"").unwrap();
-    c.insert_json5("scouting/multicast/enabled", "false")
-        .unwrap();
-    let key = if listen {
-        "listen/endpoints"
-    } else {
-        "connect/endpoints"
-    };
-    c.insert_json5(key, &format!("[\"tcp/127.0.0.1:{port}\"]"))
-        .unwrap();
+    let mut c = peer_config(port, listen);
     // Zenoh's implicit SHM copy of large non-SHM payloads (our heap fallbacks)
     // allocates with an *unsafe* garbage collection that reclaims chunks whose
     // watchdog expired even while a reader holds them. On 2 busy cores a reader
