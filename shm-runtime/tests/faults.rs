@@ -47,6 +47,9 @@ fn port() -> u16 {
 }
 
 fn pair() -> (Session, Session, u16) {
+    // With RUST_LOG set, Zenoh says why a sample was dropped (e.g. an expired
+    // SHM watchdog) instead of the test only seeing a gap.
+    zenoh::try_init_log_from_env();
     let port = port();
     let a = zenoh::open(config(port, true)).wait().unwrap();
     let b = zenoh::open(config(port, false)).wait().unwrap();
