@@ -278,11 +278,12 @@ fn print_table(rows: &[Row], copies: &[f64]) {
     let (a, b, c) = (&rows[0].results, &rows[1].results, &rows[2].results);
     for (i, (bytes, name)) in SIZES.iter().enumerate() {
         let hot = memcpy_us(*bytes);
+        let over = b[i].0 - floor[i].0;
+        let budget = 1.2 * copies[i];
         println!(
-            "{name}: (a)/(e) = {:.2}×; (b) − (e) = {:.0} µs vs 1.2× memcpy = {:.0} µs (memcpy in the loop {:.0} µs, hot {hot:.0} µs); (c)/(b) = {:.2}×",
+            "{name}: (a)/(e) = {:.2}×; (b) − (e) = {over:+.0} µs vs 1.2× memcpy = {budget:.0} µs [{}] (memcpy in the loop {:.0} µs, hot {hot:.0} µs); (c)/(b) = {:.2}×",
             a[i].0 / floor[i].0,
-            b[i].0 - floor[i].0,
-            1.2 * copies[i],
+            if over <= budget { "within" } else { "OVER" },
             copies[i],
             c[i].0 / b[i].0
         );

@@ -17,7 +17,7 @@ use shm_runtime::{PayloadKind, SessionExt, ShmConfig, ShmContext};
 use zenoh::Wait;
 
 mod common;
-use common::peer_config;
+use common::{free_port, peer_config};
 
 const CHILD_ENV: &str = "CRASH_CHILD_PORT";
 const TEST_NAME: &str = "killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed";
@@ -83,7 +83,7 @@ fn killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed() {
     if let Ok(port) = std::env::var(CHILD_ENV) {
         child(port.parse().unwrap());
     }
-    let port = 27000 + (std::process::id() % 2000) as u16;
+    let port = free_port();
     let publisher_side = zenoh::open(peer_config(port, true)).wait().unwrap();
     let local_side = zenoh::open(peer_config(port, false)).wait().unwrap();
     // Eight 120 KiB images fill the 1 MiB pool.

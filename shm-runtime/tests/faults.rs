@@ -1,7 +1,6 @@
 //! Faults: garbage on the topic, a pool far smaller than the data in flight under
 //! load, and a publisher restarted mid-stream. Each test prints its figures.
 
-use std::sync::atomic::{AtomicU16, Ordering};
 use std::time::Duration;
 
 use shm_cdr::msgs::sensor_msgs::Image;
@@ -11,10 +10,9 @@ use shm_runtime::{PayloadKind, SessionExt, ShmConfig, ShmContext};
 use zenoh::{Config, Session, Wait};
 
 mod common;
-use common::peer_config;
+use common::{free_port, peer_config, without_implicit_shm_copy};
 
 const TIMEOUT: Duration = Duration::from_secs(20);
-static NEXT_PORT: AtomicU16 = AtomicU16::new(0);
 
 /// The tests here load both cores; run them one at a time. On oversubscribed
 /// cores a receiver thread can stall past Zenoh's 100 ms SHM watchdog, and Zenoh
@@ -26,31 +24,17 @@ fn serial() -> std::sync::MutexGuard<'static, ()> {
     ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// A loopback peer without Zenoh's implicit SHM copy (see
+/// [`without_implicit_shm_copy`]).
 fn config(port: u16, listen: bool) -> Config {
-    let mut c = peer_config(port, listen);
-    // Zenoh's implicit SHM copy of large non-SHM payloads (our heap fallbacks)
-    // allocates with an *unsafe* garbage collection that reclaims chunks whose
-    // watchdog expired even while a reader holds them. On 2 busy cores a reader
-    // stalled past 100 ms then sees its sample overwritten: CI saw one corrupted
-    // message in this test that way. Our own pool collects safely; turn the
-    // implicit copy off, as the README recommends next to shm-runtime.
-    c.insert_json5(
-        "transport/shared_memory/transport_optimization/enabled",
-        "false",
-    )
-    .unwrap();
-    c
-}
-
-fn port() -> u16 {
-    25000 + (std::process::id() % 1000) as u16 * 10 + NEXT_PORT.fetch_add(1, Ordering::Relaxed)
+    without_implicit_shm_copy(peer_config(port, listen))
 }
 
 fn pair() -> (Session, Session, u16) {
     // With RUST_LOG set, Zenoh says why a sample was dropped (e.g. an expired
     // SHM watchdog) instead of the test only seeing a gap.
     zenoh::try_init_log_from_env();
-    let port = port();
+    let port = free_port();
     let a = zenoh::open(config(port, true)).wait().unwrap();
     let b = zenoh::open(config(port, false)).wait().unwrap();
     (a, b, port)
@@ -233,7 +217,7 @@ fn four_publishers_a_tiny_pool_and_a_thousand_messages_each_lose_nothing() {
 #[test]
 fn a_restarted_publisher_is_picked_up_by_the_same_subscriber() {
     let _serial = serial();
-    let port = port();
+    let port = free_port();
     let listener = zenoh::open(config(port, true)).wait().unwrap();
     let subscriber = listener
         .declare_ros_subscriber::<Image>("faults/restart")

@@ -2,6 +2,16 @@
 
 use zenoh::Config;
 
+/// A TCP port on loopback that nothing is bound to right now, chosen by the
+/// kernel. Fixed ranges derived from the process id collided with the kernel's
+/// ephemeral ports (32768 and up), which outgoing connections were holding.
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|listener| listener.local_addr())
+        .map(|addr| addr.port())
+        .expect("no free TCP port on loopback")
+}
+
 /// A peer on TCP loopback with multicast scouting off, listening on or
 /// connecting to `port`.
 pub fn peer_config(port: u16, listen: bool) -> Config {
@@ -17,4 +27,22 @@ pub fn peer_config(port: u16, listen: bool) -> Config {
     c.insert_json5(key, &format!("[\"tcp/127.0.0.1:{port}\"]"))
         .unwrap();
     c
+}
+
+/// `config` with Zenoh's implicit SHM copy of large non-SHM payloads turned
+/// off, so that what arrives as shared memory is exactly what we put there.
+///
+/// The copy also allocates with an *unsafe* garbage collection that reclaims
+/// chunks whose watchdog expired even while a reader holds them: on 2 busy cores
+/// a reader stalled past 100 ms saw its sample overwritten (CI caught one in the
+/// load test). The README recommends turning it off next to shm-runtime.
+#[allow(dead_code)] // not every test binary uses it
+pub fn without_implicit_shm_copy(mut config: Config) -> Config {
+    config
+        .insert_json5(
+            "transport/shared_memory/transport_optimization/enabled",
+            "false",
+        )
+        .unwrap();
+    config
 }
