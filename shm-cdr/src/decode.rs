@@ -30,6 +30,21 @@ pub trait CdrDecode<'de>: Sized {
     /// Read one value at the reader's position.
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError>;
 
+    /// Read one value into `self`, reusing the memory it owns: strings and vectors
+    /// keep their capacity, through derived structs, sequences and arrays, so a
+    /// subscriber that decodes every message into the same value stops allocating
+    /// once it has seen the largest one. The value read equals
+    /// [`decode`](Self::decode)'s. On error, `self` is left valid, holding an
+    /// unspecified mix of old and new contents.
+    ///
+    /// The default replaces `self` with [`decode`](Self::decode)'s result: right
+    /// for types that own no memory.
+    #[inline]
+    fn decode_into<B: ByteOrder>(&mut self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
+        *self = Self::decode(r)?;
+        Ok(())
+    }
+
     /// Read `n` consecutive values (the caller has checked `n` against the input):
     /// one copy for [plain](Self::PLAIN) types in host byte order, element by
     /// element otherwise. As in [`CdrEncode::encode_slice`], a plain run that starts
@@ -40,34 +55,8 @@ pub trait CdrDecode<'de>: Sized {
         r: &mut Reader<'de, B>,
         n: usize,
     ) -> Result<Vec<Self>, DecodeError> {
-        let mut out = Vec::with_capacity(n);
-        if let (true, Some(plain)) = (B::NATIVE, Self::PLAIN) {
-            for _ in 0..8 {
-                let left = n - out.len();
-                if left == 0 {
-                    return Ok(out);
-                }
-                if plain.bulk_at(r.position()) {
-                    let len = left.saturating_mul(std::mem::size_of::<Self>());
-                    let at = r.position();
-                    let bytes = r.read_aligned_bytes(plain.first_align(), len)?;
-                    return match plain_extend(plain, &mut out, bytes, left) {
-                        Some(()) => Ok(out),
-                        None => Err(r.error_at(
-                            at,
-                            DecodeErrorKind::UnexpectedEof {
-                                needed: len,
-                                remaining: bytes.len(),
-                            },
-                        )),
-                    };
-                }
-                out.push(Self::decode(r)?);
-            }
-        }
-        while out.len() < n {
-            out.push(Self::decode(r)?);
-        }
+        let mut out = Vec::new();
+        extend_decoded(r, n, &mut out)?;
         Ok(out)
     }
 
@@ -113,6 +102,49 @@ impl<T: for<'de> CdrDecode<'de>> DecodeOwned for T {}
 /// Most segments a [`Reader`] walks (a spliced payload has two per shared-memory
 /// field, plus one).
 pub const MAX_SEGMENTS: usize = 16;
+
+/// Append `n` values read from `r` to `out` (the caller has checked `n` against
+/// the input, so reserving for them is bounded by it). The body of
+/// [`CdrDecode::decode_vec`], shared with [`CdrDecode::decode_into`] for vectors.
+#[inline]
+pub(crate) fn extend_decoded<'de, T: CdrDecode<'de>, B: ByteOrder>(
+    r: &mut Reader<'de, B>,
+    n: usize,
+    out: &mut Vec<T>,
+) -> Result<(), DecodeError> {
+    let end = out.len() + n;
+    out.reserve(n);
+    if let (true, Some(plain)) = (B::NATIVE, T::PLAIN) {
+        // The phase repeats with period 8, so 8 elements always suffice to find a
+        // matching phase if there is one.
+        for _ in 0..8 {
+            let left = end - out.len();
+            if left == 0 {
+                return Ok(());
+            }
+            if plain.bulk_at(r.position()) {
+                let len = left.saturating_mul(std::mem::size_of::<T>());
+                let at = r.position();
+                let bytes = r.read_aligned_bytes(plain.first_align(), len)?;
+                return match plain_extend(plain, out, bytes, left) {
+                    Some(()) => Ok(()),
+                    None => Err(r.error_at(
+                        at,
+                        DecodeErrorKind::UnexpectedEof {
+                            needed: len,
+                            remaining: bytes.len(),
+                        },
+                    )),
+                };
+            }
+            out.push(T::decode(r)?);
+        }
+    }
+    while out.len() < end {
+        out.push(T::decode(r)?);
+    }
+    Ok(())
+}
 
 /// Reads CDR from a byte slice, or from a few consecutive slices (a payload that
 /// arrived in fragments), checking every access.

@@ -26,6 +26,8 @@
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
 
+use std::marker::PhantomData;
+
 mod bounded;
 mod decode;
 pub mod describe;
@@ -180,14 +182,18 @@ pub fn read_header(bytes: &[u8]) -> Result<Endianness, DecodeError> {
 /// anything more is an error.
 #[inline]
 pub fn from_bytes<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeError> {
-    match bytes {
-        // The common case first, without a call: little-endian plain CDR.
-        [0x00, 0x01, _, _, body @ ..] => decode_body::<T, LittleEndian>(body),
-        [0x00, 0x00, _, _, body @ ..] => decode_body::<T, BigEndian>(body),
-        _ => Err(read_header(bytes).err().unwrap_or_else(|| {
-            DecodeError::new(DecodeErrorKind::UnknownEncapsulation([0xff, 0xff]), 0)
-        })),
-    }
+    read_message(bytes, NewValue(PhantomData))
+}
+
+/// [`from_bytes`] into an existing value, reusing the memory it owns (see
+/// [`CdrDecode::decode_into`]): decoding every message into the same value
+/// allocates only when one outgrows it. On error `out` is valid but unspecified.
+#[inline]
+pub fn from_bytes_into<'de, T: CdrDecode<'de>>(
+    bytes: &'de [u8],
+    out: &mut T,
+) -> Result<(), DecodeError> {
+    read_message(bytes, IntoValue(out))
 }
 
 /// Decode a message that arrived as consecutive fragments (e.g. a Zenoh payload
@@ -196,40 +202,94 @@ pub fn from_bytes<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeE
 /// contiguous copy with [`from_bytes`] then. The header must be in the first
 /// fragment; at most [`MAX_SEGMENTS`] fragments.
 pub fn from_segments<'de, T: CdrDecode<'de>>(segments: &[&'de [u8]]) -> Result<T, DecodeError> {
+    read_segments(segments, NewValue(PhantomData))
+}
+
+/// [`from_segments`] into an existing value, reusing the memory it owns (see
+/// [`from_bytes_into`]).
+pub fn from_segments_into<'de, T: CdrDecode<'de>>(
+    segments: &[&'de [u8]],
+    out: &mut T,
+) -> Result<(), DecodeError> {
+    read_segments(segments, IntoValue(out))
+}
+
+/// What to do with a message body once its byte order is known: make a new value
+/// or decode into an existing one. Lets the entry points share the header and
+/// trailing-bytes handling.
+trait ReadBody<'de> {
+    type Output;
+    fn read<B: ByteOrder>(self, r: &mut Reader<'de, B>) -> Result<Self::Output, DecodeError>;
+}
+
+struct NewValue<T>(PhantomData<T>);
+
+impl<'de, T: CdrDecode<'de>> ReadBody<'de> for NewValue<T> {
+    type Output = T;
+    #[inline(always)]
+    fn read<B: ByteOrder>(self, r: &mut Reader<'de, B>) -> Result<T, DecodeError> {
+        T::decode(r)
+    }
+}
+
+struct IntoValue<'a, T>(&'a mut T);
+
+impl<'de, T: CdrDecode<'de>> ReadBody<'de> for IntoValue<'_, T> {
+    type Output = ();
+    #[inline(always)]
+    fn read<B: ByteOrder>(self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
+        self.0.decode_into(r)
+    }
+}
+
+#[inline(always)]
+fn read_message<'de, R: ReadBody<'de>>(
+    bytes: &'de [u8],
+    body: R,
+) -> Result<R::Output, DecodeError> {
+    match bytes {
+        // The common case first, without a call: little-endian plain CDR.
+        [0x00, 0x01, _, _, rest @ ..] => finish(&mut Reader::<LittleEndian>::new(rest), body),
+        [0x00, 0x00, _, _, rest @ ..] => finish(&mut Reader::<BigEndian>::new(rest), body),
+        _ => Err(read_header(bytes).err().unwrap_or_else(|| {
+            DecodeError::new(DecodeErrorKind::UnknownEncapsulation([0xff, 0xff]), 0)
+        })),
+    }
+}
+
+fn read_segments<'de, R: ReadBody<'de>>(
+    segments: &[&'de [u8]],
+    body: R,
+) -> Result<R::Output, DecodeError> {
     let first = segments.first().copied().unwrap_or_default();
     let endianness = read_header(first)?;
-    let mut body = [&[][..]; MAX_SEGMENTS];
+    let mut rest = [&[][..]; MAX_SEGMENTS];
     if segments.len() > MAX_SEGMENTS {
         return Err(DecodeError::new(DecodeErrorKind::Fragmented { len: 0 }, 0));
     }
-    body[0] = &first[HEADER_LEN..];
-    body[1..segments.len()].copy_from_slice(&segments[1..]);
-    let body = &body[..segments.len()];
+    rest[0] = &first[HEADER_LEN..];
+    rest[1..segments.len()].copy_from_slice(&segments[1..]);
+    let rest = &rest[..segments.len()];
+    let fragmented = || DecodeError::new(DecodeErrorKind::Fragmented { len: 0 }, 0);
     match endianness {
-        Endianness::Little => decode_reader::<T, LittleEndian>(Reader::from_segments(body)),
-        Endianness::Big => decode_reader::<T, BigEndian>(Reader::from_segments(body)),
+        Endianness::Little => finish(
+            &mut Reader::<LittleEndian>::from_segments(rest).ok_or_else(fragmented)?,
+            body,
+        ),
+        Endianness::Big => finish(
+            &mut Reader::<BigEndian>::from_segments(rest).ok_or_else(fragmented)?,
+            body,
+        ),
     }
 }
 
-fn decode_reader<'de, T: CdrDecode<'de>, B: ByteOrder>(
-    reader: Option<Reader<'de, B>>,
-) -> Result<T, DecodeError> {
-    match reader {
-        Some(mut r) => finish_decode(&mut r),
-        None => Err(DecodeError::new(DecodeErrorKind::Fragmented { len: 0 }, 0)),
-    }
-}
-
+/// Read the body, then allow at most 3 bytes of trailing padding.
 #[inline(always)]
-fn decode_body<'de, T: CdrDecode<'de>, B: ByteOrder>(body: &'de [u8]) -> Result<T, DecodeError> {
-    finish_decode(&mut Reader::<B>::new(body))
-}
-
-#[inline(always)]
-fn finish_decode<'de, T: CdrDecode<'de>, B: ByteOrder>(
+fn finish<'de, B: ByteOrder, R: ReadBody<'de>>(
     r: &mut Reader<'de, B>,
-) -> Result<T, DecodeError> {
-    let value = T::decode(r)?;
+    body: R,
+) -> Result<R::Output, DecodeError> {
+    let value = body.read(r)?;
     let trailing = r.remaining();
     if trailing > 3 {
         return Err(r.error_at(

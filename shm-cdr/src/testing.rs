@@ -11,7 +11,8 @@
 //! ```
 
 use crate::{
-    encode_into_with, encoded_size, from_bytes, to_vec_with, CdrEncode, DecodeOwned, Endianness,
+    encode_into_with, encoded_size, from_bytes, from_bytes_into, to_vec_with, CdrEncode,
+    DecodeOwned, Endianness,
 };
 
 /// Verify, in both byte orders, that:
@@ -20,7 +21,11 @@ use crate::{
 ///   garbage, succeeds and produces the same bytes (so every padding byte is written);
 /// - a buffer one byte shorter fails cleanly without writing past its end;
 /// - decoding gives a value that prints the same (`Debug`) and re-encodes to the
-///   same bytes.
+///   same bytes;
+/// - decoding into a value that already holds the message (see
+///   [`CdrDecode::decode_into`](crate::CdrDecode::decode_into)) gives it again.
+///
+/// [`check_decode_into`] covers decoding over a *different* earlier message.
 ///
 /// Returns a description of the first violation.
 pub fn check_roundtrip<T>(msg: &T) -> Result<(), String>
@@ -68,6 +73,36 @@ where
         let again = to_vec_with(&decoded, endianness).map_err(|e| format!("re-encode: {e}"))?;
         if again != bytes {
             return Err("re-encoding the decoded value gives other bytes".into());
+        }
+        let mut reused = decoded;
+        from_bytes_into(&bytes, &mut reused).map_err(|e| format!("decode_into: {e}"))?;
+        if format!("{reused:?}") != before {
+            return Err(format!(
+                "decoding into the decoded value changed it:\n  sent {before}\n  got  {reused:?}"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Verify, in both byte orders, that decoding `msg` into a value that holds
+/// `previous` (with [`from_bytes_into`], which reuses its strings and vectors)
+/// gives exactly `msg` (`Debug`): nothing of `previous` is left over, whichever
+/// of the two is longer anywhere.
+pub fn check_decode_into<T>(previous: &T, msg: &T) -> Result<(), String>
+where
+    T: CdrEncode + DecodeOwned + std::fmt::Debug,
+{
+    for endianness in [Endianness::Little, Endianness::Big] {
+        let old = to_vec_with(previous, endianness).map_err(|e| format!("to_vec: {e}"))?;
+        let new = to_vec_with(msg, endianness).map_err(|e| format!("to_vec: {e}"))?;
+        let mut value: T = from_bytes(&old).map_err(|e| format!("decode: {e}"))?;
+        from_bytes_into(&new, &mut value).map_err(|e| format!("decode_into: {e}"))?;
+        let (expected, got) = (format!("{msg:?}"), format!("{value:?}"));
+        if expected != got {
+            return Err(format!(
+                "decoding into a used value differs:\n  sent {expected}\n  got  {got}"
+            ));
         }
     }
     Ok(())

@@ -104,6 +104,23 @@ pub fn expand(container: &Container) -> TokenStream {
     } else {
         quote!(0 #( + <#types as #krate::CdrDecode<#de>>::MIN_WIRE_SIZE )*)
     };
+    // Field by field into the existing value, so each field keeps what it owns.
+    // An empty message has nothing to reuse: the default (`decode`) serves.
+    let decode_into = (!empty).then(|| {
+        quote! {
+            #[inline]
+            fn decode_into<__B: #krate::ByteOrder>(
+                &mut self,
+                __r: &mut #krate::Reader<#de, __B>,
+            ) -> ::core::result::Result<(), #krate::DecodeError> {
+                #(
+                    #krate::CdrDecode::decode_into(&mut self.#members, __r)
+                        .map_err(|e| e.in_field(#rust_name, #ros_names))?;
+                )*
+                ::core::result::Result::Ok(())
+            }
+        }
+    });
     let decode_body = if empty {
         quote! {
             let _: u8 = #krate::CdrDecode::decode(__r)?;
@@ -208,6 +225,8 @@ pub fn expand(container: &Container) -> TokenStream {
                 ) -> ::core::result::Result<Self, #krate::DecodeError> {
                     #decode_body
                 }
+
+                #decode_into
             }
 
             impl #impl_generics #krate::RosType for #ident #ty_generics #where_clause {

@@ -1,12 +1,14 @@
 //! Property tests over many message shapes: `encoded_size == to_vec().len()`,
 //! `encode_into` an exact garbage-filled buffer equals `to_vec`, one byte short
 //! fails cleanly, and decode(encode(x)) == x, in both byte orders
-//! (`shm_cdr::testing::check_roundtrip`). Shapes are shifted to odd start phases by
+//! (`shm_cdr::testing::check_roundtrip`), and decoding into a value that held
+//! another message gives exactly the new one (`check_decode_into`). Shapes are
+//! shifted to odd start phases by
 //! wrapper structs so that alignment is exercised at every offset.
 
 use proptest::prelude::*;
 use proptest_derive::Arbitrary;
-use shm_cdr::testing::check_roundtrip;
+use shm_cdr::testing::{check_decode_into, check_roundtrip};
 use shm_cdr::{BoundedString, BoundedVec, BoundedWString, RosMessage, WString};
 use shm_cdr_tests::msgs::{HeaderRef, Image, ImageRef, Time};
 
@@ -176,6 +178,23 @@ macro_rules! roundtrip_properties {
                     }
                 }
             )*
+        }
+
+        /// Decoding over an earlier, different message leaves nothing of it.
+        mod decode_into {
+            use super::*;
+
+            proptest! {
+                #![proptest_config(ProptestConfig::with_cases(128))]
+                $(
+                    #[test]
+                    fn $test(previous in any::<$ty>(), msg in any::<$ty>()) {
+                        if let Err(why) = check_decode_into(&previous, &msg) {
+                            prop_assert!(false, "{}", why);
+                        }
+                    }
+                )*
+            }
         }
     };
 }

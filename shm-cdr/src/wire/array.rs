@@ -49,6 +49,16 @@ impl<'de, T: CdrDecode<'de>, const N: usize> CdrDecode<'de> for [T; N] {
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
         T::decode_array(r)
     }
+
+    #[inline]
+    fn decode_into<B: ByteOrder>(&mut self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
+        if T::PLAIN.is_some() {
+            // Plain values own no memory: one bulk copy beats decoding in place.
+            *self = T::decode_array(r)?;
+            return Ok(());
+        }
+        self.iter_mut().try_for_each(|item| item.decode_into(r))
+    }
 }
 
 impl<T: RosElement, const N: usize> RosType for [T; N] {

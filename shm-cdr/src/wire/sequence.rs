@@ -4,7 +4,7 @@
 use std::borrow::Cow;
 
 use crate::bounded::BoundedVec;
-use crate::decode::{CdrDecode, Reader};
+use crate::decode::{extend_decoded, CdrDecode, Reader};
 use crate::describe::{FieldType, RosElement, RosType, TypeRegistry};
 use crate::encode::{CdrEncode, Writer};
 use crate::endian::ByteOrder;
@@ -14,6 +14,27 @@ use crate::layout::{align_up, FixedLayout};
 #[inline(always)]
 fn sequence_end<T: CdrEncode>(items: &[T], start: usize) -> usize {
     T::slice_encoded_end(items, align_up(start, 4) + 4)
+}
+
+/// Replace the contents of `out` with `n` values read from `r`, decoding into the
+/// elements it already has (keeping what they own) before appending the rest.
+#[inline]
+fn decode_vec_into<'de, T: CdrDecode<'de>, B: ByteOrder>(
+    r: &mut Reader<'de, B>,
+    n: usize,
+    out: &mut Vec<T>,
+) -> Result<(), DecodeError> {
+    if T::PLAIN.is_some() {
+        // Plain values own no memory: one bulk copy beats decoding in place.
+        out.clear();
+    } else {
+        out.truncate(n);
+        for item in out.iter_mut() {
+            item.decode_into(r)?;
+        }
+    }
+    let rest = n - out.len();
+    extend_decoded(r, rest, out)
 }
 
 #[inline(always)]
@@ -57,6 +78,12 @@ impl<'de, T: CdrDecode<'de>> CdrDecode<'de> for Vec<T> {
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
         let n = r.read_count(T::MIN_WIRE_SIZE)?;
         T::decode_vec(r, n)
+    }
+
+    #[inline]
+    fn decode_into<B: ByteOrder>(&mut self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
+        let n = r.read_count(T::MIN_WIRE_SIZE)?;
+        decode_vec_into(r, n, self)
     }
 }
 
@@ -106,13 +133,28 @@ impl<'de, T: CdrDecode<'de>, const N: usize> CdrDecode<'de> for BoundedVec<T, N>
 
     #[inline]
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
-        let at = r.position();
-        let n = r.read_count(T::MIN_WIRE_SIZE)?;
-        if n > N {
-            return Err(r.error_at(at, DecodeErrorKind::BoundExceeded { len: n, bound: N }));
-        }
+        let n = read_bounded_count::<T, B, N>(r)?;
         T::decode_vec(r, n).map(Self)
     }
+
+    #[inline]
+    fn decode_into<B: ByteOrder>(&mut self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
+        let n = read_bounded_count::<T, B, N>(r)?;
+        decode_vec_into(r, n, &mut self.0)
+    }
+}
+
+/// The element count of a `T[<=N]`, checked against the bound and the input.
+#[inline]
+fn read_bounded_count<'de, T: CdrDecode<'de>, B: ByteOrder, const N: usize>(
+    r: &mut Reader<'de, B>,
+) -> Result<usize, DecodeError> {
+    let at = r.position();
+    let n = r.read_count(T::MIN_WIRE_SIZE)?;
+    if n > N {
+        return Err(r.error_at(at, DecodeErrorKind::BoundExceeded { len: n, bound: N }));
+    }
+    Ok(n)
 }
 
 /// A reference encodes as what it points to (`&str`, `&[u8]`, `&Msg`).

@@ -205,6 +205,14 @@ impl<'de> CdrDecode<'de> for String {
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
         read_str(r).map(str::to_owned)
     }
+
+    #[inline]
+    fn decode_into<B: ByteOrder>(&mut self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
+        let s = read_str(r)?;
+        self.clear();
+        self.push_str(s);
+        Ok(())
+    }
 }
 
 impl<'de: 'a, 'a> CdrDecode<'de> for &'a str {
@@ -248,19 +256,35 @@ impl<'de, const N: usize> CdrDecode<'de> for BoundedString<N> {
 
     #[inline]
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
-        let at = r.position();
-        let s = read_str(r)?;
-        if s.len() > N {
-            return Err(r.error_at(
-                at,
-                DecodeErrorKind::BoundExceeded {
-                    len: s.len(),
-                    bound: N,
-                },
-            ));
-        }
-        Ok(Self(s.to_owned()))
+        read_bounded_str::<B, N>(r).map(|s| Self(s.to_owned()))
     }
+
+    #[inline]
+    fn decode_into<B: ByteOrder>(&mut self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
+        let s = read_bounded_str::<B, N>(r)?;
+        self.0.clear();
+        self.0.push_str(s);
+        Ok(())
+    }
+}
+
+/// A `string<=N`: at most `N` bytes before the NUL.
+#[inline]
+fn read_bounded_str<'de, B: ByteOrder, const N: usize>(
+    r: &mut Reader<'de, B>,
+) -> Result<&'de str, DecodeError> {
+    let at = r.position();
+    let s = read_str(r)?;
+    if s.len() > N {
+        return Err(r.error_at(
+            at,
+            DecodeErrorKind::BoundExceeded {
+                len: s.len(),
+                bound: N,
+            },
+        ));
+    }
+    Ok(s)
 }
 
 macro_rules! string_type {
