@@ -92,6 +92,11 @@ fn above_threshold_is_shared_memory_below_is_heap_and_bytes_are_exact() {
         );
         let owned: Image = sample.decode().unwrap();
         assert_eq!(owned, msg);
+        // Decoding over an image held from before (larger and smaller fields).
+        let mut reused = image(size / 2 + 7);
+        reused.encoding = "bayer_rggb16".into();
+        sample.decode_into(&mut reused).unwrap();
+        assert_eq!(reused, msg);
         let view: ImageRef = sample.decode().unwrap();
         assert_eq!(view.data, msg.data.as_slice());
         if sample.is_shm() {
@@ -229,6 +234,14 @@ fn user_managed_shared_memory_field_is_spliced_without_a_copy() {
     assert_eq!(owned.data, writer_view.to_vec());
     assert_eq!(owned.row_step, 16 * points);
     assert!(owned.is_dense);
+    // Into a cloud held from before, across the three fragments.
+    let mut reused = PointCloud2 {
+        fields: vec![PointField::default(); 7],
+        data: vec![1; 5],
+        ..Default::default()
+    };
+    sample.decode_into(&mut reused).unwrap();
+    assert_eq!(reused, owned);
 }
 
 #[test]

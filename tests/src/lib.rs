@@ -94,7 +94,7 @@ pub mod fuzzing {
     //! The bodies of the cargo-fuzz targets in `fuzz/`, kept here so that
     //! `cargo test` replays the committed corpus through exactly the same code.
     use arbitrary::Arbitrary;
-    use shm_cdr::testing::check_roundtrip;
+    use shm_cdr::testing::{check_decode_into, check_roundtrip};
     use shm_cdr::{from_bytes, BoundedString, BoundedVec, BoundedWString, RosMessage, WString};
 
     use crate::msgs::*;
@@ -174,12 +174,19 @@ pub mod fuzzing {
 
     /// Target `roundtrip`: an arbitrary message must satisfy every invariant of
     /// `shm_cdr::testing::check_roundtrip` (exact size, garbage-proof padding, one
-    /// byte short fails, decode(encode(x)) == x, both byte orders).
+    /// byte short fails, decode(encode(x)) == x, both byte orders); decoded over a
+    /// second arbitrary message from the rest of the input, it must come out
+    /// unchanged (`check_decode_into`).
     pub fn roundtrip(data: &[u8]) {
         let mut u = arbitrary::Unstructured::new(data);
         if let Ok(msg) = Everything::arbitrary(&mut u) {
             if let Err(why) = check_roundtrip(&msg) {
                 panic!("{why}");
+            }
+            if let Ok(previous) = Everything::arbitrary(&mut u) {
+                if let Err(why) = check_decode_into(&previous, &msg) {
+                    panic!("{why}");
+                }
             }
         }
     }
