@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput};
-use shm_cdr::{encode_into, encoded_size, from_bytes, to_vec};
+use shm_cdr::{encode_into, encoded_size, from_bytes, from_bytes_into, to_vec};
 use shm_cdr_peer_bench::check::{self, Verdict, CDR, CDR_ENCODING, FAST_CDR, HIROZ};
 use shm_cdr_peer_bench::peers::{cdr_crate, cdr_encoding, hiroz};
 use shm_cdr_peer_bench::{samples, Message, Sample};
@@ -23,7 +23,14 @@ const MEMCPY: &str = "memcpy";
 /// Libraries in table order.
 const LIBRARIES: [&str; 6] = [MEMCPY, OURS, HIROZ, CDR, CDR_ENCODING, FAST_CDR];
 /// Operations in table order.
-const OPS: [&str; 5] = ["encode", "to_vec", "size", "decode", "decode_borrowed"];
+const OPS: [&str; 6] = [
+    "encode",
+    "to_vec",
+    "size",
+    "decode",
+    "decode_into",
+    "decode_borrowed",
+];
 
 fn output_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/criterion-peers")
@@ -65,6 +72,12 @@ fn bench_message<M: Message>(c: &mut Criterion, sample: &Sample<M>, verdicts: &[
     });
     group.bench_function(BenchmarkId::new("decode", OURS), |b| {
         b.iter(|| from_bytes::<M>(black_box(&bytes)).expect("decodes"))
+    });
+    // Into a value kept from the previous message, as Fast-CDR decodes into its
+    // existing object: strings and vectors keep their memory.
+    let mut kept: M = from_bytes(&bytes).expect("decodes");
+    group.bench_function(BenchmarkId::new("decode_into", OURS), |b| {
+        b.iter(|| from_bytes_into(black_box(&bytes), &mut kept).expect("decodes"))
     });
     group.bench_function(BenchmarkId::new("decode_borrowed", OURS), |b| {
         b.iter(|| from_bytes::<M::Ref<'_>>(black_box(&bytes)).expect("decodes"))
@@ -185,7 +198,7 @@ fn fmt_ns(ns: f64) -> String {
 /// byte (a size computation or a borrowed decode does not).
 fn fmt_cell(m: &Median, op: &str) -> String {
     match op {
-        "encode" | "to_vec" | "decode" => {
+        "encode" | "to_vec" | "decode" | "decode_into" => {
             format!("{} ({:.1} GB/s)", fmt_ns(m.ns), m.bytes as f64 / m.ns)
         }
         _ => fmt_ns(m.ns),
@@ -194,7 +207,7 @@ fn fmt_cell(m: &Median, op: &str) -> String {
 
 /// The markdown report: one row per (message, operation), one column per
 /// library, and our time over the fastest peer's (below 1 = we are faster).
-/// Borrowed decode is compared with the peers' (owned) decode.
+/// Borrowed decode and decode into a kept value are compared with the peers' decode.
 fn write_report(
     messages: &[&str],
     verdicts: &[Verdict],
@@ -216,7 +229,7 @@ fn write_report(
             if get(OURS, op).is_none() {
                 continue;
             }
-            let peer_op = if op == "decode_borrowed" {
+            let peer_op = if op == "decode_borrowed" || op == "decode_into" {
                 "decode"
             } else {
                 op
@@ -225,7 +238,7 @@ fn write_report(
             for lib in LIBRARIES {
                 let cell = match lib {
                     MEMCPY | OURS => get(lib, if lib == MEMCPY { "encode" } else { op }),
-                    _ if op == "decode_borrowed" => None,
+                    _ if op == "decode_borrowed" || op == "decode_into" => None,
                     _ => get(lib, op),
                 };
                 let text = match cell {
@@ -233,7 +246,13 @@ fn write_report(
                     // operation that moves them, not for computing a size.
                     Some(_) if lib == MEMCPY && op == "size" => String::new(),
                     Some(m) => fmt_cell(m, if lib == MEMCPY { "encode" } else { op }),
-                    None if lib == MEMCPY || lib == OURS || op == "decode_borrowed" => "–".into(),
+                    None if lib == MEMCPY
+                        || lib == OURS
+                        || op == "decode_borrowed"
+                        || op == "decode_into" =>
+                    {
+                        "–".into()
+                    }
                     None if verdicts
                         .iter()
                         .any(|v| v.library == lib && v.message == *message) =>
