@@ -47,9 +47,10 @@ pub trait CdrDecode<'de>: Sized {
 
     /// Read `n` consecutive values (the caller has checked `n` against the input):
     /// one copy for [plain](Self::PLAIN) types in host byte order, element by
-    /// element otherwise. As in [`CdrEncode::encode_slice`], a plain run that starts
-    /// at a phase where memory and wire layout differ reads its first elements one
-    /// by one until they agree.
+    /// element otherwise. As in
+    /// [`CdrEncode::encode_slice`](crate::CdrEncode::encode_slice), a plain run
+    /// that starts at a phase where memory and wire layout differ reads its first
+    /// elements one by one until they agree.
     #[inline]
     fn decode_vec<B: ByteOrder>(
         r: &mut Reader<'de, B>,
