@@ -85,7 +85,7 @@ pub enum DecodeErrorKind {
         /// The value's length.
         len: usize,
     },
-    /// Bytes follow the message beyond the 0..=3 padding bytes a transport may add.
+    /// More than 3 bytes follow the message, in [`from_bytes_strict`](crate::from_bytes_strict).
     TrailingBytes {
         /// How many bytes follow the message.
         count: usize,

@@ -34,9 +34,9 @@ pub mod describe;
 mod encode;
 mod endian;
 mod error;
+pub mod interface;
 pub mod layout;
 mod message;
-#[cfg(feature = "msgs")]
 pub mod msgs;
 #[cfg(any(feature = "proptest", feature = "arbitrary"))]
 mod strategies;
@@ -48,6 +48,7 @@ pub use decode::{CdrDecode, DecodeOwned, Reader, MAX_SEGMENTS};
 pub use describe::{RosElement, RosType};
 pub use encode::{CdrEncode, Writer};
 pub use endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
+pub use interface::{RosAction, RosService};
 pub use error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
 pub use message::RosMessage;
 
@@ -178,11 +179,34 @@ pub fn read_header(bytes: &[u8]) -> Result<Endianness, DecodeError> {
 }
 
 /// Decode a message from CDR in either byte order. `T` may borrow from `bytes`
-/// (`&str`, `&[u8]`, `Cow` fields). Up to 3 bytes of padding may follow the message;
-/// anything more is an error.
+/// (`&str`, `&[u8]`, `Cow` fields).
+///
+/// Bytes after the end of the message are ignored, as rclpy and Fast-CDR ignore
+/// them: real ROS 2 sends them (rmw_fastrtps' `serialize_message` returns its size
+/// *estimate*, up to 8 bytes past the message; rmw_zenoh_cpp's shared-memory
+/// payloads are rounded up to 4 bytes). [`take_from_bytes`] says how many there
+/// were; [`from_bytes_strict`] refuses more than 3.
 #[inline]
 pub fn from_bytes<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeError> {
-    read_message(bytes, NewValue(PhantomData))
+    read_message(bytes, NewValue(PhantomData), AfterEnd::Ignore).map(|(value, _)| value)
+}
+
+/// [`from_bytes`], also returning the bytes that follow the end of the message
+/// (padding, a size estimate's slack, or whatever the sender appended).
+#[inline]
+pub fn take_from_bytes<'de, T: CdrDecode<'de>>(
+    bytes: &'de [u8],
+) -> Result<(T, &'de [u8]), DecodeError> {
+    let (value, trailing) = read_message(bytes, NewValue(PhantomData), AfterEnd::Ignore)?;
+    Ok((value, &bytes[bytes.len() - trailing..]))
+}
+
+/// [`from_bytes`] for input that must hold exactly one message: at most 3 bytes of
+/// padding may follow it (what some DDS transports append); more is a
+/// [`DecodeErrorKind::TrailingBytes`] error.
+#[inline]
+pub fn from_bytes_strict<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeError> {
+    read_message(bytes, NewValue(PhantomData), AfterEnd::AtMostPadding).map(|(value, _)| value)
 }
 
 /// [`from_bytes`] into an existing value, reusing the memory it owns (see
@@ -193,7 +217,7 @@ pub fn from_bytes_into<'de, T: CdrDecode<'de>>(
     bytes: &'de [u8],
     out: &mut T,
 ) -> Result<(), DecodeError> {
-    read_message(bytes, IntoValue(out))
+    read_message(bytes, IntoValue(out), AfterEnd::Ignore).map(|_| ())
 }
 
 /// Decode a message that arrived as consecutive fragments (e.g. a Zenoh payload
@@ -212,6 +236,15 @@ pub fn from_segments_into<'de, T: CdrDecode<'de>>(
     out: &mut T,
 ) -> Result<(), DecodeError> {
     read_segments(segments, IntoValue(out))
+}
+
+/// What follows the end of a message may be.
+#[derive(Clone, Copy)]
+enum AfterEnd {
+    /// Anything: it is ignored.
+    Ignore,
+    /// At most 3 bytes of padding.
+    AtMostPadding,
 }
 
 /// What to do with a message body once its byte order is known: make a new value
@@ -246,11 +279,16 @@ impl<'de, T: CdrDecode<'de>> ReadBody<'de> for IntoValue<'_, T> {
 fn read_message<'de, R: ReadBody<'de>>(
     bytes: &'de [u8],
     body: R,
-) -> Result<R::Output, DecodeError> {
+    after_end: AfterEnd,
+) -> Result<(R::Output, usize), DecodeError> {
     match bytes {
         // The common case first, without a call: little-endian plain CDR.
-        [0x00, 0x01, _, _, rest @ ..] => finish(&mut Reader::<LittleEndian>::new(rest), body),
-        [0x00, 0x00, _, _, rest @ ..] => finish(&mut Reader::<BigEndian>::new(rest), body),
+        [0x00, 0x01, _, _, rest @ ..] => {
+            finish(&mut Reader::<LittleEndian>::new(rest), body, after_end)
+        }
+        [0x00, 0x00, _, _, rest @ ..] => {
+            finish(&mut Reader::<BigEndian>::new(rest), body, after_end)
+        }
         _ => Err(read_header(bytes).err().unwrap_or_else(|| {
             DecodeError::new(DecodeErrorKind::UnknownEncapsulation([0xff, 0xff]), 0)
         })),
@@ -275,27 +313,33 @@ fn read_segments<'de, R: ReadBody<'de>>(
         Endianness::Little => finish(
             &mut Reader::<LittleEndian>::from_segments(rest).ok_or_else(fragmented)?,
             body,
-        ),
+            AfterEnd::Ignore,
+        )
+        .map(|(value, _)| value),
         Endianness::Big => finish(
             &mut Reader::<BigEndian>::from_segments(rest).ok_or_else(fragmented)?,
             body,
-        ),
+            AfterEnd::Ignore,
+        )
+        .map(|(value, _)| value),
     }
 }
 
-/// Read the body, then allow at most 3 bytes of trailing padding.
+/// Read the body, then check what follows it; returns the value and the number of
+/// bytes after it.
 #[inline(always)]
 fn finish<'de, B: ByteOrder, R: ReadBody<'de>>(
     r: &mut Reader<'de, B>,
     body: R,
-) -> Result<R::Output, DecodeError> {
+    after_end: AfterEnd,
+) -> Result<(R::Output, usize), DecodeError> {
     let value = body.read(r)?;
     let trailing = r.remaining();
-    if trailing > 3 {
+    if trailing > 3 && matches!(after_end, AfterEnd::AtMostPadding) {
         return Err(r.error_at(
             r.position(),
             DecodeErrorKind::TrailingBytes { count: trailing },
         ));
     }
-    Ok(value)
+    Ok((value, trailing))
 }

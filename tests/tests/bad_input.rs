@@ -3,7 +3,7 @@
 //! unchecked length prefix.
 
 use shm_cdr::{
-    encode_into, from_bytes, to_vec, BoundedString, BoundedVec, BoundedWString, DecodeErrorKind,
+    encode_into, from_bytes, from_bytes_into, from_bytes_strict, take_from_bytes, to_vec, BoundedString, BoundedVec, BoundedWString, DecodeErrorKind,
     EncodeErrorKind, RosMessage, WString,
 };
 use shm_cdr_tests::msgs::*;
@@ -147,13 +147,29 @@ fn header_option_bytes_are_ignored() {
 }
 
 #[test]
-fn trailing_padding_up_to_three_bytes() {
+fn bytes_after_the_message_are_ignored_and_counted() {
+    // What rclpy's serialize_message sends: the message, then slack with stale bytes.
+    for extra in 0..=9 {
+        let mut input = vec![0, 1, 0, 0, 1];
+        input.extend((0..extra).map(|i| 0xa0 + i as u8));
+        assert_eq!(from_bytes::<Flag>(&input).unwrap(), Flag { on: true });
+        let (flag, rest) = take_from_bytes::<Flag>(&input).unwrap();
+        assert_eq!(flag, Flag { on: true });
+        assert_eq!(rest, &input[5..]);
+        let mut kept = Flag { on: false };
+        from_bytes_into(&input, &mut kept).unwrap();
+        assert!(kept.on);
+    }
+}
+
+#[test]
+fn strict_decoding_allows_three_bytes_of_padding_only() {
     for pad in 0..=3 {
         let mut input = vec![0, 1, 0, 0, 1];
         input.extend(std::iter::repeat(0).take(pad));
-        assert_eq!(from_bytes::<Flag>(&input).unwrap(), Flag { on: true });
+        assert_eq!(from_bytes_strict::<Flag>(&input).unwrap(), Flag { on: true });
     }
-    let err = from_bytes::<Flag>(&[0, 1, 0, 0, 1, 0, 0, 0, 0]).unwrap_err();
+    let err = from_bytes_strict::<Flag>(&[0, 1, 0, 0, 1, 0, 0, 0, 0]).unwrap_err();
     assert_eq!(err.kind(), &DecodeErrorKind::TrailingBytes { count: 4 });
     assert_eq!(err.offset(), 5);
 }

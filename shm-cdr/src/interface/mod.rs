@@ -1,0 +1,25 @@
+//! Services and actions: the type identities rosidl gives them, beside the
+//! message types ([`RosMessage`](crate::RosMessage)) they are made of.
+//!
+//! A service `pkg/srv/Name` is three messages (`Name_Request`, `Name_Response`,
+//! `Name_Event`); an action `pkg/action/Name` is its goal, result and feedback plus
+//! two services (`Name_SendGoal`, `Name_GetResult`) and `Name_FeedbackMessage`.
+//! Their RIHS01 hashes cover all of these, as rosidl's do. Implementations are
+//! generated from `.srv`/`.action` files by shm-codegen.
+
+mod action;
+mod service;
+
+pub use action::{compute_action_hash, RosAction};
+pub use service::{compute_service_hash, RosService};
+
+use crate::describe::{rihs01_of_json, type_description_json, TypeDescription, TypeRegistry};
+
+/// The RIHS01 hash of a type made of other types (a service or an action): its own
+/// description, and every type `register` adds, sorted by name.
+pub(crate) fn composite_type_hash(own: TypeDescription, register: impl FnOnce(&mut TypeRegistry)) -> String {
+    let mut registry = TypeRegistry::default();
+    register(&mut registry);
+    let json = type_description_json(&own, registry.iter().filter(|d| d.type_name != own.type_name));
+    rihs01_of_json(&json)
+}

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Regenerates shm-cdr/src/msgs/ (the standard interfaces) and the per-package
+# features in shm-cdr/Cargo.toml from the interface definitions in the ROS 2
+# Kilted wheels on PyPI (and, for tf2_msgs, which has no wheel, rosbags' type
+# store). CI runs it and fails if the result differs from what is committed.
+#
+#   shm-codegen/generate-standard-set.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+venv=target/interfaces-venv
+src=target/interfaces-src
+# Interface packages from the Kilted wheels, each pinned.
+wheels=(
+    action_msgs==2.3.0 actionlib_msgs==5.5.1 builtin_interfaces==2.3.0
+    diagnostic_msgs==5.5.1 geometry_msgs==5.5.1 lifecycle_msgs==2.3.0
+    nav_msgs==5.5.1 rcl_interfaces==2.3.0 rosgraph_msgs==2.3.0
+    sensor_msgs==5.5.1 service_msgs==2.3.0 shape_msgs==5.5.1 std_msgs==5.5.1
+    std_srvs==5.5.1 stereo_msgs==5.5.1 test_msgs==2.3.0
+    trajectory_msgs==5.5.1 type_description_interfaces==2.3.0
+    unique_identifier_msgs==2.7.0 visualization_msgs==5.5.1
+)
+from_rosbags=(tf2_msgs)
+
+if [ ! -x "$venv/bin/python" ]; then
+    python3 -m venv "$venv"
+fi
+specs=()
+for w in "${wheels[@]}"; do specs+=("ros-${w//_/-}"); done
+"$venv/bin/pip" install --quiet --disable-pip-version-check --no-deps "${specs[@]}"
+"$venv/bin/pip" install --quiet --disable-pip-version-check rosbags==0.11.9
+
+
+rm -rf "$src"
+mkdir -p "$src"
+dirs=()
+for w in "${wheels[@]}"; do
+    pkg=${w%%==*}
+    for kind in msg srv action; do
+        if [ -d "$venv/share/$pkg/$kind" ]; then
+            mkdir -p "$src/$pkg/$kind"
+            cp "$venv/share/$pkg/$kind/"*."$kind" "$src/$pkg/$kind/" 2>/dev/null || true
+        fi
+    done
+    dirs+=("$src/$pkg")
+done
+"$venv/bin/python" shm-codegen/rosbags_to_msg.py "$src" "${from_rosbags[@]}"
+for pkg in "${from_rosbags[@]}"; do dirs+=("$src/$pkg"); done
+
+cargo run --quiet -p shm-codegen -- --crate-path crate --extern-root crate::msgs --arbitrary \
+    --features shm-cdr/Cargo.toml --out-dir shm-cdr/src/msgs "${dirs[@]}"

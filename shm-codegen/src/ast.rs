@@ -1,0 +1,316 @@
+//! The interface definitions read from `.msg`, `.srv` and `.action` files, and the
+//! message types rosidl derives from services and actions.
+
+/// A primitive (non-message) element type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Primitive {
+    /// `bool`
+    Bool,
+    /// `byte` (IDL `octet`)
+    Byte,
+    /// `char` (rosidl maps it to `uint8`)
+    Char,
+    /// `int8`
+    Int8,
+    /// `uint8`
+    UInt8,
+    /// `int16`
+    Int16,
+    /// `uint16`
+    UInt16,
+    /// `int32`
+    Int32,
+    /// `uint32`
+    UInt32,
+    /// `int64`
+    Int64,
+    /// `uint64`
+    UInt64,
+    /// `float32`
+    Float32,
+    /// `float64`
+    Float64,
+    /// `string` or `string<=N`
+    String(Option<usize>),
+    /// `wstring` or `wstring<=N`
+    WString(Option<usize>),
+}
+
+impl Primitive {
+    /// The `.msg` spelling of a primitive without a bound.
+    pub fn from_msg_name(name: &str) -> Option<Self> {
+        Some(match name {
+            "bool" => Self::Bool,
+            "byte" => Self::Byte,
+            "char" => Self::Char,
+            "int8" => Self::Int8,
+            "uint8" => Self::UInt8,
+            "int16" => Self::Int16,
+            "uint16" => Self::UInt16,
+            "int32" => Self::Int32,
+            "uint32" => Self::UInt32,
+            "int64" => Self::Int64,
+            "uint64" => Self::UInt64,
+            "float32" => Self::Float32,
+            "float64" => Self::Float64,
+            "string" => Self::String(None),
+            "wstring" => Self::WString(None),
+            _ => return None,
+        })
+    }
+
+    /// Integer types: their inclusive range.
+    pub fn int_range(self) -> Option<(i128, i128)> {
+        Some(match self {
+            Self::Byte | Self::Char | Self::UInt8 => (0, u8::MAX.into()),
+            Self::Int8 => (i8::MIN.into(), i8::MAX.into()),
+            Self::Int16 => (i16::MIN.into(), i16::MAX.into()),
+            Self::UInt16 => (0, u16::MAX.into()),
+            Self::Int32 => (i32::MIN.into(), i32::MAX.into()),
+            Self::UInt32 => (0, u32::MAX.into()),
+            Self::Int64 => (i64::MIN.into(), i64::MAX.into()),
+            Self::UInt64 => (0, u64::MAX.into()),
+            _ => return None,
+        })
+    }
+
+    /// `float32` or `float64`.
+    pub fn is_float(self) -> bool {
+        matches!(self, Self::Float32 | Self::Float64)
+    }
+
+    /// `string`/`wstring`, bounded or not.
+    pub fn is_string(self) -> bool {
+        matches!(self, Self::String(_) | Self::WString(_))
+    }
+}
+
+/// A reference to a message type: `pkg/msg/Name` (or `pkg/srv/…`, `pkg/action/…`
+/// for the types rosidl derives from services and actions).
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct TypeRef {
+    /// The package.
+    pub package: String,
+    /// `msg`, `srv` or `action`.
+    pub namespace: String,
+    /// The type's name, e.g. `Pose` or `AddTwoInts_Request`.
+    pub name: String,
+}
+
+impl TypeRef {
+    /// `pkg/namespace/Name`.
+    pub fn full_name(&self) -> String {
+        format!("{}/{}/{}", self.package, self.namespace, self.name)
+    }
+}
+
+/// The element type of a field.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum BaseType {
+    /// A primitive.
+    Primitive(Primitive),
+    /// A nested message.
+    Message(TypeRef),
+}
+
+/// How a field holds its elements.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Container {
+    /// One element.
+    Single,
+    /// `T[N]`
+    Array(usize),
+    /// `T[<=N]`
+    BoundedSequence(usize),
+    /// `T[]`
+    Sequence,
+}
+
+/// A field's full type.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FieldType {
+    /// The element type.
+    pub base: BaseType,
+    /// Single, array or sequence.
+    pub container: Container,
+}
+
+impl std::fmt::Display for FieldType {
+    /// The type as a `.msg` file writes it, e.g. `float64[<=3]`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.base {
+            BaseType::Primitive(p) => write!(f, "{p}")?,
+            BaseType::Message(r) => write!(f, "{}/{}", r.package, r.name)?,
+        }
+        match self.container {
+            Container::Single => Ok(()),
+            Container::Array(n) => write!(f, "[{n}]"),
+            Container::BoundedSequence(n) => write!(f, "[<={n}]"),
+            Container::Sequence => write!(f, "[]"),
+        }
+    }
+}
+
+impl std::fmt::Display for Primitive {
+    /// The `.msg` spelling, e.g. `string<=8`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = match self {
+            Self::Bool => "bool",
+            Self::Byte => "byte",
+            Self::Char => "char",
+            Self::Int8 => "int8",
+            Self::UInt8 => "uint8",
+            Self::Int16 => "int16",
+            Self::UInt16 => "uint16",
+            Self::Int32 => "int32",
+            Self::UInt32 => "uint32",
+            Self::Int64 => "int64",
+            Self::UInt64 => "uint64",
+            Self::Float32 => "float32",
+            Self::Float64 => "float64",
+            Self::String(None) => "string",
+            Self::WString(None) => "wstring",
+            Self::String(Some(n)) => return write!(f, "string<={n}"),
+            Self::WString(Some(n)) => return write!(f, "wstring<={n}"),
+        };
+        f.write_str(name)
+    }
+}
+
+/// A literal from an interface file (a default value or a constant).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Value {
+    /// `true` / `false`.
+    Bool(bool),
+    /// An integer, range-checked against its type.
+    Int(i128),
+    /// A float, as written (normalized so that Rust reads it as a float).
+    Float(String),
+    /// A string, unquoted and unescaped.
+    Str(String),
+    /// `[a, b, c]`, for arrays and sequences.
+    List(Vec<Value>),
+}
+
+/// A field of a message.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Field {
+    /// The field name.
+    pub name: String,
+    /// Its type.
+    pub ty: FieldType,
+    /// The default value written after the name, if any.
+    pub default: Option<Value>,
+    /// Comment lines attached to the field.
+    pub doc: Vec<String>,
+}
+
+/// A constant of a message (`TYPE NAME=value`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Constant {
+    /// The constant's name (upper case).
+    pub name: String,
+    /// Its type (a primitive, never a message, array or sequence).
+    pub ty: Primitive,
+    /// Its value.
+    pub value: Value,
+    /// Comment lines attached to it.
+    pub doc: Vec<String>,
+}
+
+/// A message type.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Message {
+    /// Its name, package and namespace.
+    pub ty: TypeRef,
+    /// The fields, in order (may be empty).
+    pub fields: Vec<Field>,
+    /// The constants, in order.
+    pub constants: Vec<Constant>,
+    /// The comment that opens the definition.
+    pub doc: Vec<String>,
+}
+
+/// A service: its request and response, and the event message rosidl adds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Service {
+    /// `pkg/srv/Name` (or `pkg/action/Name_SendGoal` for an action's service).
+    pub ty: TypeRef,
+    /// `Name_Request`.
+    pub request: Message,
+    /// `Name_Response`.
+    pub response: Message,
+    /// `Name_Event`: `service_msgs/ServiceEventInfo info`, `Name_Request[<=1] request`,
+    /// `Name_Response[<=1] response`.
+    pub event: Message,
+    /// The comment that opens the definition.
+    pub doc: Vec<String>,
+}
+
+/// An action: its goal, result and feedback, and the services and message
+/// rosidl derives from them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Action {
+    /// `pkg/action/Name`.
+    pub ty: TypeRef,
+    /// `Name_Goal`.
+    pub goal: Message,
+    /// `Name_Result`.
+    pub result: Message,
+    /// `Name_Feedback`.
+    pub feedback: Message,
+    /// `Name_SendGoal`: request `{goal_id, goal}`, response `{accepted, stamp}`.
+    pub send_goal: Service,
+    /// `Name_GetResult`: request `{goal_id}`, response `{status, result}`.
+    pub get_result: Service,
+    /// `Name_FeedbackMessage`: `{goal_id, feedback}`.
+    pub feedback_message: Message,
+    /// The comment that opens the definition.
+    pub doc: Vec<String>,
+}
+
+/// One interface package.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Package {
+    /// The package name.
+    pub name: String,
+    /// `msg/*.msg`, sorted by name.
+    pub messages: Vec<Message>,
+    /// `srv/*.srv`, sorted by name.
+    pub services: Vec<Service>,
+    /// `action/*.action`, sorted by name.
+    pub actions: Vec<Action>,
+}
+
+impl Package {
+    /// Every message type of the package: its messages, then the request,
+    /// response and event of each service, then every type of each action.
+    pub fn all_messages(&self) -> impl Iterator<Item = &Message> {
+        let services = self
+            .services
+            .iter()
+            .flat_map(|s| [&s.request, &s.response, &s.event]);
+        let actions = self.actions.iter().flat_map(|a| {
+            [&a.goal, &a.result, &a.feedback]
+                .into_iter()
+                .chain([&a.send_goal, &a.get_result].into_iter().flat_map(|s| [&s.request, &s.response, &s.event]))
+                .chain([&a.feedback_message])
+        });
+        self.messages.iter().chain(services).chain(actions)
+    }
+
+    /// The packages this one references, sorted, itself excluded.
+    pub fn dependencies(&self) -> Vec<String> {
+        let mut deps: Vec<String> = self
+            .all_messages()
+            .flat_map(|m| &m.fields)
+            .filter_map(|f| match &f.ty.base {
+                BaseType::Message(r) if r.package != self.name => Some(r.package.clone()),
+                _ => None,
+            })
+            .collect();
+        deps.sort();
+        deps.dedup();
+        deps
+    }
+}

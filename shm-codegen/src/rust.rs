@@ -1,0 +1,516 @@
+//! Rust source from the parsed interfaces: one module per package with `msg`,
+//! `srv` and `action` submodules; structs with `#[derive(RosMessage)]`, their
+//! constants and defaults, a borrowing `…Ref<'a>` form where one helps, and the
+//! `RosService`/`RosAction` identities.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fmt::Write as _;
+
+use crate::ast::{Action, BaseType, Container, Field, FieldType, Message, Package, Primitive, Service, TypeRef, Value};
+
+/// How the generated code refers to the outside world.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Path of the shm-cdr crate from the generated code (`::shm_cdr`, or `crate`
+    /// inside shm-cdr).
+    pub crate_path: String,
+    /// Where packages not generated in the same run live: a reference to
+    /// `pkg/msg/Name` becomes `<extern_root>::pkg::msg::Name`.
+    pub extern_root: String,
+    /// Add `#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]` to
+    /// owned forms (the generating crate must have that feature).
+    pub arbitrary: bool,
+    /// Generate the borrowing `…Ref<'a>` forms.
+    pub borrowed: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            crate_path: "::shm_cdr".into(),
+            extern_root: "::shm_cdr::msgs".into(),
+            arbitrary: false,
+            borrowed: true,
+        }
+    }
+}
+
+/// Owned struct, or the form that borrows strings and byte sequences.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Form {
+    Owned,
+    Borrowed,
+}
+
+/// What the generator knows about every message type of the run.
+struct Index<'a> {
+    messages: HashMap<String, &'a Message>,
+    packages: Vec<&'a str>,
+    options: &'a Options,
+    memo: std::cell::RefCell<HashMap<(String, u8), bool>>,
+}
+
+#[derive(Clone, Copy)]
+enum Property {
+    /// Every field is `Copy` (no strings or sequences).
+    Copy,
+    /// No floats anywhere, so `Eq` and `Hash` can be derived.
+    Eq,
+    /// Some string or byte sequence that the `Ref` form borrows.
+    Borrows,
+    /// Only numbers and fixed arrays of them: `#[repr(C)]` lets sequences of it
+    /// be copied in bulk.
+    Plain,
+}
+
+impl<'a> Index<'a> {
+    fn new(packages: &'a [Package], options: &'a Options) -> Self {
+        let messages = packages
+            .iter()
+            .flat_map(|p| p.all_messages())
+            .map(|m| (m.ty.full_name(), m))
+            .collect();
+        Self {
+            messages,
+            packages: packages.iter().map(|p| p.name.as_str()).collect(),
+            options,
+            memo: Default::default(),
+        }
+    }
+
+    /// Whether message `r` has `property`; unknown (external) types are assumed
+    /// not to, which only costs a derive or a borrow, never correctness.
+    fn has(&self, r: &TypeRef, property: Property) -> bool {
+        let key = (r.full_name(), property as u8);
+        if let Some(&known) = self.memo.borrow().get(&key) {
+            return known;
+        }
+        // ROS types cannot be recursive; the provisional `false` ends any cycle.
+        self.memo.borrow_mut().insert(key.clone(), false);
+        let value = match self.messages.get(&key.0) {
+            Some(m) => match property {
+                Property::Copy | Property::Plain => !m.fields.is_empty() && m.fields.iter().all(|f| self.field_has(f, property)),
+                Property::Eq => m.fields.iter().all(|f| self.field_has(f, property)),
+                Property::Borrows => m.fields.iter().any(|f| self.field_has(f, property)),
+            },
+            None => false,
+        };
+        self.memo.borrow_mut().insert(key, value);
+        value
+    }
+
+    fn field_has(&self, f: &Field, property: Property) -> bool {
+        let fixed = matches!(f.ty.container, Container::Single | Container::Array(_));
+        match (&f.ty.base, property) {
+            (BaseType::Primitive(p), Property::Copy) => fixed && !p.is_string(),
+            (BaseType::Primitive(p), Property::Plain) => fixed && !p.is_string() && *p != Primitive::Bool,
+            (BaseType::Primitive(p), Property::Eq) => !p.is_float(),
+            (BaseType::Primitive(p), Property::Borrows) => match p {
+                Primitive::String(None) => true,
+                Primitive::Byte | Primitive::Char | Primitive::UInt8 => f.ty.container == Container::Sequence,
+                _ => false,
+            },
+            (BaseType::Message(r), Property::Copy | Property::Plain) => fixed && self.has(r, property),
+            (BaseType::Message(r), _) => self.has(r, property),
+        }
+    }
+
+    /// The Rust path of message `r` seen from module `from` (`pkg::ns`).
+    fn path(&self, r: &TypeRef, from: &TypeRef, form: Form) -> String {
+        let name = match form {
+            Form::Borrowed if self.has(r, Property::Borrows) => format!("{}Ref<'a>", r.name),
+            _ => r.name.clone(),
+        };
+        if r.package == from.package && r.namespace == from.namespace {
+            name
+        } else if self.packages.contains(&r.package.as_str()) {
+            format!("super::super::{}::{}::{name}", r.package, r.namespace)
+        } else {
+            format!("{}::{}::{}::{name}", self.options.extern_root, r.package, r.namespace)
+        }
+    }
+}
+
+/// The generated source of one package.
+pub struct PackageSource {
+    /// The package name (the module's name).
+    pub name: String,
+    /// One line describing the package, for its module documentation.
+    pub summary: String,
+    /// The module's items: `msg`, `srv` and `action` submodules and a re-export of
+    /// the messages.
+    pub body: String,
+}
+
+/// Generate the Rust source of each package, in the order given.
+pub fn generate(packages: &[Package], options: &Options) -> Vec<PackageSource> {
+    let index = Index::new(packages, options);
+    packages.iter().map(|p| package_source(&index, p)).collect()
+}
+
+fn package_source(index: &Index, package: &Package) -> PackageSource {
+    let mut out = String::new();
+    let mut modules: BTreeMap<&str, String> = BTreeMap::new();
+    for m in &package.messages {
+        message_items(index, m, &format!("msg/{}.msg", m.ty.name), modules.entry("msg").or_default());
+    }
+    for s in &package.services {
+        service_items(index, s, &format!("srv/{}.srv", s.ty.name), modules.entry("srv").or_default());
+    }
+    for a in &package.actions {
+        action_items(index, a, modules.entry("action").or_default());
+    }
+    let counts = format!(
+        "{} messages, {} services, {} actions",
+        package.messages.len(),
+        package.services.len(),
+        package.actions.len()
+    );
+    let summary = format!("`{}`: {counts}.", package.name);
+    for (name, body) in &modules {
+        let what = match *name {
+            "msg" => "Messages (`msg/*.msg`).",
+            "srv" => "Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](CRATE::RosService) identity.",
+            _ => "Actions (`action/*.action`): goal, result and feedback, the services and message built from them, and the [`RosAction`](CRATE::RosAction) identity.",
+        };
+        let what = what.replace("CRATE", &index.options.crate_path);
+        let _ = writeln!(out, "\n/// {what}\n#[allow(non_camel_case_types, clippy::all)]\npub mod {name} {{");
+        out.push_str(body);
+        out.push_str("}\n");
+    }
+    if modules.contains_key("msg") {
+        let _ = writeln!(out, "\n#[doc(no_inline)]\npub use msg::*;");
+    }
+    PackageSource {
+        name: package.name.clone(),
+        summary,
+        body: out.trim_start().to_owned(),
+    }
+}
+
+fn service_items(index: &Index, s: &Service, file: &str, out: &mut String) {
+    for m in [&s.request, &s.response, &s.event] {
+        message_items(index, m, file, out);
+    }
+    let krate = &index.options.crate_path;
+    let mut doc = s.doc.clone();
+    if !doc.is_empty() {
+        doc.push(String::new());
+    }
+    write_doc(out, &doc, &format!("The service `{}` (from `{file}`).", s.ty.full_name()));
+    let name = &s.ty.name;
+    let _ = write!(
+        out,
+        "#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub struct {name};
+
+impl {krate}::RosService for {name} {{
+    const TYPE_NAME: &'static str = \"{full}\";
+    const DDS_TYPE_NAME: &'static str = \"{dds}\";
+    type Request = {name}_Request;
+    type Response = {name}_Response;
+    type Event = {name}_Event;
+
+    fn type_hash() -> &'static str {{
+        static HASH: ::std::sync::OnceLock<::std::string::String> = ::std::sync::OnceLock::new();
+        HASH.get_or_init({krate}::interface::compute_service_hash::<Self>)
+    }}
+}}
+
+",
+        full = s.ty.full_name(),
+        dds = dds_name(&s.ty),
+    );
+}
+
+fn action_items(index: &Index, a: &Action, out: &mut String) {
+    let file = format!("action/{}.action", a.ty.name);
+    for m in [&a.goal, &a.result, &a.feedback] {
+        message_items(index, m, &file, out);
+    }
+    service_items(index, &a.send_goal, &file, out);
+    service_items(index, &a.get_result, &file, out);
+    message_items(index, &a.feedback_message, &file, out);
+    let krate = &index.options.crate_path;
+    let mut doc = a.doc.clone();
+    if !doc.is_empty() {
+        doc.push(String::new());
+    }
+    write_doc(out, &doc, &format!("The action `{}` (from `{file}`).", a.ty.full_name()));
+    let name = &a.ty.name;
+    let _ = write!(
+        out,
+        "#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub struct {name};
+
+impl {krate}::RosAction for {name} {{
+    const TYPE_NAME: &'static str = \"{full}\";
+    const DDS_TYPE_NAME: &'static str = \"{dds}\";
+    type Goal = {name}_Goal;
+    type Result = {name}_Result;
+    type Feedback = {name}_Feedback;
+    type SendGoal = {name}_SendGoal;
+    type GetResult = {name}_GetResult;
+    type FeedbackMessage = {name}_FeedbackMessage;
+
+    fn type_hash() -> &'static str {{
+        static HASH: ::std::sync::OnceLock<::std::string::String> = ::std::sync::OnceLock::new();
+        HASH.get_or_init({krate}::interface::compute_action_hash::<Self>)
+    }}
+}}
+
+",
+        full = a.ty.full_name(),
+        dds = dds_name(&a.ty),
+    );
+}
+
+fn dds_name(r: &TypeRef) -> String {
+    format!("{}::{}::dds_::{}_", r.package, r.namespace, r.name)
+}
+
+fn message_items(index: &Index, m: &Message, file: &str, out: &mut String) {
+    write_struct(index, m, file, Form::Owned, out);
+    if index.options.borrowed && index.has(&m.ty, Property::Borrows) {
+        write_struct(index, m, file, Form::Borrowed, out);
+    }
+}
+
+fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut String) {
+    let krate = &index.options.crate_path;
+    let (name, generics) = match form {
+        Form::Owned => (m.ty.name.clone(), ""),
+        Form::Borrowed => (format!("{}Ref", m.ty.name), "<'a>"),
+    };
+    let mut doc = m.doc.clone();
+    if !doc.is_empty() {
+        doc.push(String::new());
+    }
+    let tail = match form {
+        Form::Owned => format!("`{}` (from `{file}`).", m.ty.full_name()),
+        Form::Borrowed => format!(
+            "[`{}`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.",
+            m.ty.name
+        ),
+    };
+    write_doc(out, &doc, &tail);
+
+    let mut derives = vec![format!("{krate}::RosMessage"), "Debug".into(), "Clone".into(), "PartialEq".into()];
+    if form == Form::Owned && index.has(&m.ty, Property::Copy) {
+        derives.push("Copy".into());
+    }
+    if form == Form::Owned && index.has(&m.ty, Property::Eq) {
+        derives.extend(["Eq".into(), "Hash".into()]);
+    }
+    let _ = writeln!(out, "#[derive({})]", derives.join(", "));
+    if form == Form::Owned && index.options.arbitrary {
+        out.push_str("#[cfg_attr(feature = \"arbitrary\", derive(arbitrary::Arbitrary))]\n");
+    }
+    let _ = writeln!(out, "#[ros(type_name = \"{}\", crate = \"{krate}\")]", m.ty.full_name());
+    if index.has(&m.ty, Property::Plain) {
+        out.push_str("#[repr(C)]\n");
+    }
+    if m.fields.is_empty() {
+        let _ = writeln!(out, "pub struct {name}{generics};\n");
+    } else {
+        let _ = writeln!(out, "pub struct {name}{generics} {{");
+        for f in &m.fields {
+            if f.doc.is_empty() {
+                // No comment in the file: say what the field is in .msg terms.
+                let _ = writeln!(out, "    /// `{} {}`", f.ty, f.name);
+            }
+            write_doc_indented(out, &f.doc, "    ");
+            match &f.ty.base {
+                BaseType::Primitive(Primitive::Byte) => out.push_str("    #[ros(byte)]\n"),
+                BaseType::Primitive(Primitive::Char) => out.push_str("    #[ros(char)]\n"),
+                _ => {}
+            }
+            let (ident, rename) = rust_ident(&f.name);
+            if let Some(rename) = rename {
+                let _ = writeln!(out, "    #[ros(rename = \"{rename}\")]");
+            }
+            let _ = writeln!(out, "    pub {ident}: {},", field_type(index, &f.ty, &m.ty, form));
+        }
+        out.push_str("}\n\n");
+    }
+
+    // Constants, on the owned form only.
+    if form == Form::Owned && !m.constants.is_empty() {
+        let _ = writeln!(out, "impl {name} {{");
+        for c in &m.constants {
+            if c.doc.is_empty() {
+                let _ = writeln!(out, "    /// `{}`", c.name);
+            }
+            write_doc_indented(out, &c.doc, "    ");
+            let ty = match c.ty {
+                Primitive::String(_) | Primitive::WString(_) => "&'static str".to_owned(),
+                p => primitive_type(p, krate),
+            };
+            let _ = writeln!(out, "    pub const {}: {ty} = {};", c.name, const_literal(&c.value, c.ty));
+        }
+        out.push_str("}\n\n");
+    }
+
+    // Default: zeros, empty strings and sequences, and the .msg default values.
+    let _ = writeln!(out, "impl{generics} ::core::default::Default for {name}{generics} {{\n    fn default() -> Self {{");
+    if m.fields.is_empty() {
+        out.push_str("        Self {}\n");
+    } else {
+        out.push_str("        Self {\n");
+        for f in &m.fields {
+            let (ident, _) = rust_ident(&f.name);
+            let _ = writeln!(out, "            {ident}: {},", default_expr(f, form, krate));
+        }
+        out.push_str("        }\n");
+    }
+    out.push_str("    }\n}\n\n");
+}
+
+/// A field name as a Rust identifier, with the ROS name when it differs.
+fn rust_ident(name: &str) -> (String, Option<&str>) {
+    const RAW: &[&str] = &[
+        "as", "async", "await", "break", "const", "continue", "dyn", "else", "enum", "extern", "false", "fn", "for", "if",
+        "impl", "in", "let", "loop", "match", "mod", "move", "mut", "pub", "ref", "return", "static", "struct", "trait",
+        "true", "type", "unsafe", "use", "where", "while", "abstract", "become", "box", "do", "final", "gen", "macro",
+        "override", "priv", "try", "typeof", "unsized", "virtual", "yield",
+    ];
+    match name {
+        "self" | "super" | "crate" => (format!("{name}_"), Some(name)),
+        _ if RAW.contains(&name) => (format!("r#{name}"), None),
+        _ => (name.to_owned(), None),
+    }
+}
+
+fn primitive_type(p: Primitive, krate: &str) -> String {
+    match p {
+        Primitive::Bool => "bool".into(),
+        Primitive::Byte | Primitive::Char | Primitive::UInt8 => "u8".into(),
+        Primitive::Int8 => "i8".into(),
+        Primitive::Int16 => "i16".into(),
+        Primitive::UInt16 => "u16".into(),
+        Primitive::Int32 => "i32".into(),
+        Primitive::UInt32 => "u32".into(),
+        Primitive::Int64 => "i64".into(),
+        Primitive::UInt64 => "u64".into(),
+        Primitive::Float32 => "f32".into(),
+        Primitive::Float64 => "f64".into(),
+        Primitive::String(None) => "::std::string::String".into(),
+        Primitive::String(Some(n)) => format!("{krate}::BoundedString<{n}>"),
+        Primitive::WString(None) => format!("{krate}::WString"),
+        Primitive::WString(Some(n)) => format!("{krate}::BoundedWString<{n}>"),
+    }
+}
+
+fn is_octet(p: Primitive) -> bool {
+    matches!(p, Primitive::Byte | Primitive::Char | Primitive::UInt8)
+}
+
+fn field_type(index: &Index, ty: &FieldType, from: &TypeRef, form: Form) -> String {
+    let krate = &index.options.crate_path;
+    let element = match (&ty.base, form) {
+        (BaseType::Primitive(Primitive::String(None)), Form::Borrowed) => "&'a str".to_owned(),
+        (BaseType::Primitive(p), _) => primitive_type(*p, krate),
+        (BaseType::Message(r), _) => index.path(r, from, form),
+    };
+    match ty.container {
+        Container::Single => element,
+        Container::Array(n) => format!("[{element}; {n}]"),
+        Container::BoundedSequence(n) => format!("{krate}::BoundedVec<{element}, {n}>"),
+        Container::Sequence => match (&ty.base, form) {
+            (BaseType::Primitive(p), Form::Borrowed) if is_octet(*p) => "&'a [u8]".into(),
+            _ => format!("::std::vec::Vec<{element}>"),
+        },
+    }
+}
+
+fn default_expr(f: &Field, form: Form, krate: &str) -> String {
+    let Some(value) = &f.default else {
+        return match f.ty.container {
+            // `Default` for arrays stops at 32 elements; `from_fn` has no limit.
+            Container::Array(_) => "::core::array::from_fn(|_| ::core::default::Default::default())".into(),
+            _ => "::core::default::Default::default()".into(),
+        };
+    };
+    let BaseType::Primitive(p) = f.ty.base else {
+        return "::core::default::Default::default()".into();
+    };
+    let borrowed_str = form == Form::Borrowed && p == Primitive::String(None);
+    let scalar = |v: &Value| match v {
+        Value::Str(s) if borrowed_str => format!("{s:?}"),
+        Value::Str(s) => format!("::core::convert::From::from({s:?})"),
+        other => const_literal(other, p),
+    };
+    match (value, f.ty.container) {
+        (Value::List(items), Container::Array(_)) => {
+            format!("[{}]", items.iter().map(scalar).collect::<Vec<_>>().join(", "))
+        }
+        (Value::List(items), Container::Sequence) if form == Form::Borrowed && is_octet(p) => {
+            format!("&[{}]", items.iter().map(scalar).collect::<Vec<_>>().join(", "))
+        }
+        (Value::List(items), Container::Sequence) => {
+            format!("::std::vec![{}]", items.iter().map(scalar).collect::<Vec<_>>().join(", "))
+        }
+        (Value::List(items), Container::BoundedSequence(_)) => format!(
+            "{krate}::BoundedVec::from(::std::vec![{}])",
+            items.iter().map(scalar).collect::<Vec<_>>().join(", ")
+        ),
+        (v, _) => scalar(v),
+    }
+}
+
+/// A constant or scalar default as a Rust literal of type `p`.
+fn const_literal(value: &Value, p: Primitive) -> String {
+    match value {
+        Value::Bool(b) => b.to_string(),
+        Value::Int(i) if p.is_float() => format!("{i}.0"),
+        Value::Int(i) => i.to_string(),
+        Value::Float(f) => f.clone(),
+        Value::Str(s) => format!("{s:?}"),
+        Value::List(_) => "::core::default::Default::default()".into(),
+    }
+}
+
+fn write_doc(out: &mut String, doc: &[String], tail: &str) {
+    for line in doc {
+        write_doc_line(out, "", line);
+    }
+    write_doc_line_raw(out, "", tail);
+}
+
+fn write_doc_indented(out: &mut String, doc: &[String], indent: &str) {
+    for line in doc {
+        write_doc_line(out, indent, line);
+    }
+}
+
+fn write_doc_line_raw(out: &mut String, indent: &str, text: &str) {
+    if text.is_empty() {
+        let _ = writeln!(out, "{indent}///");
+    } else {
+        let _ = writeln!(out, "{indent}/// {text}");
+    }
+}
+
+/// A comment line from an interface file as rustdoc text: Markdown that would
+/// change its meaning (links, HTML, headings, indented code that would become a
+/// doctest) is escaped, and bare URLs are made links.
+fn write_doc_line(out: &mut String, indent: &str, line: &str) {
+    let mut text = String::new();
+    for (i, word) in line.trim().split(' ').enumerate() {
+        if i > 0 {
+            text.push(' ');
+        }
+        let url = word.trim_end_matches(['.', ',', ')', ';', ':']);
+        if url.starts_with("http://") || url.starts_with("https://") {
+            let _ = write!(text, "<{url}>{}", &word[url.len()..]);
+            continue;
+        }
+        for c in word.chars() {
+            if matches!(c, '[' | ']' | '<' | '>' | '*' | '\\') || (text.is_empty() && matches!(c, '#' | '=' | '-' | '+')) {
+                text.push('\\');
+            }
+            text.push(c);
+        }
+    }
+    write_doc_line_raw(out, indent, &text);
+}
