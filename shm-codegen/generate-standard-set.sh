@@ -48,4 +48,5 @@ done
 for pkg in "${from_rosbags[@]}"; do dirs+=("$src/$pkg"); done
 
 cargo run --quiet -p shm-codegen -- --crate-path crate --extern-root crate::msgs --arbitrary \
-    --features shm-cdr/Cargo.toml --out-dir shm-cdr/src/msgs "${dirs[@]}"
+    --features shm-cdr/Cargo.toml --registry examples/src/interfaces.rs \
+    --out-dir shm-cdr/src/msgs "${dirs[@]}"

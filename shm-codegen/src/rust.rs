@@ -142,6 +142,18 @@ pub struct PackageSource {
     pub body: String,
 }
 
+/// The message types that get a borrowing `…Ref<'a>` form.
+pub fn borrowing_types(packages: &[Package]) -> Vec<TypeRef> {
+    let options = Options::default();
+    let index = Index::new(packages, &options);
+    packages
+        .iter()
+        .flat_map(|p| p.all_messages())
+        .filter(|m| index.has(&m.ty, Property::Borrows))
+        .map(|m| m.ty.clone())
+        .collect()
+}
+
 /// Generate the Rust source of each package, in the order given.
 pub fn generate(packages: &[Package], options: &Options) -> Vec<PackageSource> {
     let index = Index::new(packages, options);

@@ -2,14 +2,16 @@
 //!
 //! ```text
 //! shm-codegen [--crate-path PATH] [--extern-root PATH] [--arbitrary] [--no-borrowed]
-//!             [--features CARGO_TOML] --out-dir DIR PKG_DIR...
+//!             [--features CARGO_TOML] [--registry FILE] --out-dir DIR PKG_DIR...
 //! ```
 //!
 //! Writes `DIR/<pkg>.rs` for each package and `DIR/mod.rs` declaring them, each
 //! behind a Cargo feature named after the package. With `--features`, rewrites the
 //! block between `# BEGIN shm-codegen features` and `# END shm-codegen features`
 //! in that Cargo.toml: one feature per package, enabling the packages it
-//! references. Output goes through `rustfmt` when it is installed.
+//! references. With `--registry`, also writes FILE: a `for_each_interface!`
+//! macro that lists every generated type under `::shm_cdr::msgs`, for checks
+//! that cover the whole set. Output goes through `rustfmt` when it is installed.
 //! `shm-codegen/generate-standard-set.sh` runs it for `shm_cdr::msgs`.
 
 use std::path::{Path, PathBuf};
@@ -24,6 +26,7 @@ struct Args {
     builder: Builder,
     out_dir: PathBuf,
     features: Option<PathBuf>,
+    registry: Option<PathBuf>,
     options: rust::Options,
 }
 
@@ -33,6 +36,7 @@ fn parse_args() -> Result<Args, String> {
     let mut builder = Builder::new();
     let mut out_dir = None;
     let mut features = None;
+    let mut registry = None;
     let mut packages = 0;
     while let Some(arg) = args.next() {
         let mut value = |name: &str| args.next().ok_or(format!("{name} needs a value"));
@@ -43,6 +47,7 @@ fn parse_args() -> Result<Args, String> {
             "--no-borrowed" => options.borrowed = false,
             "--out-dir" => out_dir = Some(PathBuf::from(value("--out-dir")?)),
             "--features" => features = Some(PathBuf::from(value("--features")?)),
+            "--registry" => registry = Some(PathBuf::from(value("--registry")?)),
             "-h" | "--help" => return Err(String::new()),
             flag if flag.starts_with("--") => return Err(format!("unknown option {flag}")),
             dir => {
@@ -64,6 +69,7 @@ fn parse_args() -> Result<Args, String> {
         builder,
         out_dir,
         features,
+        registry,
         options,
     })
 }
@@ -119,6 +125,9 @@ fn run(args: Args) -> Result<(), String> {
         let block = format!("{block}## Every interface package above.\nall_interfaces = [{}]\n", all.join(", "));
         replace_block(cargo_toml, &block)?;
     }
+    if let Some(registry) = &args.registry {
+        write(registry, &registry_source(&packages, args.options.borrowed))?;
+    }
     eprintln!(
         "shm-codegen: {} packages, {} message types, {} services, {} actions -> {}",
         packages.len(),
@@ -128,6 +137,44 @@ fn run(args: Args) -> Result<(), String> {
         args.out_dir.display()
     );
     Ok(())
+}
+
+/// The `for_each_interface!` macro: every message type (with its borrowing form
+/// where there is one), service and action, as paths under `::shm_cdr::msgs`.
+fn registry_source(packages: &[shm_codegen::ast::Package], borrowed: bool) -> String {
+    let path = |r: &shm_codegen::ast::TypeRef, suffix: &str| {
+        format!("::shm_cdr::msgs::{}::{}::{}{suffix}", r.package, r.namespace, r.name)
+    };
+    let mut messages = Vec::new();
+    let mut services = Vec::new();
+    let mut actions = Vec::new();
+    for p in packages {
+        for m in p.all_messages() {
+            messages.push(path(&m.ty, ""));
+        }
+        services.extend(p.services.iter().map(|s| path(&s.ty, "")));
+        for a in &p.actions {
+            services.push(path(&a.send_goal.ty, ""));
+            services.push(path(&a.get_result.ty, ""));
+            actions.push(path(&a.ty, ""));
+        }
+    }
+    let list = |items: &[String]| items.iter().map(|i| format!("            {i},\n")).collect::<String>();
+    let with_ref: Vec<String> = if borrowed {
+        rust::borrowing_types(packages)
+            .iter()
+            .map(|r| format!("({}, {})", path(r, ""), path(r, "Ref")))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    format!(
+        "{GENERATED_MARKER}\n\n/// Calls `$callback! {{ messages: [..], borrowed: [(Owned, Ref), ..], services: [..], actions: [..] }}`\n/// with every type generated into `shm_cdr::msgs` (all packages' features on).\nmacro_rules! for_each_interface {{\n    ($callback:ident) => {{\n        $callback! {{\n        messages: [\n{}        ],\n        borrowed: [\n{}        ],\n        services: [\n{}        ],\n        actions: [\n{}        ],\n        }}\n    }};\n}}\n",
+        list(&messages),
+        list(&with_ref),
+        list(&services),
+        list(&actions)
+    )
 }
 
 /// Write `text`, formatted by rustfmt when it is available.

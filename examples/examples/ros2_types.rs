@@ -1,0 +1,122 @@
+//! Every generated interface type, for `tests/ros2/check.py` (real ROS 2: rosidl's
+//! `.json` type hashes and rclpy's serializer).
+//!
+//! ```text
+//! ros2_types hashes      # one line per type: `<kind> <type name> <RIHS01 hash>`
+//! ros2_types roundtrip   # stdin: `<type name> <hex>` lines; stdout: `ok <hex>` or `err <why>`
+//! ```
+//!
+//! `roundtrip` decodes the CDR bytes (as real ROS 2 sent them: stale padding,
+//! bytes after the end) into the owned type, re-encodes them, and checks that the
+//! size function is exact, that the borrowing `…Ref` form decodes to the same
+//! bytes, and that decoding into a kept value of an earlier message gives them too.
+
+use std::collections::HashMap;
+use std::io::{BufRead, Write};
+
+use shm_cdr::{CdrEncode, DecodeOwned, RosAction, RosMessage, RosService};
+
+include!("../src/interfaces.rs");
+
+type Roundtrip = fn(&[u8], &mut Vec<u8>) -> Result<Vec<u8>, String>;
+
+fn owned<T: RosMessage + DecodeOwned + Default>(input: &[u8], _: &mut Vec<u8>) -> Result<Vec<u8>, String> {
+    let value: T = shm_cdr::from_bytes(input).map_err(|e| e.to_string())?;
+    let out = shm_cdr::to_vec(&value).map_err(|e| e.to_string())?;
+    if out.len() != shm_cdr::encoded_size(&value) {
+        return Err(format!("encoded_size {} but {} bytes written", shm_cdr::encoded_size(&value), out.len()));
+    }
+    // Into a kept value that held something else first: same result.
+    let mut kept = T::default();
+    shm_cdr::from_bytes_into(&out, &mut kept).map_err(|e| e.to_string())?;
+    shm_cdr::from_bytes_into(input, &mut kept).map_err(|e| e.to_string())?;
+    if shm_cdr::to_vec(&kept).map_err(|e| e.to_string())? != out {
+        return Err("decode_into differs from decode".into());
+    }
+    Ok(out)
+}
+
+/// [`owned`], then the borrowing form `R` must decode the input to the same bytes.
+fn check_ref<R: CdrEncode>(view: Result<R, shm_cdr::DecodeError>, out: Vec<u8>) -> Result<Vec<u8>, String> {
+    let view = view.map_err(|e| format!("Ref form: {e}"))?;
+    if shm_cdr::to_vec(&view).map_err(|e| e.to_string())? != out {
+        return Err("the Ref form encodes differently".into());
+    }
+    Ok(out)
+}
+
+macro_rules! tables {
+    (messages: [$($m:path,)*], borrowed: [$(($o:path, $r:path),)*], services: [$($s:path,)*], actions: [$($a:path,)*],) => {
+        fn hashes() -> Vec<(&'static str, &'static str, &'static str)> {
+            let mut out = Vec::new();
+            $( out.push(("message", <$m as RosMessage>::TYPE_NAME, <$m as RosMessage>::type_hash())); )*
+            $( out.push(("service", <$s as RosService>::TYPE_NAME, <$s as RosService>::type_hash())); )*
+            $( out.push(("action", <$a as RosAction>::TYPE_NAME, <$a as RosAction>::type_hash())); )*
+            out
+        }
+
+        fn roundtrips() -> HashMap<&'static str, Roundtrip> {
+            let mut out: HashMap<&'static str, Roundtrip> = HashMap::new();
+            $( out.insert(<$m as RosMessage>::TYPE_NAME, owned::<$m>); )*
+            $({
+                fn with_ref(input: &[u8], scratch: &mut Vec<u8>) -> Result<Vec<u8>, String> {
+                    let out = owned::<$o>(input, scratch)?;
+                    let view: Result<$r, _> = shm_cdr::from_bytes(input);
+                    check_ref(view, out)
+                }
+                out.insert(<$o as RosMessage>::TYPE_NAME, with_ref);
+            })*
+            out
+        }
+    };
+}
+
+for_each_interface!(tables);
+
+fn main() {
+    let mode = std::env::args().nth(1).unwrap_or_default();
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    match mode.as_str() {
+        "hashes" => {
+            for (kind, name, hash) in hashes() {
+                let _ = writeln!(out, "{kind} {name} {hash}");
+            }
+        }
+        "roundtrip" => {
+            let table = roundtrips();
+            let mut scratch = Vec::new();
+            for line in std::io::stdin().lock().lines() {
+                let Ok(line) = line else { break };
+                let reply = match line.split_once(' ') {
+                    Some((name, hex)) => match (table.get(name), decode_hex(hex.trim())) {
+                        (Some(f), Some(bytes)) => match f(&bytes, &mut scratch) {
+                            Ok(bytes) => format!("ok {}", encode_hex(&bytes)),
+                            Err(e) => format!("err {e}"),
+                        },
+                        (None, _) => format!("err unknown type {name}"),
+                        (_, None) => "err bad hex".to_owned(),
+                    },
+                    None => "err expected `<type> <hex>`".to_owned(),
+                };
+                let _ = writeln!(out, "{reply}");
+                let _ = out.flush();
+            }
+        }
+        _ => {
+            eprintln!("usage: ros2_types hashes | roundtrip");
+            std::process::exit(2);
+        }
+    }
+}
+
+fn decode_hex(s: &str) -> Option<Vec<u8>> {
+    (0..s.len())
+        .step_by(2)
+        .map(|i| s.get(i..i + 2).and_then(|b| u8::from_str_radix(b, 16).ok()))
+        .collect()
+}
+
+fn encode_hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
