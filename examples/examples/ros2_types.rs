@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! ros2_types hashes      # one line per type: `<kind> <type name> <RIHS01 hash>`
+//! ros2_types user-hashes # the same for examples/interfaces/robot_interfaces (build.rs)
 //! ros2_types roundtrip   # stdin: `<type name> <hex>` lines; stdout: `ok <hex>` or `err <why>`
 //! ```
 //!
@@ -20,11 +21,18 @@ include!("../src/interfaces.rs");
 
 type Roundtrip = fn(&[u8], &mut Vec<u8>) -> Result<Vec<u8>, String>;
 
-fn owned<T: RosMessage + DecodeOwned + Default>(input: &[u8], _: &mut Vec<u8>) -> Result<Vec<u8>, String> {
+fn owned<T: RosMessage + DecodeOwned + Default>(
+    input: &[u8],
+    _: &mut Vec<u8>,
+) -> Result<Vec<u8>, String> {
     let value: T = shm_cdr::from_bytes(input).map_err(|e| e.to_string())?;
     let out = shm_cdr::to_vec(&value).map_err(|e| e.to_string())?;
     if out.len() != shm_cdr::encoded_size(&value) {
-        return Err(format!("encoded_size {} but {} bytes written", shm_cdr::encoded_size(&value), out.len()));
+        return Err(format!(
+            "encoded_size {} but {} bytes written",
+            shm_cdr::encoded_size(&value),
+            out.len()
+        ));
     }
     // Into a kept value that held something else first: same result.
     let mut kept = T::default();
@@ -37,7 +45,10 @@ fn owned<T: RosMessage + DecodeOwned + Default>(input: &[u8], _: &mut Vec<u8>) -
 }
 
 /// [`owned`], then the borrowing form `R` must decode the input to the same bytes.
-fn check_ref<R: CdrEncode>(view: Result<R, shm_cdr::DecodeError>, out: Vec<u8>) -> Result<Vec<u8>, String> {
+fn check_ref<R: CdrEncode>(
+    view: Result<R, shm_cdr::DecodeError>,
+    out: Vec<u8>,
+) -> Result<Vec<u8>, String> {
     let view = view.map_err(|e| format!("Ref form: {e}"))?;
     if shm_cdr::to_vec(&view).map_err(|e| e.to_string())? != out {
         return Err("the Ref form encodes differently".into());
@@ -80,6 +91,45 @@ fn main() {
     match mode.as_str() {
         "hashes" => {
             for (kind, name, hash) in hashes() {
+                let _ = writeln!(out, "{kind} {name} {hash}");
+            }
+        }
+        "user-hashes" => {
+            use shm_cdr_examples::generated::robot_interfaces::{action, msg, srv};
+            let types = [
+                (
+                    "message",
+                    msg::Battery::TYPE_NAME,
+                    msg::Battery::type_hash(),
+                ),
+                (
+                    "message",
+                    msg::CellHistory::TYPE_NAME,
+                    msg::CellHistory::type_hash(),
+                ),
+                (
+                    "message",
+                    srv::SetSpeed_Event::TYPE_NAME,
+                    srv::SetSpeed_Event::type_hash(),
+                ),
+                (
+                    "service",
+                    srv::SetSpeed::TYPE_NAME,
+                    srv::SetSpeed::type_hash(),
+                ),
+                (
+                    "message",
+                    action::Dock_FeedbackMessage::TYPE_NAME,
+                    action::Dock_FeedbackMessage::type_hash(),
+                ),
+                (
+                    "service",
+                    action::Dock_SendGoal::TYPE_NAME,
+                    action::Dock_SendGoal::type_hash(),
+                ),
+                ("action", action::Dock::TYPE_NAME, action::Dock::type_hash()),
+            ];
+            for (kind, name, hash) in types {
                 let _ = writeln!(out, "{kind} {name} {hash}");
             }
         }

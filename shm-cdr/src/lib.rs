@@ -48,8 +48,8 @@ pub use decode::{CdrDecode, DecodeOwned, Reader, MAX_SEGMENTS};
 pub use describe::{RosElement, RosType};
 pub use encode::{CdrEncode, Writer};
 pub use endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
-pub use interface::{RosAction, RosService};
 pub use error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
+pub use interface::{RosAction, RosService};
 pub use message::RosMessage;
 
 /// `#[derive(RosMessage)]`: see the [crate documentation](crate).

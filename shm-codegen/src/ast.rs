@@ -293,7 +293,11 @@ impl Package {
         let actions = self.actions.iter().flat_map(|a| {
             [&a.goal, &a.result, &a.feedback]
                 .into_iter()
-                .chain([&a.send_goal, &a.get_result].into_iter().flat_map(|s| [&s.request, &s.response, &s.event]))
+                .chain(
+                    [&a.send_goal, &a.get_result]
+                        .into_iter()
+                        .flat_map(|s| [&s.request, &s.response, &s.event]),
+                )
                 .chain([&a.feedback_message])
         });
         self.messages.iter().chain(services).chain(actions)

@@ -5,8 +5,8 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use crate::ast::{
-    Action, BaseType, Constant, Container, Field, FieldType, Message, Package, Primitive,
-    Service, TypeRef, Value,
+    Action, BaseType, Constant, Container, Field, FieldType, Message, Package, Primitive, Service,
+    TypeRef, Value,
 };
 
 /// A mistake in an interface file, or a file that could not be read.
@@ -124,18 +124,43 @@ pub fn parse_message(text: &str, file: &Path, package: &str, name: &str) -> Resu
 /// Parse the text of `<package>/srv/<name>.srv`: request `---` response.
 pub fn parse_service(text: &str, file: &Path, package: &str, name: &str) -> Result<Service, Error> {
     let lines: Vec<&str> = text.lines().collect();
-    let sections = split_sections(&lines, file, 2, "a .srv file is a request and a response separated by a `---` line")?;
-    let request = parse_section(sections[0].1, sections[0].0, file, own_type(file, package, "srv", &format!("{name}_Request"))?)?;
-    let response = parse_section(sections[1].1, sections[1].0, file, own_type(file, package, "srv", &format!("{name}_Response"))?)?;
+    let sections = split_sections(
+        &lines,
+        file,
+        2,
+        "a .srv file is a request and a response separated by a `---` line",
+    )?;
+    let request = parse_section(
+        sections[0].1,
+        sections[0].0,
+        file,
+        own_type(file, package, "srv", &format!("{name}_Request"))?,
+    )?;
+    let response = parse_section(
+        sections[1].1,
+        sections[1].0,
+        file,
+        own_type(file, package, "srv", &format!("{name}_Response"))?,
+    )?;
     let doc = request.doc.clone();
-    Ok(service(own_type(file, package, "srv", name)?, request, response, doc))
+    Ok(service(
+        own_type(file, package, "srv", name)?,
+        request,
+        response,
+        doc,
+    ))
 }
 
 /// Parse the text of `<package>/action/<name>.action`: goal `---` result `---`
 /// feedback, and derive the services and message rosidl builds from them.
 pub fn parse_action(text: &str, file: &Path, package: &str, name: &str) -> Result<Action, Error> {
     let lines: Vec<&str> = text.lines().collect();
-    let sections = split_sections(&lines, file, 3, "an .action file is a goal, a result and a feedback separated by `---` lines")?;
+    let sections = split_sections(
+        &lines,
+        file,
+        3,
+        "an .action file is a goal, a result and a feedback separated by `---` lines",
+    )?;
     let part = |i: usize, suffix: &str| -> Result<Message, Error> {
         let ty = own_type(file, package, "action", &format!("{name}_{suffix}"))?;
         parse_section(sections[i].1, sections[i].0, file, ty)
@@ -173,18 +198,35 @@ pub fn parse_action(text: &str, file: &Path, package: &str, name: &str) -> Resul
         constants: Vec::new(),
         doc: Vec::new(),
     };
-    let goal_id = || field("goal_id", BaseType::Message(uuid.clone()), "The goal's unique id.");
+    let goal_id = || {
+        field(
+            "goal_id",
+            BaseType::Message(uuid.clone()),
+            "The goal's unique id.",
+        )
+    };
     let send_goal = service(
         action_type("_SendGoal"),
         message(
             "_SendGoal_Request",
-            vec![goal_id(), field("goal", BaseType::Message(goal.ty.clone()), "The goal.")],
+            vec![
+                goal_id(),
+                field("goal", BaseType::Message(goal.ty.clone()), "The goal."),
+            ],
         ),
         message(
             "_SendGoal_Response",
             vec![
-                field("accepted", BaseType::Primitive(Primitive::Bool), "Whether the server accepted the goal."),
-                field("stamp", BaseType::Message(time.clone()), "When the server accepted it."),
+                field(
+                    "accepted",
+                    BaseType::Primitive(Primitive::Bool),
+                    "Whether the server accepted the goal.",
+                ),
+                field(
+                    "stamp",
+                    BaseType::Message(time.clone()),
+                    "When the server accepted it.",
+                ),
             ],
         ),
         vec![format!("Sends a goal of `{package}/action/{name}`.")],
@@ -195,15 +237,32 @@ pub fn parse_action(text: &str, file: &Path, package: &str, name: &str) -> Resul
         message(
             "_GetResult_Response",
             vec![
-                field("status", BaseType::Primitive(Primitive::Int8), "The goal's final status (`action_msgs/msg/GoalStatus`)."),
-                field("result", BaseType::Message(result.ty.clone()), "The result."),
+                field(
+                    "status",
+                    BaseType::Primitive(Primitive::Int8),
+                    "The goal's final status (`action_msgs/msg/GoalStatus`).",
+                ),
+                field(
+                    "result",
+                    BaseType::Message(result.ty.clone()),
+                    "The result.",
+                ),
             ],
         ),
-        vec![format!("Waits for the result of a goal of `{package}/action/{name}`.")],
+        vec![format!(
+            "Waits for the result of a goal of `{package}/action/{name}`."
+        )],
     );
     let feedback_message = message(
         "_FeedbackMessage",
-        vec![goal_id(), field("feedback", BaseType::Message(feedback.ty.clone()), "The feedback.")],
+        vec![
+            goal_id(),
+            field(
+                "feedback",
+                BaseType::Message(feedback.ty.clone()),
+                "The feedback.",
+            ),
+        ],
     );
     let doc = goal.doc.clone();
     Ok(Action {
@@ -248,14 +307,19 @@ fn service(ty: TypeRef, request: Message, response: Message, doc: Vec<String>) -
                 default: None,
                 doc: vec!["What happened, when, and to which call.".into()],
             },
-            sequence_of(&request.ty, "request", "The request, if the event carries it."),
-            sequence_of(&response.ty, "response", "The response, if the event carries it."),
+            sequence_of(
+                &request.ty,
+                "request",
+                "The request, if the event carries it.",
+            ),
+            sequence_of(
+                &response.ty,
+                "response",
+                "The response, if the event carries it.",
+            ),
         ],
         constants: Vec::new(),
-        doc: vec![format!(
-            "An introspection event of `{}`.",
-            ty.full_name()
-        )],
+        doc: vec![format!("An introspection event of `{}`.", ty.full_name())],
     };
     Service {
         ty,
@@ -382,12 +446,16 @@ fn parse_definition(code: &str, doc: Vec<String>, message: &mut Message) -> Resu
         .unwrap_or(rest.len());
     let (name, after) = rest.split_at(name_end);
     if name.is_empty() {
-        return Err(format!("`{code}` has a type but no name: write `{type_text} my_field`"));
+        return Err(format!(
+            "`{code}` has a type but no name: write `{type_text} my_field`"
+        ));
     }
     let after = after.trim_start();
     if let Some(value_text) = after.strip_prefix('=') {
         let BaseType::Primitive(primitive) = ty.base else {
-            return Err(format!("constant `{name}` has a message type: constants are primitives or strings"));
+            return Err(format!(
+                "constant `{name}` has a message type: constants are primitives or strings"
+            ));
         };
         if ty.container != Container::Single {
             return Err(format!("constant `{name}` is an array or sequence: constants are single primitives or strings"));
@@ -422,9 +490,14 @@ fn parse_definition(code: &str, doc: Vec<String>, message: &mut Message) -> Resu
         None
     } else {
         let BaseType::Primitive(primitive) = ty.base else {
-            return Err(format!("field `{name}` of a message type cannot have a default value"));
+            return Err(format!(
+                "field `{name}` of a message type cannot have a default value"
+            ));
         };
-        Some(parse_default(after, primitive, ty.container).map_err(|e| format!("default of `{name}`: {e}"))?)
+        Some(
+            parse_default(after, primitive, ty.container)
+                .map_err(|e| format!("default of `{name}`: {e}"))?,
+        )
     };
     message.fields.push(Field {
         name: name.into(),
@@ -477,7 +550,9 @@ fn parse_type(text: &str, own: &TypeRef) -> Result<FieldType, String> {
     let (base_text, container) = match text.find('[') {
         Some(open) => {
             let Some(inner) = text[open + 1..].strip_suffix(']') else {
-                return Err(format!("`{text}`: an array is written `T[N]`, a sequence `T[]` or `T[<=N]`"));
+                return Err(format!(
+                    "`{text}`: an array is written `T[N]`, a sequence `T[]` or `T[<=N]`"
+                ));
             };
             let container = if inner.is_empty() {
                 Container::Sequence
@@ -495,7 +570,11 @@ fn parse_type(text: &str, own: &TypeRef) -> Result<FieldType, String> {
         match name {
             "string" => BaseType::Primitive(Primitive::String(Some(bound))),
             "wstring" => BaseType::Primitive(Primitive::WString(Some(bound))),
-            _ => return Err(format!("`{text}`: only `string` and `wstring` take a bound (`string<=N`)")),
+            _ => {
+                return Err(format!(
+                    "`{text}`: only `string` and `wstring` take a bound (`string<=N`)"
+                ))
+            }
         }
     } else if let Some(primitive) = Primitive::from_msg_name(base_text) {
         BaseType::Primitive(primitive)
@@ -519,7 +598,11 @@ fn parse_type_ref(text: &str, own: &TypeRef) -> Result<TypeRef, String> {
         ["Header"] => ("std_msgs", "Header"),
         [name] => (own.package.as_str(), *name),
         [package, name] | [package, "msg", name] => (*package, *name),
-        _ => return Err(format!("`{text}` is not a type: expected a primitive, `Name` or `pkg/Name`")),
+        _ => {
+            return Err(format!(
+                "`{text}` is not a type: expected a primitive, `Name` or `pkg/Name`"
+            ))
+        }
     };
     if !is_lower_name(package) {
         return Err(format!("`{text}`: `{package}` is not a valid package name"));
@@ -545,13 +628,17 @@ fn parse_default(text: &str, primitive: Primitive, container: Container) -> Resu
         return parse_scalar(text, primitive);
     }
     let Some(inner) = text.strip_prefix('[').and_then(|t| t.strip_suffix(']')) else {
-        return Err(format!("`{text}`: the default of an array or sequence is written `[a, b, c]`"));
+        return Err(format!(
+            "`{text}`: the default of an array or sequence is written `[a, b, c]`"
+        ));
     };
     let items = split_list(inner)?;
     let len = items.len();
     match container {
         Container::Array(n) if len != n => return Err(format!("{len} values for an array of {n}")),
-        Container::BoundedSequence(n) if len > n => return Err(format!("{len} values for a sequence of at most {n}")),
+        Container::BoundedSequence(n) if len > n => {
+            return Err(format!("{len} values for a sequence of at most {n}"))
+        }
         _ => {}
     }
     items
@@ -618,7 +705,9 @@ fn parse_scalar(text: &str, primitive: Primitive) -> Result<Value, String> {
                 _ => value.len(),
             };
             match bound {
-                Some(bound) if len > bound => Err(format!("`{text}` is longer than the bound {bound}")),
+                Some(bound) if len > bound => {
+                    Err(format!("`{text}` is longer than the bound {bound}"))
+                }
                 _ => Ok(Value::Str(value)),
             }
         }
@@ -642,7 +731,10 @@ fn parse_int(text: &str) -> Option<i128> {
         Some(d) => (true, d),
         None => (false, text.strip_prefix('+').unwrap_or(text)),
     };
-    let value = if let Some(hex) = digits.strip_prefix("0x").or_else(|| digits.strip_prefix("0X")) {
+    let value = if let Some(hex) = digits
+        .strip_prefix("0x")
+        .or_else(|| digits.strip_prefix("0X"))
+    {
         i128::from_str_radix(hex, 16).ok()?
     } else {
         digits.parse::<i128>().ok()?
@@ -692,20 +784,23 @@ fn unquote(text: &str) -> Result<String, String> {
 /// rosidl's rule for package and field names.
 fn is_lower_name(s: &str) -> bool {
     s.chars().next().is_some_and(|c| c.is_ascii_lowercase())
-        && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+        && s.chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
         && !s.contains("__")
         && !s.ends_with('_')
 }
 
 /// rosidl's rule for message names: an uppercase letter, then letters and digits.
 fn is_type_name(s: &str) -> bool {
-    s.chars().next().is_some_and(|c| c.is_ascii_uppercase()) && s.chars().all(|c| c.is_ascii_alphanumeric())
+    s.chars().next().is_some_and(|c| c.is_ascii_uppercase())
+        && s.chars().all(|c| c.is_ascii_alphanumeric())
 }
 
 /// rosidl's rule for constant names.
 fn is_constant_name(s: &str) -> bool {
     s.chars().next().is_some_and(|c| c.is_ascii_uppercase())
-        && s.chars().all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_')
+        && s.chars()
+            .all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_')
         && !s.contains("__")
         && !s.ends_with('_')
 }
@@ -725,40 +820,97 @@ mod tests {
         assert_eq!(m.fields[0].doc, ["The id.", "trailing"]);
         assert_eq!(m.fields[0].default, Some(Value::Int(5)));
         assert_eq!(m.fields[1].default, Some(Value::Str("a#b".into())));
-        assert_eq!(m.fields[1].ty.base, BaseType::Primitive(Primitive::String(Some(4))));
+        assert_eq!(
+            m.fields[1].ty.base,
+            BaseType::Primitive(Primitive::String(Some(4)))
+        );
         assert_eq!(m.constants[0].value, Value::Int(-3));
         assert_eq!(
             m.fields[2].default,
-            Some(Value::List(vec![Value::Float("1.0".into()), Value::Float("2.5".into()), Value::Float("-3.0".into())]))
+            Some(Value::List(vec![
+                Value::Float("1.0".into()),
+                Value::Float("2.5".into()),
+                Value::Float("-3.0".into())
+            ]))
         );
         assert_eq!(m.fields[3].ty.container, Container::BoundedSequence(2));
-        assert_eq!(m.fields[4].ty.base, BaseType::Message(TypeRef { package: "std_msgs".into(), namespace: "msg".into(), name: "Header".into() }));
+        assert_eq!(
+            m.fields[4].ty.base,
+            BaseType::Message(TypeRef {
+                package: "std_msgs".into(),
+                namespace: "msg".into(),
+                name: "Header".into()
+            })
+        );
     }
 
     #[test]
     fn errors_name_the_line_and_the_fix() {
         let e = msg("int32 a\nint33 b\n").unwrap_err();
         assert_eq!(e.line, 2);
-        assert!(e.to_string().starts_with("pkg/msg/Test.msg:2: unknown type `int33`"), "{e}");
-        assert!(msg("uint8 x 256").unwrap_err().message.contains("out of range 0..=255"));
-        assert!(msg("int32 BadName").unwrap_err().message.contains("not a valid field name"));
-        assert!(msg("int32 a\nint32 a").unwrap_err().message.contains("defined twice"));
-        assert!(msg("int32[2] a [1]").unwrap_err().message.contains("1 values for an array of 2"));
-        assert!(msg("string<=2 a \"abc\"").unwrap_err().message.contains("longer than the bound"));
-        assert!(msg("Other x 3").unwrap_err().message.contains("cannot have a default"));
+        assert!(
+            e.to_string()
+                .starts_with("pkg/msg/Test.msg:2: unknown type `int33`"),
+            "{e}"
+        );
+        assert!(msg("uint8 x 256")
+            .unwrap_err()
+            .message
+            .contains("out of range 0..=255"));
+        assert!(msg("int32 BadName")
+            .unwrap_err()
+            .message
+            .contains("not a valid field name"));
+        assert!(msg("int32 a\nint32 a")
+            .unwrap_err()
+            .message
+            .contains("defined twice"));
+        assert!(msg("int32[2] a [1]")
+            .unwrap_err()
+            .message
+            .contains("1 values for an array of 2"));
+        assert!(msg("string<=2 a \"abc\"")
+            .unwrap_err()
+            .message
+            .contains("longer than the bound"));
+        assert!(msg("Other x 3")
+            .unwrap_err()
+            .message
+            .contains("cannot have a default"));
         let e = parse_service("int32 a\n", Path::new("p/srv/S.srv"), "p", "S").unwrap_err();
         assert!(e.message.contains("found 1 sections"), "{e}");
     }
 
     #[test]
     fn services_and_actions_get_rosidl_types() {
-        let s = parse_service("int64 a\n---\nint64 sum\n", Path::new("p/srv/Add.srv"), "p", "Add").unwrap();
+        let s = parse_service(
+            "int64 a\n---\nint64 sum\n",
+            Path::new("p/srv/Add.srv"),
+            "p",
+            "Add",
+        )
+        .unwrap();
         assert_eq!(s.request.ty.full_name(), "p/srv/Add_Request");
         assert_eq!(s.event.ty.full_name(), "p/srv/Add_Event");
-        assert_eq!(s.event.fields[1].ty.container, Container::BoundedSequence(1));
-        let a = parse_action("int32 order\n---\nint32[] seq\n---\nint32[] seq\n", Path::new("p/action/Fib.action"), "p", "Fib").unwrap();
-        assert_eq!(a.send_goal.request.ty.full_name(), "p/action/Fib_SendGoal_Request");
-        assert_eq!(a.get_result.event.ty.full_name(), "p/action/Fib_GetResult_Event");
+        assert_eq!(
+            s.event.fields[1].ty.container,
+            Container::BoundedSequence(1)
+        );
+        let a = parse_action(
+            "int32 order\n---\nint32[] seq\n---\nint32[] seq\n",
+            Path::new("p/action/Fib.action"),
+            "p",
+            "Fib",
+        )
+        .unwrap();
+        assert_eq!(
+            a.send_goal.request.ty.full_name(),
+            "p/action/Fib_SendGoal_Request"
+        );
+        assert_eq!(
+            a.get_result.event.ty.full_name(),
+            "p/action/Fib_GetResult_Event"
+        );
         assert_eq!(a.feedback_message.fields[0].name, "goal_id");
     }
 }

@@ -6,7 +6,10 @@
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 
-use crate::ast::{Action, BaseType, Container, Field, FieldType, Message, Package, Primitive, Service, TypeRef, Value};
+use crate::ast::{
+    Action, BaseType, Container, Field, FieldType, Message, Package, Primitive, Service, TypeRef,
+    Value,
+};
 
 /// How the generated code refers to the outside world.
 #[derive(Debug, Clone)]
@@ -89,7 +92,9 @@ impl<'a> Index<'a> {
         self.memo.borrow_mut().insert(key.clone(), false);
         let value = match self.messages.get(&key.0) {
             Some(m) => match property {
-                Property::Copy | Property::Plain => !m.fields.is_empty() && m.fields.iter().all(|f| self.field_has(f, property)),
+                Property::Copy | Property::Plain => {
+                    !m.fields.is_empty() && m.fields.iter().all(|f| self.field_has(f, property))
+                }
                 Property::Eq => m.fields.iter().all(|f| self.field_has(f, property)),
                 Property::Borrows => m.fields.iter().any(|f| self.field_has(f, property)),
             },
@@ -103,14 +108,20 @@ impl<'a> Index<'a> {
         let fixed = matches!(f.ty.container, Container::Single | Container::Array(_));
         match (&f.ty.base, property) {
             (BaseType::Primitive(p), Property::Copy) => fixed && !p.is_string(),
-            (BaseType::Primitive(p), Property::Plain) => fixed && !p.is_string() && *p != Primitive::Bool,
+            (BaseType::Primitive(p), Property::Plain) => {
+                fixed && !p.is_string() && *p != Primitive::Bool
+            }
             (BaseType::Primitive(p), Property::Eq) => !p.is_float(),
             (BaseType::Primitive(p), Property::Borrows) => match p {
                 Primitive::String(None) => true,
-                Primitive::Byte | Primitive::Char | Primitive::UInt8 => f.ty.container == Container::Sequence,
+                Primitive::Byte | Primitive::Char | Primitive::UInt8 => {
+                    f.ty.container == Container::Sequence
+                }
                 _ => false,
             },
-            (BaseType::Message(r), Property::Copy | Property::Plain) => fixed && self.has(r, property),
+            (BaseType::Message(r), Property::Copy | Property::Plain) => {
+                fixed && self.has(r, property)
+            }
             (BaseType::Message(r), _) => self.has(r, property),
         }
     }
@@ -126,7 +137,10 @@ impl<'a> Index<'a> {
         } else if self.packages.contains(&r.package.as_str()) {
             format!("super::super::{}::{}::{name}", r.package, r.namespace)
         } else {
-            format!("{}::{}::{}::{name}", self.options.extern_root, r.package, r.namespace)
+            format!(
+                "{}::{}::{}::{name}",
+                self.options.extern_root, r.package, r.namespace
+            )
         }
     }
 }
@@ -164,10 +178,20 @@ fn package_source(index: &Index, package: &Package) -> PackageSource {
     let mut out = String::new();
     let mut modules: BTreeMap<&str, String> = BTreeMap::new();
     for m in &package.messages {
-        message_items(index, m, &format!("msg/{}.msg", m.ty.name), modules.entry("msg").or_default());
+        message_items(
+            index,
+            m,
+            &format!("msg/{}.msg", m.ty.name),
+            modules.entry("msg").or_default(),
+        );
     }
     for s in &package.services {
-        service_items(index, s, &format!("srv/{}.srv", s.ty.name), modules.entry("srv").or_default());
+        service_items(
+            index,
+            s,
+            &format!("srv/{}.srv", s.ty.name),
+            modules.entry("srv").or_default(),
+        );
     }
     for a in &package.actions {
         action_items(index, a, modules.entry("action").or_default());
@@ -186,7 +210,10 @@ fn package_source(index: &Index, package: &Package) -> PackageSource {
             _ => "Actions (`action/*.action`): goal, result and feedback, the services and message built from them, and the [`RosAction`](CRATE::RosAction) identity.",
         };
         let what = what.replace("CRATE", &index.options.crate_path);
-        let _ = writeln!(out, "\n/// {what}\n#[allow(non_camel_case_types, clippy::all)]\npub mod {name} {{");
+        let _ = writeln!(
+            out,
+            "\n/// {what}\n#[allow(non_camel_case_types, clippy::all)]\npub mod {name} {{"
+        );
         out.push_str(body);
         out.push_str("}\n");
     }
@@ -209,7 +236,11 @@ fn service_items(index: &Index, s: &Service, file: &str, out: &mut String) {
     if !doc.is_empty() {
         doc.push(String::new());
     }
-    write_doc(out, &doc, &format!("The service `{}` (from `{file}`).", s.ty.full_name()));
+    write_doc(
+        out,
+        &doc,
+        &format!("The service `{}` (from `{file}`).", s.ty.full_name()),
+    );
     let name = &s.ty.name;
     let _ = write!(
         out,
@@ -248,7 +279,11 @@ fn action_items(index: &Index, a: &Action, out: &mut String) {
     if !doc.is_empty() {
         doc.push(String::new());
     }
-    write_doc(out, &doc, &format!("The action `{}` (from `{file}`).", a.ty.full_name()));
+    write_doc(
+        out,
+        &doc,
+        &format!("The action `{}` (from `{file}`).", a.ty.full_name()),
+    );
     let name = &a.ty.name;
     let _ = write!(
         out,
@@ -307,7 +342,12 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
     };
     write_doc(out, &doc, &tail);
 
-    let mut derives = vec![format!("{krate}::RosMessage"), "Debug".into(), "Clone".into(), "PartialEq".into()];
+    let mut derives = vec![
+        format!("{krate}::RosMessage"),
+        "Debug".into(),
+        "Clone".into(),
+        "PartialEq".into(),
+    ];
     if form == Form::Owned && index.has(&m.ty, Property::Copy) {
         derives.push("Copy".into());
     }
@@ -318,7 +358,11 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
     if form == Form::Owned && index.options.arbitrary {
         out.push_str("#[cfg_attr(feature = \"arbitrary\", derive(arbitrary::Arbitrary))]\n");
     }
-    let _ = writeln!(out, "#[ros(type_name = \"{}\", crate = \"{krate}\")]", m.ty.full_name());
+    let _ = writeln!(
+        out,
+        "#[ros(type_name = \"{}\", crate = \"{krate}\")]",
+        m.ty.full_name()
+    );
     if index.has(&m.ty, Property::Plain) {
         out.push_str("#[repr(C)]\n");
     }
@@ -341,7 +385,11 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
             if let Some(rename) = rename {
                 let _ = writeln!(out, "    #[ros(rename = \"{rename}\")]");
             }
-            let _ = writeln!(out, "    pub {ident}: {},", field_type(index, &f.ty, &m.ty, form));
+            let _ = writeln!(
+                out,
+                "    pub {ident}: {},",
+                field_type(index, &f.ty, &m.ty, form)
+            );
         }
         out.push_str("}\n\n");
     }
@@ -358,7 +406,12 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
                 Primitive::String(_) | Primitive::WString(_) => "&'static str".to_owned(),
                 p => primitive_type(p, krate),
             };
-            let _ = writeln!(out, "    pub const {}: {ty} = {};", c.name, const_literal(&c.value, c.ty));
+            let _ = writeln!(
+                out,
+                "    pub const {}: {ty} = {};",
+                c.name,
+                const_literal(&c.value, c.ty)
+            );
         }
         out.push_str("}\n\n");
     }
@@ -371,7 +424,11 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
         out.push_str("        Self {\n");
         for f in &m.fields {
             let (ident, _) = rust_ident(&f.name);
-            let _ = writeln!(out, "            {ident}: {},", default_expr(f, form, krate));
+            let _ = writeln!(
+                out,
+                "            {ident}: {},",
+                default_expr(f, form, krate)
+            );
         }
         out.push_str("        }\n");
     }
@@ -381,10 +438,11 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
 /// A field name as a Rust identifier, with the ROS name when it differs.
 fn rust_ident(name: &str) -> (String, Option<&str>) {
     const RAW: &[&str] = &[
-        "as", "async", "await", "break", "const", "continue", "dyn", "else", "enum", "extern", "false", "fn", "for", "if",
-        "impl", "in", "let", "loop", "match", "mod", "move", "mut", "pub", "ref", "return", "static", "struct", "trait",
-        "true", "type", "unsafe", "use", "where", "while", "abstract", "become", "box", "do", "final", "gen", "macro",
-        "override", "priv", "try", "typeof", "unsized", "virtual", "yield",
+        "as", "async", "await", "break", "const", "continue", "dyn", "else", "enum", "extern",
+        "false", "fn", "for", "if", "impl", "in", "let", "loop", "match", "mod", "move", "mut",
+        "pub", "ref", "return", "static", "struct", "trait", "true", "type", "unsafe", "use",
+        "where", "while", "abstract", "become", "box", "do", "final", "gen", "macro", "override",
+        "priv", "try", "typeof", "unsized", "virtual", "yield",
     ];
     match name {
         "self" | "super" | "crate" => (format!("{name}_"), Some(name)),
@@ -439,7 +497,9 @@ fn default_expr(f: &Field, form: Form, krate: &str) -> String {
     let Some(value) = &f.default else {
         return match f.ty.container {
             // `Default` for arrays stops at 32 elements; `from_fn` has no limit.
-            Container::Array(_) => "::core::array::from_fn(|_| ::core::default::Default::default())".into(),
+            Container::Array(_) => {
+                "::core::array::from_fn(|_| ::core::default::Default::default())".into()
+            }
             _ => "::core::default::Default::default()".into(),
         };
     };
@@ -454,13 +514,22 @@ fn default_expr(f: &Field, form: Form, krate: &str) -> String {
     };
     match (value, f.ty.container) {
         (Value::List(items), Container::Array(_)) => {
-            format!("[{}]", items.iter().map(scalar).collect::<Vec<_>>().join(", "))
+            format!(
+                "[{}]",
+                items.iter().map(scalar).collect::<Vec<_>>().join(", ")
+            )
         }
         (Value::List(items), Container::Sequence) if form == Form::Borrowed && is_octet(p) => {
-            format!("&[{}]", items.iter().map(scalar).collect::<Vec<_>>().join(", "))
+            format!(
+                "&[{}]",
+                items.iter().map(scalar).collect::<Vec<_>>().join(", ")
+            )
         }
         (Value::List(items), Container::Sequence) => {
-            format!("::std::vec![{}]", items.iter().map(scalar).collect::<Vec<_>>().join(", "))
+            format!(
+                "::std::vec![{}]",
+                items.iter().map(scalar).collect::<Vec<_>>().join(", ")
+            )
         }
         (Value::List(items), Container::BoundedSequence(_)) => format!(
             "{krate}::BoundedVec::from(::std::vec![{}])",
@@ -518,7 +587,9 @@ fn write_doc_line(out: &mut String, indent: &str, line: &str) {
             continue;
         }
         for c in word.chars() {
-            if matches!(c, '[' | ']' | '<' | '>' | '*' | '\\') || (text.is_empty() && matches!(c, '#' | '=' | '-' | '+')) {
+            if matches!(c, '[' | ']' | '<' | '>' | '*' | '\\')
+                || (text.is_empty() && matches!(c, '#' | '=' | '-' | '+'))
+            {
                 text.push('\\');
             }
             text.push(c);

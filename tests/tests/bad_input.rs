@@ -3,8 +3,9 @@
 //! unchecked length prefix.
 
 use shm_cdr::{
-    encode_into, from_bytes, from_bytes_into, from_bytes_strict, take_from_bytes, to_vec, BoundedString, BoundedVec, BoundedWString, DecodeErrorKind,
-    EncodeErrorKind, RosMessage, WString,
+    encode_into, from_bytes, from_bytes_into, from_bytes_strict, take_from_bytes, to_vec,
+    BoundedString, BoundedVec, BoundedWString, DecodeErrorKind, EncodeErrorKind, RosMessage,
+    WString,
 };
 use shm_cdr_tests::msgs::*;
 
@@ -167,7 +168,10 @@ fn strict_decoding_allows_three_bytes_of_padding_only() {
     for pad in 0..=3 {
         let mut input = vec![0, 1, 0, 0, 1];
         input.extend(std::iter::repeat(0).take(pad));
-        assert_eq!(from_bytes_strict::<Flag>(&input).unwrap(), Flag { on: true });
+        assert_eq!(
+            from_bytes_strict::<Flag>(&input).unwrap(),
+            Flag { on: true }
+        );
     }
     let err = from_bytes_strict::<Flag>(&[0, 1, 0, 0, 1, 0, 0, 0, 0]).unwrap_err();
     assert_eq!(err.kind(), &DecodeErrorKind::TrailingBytes { count: 4 });

@@ -106,7 +106,10 @@ fn image_borrowed_points_into_the_input() {
     assert_eq!(image.encoding, "rgb8");
     assert_eq!(image.data, (0..12).collect::<Vec<u8>>());
     let input = bytes.as_ptr_range();
-    assert!(input.contains(&image.encoding.as_ptr()), "strings must borrow");
+    assert!(
+        input.contains(&image.encoding.as_ptr()),
+        "strings must borrow"
+    );
     assert!(
         input.contains(&image.data.as_ptr()),
         "data must borrow, not copy"
