@@ -59,11 +59,11 @@ fn check_ref<R: CdrEncode>(
 macro_rules! tables {
     (messages: [$($m:path,)*], borrowed: [$(($o:path, $r:path),)*], services: [$($s:path,)*], actions: [$($a:path,)*],) => {
         fn hashes() -> Vec<(&'static str, &'static str, &'static str)> {
-            let mut out = Vec::new();
-            $( out.push(("message", <$m as RosMessage>::TYPE_NAME, <$m as RosMessage>::type_hash())); )*
-            $( out.push(("service", <$s as RosService>::TYPE_NAME, <$s as RosService>::type_hash())); )*
-            $( out.push(("action", <$a as RosAction>::TYPE_NAME, <$a as RosAction>::type_hash())); )*
-            out
+            vec![
+                $( ("message", <$m as RosMessage>::TYPE_NAME, <$m as RosMessage>::type_hash()), )*
+                $( ("service", <$s as RosService>::TYPE_NAME, <$s as RosService>::type_hash()), )*
+                $( ("action", <$a as RosAction>::TYPE_NAME, <$a as RosAction>::type_hash()), )*
+            ]
         }
 
         fn roundtrips() -> HashMap<&'static str, Roundtrip> {

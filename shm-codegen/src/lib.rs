@@ -13,13 +13,11 @@
 //! From a build script:
 //!
 //! ```no_run
-//! // build.rs
-//! fn main() {
-//!     shm_codegen::Builder::new()
-//!         .package("interfaces/robot_msgs")
-//!         .write_to_out_dir("interfaces.rs")
-//!         .unwrap_or_else(|e| panic!("{e}"));
-//! }
+//! // in build.rs's main:
+//! shm_codegen::Builder::new()
+//!     .package("interfaces/robot_msgs")
+//!     .write_to_out_dir("interfaces.rs")
+//!     .unwrap_or_else(|e| panic!("{e}"));
 //! ```
 //!
 //! and in the crate: `include!(concat!(env!("OUT_DIR"), "/interfaces.rs"));`,

@@ -577,23 +577,31 @@ fn write_doc_line_raw(out: &mut String, indent: &str, text: &str) {
 /// doctest) is escaped, and bare URLs are made links.
 fn write_doc_line(out: &mut String, indent: &str, line: &str) {
     let mut text = String::new();
-    for (i, word) in line.trim().split(' ').enumerate() {
-        if i > 0 {
-            text.push(' ');
-        }
-        let url = word.trim_end_matches(['.', ',', ')', ';', ':']);
-        if url.starts_with("http://") || url.starts_with("https://") {
-            let _ = write!(text, "<{url}>{}", &word[url.len()..]);
-            continue;
-        }
-        for c in word.chars() {
-            if matches!(c, '[' | ']' | '<' | '>' | '*' | '\\')
-                || (text.is_empty() && matches!(c, '#' | '=' | '-' | '+'))
-            {
+    let mut rest = line.trim();
+    while !rest.is_empty() {
+        let at = ["https://", "http://"].iter().filter_map(|p| rest.find(p)).min();
+        let (plain, url, after) = match at {
+            Some(start) => {
+                let tail = &rest[start..];
+                let end = tail
+                    .find(|c: char| c.is_whitespace() || matches!(c, '"' | '\'' | '<' | '>' | '[' | ']' | '(' | ')'))
+                    .unwrap_or(tail.len());
+                let url = tail[..end].trim_end_matches(['.', ',', ';', ':']);
+                (&rest[..start], url, &tail[url.len()..])
+            }
+            None => (rest, "", ""),
+        };
+        for c in plain.chars() {
+            let line_start = text.trim().is_empty();
+            if matches!(c, '[' | ']' | '<' | '>' | '*' | '\\') || (line_start && matches!(c, '#' | '=' | '-' | '+')) {
                 text.push('\\');
             }
             text.push(c);
         }
+        if !url.is_empty() {
+            let _ = write!(text, "<{url}>");
+        }
+        rest = after;
     }
     write_doc_line_raw(out, indent, &text);
 }

@@ -765,7 +765,7 @@ pub mod msg {
     /// to the coordinate frame child_frame_id at the time of header.stamp
     ///
     /// This message is mostly used by the
-    /// \<a href="https://docs.ros.org/en/rolling/p/tf2/"\>tf2\</a\> package.
+    /// \<a href="<https://docs.ros.org/en/rolling/p/tf2/>"\>tf2\</a\> package.
     /// See its documentation for more information.
     ///
     /// The child_frame_id is necessary in addition to the frame_id
@@ -799,7 +799,7 @@ pub mod msg {
     /// to the coordinate frame child_frame_id at the time of header.stamp
     ///
     /// This message is mostly used by the
-    /// \<a href="https://docs.ros.org/en/rolling/p/tf2/"\>tf2\</a\> package.
+    /// \<a href="<https://docs.ros.org/en/rolling/p/tf2/>"\>tf2\</a\> package.
     /// See its documentation for more information.
     ///
     /// The child_frame_id is necessary in addition to the frame_id

@@ -5,27 +5,27 @@
 //!
 //! | package | feature | contents |
 //! |---|---|---|
-//! | [`action_msgs`] | `action_msgs` | 3 messages, 1 services, 0 actions |
-//! | [`actionlib_msgs`] | `actionlib_msgs` | 3 messages, 0 services, 0 actions |
-//! | [`builtin_interfaces`] | `builtin_interfaces` | 2 messages, 0 services, 0 actions |
-//! | [`diagnostic_msgs`] | `diagnostic_msgs` | 3 messages, 2 services, 0 actions |
-//! | [`geometry_msgs`] | `geometry_msgs` | 32 messages, 0 services, 0 actions |
-//! | [`lifecycle_msgs`] | `lifecycle_msgs` | 4 messages, 4 services, 0 actions |
-//! | [`nav_msgs`] | `nav_msgs` | 6 messages, 4 services, 0 actions |
-//! | [`rcl_interfaces`] | `rcl_interfaces` | 13 messages, 8 services, 0 actions |
-//! | [`rosgraph_msgs`] | `rosgraph_msgs` | 1 messages, 0 services, 0 actions |
-//! | [`sensor_msgs`] | `sensor_msgs` | 27 messages, 1 services, 0 actions |
-//! | [`service_msgs`] | `service_msgs` | 1 messages, 0 services, 0 actions |
-//! | [`shape_msgs`] | `shape_msgs` | 4 messages, 0 services, 0 actions |
-//! | [`std_msgs`] | `std_msgs` | 30 messages, 0 services, 0 actions |
-//! | [`std_srvs`] | `std_srvs` | 0 messages, 3 services, 0 actions |
-//! | [`stereo_msgs`] | `stereo_msgs` | 1 messages, 0 services, 0 actions |
-//! | [`test_msgs`] | `test_msgs` | 13 messages, 3 services, 2 actions |
-//! | [`trajectory_msgs`] | `trajectory_msgs` | 4 messages, 0 services, 0 actions |
-//! | [`type_description_interfaces`] | `type_description_interfaces` | 6 messages, 1 services, 0 actions |
-//! | [`unique_identifier_msgs`] | `unique_identifier_msgs` | 1 messages, 0 services, 0 actions |
-//! | [`visualization_msgs`] | `visualization_msgs` | 12 messages, 1 services, 0 actions |
-//! | [`tf2_msgs`] | `tf2_msgs` | 2 messages, 0 services, 0 actions |
+//! | `action_msgs` | `action_msgs` | 3 messages, 1 services, 0 actions |
+//! | `actionlib_msgs` | `actionlib_msgs` | 3 messages, 0 services, 0 actions |
+//! | `builtin_interfaces` | `builtin_interfaces` | 2 messages, 0 services, 0 actions |
+//! | `diagnostic_msgs` | `diagnostic_msgs` | 3 messages, 2 services, 0 actions |
+//! | `geometry_msgs` | `geometry_msgs` | 32 messages, 0 services, 0 actions |
+//! | `lifecycle_msgs` | `lifecycle_msgs` | 4 messages, 4 services, 0 actions |
+//! | `nav_msgs` | `nav_msgs` | 6 messages, 4 services, 0 actions |
+//! | `rcl_interfaces` | `rcl_interfaces` | 13 messages, 8 services, 0 actions |
+//! | `rosgraph_msgs` | `rosgraph_msgs` | 1 messages, 0 services, 0 actions |
+//! | `sensor_msgs` | `sensor_msgs` | 27 messages, 1 services, 0 actions |
+//! | `service_msgs` | `service_msgs` | 1 messages, 0 services, 0 actions |
+//! | `shape_msgs` | `shape_msgs` | 4 messages, 0 services, 0 actions |
+//! | `std_msgs` | `std_msgs` | 30 messages, 0 services, 0 actions |
+//! | `std_srvs` | `std_srvs` | 0 messages, 3 services, 0 actions |
+//! | `stereo_msgs` | `stereo_msgs` | 1 messages, 0 services, 0 actions |
+//! | `test_msgs` | `test_msgs` | 13 messages, 3 services, 2 actions |
+//! | `trajectory_msgs` | `trajectory_msgs` | 4 messages, 0 services, 0 actions |
+//! | `type_description_interfaces` | `type_description_interfaces` | 6 messages, 1 services, 0 actions |
+//! | `unique_identifier_msgs` | `unique_identifier_msgs` | 1 messages, 0 services, 0 actions |
+//! | `visualization_msgs` | `visualization_msgs` | 12 messages, 1 services, 0 actions |
+//! | `tf2_msgs` | `tf2_msgs` | 2 messages, 0 services, 0 actions |
 
 #[cfg(feature = "action_msgs")]
 pub mod action_msgs;

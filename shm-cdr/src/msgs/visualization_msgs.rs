@@ -737,7 +737,7 @@ pub mod msg {
         /// NOTE: alpha is not yet used
         pub colors: ::std::vec::Vec<super::super::std_msgs::msg::ColorRGBA>,
         /// Texture resource is a special URI that can either reference a texture file in
-        /// a format acceptable to (resource retriever)\[https://docs.ros.org/en/rolling/p/resource_retriever/\]
+        /// a format acceptable to (resource retriever)\[<https://docs.ros.org/en/rolling/p/resource_retriever/>\]
         /// or an embedded texture via a string matching the format:
         /// "embedded://texture_name"
         pub texture_resource: ::std::string::String,
@@ -866,7 +866,7 @@ pub mod msg {
         /// NOTE: alpha is not yet used
         pub colors: ::std::vec::Vec<super::super::std_msgs::msg::ColorRGBA>,
         /// Texture resource is a special URI that can either reference a texture file in
-        /// a format acceptable to (resource retriever)\[https://docs.ros.org/en/rolling/p/resource_retriever/\]
+        /// a format acceptable to (resource retriever)\[<https://docs.ros.org/en/rolling/p/resource_retriever/>\]
         /// or an embedded texture via a string matching the format:
         /// "embedded://texture_name"
         pub texture_resource: &'a str,

@@ -104,7 +104,7 @@ fn run(args: Args) -> Result<(), String> {
             .map_or("", |(_, c)| c)
             .trim_end_matches('.');
         module.push_str(&format!(
-            "//! | [`{0}`] | `{0}` | {counts} |\n",
+            "//! | `{0}` | `{0}` | {counts} |\n",
             package.name
         ));
     }
