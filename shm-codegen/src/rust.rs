@@ -579,12 +579,18 @@ fn write_doc_line(out: &mut String, indent: &str, line: &str) {
     let mut text = String::new();
     let mut rest = line.trim();
     while !rest.is_empty() {
-        let at = ["https://", "http://"].iter().filter_map(|p| rest.find(p)).min();
+        let at = ["https://", "http://"]
+            .iter()
+            .filter_map(|p| rest.find(p))
+            .min();
         let (plain, url, after) = match at {
             Some(start) => {
                 let tail = &rest[start..];
                 let end = tail
-                    .find(|c: char| c.is_whitespace() || matches!(c, '"' | '\'' | '<' | '>' | '[' | ']' | '(' | ')'))
+                    .find(|c: char| {
+                        c.is_whitespace()
+                            || matches!(c, '"' | '\'' | '<' | '>' | '[' | ']' | '(' | ')')
+                    })
                     .unwrap_or(tail.len());
                 let url = tail[..end].trim_end_matches(['.', ',', ';', ':']);
                 (&rest[..start], url, &tail[url.len()..])
@@ -593,7 +599,9 @@ fn write_doc_line(out: &mut String, indent: &str, line: &str) {
         };
         for c in plain.chars() {
             let line_start = text.trim().is_empty();
-            if matches!(c, '[' | ']' | '<' | '>' | '*' | '\\') || (line_start && matches!(c, '#' | '=' | '-' | '+')) {
+            if matches!(c, '[' | ']' | '<' | '>' | '*' | '\\')
+                || (line_start && matches!(c, '#' | '=' | '-' | '+'))
+            {
                 text.push('\\');
             }
             text.push(c);

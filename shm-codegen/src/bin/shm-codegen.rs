@@ -103,10 +103,7 @@ fn run(args: Args) -> Result<(), String> {
             .split_once(": ")
             .map_or("", |(_, c)| c)
             .trim_end_matches('.');
-        module.push_str(&format!(
-            "//! | `{0}` | `{0}` | {counts} |\n",
-            package.name
-        ));
+        module.push_str(&format!("//! | `{0}` | `{0}` | {counts} |\n", package.name));
     }
     for source in &sources {
         module.push_str(&format!(
