@@ -29,3 +29,11 @@ fn roundtrip_corpus() {
     let n = replay("roundtrip", shm_cdr_tests::fuzzing::roundtrip);
     assert!(n >= 10, "only {n} roundtrip corpus inputs");
 }
+
+#[test]
+fn generated_types_over_both_corpora() {
+    // No corpus of its own yet: the other targets' inputs are arbitrary bytes too.
+    let n = replay("roundtrip", shm_cdr_tests::fuzzing::roundtrip_generated)
+        + replay("decode", shm_cdr_tests::fuzzing::roundtrip_generated);
+    assert!(n >= 20, "only {n} corpus inputs");
+}
