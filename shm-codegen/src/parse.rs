@@ -407,7 +407,7 @@ fn parse_section(lines: &[&str], first: usize, file: &Path, ty: TypeRef) -> Resu
             line: line_no,
             message,
         };
-        let (code, comment) = split_comment(raw).map_err(error)?;
+        let (code, comment) = split_comment(raw);
         let code = code.trim();
         if code.is_empty() {
             match comment {
@@ -510,7 +510,7 @@ fn parse_definition(code: &str, doc: Vec<String>, message: &mut Message) -> Resu
 
 /// Split a line into its code and its comment (the text after a `#` outside
 /// quotes, with one leading space removed).
-fn split_comment(line: &str) -> Result<(&str, Option<String>), String> {
+fn split_comment(line: &str) -> (&str, Option<String>) {
     let mut quote: Option<char> = None;
     let mut escaped = false;
     for (i, c) in line.char_indices() {
@@ -529,13 +529,13 @@ fn split_comment(line: &str) -> Result<(&str, Option<String>), String> {
                 '#' => {
                     let text = &line[i + 1..];
                     let text = text.strip_prefix(' ').unwrap_or(text).trim_end();
-                    return Ok((&line[..i], Some(text.to_owned())));
+                    return (&line[..i], Some(text.to_owned()));
                 }
                 _ => {}
             },
         }
     }
-    Ok((line, None))
+    (line, None)
 }
 
 fn split_token(s: &str) -> (&str, &str) {
