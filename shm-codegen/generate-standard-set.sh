@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Regenerates shm-cdr/src/msgs/ (the standard interfaces) and the per-package
-# features in shm-cdr/Cargo.toml from the interface definitions in the ROS 2
+# Regenerates shm-cdr/src/msgs/ (the standard interfaces), shm-runtime/src/msgs/
+# (their shared-memory forms) and the per-package
+# features in both Cargo.tomls from the interface definitions in the ROS 2
 # Kilted wheels on PyPI (and, for tf2_msgs, which has no wheel, rosbags' type
 # store). CI runs it and fails if the result differs from what is committed.
 #
@@ -50,3 +51,10 @@ for pkg in "${from_rosbags[@]}"; do dirs+=("$src/$pkg"); done
 cargo run --quiet -p shm-codegen -- --crate-path crate --extern-root crate::msgs --arbitrary \
     --features shm-cdr/Cargo.toml --registry examples/src/interfaces.rs \
     --out-dir shm-cdr/src/msgs "${dirs[@]}"
+
+# shm-runtime's `…Shm` forms (byte sequences as `ShmBytes`) of the packages
+# whose messages carry big byte payloads.
+cargo run --quiet -p shm-codegen -- --crate-path ::shm_cdr --extern-root ::shm_cdr::msgs \
+    --shm-bytes crate::ShmBytes --shm-forms-only \
+    --features shm-runtime/Cargo.toml --forward-features shm-cdr \
+    --out-dir shm-runtime/src/msgs "$src/sensor_msgs" "$src/std_msgs"

@@ -33,12 +33,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         bytes.len(),
         shm_cdr::encoded_size(&battery)
     );
-    // The borrowing form reads the same bytes without copying the strings.
+    // The borrowing form reads the same bytes without copying the strings, also
+    // those of nested standard types (`std_msgs/Header`'s `frame_id`).
     let view: msg::BatteryRef = shm_cdr::from_bytes(&bytes)?;
+    let inside = |s: &str| bytes.as_ptr_range().contains(&s.as_ptr());
     println!(
-        "borrowed  location {:?} points into the buffer: {}",
+        "borrowed  location {:?} and header.frame_id {:?} point into the buffer: {}",
         view.location,
-        bytes.as_ptr_range().contains(&view.location.as_ptr())
+        view.header.frame_id,
+        inside(view.location) && inside(view.header.frame_id)
     );
 
     // A service: request, response and event types, and the service's own hash.

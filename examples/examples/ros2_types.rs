@@ -10,7 +10,8 @@
 //! `roundtrip` decodes the CDR bytes (as real ROS 2 sent them: stale padding,
 //! bytes after the end) into the owned type, re-encodes them, and checks that the
 //! size function is exact, that the borrowing `…Ref` form decodes to the same
-//! bytes, and that decoding into a kept value of an earlier message gives them too.
+//! bytes (and is the type's `BorrowedForm`), and that decoding into a kept value of
+//! an earlier message gives them too.
 
 use std::collections::HashMap;
 use std::io::{BufRead, Write};
@@ -73,6 +74,8 @@ macro_rules! tables {
                 fn with_ref(input: &[u8], scratch: &mut Vec<u8>) -> Result<Vec<u8>, String> {
                     let out = owned::<$o>(input, scratch)?;
                     let view: Result<$r, _> = shm_cdr::from_bytes(input);
+                    // Compiles only if `$r` is the type's `BorrowedForm`.
+                    let view = view.map(|v| -> <$o as shm_cdr::BorrowedForm>::Ref<'_> { v });
                     check_ref(view, out)
                 }
                 out.insert(<$o as RosMessage>::TYPE_NAME, with_ref);

@@ -43,3 +43,27 @@ pub fn xyzi_fields() -> Vec<PointField> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::generated::robot_interfaces::msg::{Battery, BatteryRef, CellHistory};
+    use shm_cdr::RosMessage;
+
+    /// The user package's borrowing form borrows through `std_msgs/Header`, a type
+    /// of another crate, via `shm_cdr::BorrowedForm`.
+    #[test]
+    fn borrowed_form_borrows_through_standard_types() {
+        let mut battery = Battery::default();
+        battery.header.frame_id = "base_link".into();
+        battery.location = "rear bay".into();
+        battery.history = vec![CellHistory::default(); 3];
+        let bytes = shm_cdr::to_vec(&battery).expect("encodes");
+        let view: BatteryRef = shm_cdr::from_bytes(&bytes).expect("decodes");
+        let inside = |s: &str| bytes.as_ptr_range().contains(&s.as_ptr());
+        assert!(inside(view.header.frame_id), "frame_id was copied");
+        assert!(inside(view.location), "location was copied");
+        assert_eq!(view.header.frame_id, "base_link");
+        assert_eq!(shm_cdr::to_vec(&view).expect("encodes"), bytes);
+        assert_eq!(BatteryRef::type_hash(), Battery::type_hash());
+    }
+}

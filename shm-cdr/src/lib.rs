@@ -50,7 +50,7 @@ pub use encode::{CdrEncode, Writer};
 pub use endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
 pub use error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
 pub use interface::{RosAction, RosService};
-pub use message::RosMessage;
+pub use message::{BorrowedForm, RosMessage};
 
 /// `#[derive(RosMessage)]`: see the [crate documentation](crate).
 #[cfg(feature = "derive")]

@@ -36,3 +36,15 @@ pub trait RosMessage: CdrEncode + RosElement {
         }
     }
 }
+
+/// A message type's borrowing form: the type a reader decodes without copying
+/// strings and byte sequences out of the input. Generated types implement it
+/// (`Header`'s is `HeaderRef<'a>`; a type with nothing to borrow names itself),
+/// which lets generated code borrow through message types of other crates.
+///
+/// Invariant: `Ref<'a>` has the same type name, fields, type hash and bytes on
+/// the wire as `Self`.
+pub trait BorrowedForm: RosMessage {
+    /// The borrowing form.
+    type Ref<'a>: RosMessage + crate::CdrDecode<'a> + Clone + core::fmt::Debug + PartialEq + Default;
+}

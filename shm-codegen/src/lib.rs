@@ -107,6 +107,15 @@ impl Builder {
         self
     }
 
+    /// Also generate a `<Name>Shm` form of every message with unbounded
+    /// `uint8[]`/`byte[]` fields of its own, typing those fields as `path`:
+    /// `"::shm_runtime::ShmBytes"` lets a publisher splice bytes the application
+    /// wrote into shared memory without a copy (default: no such forms).
+    pub fn shm_bytes(mut self, path: &str) -> Self {
+        self.options.shm_bytes = Some(path.into());
+        self
+    }
+
     /// Read and check every package.
     pub fn load(&self) -> Result<Vec<ast::Package>, Error> {
         let packages = self
@@ -132,6 +141,9 @@ impl Builder {
         let mut out = String::from(GENERATED_MARKER);
         out.push('\n');
         for source in rust::generate(&packages, &self.options) {
+            if source.body.is_empty() {
+                continue;
+            }
             out.push_str(&format!(
                 "\n/// {}\npub mod {} {{\n{}}}\n",
                 source.summary, source.name, source.body

@@ -23,8 +23,17 @@ pub struct Options {
     /// Add `#[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]` to
     /// owned forms (the generating crate must have that feature).
     pub arbitrary: bool,
-    /// Generate the borrowing `…Ref<'a>` forms.
+    /// Generate the borrowing `…Ref<'a>` forms (and `BorrowedForm` impls).
     pub borrowed: bool,
+    /// Also generate a `<Name>Shm` form of every message with unbounded
+    /// `uint8[]`/`byte[]` fields of its own, those fields typed as this path
+    /// (e.g. `::shm_runtime::ShmBytes`: bytes the application wrote into shared
+    /// memory, published without a copy). The type must encode and decode as a
+    /// `uint8[]` and convert `From<Vec<u8>>`.
+    pub shm_bytes: Option<String>,
+    /// Generate only the `…Shm` forms, every other type referenced under
+    /// `extern_root` (how shm-runtime gets its forms of the standard set).
+    pub shm_forms_only: bool,
 }
 
 impl Default for Options {
@@ -34,15 +43,19 @@ impl Default for Options {
             extern_root: "::shm_cdr::msgs".into(),
             arbitrary: false,
             borrowed: true,
+            shm_bytes: None,
+            shm_forms_only: false,
         }
     }
 }
 
-/// Owned struct, or the form that borrows strings and byte sequences.
+/// Owned struct, the form that borrows strings and byte sequences, or the form
+/// whose byte sequences are shared-memory buffers.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Form {
     Owned,
     Borrowed,
+    Shm,
 }
 
 /// What the generator knows about every message type of the run.
@@ -81,8 +94,9 @@ impl<'a> Index<'a> {
         }
     }
 
-    /// Whether message `r` has `property`; unknown (external) types are assumed
-    /// not to, which only costs a derive or a borrow, never correctness.
+    /// Whether message `r` has `property`. Of external types only what holds for
+    /// any message is assumed: they may borrow (their `BorrowedForm` says how),
+    /// and are not assumed `Copy`, `Eq` or plain, which only costs a derive.
     fn has(&self, r: &TypeRef, property: Property) -> bool {
         let key = (r.full_name(), property as u8);
         if let Some(&known) = self.memo.borrow().get(&key) {
@@ -98,7 +112,7 @@ impl<'a> Index<'a> {
                 Property::Eq => m.fields.iter().all(|f| self.field_has(f, property)),
                 Property::Borrows => m.fields.iter().any(|f| self.field_has(f, property)),
             },
-            None => false,
+            None => matches!(property, Property::Borrows),
         };
         self.memo.borrow_mut().insert(key, value);
         value
@@ -126,22 +140,43 @@ impl<'a> Index<'a> {
         }
     }
 
-    /// The Rust path of message `r` seen from module `from` (`pkg::ns`).
-    fn path(&self, r: &TypeRef, from: &TypeRef, form: Form) -> String {
-        let name = match form {
-            Form::Borrowed if self.has(r, Property::Borrows) => format!("{}Ref<'a>", r.name),
-            _ => r.name.clone(),
-        };
-        if r.package == from.package && r.namespace == from.namespace {
-            name
-        } else if self.packages.contains(&r.package.as_str()) {
-            format!("super::super::{}::{}::{name}", r.package, r.namespace)
-        } else {
+    /// Whether `r` is generated in this run, as opposed to referenced under
+    /// `extern_root`.
+    fn is_local(&self, r: &TypeRef) -> bool {
+        !self.options.shm_forms_only && self.packages.contains(&r.package.as_str())
+    }
+
+    /// The Rust path of message `r` (in its owned form) seen from module `from`.
+    fn owned_path(&self, r: &TypeRef, from: &TypeRef) -> String {
+        if !self.is_local(r) {
             format!(
-                "{}::{}::{}::{name}",
-                self.options.extern_root, r.package, r.namespace
+                "{}::{}::{}::{}",
+                self.options.extern_root, r.package, r.namespace, r.name
             )
+        } else if r.package == from.package && r.namespace == from.namespace {
+            r.name.clone()
+        } else {
+            format!("super::super::{}::{}::{}", r.package, r.namespace, r.name)
         }
+    }
+
+    /// The Rust type of a field of message type `r` in `form`, seen from `from`.
+    /// Nested messages keep their owned form inside a `…Shm` form.
+    fn path(&self, r: &TypeRef, from: &TypeRef, form: Form) -> String {
+        let owned = self.owned_path(r, from);
+        match form {
+            Form::Borrowed if !self.is_local(r) => format!(
+                "<{owned} as {}::BorrowedForm>::Ref<'a>",
+                self.options.crate_path
+            ),
+            Form::Borrowed if self.has(r, Property::Borrows) => format!("{owned}Ref<'a>"),
+            _ => owned,
+        }
+    }
+
+    /// Whether message `m` gets a `…Shm` form.
+    fn has_shm_form(&self, m: &Message) -> bool {
+        self.options.shm_bytes.is_some() && m.fields.iter().any(is_byte_sequence)
     }
 }
 
@@ -175,6 +210,9 @@ pub fn generate(packages: &[Package], options: &Options) -> Vec<PackageSource> {
 }
 
 fn package_source(index: &Index, package: &Package) -> PackageSource {
+    if index.options.shm_forms_only {
+        return shm_forms_source(index, package);
+    }
     let mut out = String::new();
     let mut modules: BTreeMap<&str, String> = BTreeMap::new();
     for m in &package.messages {
@@ -223,6 +261,40 @@ fn package_source(index: &Index, package: &Package) -> PackageSource {
     PackageSource {
         name: package.name.clone(),
         summary,
+        body: out.trim_start().to_owned(),
+    }
+}
+
+/// Only the `…Shm` forms of a package's messages, in a module per namespace;
+/// `body` is empty when the package has none.
+fn shm_forms_source(index: &Index, package: &Package) -> PackageSource {
+    let mut modules: BTreeMap<&str, Vec<&Message>> = BTreeMap::new();
+    for m in package.all_messages().filter(|m| index.has_shm_form(m)) {
+        modules.entry(m.ty.namespace.as_str()).or_default().push(m);
+    }
+    let mut out = String::new();
+    let mut names = Vec::new();
+    for (namespace, messages) in &modules {
+        let _ = writeln!(
+            out,
+            "\n/// `{}/{namespace}` types with byte sequences of their own, in their `…Shm` form.\n#[allow(non_camel_case_types, clippy::all)]\npub mod {namespace} {{",
+            package.name
+        );
+        for m in messages {
+            // `Name_Request` comes from `srv/Name.srv` (type names have no `_`).
+            let base = m.ty.name.split('_').next().unwrap_or(&m.ty.name);
+            let file = format!("{namespace}/{base}.{namespace}");
+            write_struct(index, m, &file, Form::Shm, &mut out);
+            names.push(format!("`{}Shm`", m.ty.name));
+        }
+        out.push_str("}\n");
+    }
+    if modules.contains_key("msg") {
+        let _ = writeln!(out, "\n#[doc(no_inline)]\npub use msg::*;");
+    }
+    PackageSource {
+        name: package.name.clone(),
+        summary: format!("`{}`: {}.", package.name, names.join(", ")),
         body: out.trim_start().to_owned(),
     }
 }
@@ -318,8 +390,24 @@ fn dds_name(r: &TypeRef) -> String {
 
 fn message_items(index: &Index, m: &Message, file: &str, out: &mut String) {
     write_struct(index, m, file, Form::Owned, out);
-    if index.options.borrowed && index.has(&m.ty, Property::Borrows) {
-        write_struct(index, m, file, Form::Borrowed, out);
+    if index.options.borrowed {
+        let borrows = index.has(&m.ty, Property::Borrows);
+        if borrows {
+            write_struct(index, m, file, Form::Borrowed, out);
+        }
+        let (name, reference) = if borrows {
+            (&m.ty.name, format!("{}Ref<'a>", m.ty.name))
+        } else {
+            (&m.ty.name, "Self".to_owned())
+        };
+        let _ = writeln!(
+            out,
+            "impl {}::BorrowedForm for {name} {{\n    type Ref<'a> = {reference};\n}}\n",
+            index.options.crate_path
+        );
+    }
+    if index.has_shm_form(m) {
+        write_struct(index, m, file, Form::Shm, out);
     }
 }
 
@@ -328,7 +416,9 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
     let (name, generics) = match form {
         Form::Owned => (m.ty.name.clone(), ""),
         Form::Borrowed => (format!("{}Ref", m.ty.name), "<'a>"),
+        Form::Shm => (format!("{}Shm", m.ty.name), ""),
     };
+    let owned = index.owned_path(&m.ty, &m.ty);
     let mut doc = m.doc.clone();
     if !doc.is_empty() {
         doc.push(String::new());
@@ -338,6 +428,13 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
         Form::Borrowed => format!(
             "[`{}`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.",
             m.ty.name
+        ),
+        Form::Shm => format!(
+            "[`{}`]({owned}) with its own byte sequences as [`{}`]({}), which a publisher splices into the message without a copy when they sit in shared memory: same type, same bytes, same hash. `From<{}>` moves the fields over.",
+            m.ty.name,
+            shm_bytes_name(index),
+            shm_bytes_type(index),
+            m.ty.name,
         ),
     };
     write_doc(out, &doc, &tail);
@@ -392,6 +489,25 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
             );
         }
         out.push_str("}\n\n");
+    }
+
+    if form == Form::Shm {
+        let _ = writeln!(
+            out,
+            "impl ::core::convert::From<{owned}> for {name} {{\n    fn from(message: {owned}) -> Self {{\n        Self {{"
+        );
+        for f in &m.fields {
+            let (ident, _) = rust_ident(&f.name);
+            if is_byte_sequence(f) {
+                let _ = writeln!(
+                    out,
+                    "            {ident}: ::core::convert::From::from(message.{ident}),"
+                );
+            } else {
+                let _ = writeln!(out, "            {ident}: message.{ident},");
+            }
+        }
+        out.push_str("        }\n    }\n}\n\n");
     }
 
     // Constants, on the owned form only.
@@ -475,8 +591,30 @@ fn is_octet(p: Primitive) -> bool {
     matches!(p, Primitive::Byte | Primitive::Char | Primitive::UInt8)
 }
 
+/// An unbounded `uint8[]`, `byte[]` or `char[]` field: what the `…Shm` form
+/// holds in a shared-memory buffer.
+fn is_byte_sequence(f: &Field) -> bool {
+    matches!(f.ty.base, BaseType::Primitive(p) if is_octet(p))
+        && f.ty.container == Container::Sequence
+}
+
+fn shm_bytes_type<'a>(index: &Index<'a>) -> &'a str {
+    index.options.shm_bytes.as_deref().unwrap_or_default()
+}
+
+fn shm_bytes_name<'a>(index: &Index<'a>) -> &'a str {
+    let ty = shm_bytes_type(index);
+    ty.rsplit("::").next().unwrap_or(ty)
+}
+
 fn field_type(index: &Index, ty: &FieldType, from: &TypeRef, form: Form) -> String {
     let krate = &index.options.crate_path;
+    if form == Form::Shm
+        && matches!(ty.base, BaseType::Primitive(p) if is_octet(p))
+        && ty.container == Container::Sequence
+    {
+        return shm_bytes_type(index).to_owned();
+    }
     let element = match (&ty.base, form) {
         (BaseType::Primitive(Primitive::String(None)), Form::Borrowed) => "&'a str".to_owned(),
         (BaseType::Primitive(p), _) => primitive_type(*p, krate),
@@ -516,6 +654,12 @@ fn default_expr(f: &Field, form: Form, krate: &str) -> String {
         (Value::List(items), Container::Array(_)) => {
             format!(
                 "[{}]",
+                items.iter().map(scalar).collect::<Vec<_>>().join(", ")
+            )
+        }
+        (Value::List(items), Container::Sequence) if form == Form::Shm && is_octet(p) => {
+            format!(
+                "::core::convert::From::from(::std::vec![{}])",
                 items.iter().map(scalar).collect::<Vec<_>>().join(", ")
             )
         }

@@ -204,3 +204,59 @@ pub(crate) fn encode_spliced<T: CdrEncode + ?Sized>(msg: &T) -> Result<Splice, E
         size: reduced + sizing.skipped,
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    use arbitrary::{Arbitrary, Unstructured};
+    use shm_cdr::{msgs, RosMessage};
+
+    use crate::msgs::{sensor_msgs, std_msgs};
+
+    /// Deterministic pseudo-random input for `Arbitrary`.
+    fn noise(seed: u64, len: usize) -> Vec<u8> {
+        let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        (0..len)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                state as u8
+            })
+            .collect()
+    }
+
+    /// Every generated `…Shm` form is its owned form on the wire: same name, same
+    /// hash, same fields, same exact size and bytes, and it decodes back.
+    fn same_as_owned<Owned, Shm>()
+    where
+        Owned: RosMessage + for<'a> Arbitrary<'a> + Clone,
+        Shm: RosMessage + From<Owned> + shm_cdr::DecodeOwned + PartialEq + std::fmt::Debug,
+    {
+        assert_eq!(Owned::TYPE_NAME, Shm::TYPE_NAME);
+        assert_eq!(Owned::type_hash(), Shm::type_hash(), "{}", Owned::TYPE_NAME);
+        assert_eq!(Owned::FIELDS, Shm::FIELDS);
+        let mut checked = 0;
+        for seed in 0..200 {
+            let input = noise(seed, 64 + seed as usize * 40);
+            let Ok(owned) = Owned::arbitrary(&mut Unstructured::new(&input)) else {
+                continue;
+            };
+            let shm = Shm::from(owned.clone());
+            let bytes = shm_cdr::to_vec(&owned).expect("encodes");
+            assert_eq!(shm_cdr::to_vec(&shm).expect("encodes"), bytes);
+            assert_eq!(shm_cdr::encoded_size(&shm), bytes.len());
+            assert_eq!(shm_cdr::from_bytes::<Shm>(&bytes).expect("decodes"), shm);
+            checked += 1;
+        }
+        assert!(checked > 100, "{}: only {checked} values", Owned::TYPE_NAME);
+    }
+
+    #[test]
+    fn shm_forms_match_their_owned_forms() {
+        same_as_owned::<msgs::sensor_msgs::Image, sensor_msgs::ImageShm>();
+        same_as_owned::<msgs::sensor_msgs::CompressedImage, sensor_msgs::CompressedImageShm>();
+        same_as_owned::<msgs::sensor_msgs::PointCloud2, sensor_msgs::PointCloud2Shm>();
+        same_as_owned::<msgs::std_msgs::ByteMultiArray, std_msgs::ByteMultiArrayShm>();
+        same_as_owned::<msgs::std_msgs::UInt8MultiArray, std_msgs::UInt8MultiArrayShm>();
+    }
+}

@@ -145,8 +145,8 @@ fn without_shm_and_threshold_override() {
     }
 }
 
-fn cloud_with(data: ShmBytes, points: u32) -> shm_runtime::msgs::PointCloud2Shm {
-    shm_runtime::msgs::PointCloud2Shm {
+fn cloud_with(data: ShmBytes, points: u32) -> shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
+    shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
         header: header(),
         height: 1,
         width: points,
@@ -169,7 +169,7 @@ fn user_managed_shared_memory_field_is_spliced_without_a_copy() {
     let (a, b) = session_pair();
     let shm = ShmContext::new(ShmConfig::enabled()).unwrap();
     let publisher = a
-        .declare_ros_publisher::<shm_runtime::msgs::PointCloud2Shm>("e2e/cloud")
+        .declare_ros_publisher::<shm_runtime::msgs::sensor_msgs::PointCloud2Shm>("e2e/cloud")
         .shm(&shm)
         .wait()
         .unwrap();

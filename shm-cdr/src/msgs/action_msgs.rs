@@ -25,6 +25,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for GoalInfo {
+        type Ref<'a> = Self;
+    }
+
     /// An action goal can be in one of these states after it is accepted by an action
     /// server.
     ///
@@ -69,6 +73,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for GoalStatus {
+        type Ref<'a> = Self;
+    }
+
     /// `action_msgs/msg/GoalStatusArray` (from `msg/GoalStatusArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -84,6 +92,10 @@ pub mod msg {
                 status_list: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GoalStatusArray {
+        type Ref<'a> = Self;
     }
 }
 
@@ -116,6 +128,10 @@ pub mod srv {
                 goal_info: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for CancelGoal_Request {
+        type Ref<'a> = Self;
     }
 
     /// \#
@@ -165,6 +181,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for CancelGoal_Response {
+        type Ref<'a> = Self;
+    }
+
     /// An introspection event of `action_msgs/srv/CancelGoal`.
     ///
     /// `action_msgs/srv/CancelGoal_Event` (from `srv/CancelGoal.srv`).
@@ -188,6 +208,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for CancelGoal_Event {
+        type Ref<'a> = Self;
     }
 
     /// Cancel one or more goals with the following policy:

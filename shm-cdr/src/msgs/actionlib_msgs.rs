@@ -51,6 +51,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for GoalID {
+        type Ref<'a> = GoalIDRef<'a>;
+    }
+
     /// `actionlib_msgs/msg/GoalStatus` (from `msg/GoalStatus.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -126,6 +130,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for GoalStatus {
+        type Ref<'a> = GoalStatusRef<'a>;
+    }
+
     /// `actionlib_msgs/msg/GoalStatusArray` (from `msg/GoalStatusArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -165,6 +173,10 @@ pub mod msg {
                 status_list: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GoalStatusArray {
+        type Ref<'a> = GoalStatusArrayRef<'a>;
     }
 }
 

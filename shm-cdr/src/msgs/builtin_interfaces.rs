@@ -29,6 +29,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Duration {
+        type Ref<'a> = Self;
+    }
+
     /// This message communicates ROS Time defined here:
     /// <https://design.ros2.org/articles/clock_and_time.html>
     ///
@@ -51,6 +55,10 @@ pub mod msg {
                 nanosec: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Time {
+        type Ref<'a> = Self;
     }
 }
 

@@ -45,6 +45,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for DiagnosticArray {
+        type Ref<'a> = DiagnosticArrayRef<'a>;
+    }
+
     /// This message holds the status of an individual component of the robot.
     ///
     /// `diagnostic_msgs/msg/DiagnosticStatus` (from `msg/DiagnosticStatus.msg`).
@@ -119,6 +123,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for DiagnosticStatus {
+        type Ref<'a> = DiagnosticStatusRef<'a>;
+    }
+
     /// `diagnostic_msgs/msg/KeyValue` (from `msg/KeyValue.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -156,6 +164,10 @@ pub mod msg {
                 value: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for KeyValue {
+        type Ref<'a> = KeyValueRef<'a>;
     }
 }
 
@@ -231,6 +243,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for AddDiagnostics_Request {
+        type Ref<'a> = AddDiagnostics_RequestRef<'a>;
+    }
+
     /// `diagnostic_msgs/srv/AddDiagnostics_Response` (from `srv/AddDiagnostics.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -280,6 +296,10 @@ pub mod srv {
                 message: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for AddDiagnostics_Response {
+        type Ref<'a> = AddDiagnostics_ResponseRef<'a>;
     }
 
     /// An introspection event of `diagnostic_msgs/srv/AddDiagnostics`.
@@ -337,6 +357,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for AddDiagnostics_Event {
+        type Ref<'a> = AddDiagnostics_EventRef<'a>;
+    }
+
     /// This service is used as part of the process for loading analyzers at runtime,
     /// and should be used by a loader script or program, not as a standalone service.
     /// Information about dynamic addition of analyzers can be found at
@@ -370,6 +394,10 @@ pub mod srv {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for SelfTest_Request {
+        type Ref<'a> = Self;
     }
 
     /// `diagnostic_msgs/srv/SelfTest_Response` (from `srv/SelfTest.srv`).
@@ -419,6 +447,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for SelfTest_Response {
+        type Ref<'a> = SelfTest_ResponseRef<'a>;
+    }
+
     /// An introspection event of `diagnostic_msgs/srv/SelfTest`.
     ///
     /// `diagnostic_msgs/srv/SelfTest_Event` (from `srv/SelfTest.srv`).
@@ -466,6 +498,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SelfTest_Event {
+        type Ref<'a> = SelfTest_EventRef<'a>;
     }
 
     /// The service `diagnostic_msgs/srv/SelfTest` (from `srv/SelfTest.srv`).

@@ -25,6 +25,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Accel {
+        type Ref<'a> = Self;
+    }
+
     /// `geometry_msgs/msg/AccelStamped` (from `msg/AccelStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -64,6 +68,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for AccelStamped {
+        type Ref<'a> = AccelStampedRef<'a>;
+    }
+
     /// This expresses acceleration in free space with uncertainty.
     ///
     /// `geometry_msgs/msg/AccelWithCovariance` (from `msg/AccelWithCovariance.msg`).
@@ -88,6 +96,10 @@ pub mod msg {
                 covariance: ::core::array::from_fn(|_| ::core::default::Default::default()),
             }
         }
+    }
+
+    impl crate::BorrowedForm for AccelWithCovariance {
+        type Ref<'a> = Self;
     }
 
     /// `geometry_msgs/msg/AccelWithCovarianceStamped` (from `msg/AccelWithCovarianceStamped.msg`).
@@ -135,6 +147,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for AccelWithCovarianceStamped {
+        type Ref<'a> = AccelWithCovarianceStampedRef<'a>;
+    }
+
     /// `geometry_msgs/msg/Inertia` (from `msg/Inertia.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -175,6 +191,10 @@ pub mod msg {
                 izz: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Inertia {
+        type Ref<'a> = Self;
     }
 
     /// An Inertia with a time stamp and reference frame.
@@ -220,6 +240,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for InertiaStamped {
+        type Ref<'a> = InertiaStampedRef<'a>;
+    }
+
     /// `geometry_msgs/msg/Point` (from `msg/Point.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -242,6 +266,10 @@ pub mod msg {
                 z: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Point {
+        type Ref<'a> = Self;
     }
 
     /// This contains the position of a point in free space(with 32 bits of precision).
@@ -274,6 +302,10 @@ pub mod msg {
                 z: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Point32 {
+        type Ref<'a> = Self;
     }
 
     /// This represents a Point with reference coordinate frame and timestamp
@@ -319,6 +351,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for PointStamped {
+        type Ref<'a> = PointStampedRef<'a>;
+    }
+
     /// A specification of a polygon where the first and last points are assumed to be connected
     ///
     /// `geometry_msgs/msg/Polygon` (from `msg/Polygon.msg`).
@@ -336,6 +372,10 @@ pub mod msg {
                 points: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Polygon {
+        type Ref<'a> = Self;
     }
 
     /// A specification of a polygon where the first and last points are assumed to be connected
@@ -359,6 +399,10 @@ pub mod msg {
                 id: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for PolygonInstance {
+        type Ref<'a> = Self;
     }
 
     /// This represents a Polygon with reference coordinate frame and timestamp
@@ -412,6 +456,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for PolygonInstanceStamped {
+        type Ref<'a> = PolygonInstanceStampedRef<'a>;
+    }
+
     /// This represents a Polygon with reference coordinate frame and timestamp
     ///
     /// `geometry_msgs/msg/PolygonStamped` (from `msg/PolygonStamped.msg`).
@@ -455,6 +503,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for PolygonStamped {
+        type Ref<'a> = PolygonStampedRef<'a>;
+    }
+
     /// A representation of pose in free space, composed of position and orientation.
     ///
     /// `geometry_msgs/msg/Pose` (from `msg/Pose.msg`).
@@ -476,6 +528,10 @@ pub mod msg {
                 orientation: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Pose {
+        type Ref<'a> = Self;
     }
 
     /// Deprecated as of Foxy and will potentially be removed in any following release.
@@ -503,6 +559,10 @@ pub mod msg {
                 theta: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Pose2D {
+        type Ref<'a> = Self;
     }
 
     /// An array of poses with a header for global reference.
@@ -548,6 +608,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for PoseArray {
+        type Ref<'a> = PoseArrayRef<'a>;
+    }
+
     /// A Pose with reference coordinate frame and timestamp
     ///
     /// `geometry_msgs/msg/PoseStamped` (from `msg/PoseStamped.msg`).
@@ -591,6 +655,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for PoseStamped {
+        type Ref<'a> = PoseStampedRef<'a>;
+    }
+
     /// This represents a pose in free space with uncertainty.
     ///
     /// `geometry_msgs/msg/PoseWithCovariance` (from `msg/PoseWithCovariance.msg`).
@@ -615,6 +683,10 @@ pub mod msg {
                 covariance: ::core::array::from_fn(|_| ::core::default::Default::default()),
             }
         }
+    }
+
+    impl crate::BorrowedForm for PoseWithCovariance {
+        type Ref<'a> = Self;
     }
 
     /// This expresses an estimated pose with a reference coordinate frame and timestamp
@@ -666,6 +738,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for PoseWithCovarianceStamped {
+        type Ref<'a> = PoseWithCovarianceStampedRef<'a>;
+    }
+
     /// This represents an orientation in free space in quaternion form.
     ///
     /// `geometry_msgs/msg/Quaternion` (from `msg/Quaternion.msg`).
@@ -693,6 +769,10 @@ pub mod msg {
                 w: 1.0,
             }
         }
+    }
+
+    impl crate::BorrowedForm for Quaternion {
+        type Ref<'a> = Self;
     }
 
     /// This represents an orientation with reference coordinate frame and timestamp.
@@ -738,6 +818,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for QuaternionStamped {
+        type Ref<'a> = QuaternionStampedRef<'a>;
+    }
+
     /// This represents the transform between two coordinate frames in free space.
     ///
     /// `geometry_msgs/msg/Transform` (from `msg/Transform.msg`).
@@ -759,6 +843,10 @@ pub mod msg {
                 rotation: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Transform {
+        type Ref<'a> = Self;
     }
 
     /// This expresses a transform from coordinate frame header.frame_id
@@ -828,6 +916,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for TransformStamped {
+        type Ref<'a> = TransformStampedRef<'a>;
+    }
+
     /// This expresses velocity in free space broken into its linear and angular parts.
     ///
     /// `geometry_msgs/msg/Twist` (from `msg/Twist.msg`).
@@ -849,6 +941,10 @@ pub mod msg {
                 angular: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Twist {
+        type Ref<'a> = Self;
     }
 
     /// A twist with reference coordinate frame and timestamp
@@ -894,6 +990,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for TwistStamped {
+        type Ref<'a> = TwistStampedRef<'a>;
+    }
+
     /// This expresses velocity in free space with uncertainty.
     ///
     /// `geometry_msgs/msg/TwistWithCovariance` (from `msg/TwistWithCovariance.msg`).
@@ -918,6 +1018,10 @@ pub mod msg {
                 covariance: ::core::array::from_fn(|_| ::core::default::Default::default()),
             }
         }
+    }
+
+    impl crate::BorrowedForm for TwistWithCovariance {
+        type Ref<'a> = Self;
     }
 
     /// This represents an estimated twist with reference coordinate frame and timestamp.
@@ -969,6 +1073,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for TwistWithCovarianceStamped {
+        type Ref<'a> = TwistWithCovarianceStampedRef<'a>;
+    }
+
     /// This represents a vector in free space.
     ///
     /// `geometry_msgs/msg/Vector3` (from `msg/Vector3.msg`).
@@ -993,6 +1101,10 @@ pub mod msg {
                 z: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Vector3 {
+        type Ref<'a> = Self;
     }
 
     /// This represents a Vector3 with reference coordinate frame and timestamp
@@ -1036,6 +1148,10 @@ pub mod msg {
                 vector: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Vector3Stamped {
+        type Ref<'a> = Vector3StampedRef<'a>;
     }
 
     /// This expresses the timestamped velocity vector of a frame 'body_frame_id' in the reference frame 'reference_frame_id' expressed from arbitrary observation frame 'header.frame_id'.
@@ -1097,6 +1213,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for VelocityStamped {
+        type Ref<'a> = VelocityStampedRef<'a>;
+    }
+
     /// This represents force in free space, separated into its linear and angular parts.
     ///
     /// `geometry_msgs/msg/Wrench` (from `msg/Wrench.msg`).
@@ -1118,6 +1238,10 @@ pub mod msg {
                 torque: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Wrench {
+        type Ref<'a> = Self;
     }
 
     /// A wrench with reference coordinate frame and timestamp
@@ -1161,6 +1285,10 @@ pub mod msg {
                 wrench: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for WrenchStamped {
+        type Ref<'a> = WrenchStampedRef<'a>;
     }
 }
 

@@ -84,6 +84,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for State {
+        type Ref<'a> = StateRef<'a>;
+    }
+
     /// Default values for transitions as described in:
     /// <http://design.ros2.org/articles/node_lifecycle.html>
     ///
@@ -204,6 +208,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Transition {
+        type Ref<'a> = TransitionRef<'a>;
+    }
+
     /// `lifecycle_msgs/msg/TransitionDescription` (from `msg/TransitionDescription.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -253,6 +261,10 @@ pub mod msg {
                 goal_state: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for TransitionDescription {
+        type Ref<'a> = TransitionDescriptionRef<'a>;
     }
 
     /// `lifecycle_msgs/msg/TransitionEvent` (from `msg/TransitionEvent.msg`).
@@ -305,6 +317,10 @@ pub mod msg {
             }
         }
     }
+
+    impl crate::BorrowedForm for TransitionEvent {
+        type Ref<'a> = TransitionEventRef<'a>;
+    }
 }
 
 /// Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](crate::RosService) identity.
@@ -347,6 +363,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for ChangeState_Request {
+        type Ref<'a> = ChangeState_RequestRef<'a>;
+    }
+
     /// `lifecycle_msgs/srv/ChangeState_Response` (from `srv/ChangeState.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -362,6 +382,10 @@ pub mod srv {
                 success: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for ChangeState_Response {
+        type Ref<'a> = Self;
     }
 
     /// An introspection event of `lifecycle_msgs/srv/ChangeState`.
@@ -413,6 +437,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for ChangeState_Event {
+        type Ref<'a> = ChangeState_EventRef<'a>;
+    }
+
     /// The service `lifecycle_msgs/srv/ChangeState` (from `srv/ChangeState.srv`).
     #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
     pub struct ChangeState;
@@ -444,6 +472,10 @@ pub mod srv {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for GetAvailableStates_Request {
+        type Ref<'a> = Self;
     }
 
     /// `lifecycle_msgs/srv/GetAvailableStates_Response` (from `srv/GetAvailableStates.srv`).
@@ -483,6 +515,10 @@ pub mod srv {
                 available_states: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetAvailableStates_Response {
+        type Ref<'a> = GetAvailableStates_ResponseRef<'a>;
     }
 
     /// An introspection event of `lifecycle_msgs/srv/GetAvailableStates`.
@@ -540,6 +576,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for GetAvailableStates_Event {
+        type Ref<'a> = GetAvailableStates_EventRef<'a>;
+    }
+
     /// The service `lifecycle_msgs/srv/GetAvailableStates` (from `srv/GetAvailableStates.srv`).
     #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
     pub struct GetAvailableStates;
@@ -571,6 +611,10 @@ pub mod srv {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for GetAvailableTransitions_Request {
+        type Ref<'a> = Self;
     }
 
     /// `lifecycle_msgs/srv/GetAvailableTransitions_Response` (from `srv/GetAvailableTransitions.srv`).
@@ -612,6 +656,10 @@ pub mod srv {
                 available_transitions: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetAvailableTransitions_Response {
+        type Ref<'a> = GetAvailableTransitions_ResponseRef<'a>;
     }
 
     /// An introspection event of `lifecycle_msgs/srv/GetAvailableTransitions`.
@@ -669,6 +717,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for GetAvailableTransitions_Event {
+        type Ref<'a> = GetAvailableTransitions_EventRef<'a>;
+    }
+
     /// The service `lifecycle_msgs/srv/GetAvailableTransitions` (from `srv/GetAvailableTransitions.srv`).
     #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
     pub struct GetAvailableTransitions;
@@ -697,6 +749,10 @@ pub mod srv {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for GetState_Request {
+        type Ref<'a> = Self;
     }
 
     /// `lifecycle_msgs/srv/GetState_Response` (from `srv/GetState.srv`).
@@ -730,6 +786,10 @@ pub mod srv {
                 current_state: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetState_Response {
+        type Ref<'a> = GetState_ResponseRef<'a>;
     }
 
     /// An introspection event of `lifecycle_msgs/srv/GetState`.
@@ -779,6 +839,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetState_Event {
+        type Ref<'a> = GetState_EventRef<'a>;
     }
 
     /// The service `lifecycle_msgs/srv/GetState` (from `srv/GetState.srv`).

@@ -55,6 +55,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Goals {
+        type Ref<'a> = GoalsRef<'a>;
+    }
+
     /// An array of cells in a 2D grid
     ///
     /// `nav_msgs/msg/GridCells` (from `msg/GridCells.msg`).
@@ -110,6 +114,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for GridCells {
+        type Ref<'a> = GridCellsRef<'a>;
+    }
+
     /// This hold basic information about the characteristics of the OccupancyGrid
     ///
     /// `nav_msgs/msg/MapMetaData` (from `msg/MapMetaData.msg`).
@@ -141,6 +149,10 @@ pub mod msg {
                 origin: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for MapMetaData {
+        type Ref<'a> = Self;
     }
 
     /// `nav_msgs/msg/OccupancyGrid` (from `msg/OccupancyGrid.msg`).
@@ -196,6 +208,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for OccupancyGrid {
+        type Ref<'a> = OccupancyGridRef<'a>;
     }
 
     /// This represents an estimate of a position and velocity in free space.
@@ -257,6 +273,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Odometry {
+        type Ref<'a> = OdometryRef<'a>;
+    }
+
     /// An array of poses that represents a Path for a robot to follow.
     ///
     /// `nav_msgs/msg/Path` (from `msg/Path.msg`).
@@ -299,6 +319,10 @@ pub mod msg {
             }
         }
     }
+
+    impl crate::BorrowedForm for Path {
+        type Ref<'a> = PathRef<'a>;
+    }
 }
 
 /// Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](crate::RosService) identity.
@@ -316,6 +340,10 @@ pub mod srv {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for GetMap_Request {
+        type Ref<'a> = Self;
     }
 
     /// `nav_msgs/srv/GetMap_Response` (from `srv/GetMap.srv`).
@@ -349,6 +377,10 @@ pub mod srv {
                 map: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetMap_Response {
+        type Ref<'a> = GetMap_ResponseRef<'a>;
     }
 
     /// An introspection event of `nav_msgs/srv/GetMap`.
@@ -398,6 +430,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetMap_Event {
+        type Ref<'a> = GetMap_EventRef<'a>;
     }
 
     /// Get the map as a nav_msgs/OccupancyGrid
@@ -471,6 +507,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for GetPlan_Request {
+        type Ref<'a> = GetPlan_RequestRef<'a>;
+    }
+
     /// `nav_msgs/srv/GetPlan_Response` (from `srv/GetPlan.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -502,6 +542,10 @@ pub mod srv {
                 plan: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetPlan_Response {
+        type Ref<'a> = GetPlan_ResponseRef<'a>;
     }
 
     /// An introspection event of `nav_msgs/srv/GetPlan`.
@@ -551,6 +595,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetPlan_Event {
+        type Ref<'a> = GetPlan_EventRef<'a>;
     }
 
     /// Get a plan from the current position to the goal Pose
@@ -610,6 +658,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for LoadMap_Request {
+        type Ref<'a> = LoadMap_RequestRef<'a>;
+    }
+
     /// `nav_msgs/srv/LoadMap_Response` (from `srv/LoadMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -662,6 +714,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for LoadMap_Response {
+        type Ref<'a> = LoadMap_ResponseRef<'a>;
+    }
+
     /// An introspection event of `nav_msgs/srv/LoadMap`.
     ///
     /// `nav_msgs/srv/LoadMap_Event` (from `srv/LoadMap.srv`).
@@ -709,6 +765,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for LoadMap_Event {
+        type Ref<'a> = LoadMap_EventRef<'a>;
     }
 
     /// The service `nav_msgs/srv/LoadMap` (from `srv/LoadMap.srv`).
@@ -772,6 +832,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for SetMap_Request {
+        type Ref<'a> = SetMap_RequestRef<'a>;
+    }
+
     /// `nav_msgs/srv/SetMap_Response` (from `srv/SetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -787,6 +851,10 @@ pub mod srv {
                 success: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetMap_Response {
+        type Ref<'a> = Self;
     }
 
     /// An introspection event of `nav_msgs/srv/SetMap`.
@@ -836,6 +904,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetMap_Event {
+        type Ref<'a> = SetMap_EventRef<'a>;
     }
 
     /// Set a new map together with an initial pose

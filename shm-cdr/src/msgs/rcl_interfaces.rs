@@ -48,6 +48,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for FloatingPointRange {
+        type Ref<'a> = Self;
+    }
+
     /// Represents bounds and a step value for an integer typed parameter.
     ///
     /// `rcl_interfaces/msg/IntegerRange` (from `msg/IntegerRange.msg`).
@@ -86,6 +90,10 @@ pub mod msg {
                 step: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for IntegerRange {
+        type Ref<'a> = Self;
     }
 
     /// `rcl_interfaces/msg/ListParametersResult` (from `msg/ListParametersResult.msg`).
@@ -127,6 +135,10 @@ pub mod msg {
                 prefixes: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for ListParametersResult {
+        type Ref<'a> = ListParametersResultRef<'a>;
     }
 
     /// \#
@@ -239,6 +251,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Log {
+        type Ref<'a> = LogRef<'a>;
+    }
+
     /// All available logger levels; these correspond to the enum in rcutils/logger.h
     ///
     /// `rcl_interfaces/msg/LoggerLevel` (from `msg/LoggerLevel.msg`).
@@ -297,6 +313,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for LoggerLevel {
+        type Ref<'a> = LoggerLevelRef<'a>;
+    }
+
     /// This is the message to communicate a parameter. It is an open struct with an enum in
     /// the descriptor to select which value is active.
     ///
@@ -342,6 +362,10 @@ pub mod msg {
                 value: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Parameter {
+        type Ref<'a> = ParameterRef<'a>;
     }
 
     /// This is the message to communicate a parameter's descriptor.
@@ -431,6 +455,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for ParameterDescriptor {
+        type Ref<'a> = ParameterDescriptorRef<'a>;
+    }
+
     /// This message contains a parameter event.
     /// Because the parameter event was an atomic update, a specific parameter name
     /// can only be in one of the three sets.
@@ -496,6 +524,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for ParameterEvent {
+        type Ref<'a> = ParameterEventRef<'a>;
+    }
+
     /// This message contains descriptors of a parameter event.
     /// It was an atomic update.
     /// A specific parameter name can only be in one of the three sets.
@@ -555,6 +587,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for ParameterEventDescriptors {
+        type Ref<'a> = ParameterEventDescriptorsRef<'a>;
+    }
+
     /// These types correspond to the value that is set in the ParameterValue message.
     ///
     /// `rcl_interfaces/msg/ParameterType` (from `msg/ParameterType.msg`).
@@ -590,6 +626,10 @@ pub mod msg {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for ParameterType {
+        type Ref<'a> = Self;
     }
 
     /// Used to determine which of the next \*_value fields are set.
@@ -693,6 +733,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for ParameterValue {
+        type Ref<'a> = ParameterValueRef<'a>;
+    }
+
     /// `rcl_interfaces/msg/SetLoggerLevelsResult` (from `msg/SetLoggerLevelsResult.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -738,6 +782,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for SetLoggerLevelsResult {
+        type Ref<'a> = SetLoggerLevelsResultRef<'a>;
+    }
+
     /// `rcl_interfaces/msg/SetParametersResult` (from `msg/SetParametersResult.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -779,6 +827,10 @@ pub mod msg {
                 reason: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetParametersResult {
+        type Ref<'a> = SetParametersResultRef<'a>;
     }
 }
 
@@ -824,6 +876,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for DescribeParameters_Request {
+        type Ref<'a> = DescribeParameters_RequestRef<'a>;
+    }
+
     /// `rcl_interfaces/srv/DescribeParameters_Response` (from `srv/DescribeParameters.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -866,6 +922,10 @@ pub mod srv {
                 descriptors: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for DescribeParameters_Response {
+        type Ref<'a> = DescribeParameters_ResponseRef<'a>;
     }
 
     /// An introspection event of `rcl_interfaces/srv/DescribeParameters`.
@@ -921,6 +981,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for DescribeParameters_Event {
+        type Ref<'a> = DescribeParameters_EventRef<'a>;
     }
 
     /// The service `rcl_interfaces/srv/DescribeParameters` (from `srv/DescribeParameters.srv`).
@@ -980,6 +1044,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for GetLoggerLevels_Request {
+        type Ref<'a> = GetLoggerLevels_RequestRef<'a>;
+    }
+
     /// `rcl_interfaces/srv/GetLoggerLevels_Response` (from `srv/GetLoggerLevels.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1019,6 +1087,10 @@ pub mod srv {
                 levels: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetLoggerLevels_Response {
+        type Ref<'a> = GetLoggerLevels_ResponseRef<'a>;
     }
 
     /// An introspection event of `rcl_interfaces/srv/GetLoggerLevels`.
@@ -1074,6 +1146,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetLoggerLevels_Event {
+        type Ref<'a> = GetLoggerLevels_EventRef<'a>;
     }
 
     /// The service `rcl_interfaces/srv/GetLoggerLevels` (from `srv/GetLoggerLevels.srv`).
@@ -1135,6 +1211,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for GetParameterTypes_Request {
+        type Ref<'a> = GetParameterTypes_RequestRef<'a>;
+    }
+
     /// `rcl_interfaces/srv/GetParameterTypes_Response` (from `srv/GetParameterTypes.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1178,6 +1258,10 @@ pub mod srv {
                 types: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetParameterTypes_Response {
+        type Ref<'a> = GetParameterTypes_ResponseRef<'a>;
     }
 
     /// An introspection event of `rcl_interfaces/srv/GetParameterTypes`.
@@ -1233,6 +1317,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetParameterTypes_Event {
+        type Ref<'a> = GetParameterTypes_EventRef<'a>;
     }
 
     /// The service `rcl_interfaces/srv/GetParameterTypes` (from `srv/GetParameterTypes.srv`).
@@ -1306,6 +1394,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for GetParameters_Request {
+        type Ref<'a> = GetParameters_RequestRef<'a>;
+    }
+
     /// `rcl_interfaces/srv/GetParameters_Response` (from `srv/GetParameters.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1347,6 +1439,10 @@ pub mod srv {
                 values: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetParameters_Response {
+        type Ref<'a> = GetParameters_ResponseRef<'a>;
     }
 
     /// An introspection event of `rcl_interfaces/srv/GetParameters`.
@@ -1396,6 +1492,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetParameters_Event {
+        type Ref<'a> = GetParameters_EventRef<'a>;
     }
 
     /// TODO(wjwwood): Decide on the rules for grouping, nodes, and parameter "names"
@@ -1477,6 +1577,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for ListParameters_Request {
+        type Ref<'a> = ListParameters_RequestRef<'a>;
+    }
+
     /// `rcl_interfaces/srv/ListParameters_Response` (from `srv/ListParameters.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1514,6 +1618,10 @@ pub mod srv {
                 result: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for ListParameters_Response {
+        type Ref<'a> = ListParameters_ResponseRef<'a>;
     }
 
     /// An introspection event of `rcl_interfaces/srv/ListParameters`.
@@ -1563,6 +1671,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for ListParameters_Event {
+        type Ref<'a> = ListParameters_EventRef<'a>;
     }
 
     /// The service `rcl_interfaces/srv/ListParameters` (from `srv/ListParameters.srv`).
@@ -1622,6 +1734,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for SetLoggerLevels_Request {
+        type Ref<'a> = SetLoggerLevels_RequestRef<'a>;
+    }
+
     /// `rcl_interfaces/srv/SetLoggerLevels_Response` (from `srv/SetLoggerLevels.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1660,6 +1776,10 @@ pub mod srv {
                 results: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetLoggerLevels_Response {
+        type Ref<'a> = SetLoggerLevels_ResponseRef<'a>;
     }
 
     /// An introspection event of `rcl_interfaces/srv/SetLoggerLevels`.
@@ -1715,6 +1835,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetLoggerLevels_Event {
+        type Ref<'a> = SetLoggerLevels_EventRef<'a>;
     }
 
     /// The service `rcl_interfaces/srv/SetLoggerLevels` (from `srv/SetLoggerLevels.srv`).
@@ -1774,6 +1898,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for SetParameters_Request {
+        type Ref<'a> = SetParameters_RequestRef<'a>;
+    }
+
     /// `rcl_interfaces/srv/SetParameters_Response` (from `srv/SetParameters.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1811,6 +1939,10 @@ pub mod srv {
                 results: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetParameters_Response {
+        type Ref<'a> = SetParameters_ResponseRef<'a>;
     }
 
     /// An introspection event of `rcl_interfaces/srv/SetParameters`.
@@ -1860,6 +1992,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetParameters_Event {
+        type Ref<'a> = SetParameters_EventRef<'a>;
     }
 
     /// The service `rcl_interfaces/srv/SetParameters` (from `srv/SetParameters.srv`).
@@ -1923,6 +2059,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for SetParametersAtomically_Request {
+        type Ref<'a> = SetParametersAtomically_RequestRef<'a>;
+    }
+
     /// `rcl_interfaces/srv/SetParametersAtomically_Response` (from `srv/SetParametersAtomically.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1960,6 +2100,10 @@ pub mod srv {
                 result: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetParametersAtomically_Response {
+        type Ref<'a> = SetParametersAtomically_ResponseRef<'a>;
     }
 
     /// An introspection event of `rcl_interfaces/srv/SetParametersAtomically`.
@@ -2015,6 +2159,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetParametersAtomically_Event {
+        type Ref<'a> = SetParametersAtomically_EventRef<'a>;
     }
 
     /// The service `rcl_interfaces/srv/SetParametersAtomically` (from `srv/SetParametersAtomically.srv`).

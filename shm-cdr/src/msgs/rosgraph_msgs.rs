@@ -23,6 +23,10 @@ pub mod msg {
             }
         }
     }
+
+    impl crate::BorrowedForm for Clock {
+        type Ref<'a> = Self;
+    }
 }
 
 #[doc(no_inline)]

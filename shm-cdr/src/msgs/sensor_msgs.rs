@@ -191,6 +191,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for BatteryState {
+        type Ref<'a> = BatteryStateRef<'a>;
+    }
+
     /// This message defines meta information for a camera. It should be in a
     /// camera namespace on topic "camera_info" and accompanied by up to five
     /// image topics named:
@@ -432,6 +436,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for CameraInfo {
+        type Ref<'a> = CameraInfoRef<'a>;
+    }
+
     /// This message is used by the PointCloud message to hold optional data
     /// associated with each point in the cloud. The length of the values
     /// array should be the same as the length of the points array in the
@@ -509,6 +517,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for ChannelFloat32 {
+        type Ref<'a> = ChannelFloat32Ref<'a>;
+    }
+
     /// This message contains a compressed image.
     ///
     /// `sensor_msgs/msg/CompressedImage` (from `msg/CompressedImage.msg`).
@@ -556,6 +568,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for CompressedImage {
+        type Ref<'a> = CompressedImageRef<'a>;
     }
 
     /// Single pressure reading.  This message is appropriate for measuring the
@@ -613,6 +629,10 @@ pub mod msg {
                 variance: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for FluidPressure {
+        type Ref<'a> = FluidPressureRef<'a>;
     }
 
     /// Single photometric illuminance measurement.  Light should be assumed to be
@@ -688,6 +708,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Illuminance {
+        type Ref<'a> = IlluminanceRef<'a>;
+    }
+
     /// This message contains an uncompressed image
     /// (0, 0) is at top-left corner of image
     ///
@@ -761,6 +785,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Image {
+        type Ref<'a> = ImageRef<'a>;
     }
 
     /// This is a message to hold data from an IMU (Inertial Measurement Unit)
@@ -872,6 +900,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Imu {
+        type Ref<'a> = ImuRef<'a>;
+    }
+
     /// This is a message that holds data to describe the state of a set of torque controlled joints.
     ///
     /// The state of each joint (revolute or prismatic) is defined by:
@@ -967,6 +999,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for JointState {
+        type Ref<'a> = JointStateRef<'a>;
+    }
+
     /// Reports the state of a joystick's axes and buttons.
     ///
     /// `sensor_msgs/msg/Joy` (from `msg/Joy.msg`).
@@ -1016,6 +1052,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Joy {
+        type Ref<'a> = JoyRef<'a>;
+    }
+
     /// `sensor_msgs/msg/JoyFeedback` (from `msg/JoyFeedback.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1051,6 +1091,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for JoyFeedback {
+        type Ref<'a> = Self;
+    }
+
     /// `sensor_msgs/msg/JoyFeedbackArray` (from `msg/JoyFeedbackArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1066,6 +1110,10 @@ pub mod msg {
                 array: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for JoyFeedbackArray {
+        type Ref<'a> = Self;
     }
 
     /// This message is a submessage of MultiEchoLaserScan and is not intended
@@ -1086,6 +1134,10 @@ pub mod msg {
                 echoes: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for LaserEcho {
+        type Ref<'a> = Self;
     }
 
     /// Single scan from a planar laser range-finder
@@ -1193,6 +1245,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for LaserScan {
+        type Ref<'a> = LaserScanRef<'a>;
+    }
+
     /// Measurement of the Magnetic Field vector at a specific location.
     ///
     /// If the covariance of the measurement is known, it should be filled in.
@@ -1258,6 +1314,10 @@ pub mod msg {
                 }),
             }
         }
+    }
+
+    impl crate::BorrowedForm for MagneticField {
+        type Ref<'a> = MagneticFieldRef<'a>;
     }
 
     /// Representation of state for joints with multiple degrees of freedom,
@@ -1355,6 +1415,10 @@ pub mod msg {
                 wrench: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for MultiDOFJointState {
+        type Ref<'a> = MultiDOFJointStateRef<'a>;
     }
 
     /// Single scan from a multi-echo planar laser range-finder
@@ -1464,6 +1528,10 @@ pub mod msg {
                 intensities: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for MultiEchoLaserScan {
+        type Ref<'a> = MultiEchoLaserScanRef<'a>;
     }
 
     /// Navigation Satellite fix for any Global Navigation Satellite System
@@ -1582,6 +1650,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for NavSatFix {
+        type Ref<'a> = NavSatFixRef<'a>;
+    }
+
     /// Navigation Satellite fix status for any Global Navigation Satellite System.
     ///
     /// Whether to output an augmented fix is determined by both the fix
@@ -1630,6 +1702,10 @@ pub mod msg {
                 service: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for NavSatStatus {
+        type Ref<'a> = Self;
     }
 
     /// \# THIS MESSAGE IS DEPRECATED AS OF FOXY
@@ -1687,6 +1763,10 @@ pub mod msg {
                 channels: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for PointCloud {
+        type Ref<'a> = PointCloudRef<'a>;
     }
 
     /// This message holds a collection of N-dimensional points, which may
@@ -1790,6 +1870,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for PointCloud2 {
+        type Ref<'a> = PointCloud2Ref<'a>;
+    }
+
     /// `sensor_msgs/msg/PointField` (from `msg/PointField.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1861,6 +1945,10 @@ pub mod msg {
                 count: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for PointField {
+        type Ref<'a> = PointFieldRef<'a>;
     }
 
     /// Single range reading from an active ranger that emits energy and reports
@@ -1960,6 +2048,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Range {
+        type Ref<'a> = RangeRef<'a>;
+    }
+
     /// This message is used to specify a region of interest within an image.
     ///
     /// When used to specify the ROI setting of the camera when the image was
@@ -1999,6 +2091,10 @@ pub mod msg {
                 do_rectify: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for RegionOfInterest {
+        type Ref<'a> = Self;
     }
 
     /// Single reading from a relative humidity sensor.
@@ -2054,6 +2150,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for RelativeHumidity {
+        type Ref<'a> = RelativeHumidityRef<'a>;
+    }
+
     /// Single temperature reading.
     ///
     /// `sensor_msgs/msg/Temperature` (from `msg/Temperature.msg`).
@@ -2103,6 +2203,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Temperature {
+        type Ref<'a> = TemperatureRef<'a>;
+    }
+
     /// Measurement from an external time source not actively synchronized with the system clock.
     ///
     /// `sensor_msgs/msg/TimeReference` (from `msg/TimeReference.msg`).
@@ -2150,6 +2254,10 @@ pub mod msg {
                 source: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for TimeReference {
+        type Ref<'a> = TimeReferenceRef<'a>;
     }
 }
 
@@ -2205,6 +2313,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for SetCameraInfo_Request {
+        type Ref<'a> = SetCameraInfo_RequestRef<'a>;
+    }
+
     /// `sensor_msgs/srv/SetCameraInfo_Response` (from `srv/SetCameraInfo.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -2242,6 +2354,10 @@ pub mod srv {
                 status_message: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetCameraInfo_Response {
+        type Ref<'a> = SetCameraInfo_ResponseRef<'a>;
     }
 
     /// An introspection event of `sensor_msgs/srv/SetCameraInfo`.
@@ -2291,6 +2407,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetCameraInfo_Event {
+        type Ref<'a> = SetCameraInfo_EventRef<'a>;
     }
 
     /// This service requests that a camera stores the given CameraInfo as that

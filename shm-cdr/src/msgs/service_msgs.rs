@@ -47,6 +47,10 @@ pub mod msg {
             }
         }
     }
+
+    impl crate::BorrowedForm for ServiceEventInfo {
+        type Ref<'a> = Self;
+    }
 }
 
 #[doc(no_inline)]

@@ -26,6 +26,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Mesh {
+        type Ref<'a> = Self;
+    }
+
     /// Definition of a triangle's vertices.
     ///
     /// `shape_msgs/msg/MeshTriangle` (from `msg/MeshTriangle.msg`).
@@ -44,6 +48,10 @@ pub mod msg {
                 vertex_indices: ::core::array::from_fn(|_| ::core::default::Default::default()),
             }
         }
+    }
+
+    impl crate::BorrowedForm for MeshTriangle {
+        type Ref<'a> = Self;
     }
 
     /// `shape_msgs/msg/Plane` (from `msg/Plane.msg`).
@@ -67,6 +75,10 @@ pub mod msg {
                 coef: ::core::array::from_fn(|_| ::core::default::Default::default()),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Plane {
+        type Ref<'a> = Self;
     }
 
     /// Defines box, sphere, cylinder, cone and prism.
@@ -125,6 +137,10 @@ pub mod msg {
                 polygon: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SolidPrimitive {
+        type Ref<'a> = Self;
     }
 }
 

@@ -26,6 +26,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Bool {
+        type Ref<'a> = Self;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -48,6 +52,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Byte {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -101,6 +109,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for ByteMultiArray {
+        type Ref<'a> = ByteMultiArrayRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -123,6 +135,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Char {
+        type Ref<'a> = Self;
     }
 
     /// `std_msgs/msg/ColorRGBA` (from `msg/ColorRGBA.msg`).
@@ -152,6 +168,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for ColorRGBA {
+        type Ref<'a> = Self;
+    }
+
     /// `std_msgs/msg/Empty` (from `msg/Empty.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -162,6 +182,10 @@ pub mod msg {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for Empty {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -185,6 +209,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Float32 {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -236,6 +264,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Float32MultiArray {
+        type Ref<'a> = Float32MultiArrayRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -257,6 +289,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Float64 {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -308,6 +344,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Float64MultiArray {
+        type Ref<'a> = Float64MultiArrayRef<'a>;
+    }
+
     /// Standard metadata for higher-level stamped data types.
     /// This is generally used to communicate timestamped data
     /// in a particular coordinate frame.
@@ -355,6 +395,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Header {
+        type Ref<'a> = HeaderRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -376,6 +420,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Int16 {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -427,6 +475,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Int16MultiArray {
+        type Ref<'a> = Int16MultiArrayRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -448,6 +500,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Int32 {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -499,6 +555,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Int32MultiArray {
+        type Ref<'a> = Int32MultiArrayRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -520,6 +580,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Int64 {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -571,6 +635,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Int64MultiArray {
+        type Ref<'a> = Int64MultiArrayRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -592,6 +660,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Int8 {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -641,6 +713,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Int8MultiArray {
+        type Ref<'a> = Int8MultiArrayRef<'a>;
     }
 
     /// This was originally provided as an example message.
@@ -698,6 +774,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for MultiArrayDimension {
+        type Ref<'a> = MultiArrayDimensionRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -747,6 +827,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for MultiArrayLayout {
+        type Ref<'a> = MultiArrayLayoutRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -790,6 +874,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for String {
+        type Ref<'a> = StringRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -811,6 +899,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for UInt16 {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -862,6 +954,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for UInt16MultiArray {
+        type Ref<'a> = UInt16MultiArrayRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -883,6 +979,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for UInt32 {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -934,6 +1034,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for UInt32MultiArray {
+        type Ref<'a> = UInt32MultiArrayRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -955,6 +1059,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for UInt64 {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -1006,6 +1114,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for UInt64MultiArray {
+        type Ref<'a> = UInt64MultiArrayRef<'a>;
+    }
+
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
     /// It is recommended to create your own semantically meaningful message.
@@ -1027,6 +1139,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for UInt8 {
+        type Ref<'a> = Self;
     }
 
     /// This was originally provided as an example message.
@@ -1076,6 +1192,10 @@ pub mod msg {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for UInt8MultiArray {
+        type Ref<'a> = UInt8MultiArrayRef<'a>;
     }
 }
 

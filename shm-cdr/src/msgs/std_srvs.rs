@@ -16,6 +16,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for Empty_Request {
+        type Ref<'a> = Self;
+    }
+
     /// `std_srvs/srv/Empty_Response` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -26,6 +30,10 @@ pub mod srv {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for Empty_Response {
+        type Ref<'a> = Self;
     }
 
     /// An introspection event of `std_srvs/srv/Empty`.
@@ -51,6 +59,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Empty_Event {
+        type Ref<'a> = Self;
     }
 
     /// The service `std_srvs/srv/Empty` (from `srv/Empty.srv`).
@@ -86,6 +98,10 @@ pub mod srv {
                 data: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetBool_Request {
+        type Ref<'a> = Self;
     }
 
     /// `std_srvs/srv/SetBool_Response` (from `srv/SetBool.srv`).
@@ -125,6 +141,10 @@ pub mod srv {
                 message: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for SetBool_Response {
+        type Ref<'a> = SetBool_ResponseRef<'a>;
     }
 
     /// An introspection event of `std_srvs/srv/SetBool`.
@@ -176,6 +196,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for SetBool_Event {
+        type Ref<'a> = SetBool_EventRef<'a>;
+    }
+
     /// The service `std_srvs/srv/SetBool` (from `srv/SetBool.srv`).
     #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
     pub struct SetBool;
@@ -204,6 +228,10 @@ pub mod srv {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for Trigger_Request {
+        type Ref<'a> = Self;
     }
 
     /// `std_srvs/srv/Trigger_Response` (from `srv/Trigger.srv`).
@@ -243,6 +271,10 @@ pub mod srv {
                 message: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Trigger_Response {
+        type Ref<'a> = Trigger_ResponseRef<'a>;
     }
 
     /// An introspection event of `std_srvs/srv/Trigger`.
@@ -292,6 +324,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Trigger_Event {
+        type Ref<'a> = Trigger_EventRef<'a>;
     }
 
     /// The service `std_srvs/srv/Trigger` (from `srv/Trigger.srv`).

@@ -100,6 +100,10 @@ pub mod msg {
             }
         }
     }
+
+    impl crate::BorrowedForm for DisparityImage {
+        type Ref<'a> = DisparityImageRef<'a>;
+    }
 }
 
 #[doc(no_inline)]

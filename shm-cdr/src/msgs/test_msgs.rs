@@ -22,6 +22,10 @@ pub mod action {
         }
     }
 
+    impl crate::BorrowedForm for Fibonacci_Goal {
+        type Ref<'a> = Self;
+    }
+
     /// `test_msgs/action/Fibonacci_Result` (from `action/Fibonacci.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -39,6 +43,10 @@ pub mod action {
         }
     }
 
+    impl crate::BorrowedForm for Fibonacci_Result {
+        type Ref<'a> = Self;
+    }
+
     /// `test_msgs/action/Fibonacci_Feedback` (from `action/Fibonacci.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -54,6 +62,10 @@ pub mod action {
                 sequence: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Fibonacci_Feedback {
+        type Ref<'a> = Self;
     }
 
     /// `test_msgs/action/Fibonacci_SendGoal_Request` (from `action/Fibonacci.action`).
@@ -80,6 +92,10 @@ pub mod action {
         }
     }
 
+    impl crate::BorrowedForm for Fibonacci_SendGoal_Request {
+        type Ref<'a> = Self;
+    }
+
     /// `test_msgs/action/Fibonacci_SendGoal_Response` (from `action/Fibonacci.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -101,6 +117,10 @@ pub mod action {
                 stamp: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Fibonacci_SendGoal_Response {
+        type Ref<'a> = Self;
     }
 
     /// An introspection event of `test_msgs/action/Fibonacci_SendGoal`.
@@ -129,6 +149,10 @@ pub mod action {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Fibonacci_SendGoal_Event {
+        type Ref<'a> = Self;
     }
 
     /// Sends a goal of `test_msgs/action/Fibonacci`.
@@ -172,6 +196,10 @@ pub mod action {
         }
     }
 
+    impl crate::BorrowedForm for Fibonacci_GetResult_Request {
+        type Ref<'a> = Self;
+    }
+
     /// `test_msgs/action/Fibonacci_GetResult_Response` (from `action/Fibonacci.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -193,6 +221,10 @@ pub mod action {
                 result: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Fibonacci_GetResult_Response {
+        type Ref<'a> = Self;
     }
 
     /// An introspection event of `test_msgs/action/Fibonacci_GetResult`.
@@ -221,6 +253,10 @@ pub mod action {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Fibonacci_GetResult_Event {
+        type Ref<'a> = Self;
     }
 
     /// Waits for the result of a goal of `test_msgs/action/Fibonacci`.
@@ -264,6 +300,10 @@ pub mod action {
                 feedback: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Fibonacci_FeedbackMessage {
+        type Ref<'a> = Self;
     }
 
     /// The action `test_msgs/action/Fibonacci` (from `action/Fibonacci.action`).
@@ -310,6 +350,10 @@ pub mod action {
         }
     }
 
+    impl crate::BorrowedForm for NestedMessage_Goal {
+        type Ref<'a> = Self;
+    }
+
     /// `test_msgs/action/NestedMessage_Result` (from `action/NestedMessage.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -331,6 +375,10 @@ pub mod action {
                 nested_different_pkg: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for NestedMessage_Result {
+        type Ref<'a> = Self;
     }
 
     /// `test_msgs/action/NestedMessage_Feedback` (from `action/NestedMessage.action`).
@@ -356,6 +404,10 @@ pub mod action {
         }
     }
 
+    impl crate::BorrowedForm for NestedMessage_Feedback {
+        type Ref<'a> = Self;
+    }
+
     /// `test_msgs/action/NestedMessage_SendGoal_Request` (from `action/NestedMessage.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -379,6 +431,10 @@ pub mod action {
         }
     }
 
+    impl crate::BorrowedForm for NestedMessage_SendGoal_Request {
+        type Ref<'a> = Self;
+    }
+
     /// `test_msgs/action/NestedMessage_SendGoal_Response` (from `action/NestedMessage.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -400,6 +456,10 @@ pub mod action {
                 stamp: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for NestedMessage_SendGoal_Response {
+        type Ref<'a> = Self;
     }
 
     /// An introspection event of `test_msgs/action/NestedMessage_SendGoal`.
@@ -428,6 +488,10 @@ pub mod action {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for NestedMessage_SendGoal_Event {
+        type Ref<'a> = Self;
     }
 
     /// Sends a goal of `test_msgs/action/NestedMessage`.
@@ -471,6 +535,10 @@ pub mod action {
         }
     }
 
+    impl crate::BorrowedForm for NestedMessage_GetResult_Request {
+        type Ref<'a> = Self;
+    }
+
     /// `test_msgs/action/NestedMessage_GetResult_Response` (from `action/NestedMessage.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -492,6 +560,10 @@ pub mod action {
                 result: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for NestedMessage_GetResult_Response {
+        type Ref<'a> = Self;
     }
 
     /// An introspection event of `test_msgs/action/NestedMessage_GetResult`.
@@ -520,6 +592,10 @@ pub mod action {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for NestedMessage_GetResult_Event {
+        type Ref<'a> = Self;
     }
 
     /// Waits for the result of a goal of `test_msgs/action/NestedMessage`.
@@ -563,6 +639,10 @@ pub mod action {
                 feedback: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for NestedMessage_FeedbackMessage {
+        type Ref<'a> = Self;
     }
 
     /// The action `test_msgs/action/NestedMessage` (from `action/NestedMessage.action`).
@@ -821,6 +901,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Arrays {
+        type Ref<'a> = ArraysRef<'a>;
+    }
+
     /// `test_msgs/msg/BasicTypes` (from `msg/BasicTypes.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -874,6 +958,10 @@ pub mod msg {
                 uint64_value: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for BasicTypes {
+        type Ref<'a> = Self;
     }
 
     /// `test_msgs/msg/BoundedPlainSequences` (from `msg/BoundedPlainSequences.msg`).
@@ -994,6 +1082,10 @@ pub mod msg {
                 alignment_check: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for BoundedPlainSequences {
+        type Ref<'a> = Self;
     }
 
     /// `test_msgs/msg/BoundedSequences` (from `msg/BoundedSequences.msg`).
@@ -1255,6 +1347,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for BoundedSequences {
+        type Ref<'a> = BoundedSequencesRef<'a>;
+    }
+
     /// `test_msgs/msg/Builtins` (from `msg/Builtins.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1274,6 +1370,10 @@ pub mod msg {
                 time_value: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Builtins {
+        type Ref<'a> = Self;
     }
 
     /// `test_msgs/msg/Constants` (from `msg/Constants.msg`).
@@ -1315,6 +1415,10 @@ pub mod msg {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for Constants {
+        type Ref<'a> = Self;
     }
 
     /// `test_msgs/msg/Defaults` (from `msg/Defaults.msg`).
@@ -1372,6 +1476,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Defaults {
+        type Ref<'a> = Self;
+    }
+
     /// `test_msgs/msg/Empty` (from `msg/Empty.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1382,6 +1490,10 @@ pub mod msg {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for Empty {
+        type Ref<'a> = Self;
     }
 
     /// `test_msgs/msg/MultiNested` (from `msg/MultiNested.msg`).
@@ -1474,6 +1586,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for MultiNested {
+        type Ref<'a> = MultiNestedRef<'a>;
+    }
+
     /// `test_msgs/msg/Nested` (from `msg/Nested.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1489,6 +1605,10 @@ pub mod msg {
                 basic_types_value: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Nested {
+        type Ref<'a> = Self;
     }
 
     /// `test_msgs/msg/Strings` (from `msg/Strings.msg`).
@@ -1593,6 +1713,10 @@ pub mod msg {
                 bounded_string_value_default5: ::core::convert::From::from("Hello\"world!"),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Strings {
+        type Ref<'a> = StringsRef<'a>;
     }
 
     /// `test_msgs/msg/UnboundedSequences` (from `msg/UnboundedSequences.msg`).
@@ -1826,6 +1950,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for UnboundedSequences {
+        type Ref<'a> = UnboundedSequencesRef<'a>;
+    }
+
     /// `test_msgs/msg/WStrings` (from `msg/WStrings.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1861,6 +1989,10 @@ pub mod msg {
                 unbounded_sequence_of_wstrings: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for WStrings {
+        type Ref<'a> = Self;
     }
 }
 
@@ -2092,6 +2224,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for Arrays_Request {
+        type Ref<'a> = Arrays_RequestRef<'a>;
+    }
+
     /// `test_msgs/srv/Arrays_Response` (from `srv/Arrays.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -2317,6 +2453,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for Arrays_Response {
+        type Ref<'a> = Arrays_ResponseRef<'a>;
+    }
+
     /// An introspection event of `test_msgs/srv/Arrays`.
     ///
     /// `test_msgs/srv/Arrays_Event` (from `srv/Arrays.srv`).
@@ -2364,6 +2504,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Arrays_Event {
+        type Ref<'a> = Arrays_EventRef<'a>;
     }
 
     /// The service `test_msgs/srv/Arrays` (from `srv/Arrays.srv`).
@@ -2499,6 +2643,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for BasicTypes_Request {
+        type Ref<'a> = BasicTypes_RequestRef<'a>;
+    }
+
     /// `test_msgs/srv/BasicTypes_Response` (from `srv/BasicTypes.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -2614,6 +2762,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for BasicTypes_Response {
+        type Ref<'a> = BasicTypes_ResponseRef<'a>;
+    }
+
     /// An introspection event of `test_msgs/srv/BasicTypes`.
     ///
     /// `test_msgs/srv/BasicTypes_Event` (from `srv/BasicTypes.srv`).
@@ -2663,6 +2815,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for BasicTypes_Event {
+        type Ref<'a> = BasicTypes_EventRef<'a>;
+    }
+
     /// The service `test_msgs/srv/BasicTypes` (from `srv/BasicTypes.srv`).
     #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
     pub struct BasicTypes;
@@ -2693,6 +2849,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for Empty_Request {
+        type Ref<'a> = Self;
+    }
+
     /// `test_msgs/srv/Empty_Response` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -2703,6 +2863,10 @@ pub mod srv {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for Empty_Response {
+        type Ref<'a> = Self;
     }
 
     /// An introspection event of `test_msgs/srv/Empty`.
@@ -2728,6 +2892,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for Empty_Event {
+        type Ref<'a> = Self;
     }
 
     /// The service `test_msgs/srv/Empty` (from `srv/Empty.srv`).

@@ -60,6 +60,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for TF2Error {
+        type Ref<'a> = TF2ErrorRef<'a>;
+    }
+
     /// `tf2_msgs/msg/TFMessage` (from `msg/TFMessage.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -91,6 +95,10 @@ pub mod msg {
                 transforms: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for TFMessage {
+        type Ref<'a> = TFMessageRef<'a>;
     }
 }
 

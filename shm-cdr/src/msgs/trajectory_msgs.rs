@@ -55,6 +55,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for JointTrajectory {
+        type Ref<'a> = JointTrajectoryRef<'a>;
+    }
+
     /// Each trajectory point specifies either positions\[, velocities\[, accelerations\]\]
     /// or positions\[, effort\] for the trajectory to be executed.
     /// All specified values are in the same order as the joint names in JointTrajectory.msg.
@@ -97,6 +101,10 @@ pub mod msg {
                 time_from_start: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for JointTrajectoryPoint {
+        type Ref<'a> = Self;
     }
 
     /// `trajectory_msgs/msg/MultiDOFJointTrajectory` (from `msg/MultiDOFJointTrajectory.msg`).
@@ -150,6 +158,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for MultiDOFJointTrajectory {
+        type Ref<'a> = MultiDOFJointTrajectoryRef<'a>;
+    }
+
     /// `trajectory_msgs/msg/MultiDOFJointTrajectoryPoint` (from `msg/MultiDOFJointTrajectoryPoint.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -177,6 +189,10 @@ pub mod msg {
                 time_from_start: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for MultiDOFJointTrajectoryPoint {
+        type Ref<'a> = Self;
     }
 }
 

@@ -55,6 +55,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Field {
+        type Ref<'a> = FieldRef<'a>;
+    }
+
     /// Represents the type of a field and related meta-data.
     ///
     /// `type_description_interfaces/msg/FieldType` (from `msg/FieldType.msg`).
@@ -280,6 +284,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for FieldType {
+        type Ref<'a> = Self;
+    }
+
     /// Represents a single type, without the types it references, if any.
     ///
     /// `type_description_interfaces/msg/IndividualTypeDescription` (from `msg/IndividualTypeDescription.msg`).
@@ -339,6 +347,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for IndividualTypeDescription {
+        type Ref<'a> = IndividualTypeDescriptionRef<'a>;
+    }
+
     /// Represents an arbitrary key-value pair for application-specific information.
     ///
     /// `type_description_interfaces/msg/KeyValue` (from `msg/KeyValue.msg`).
@@ -388,6 +400,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for KeyValue {
+        type Ref<'a> = KeyValueRef<'a>;
+    }
+
     /// Represents a complete type description, including the type itself as well as the types it references.
     ///
     /// `type_description_interfaces/msg/TypeDescription` (from `msg/TypeDescription.msg`).
@@ -435,6 +451,10 @@ pub mod msg {
                 referenced_type_descriptions: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for TypeDescription {
+        type Ref<'a> = TypeDescriptionRef<'a>;
     }
 
     /// Represents the original source of a ROS 2 interface definition.
@@ -503,6 +523,10 @@ pub mod msg {
             }
         }
     }
+
+    impl crate::BorrowedForm for TypeSource {
+        type Ref<'a> = TypeSourceRef<'a>;
+    }
 }
 
 /// Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](crate::RosService) identity.
@@ -557,6 +581,10 @@ pub mod srv {
                 include_type_sources: true,
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetTypeDescription_Request {
+        type Ref<'a> = GetTypeDescription_RequestRef<'a>;
     }
 
     /// `type_description_interfaces/srv/GetTypeDescription_Response` (from `srv/GetTypeDescription.srv`).
@@ -641,6 +669,10 @@ pub mod srv {
         }
     }
 
+    impl crate::BorrowedForm for GetTypeDescription_Response {
+        type Ref<'a> = GetTypeDescription_ResponseRef<'a>;
+    }
+
     /// An introspection event of `type_description_interfaces/srv/GetTypeDescription`.
     ///
     /// `type_description_interfaces/srv/GetTypeDescription_Event` (from `srv/GetTypeDescription.srv`).
@@ -694,6 +726,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetTypeDescription_Event {
+        type Ref<'a> = GetTypeDescription_EventRef<'a>;
     }
 
     /// The service `type_description_interfaces/srv/GetTypeDescription` (from `srv/GetTypeDescription.srv`).

@@ -26,6 +26,10 @@ pub mod msg {
             }
         }
     }
+
+    impl crate::BorrowedForm for UUID {
+        type Ref<'a> = Self;
+    }
 }
 
 #[doc(no_inline)]

@@ -128,6 +128,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for ImageMarker {
+        type Ref<'a> = ImageMarkerRef<'a>;
+    }
+
     /// `visualization_msgs/msg/InteractiveMarker` (from `msg/InteractiveMarker.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -213,6 +217,10 @@ pub mod msg {
                 controls: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for InteractiveMarker {
+        type Ref<'a> = InteractiveMarkerRef<'a>;
     }
 
     /// Represents a control that is to be displayed together with an interactive marker
@@ -375,6 +383,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for InteractiveMarkerControl {
+        type Ref<'a> = InteractiveMarkerControlRef<'a>;
+    }
+
     /// `visualization_msgs/msg/InteractiveMarkerFeedback` (from `msg/InteractiveMarkerFeedback.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -491,6 +503,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for InteractiveMarkerFeedback {
+        type Ref<'a> = InteractiveMarkerFeedbackRef<'a>;
+    }
+
     /// `visualization_msgs/msg/InteractiveMarkerInit` (from `msg/InteractiveMarkerInit.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -554,6 +570,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for InteractiveMarkerInit {
+        type Ref<'a> = InteractiveMarkerInitRef<'a>;
+    }
+
     /// `visualization_msgs/msg/InteractiveMarkerPose` (from `msg/InteractiveMarkerPose.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -605,6 +625,10 @@ pub mod msg {
                 name: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for InteractiveMarkerPose {
+        type Ref<'a> = InteractiveMarkerPoseRef<'a>;
     }
 
     /// `visualization_msgs/msg/InteractiveMarkerUpdate` (from `msg/InteractiveMarkerUpdate.msg`).
@@ -691,6 +715,10 @@ pub mod msg {
                 erases: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for InteractiveMarkerUpdate {
+        type Ref<'a> = InteractiveMarkerUpdateRef<'a>;
     }
 
     /// See:
@@ -915,6 +943,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for Marker {
+        type Ref<'a> = MarkerRef<'a>;
+    }
+
     /// `visualization_msgs/msg/MarkerArray` (from `msg/MarkerArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -946,6 +978,10 @@ pub mod msg {
                 markers: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for MarkerArray {
+        type Ref<'a> = MarkerArrayRef<'a>;
     }
 
     /// MenuEntry message.
@@ -1084,6 +1120,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for MenuEntry {
+        type Ref<'a> = MenuEntryRef<'a>;
+    }
+
     /// Used to send raw mesh files.
     ///
     /// `visualization_msgs/msg/MeshFile` (from `msg/MeshFile.msg`).
@@ -1129,6 +1169,10 @@ pub mod msg {
         }
     }
 
+    impl crate::BorrowedForm for MeshFile {
+        type Ref<'a> = MeshFileRef<'a>;
+    }
+
     /// `visualization_msgs/msg/UVCoordinate` (from `msg/UVCoordinate.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
@@ -1150,6 +1194,10 @@ pub mod msg {
             }
         }
     }
+
+    impl crate::BorrowedForm for UVCoordinate {
+        type Ref<'a> = Self;
+    }
 }
 
 /// Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](crate::RosService) identity.
@@ -1168,6 +1216,10 @@ pub mod srv {
         fn default() -> Self {
             Self {}
         }
+    }
+
+    impl crate::BorrowedForm for GetInteractiveMarkers_Request {
+        type Ref<'a> = Self;
     }
 
     /// `visualization_msgs/srv/GetInteractiveMarkers_Response` (from `srv/GetInteractiveMarkers.srv`).
@@ -1220,6 +1272,10 @@ pub mod srv {
                 markers: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetInteractiveMarkers_Response {
+        type Ref<'a> = GetInteractiveMarkers_ResponseRef<'a>;
     }
 
     /// An introspection event of `visualization_msgs/srv/GetInteractiveMarkers`.
@@ -1275,6 +1331,10 @@ pub mod srv {
                 response: ::core::default::Default::default(),
             }
         }
+    }
+
+    impl crate::BorrowedForm for GetInteractiveMarkers_Event {
+        type Ref<'a> = GetInteractiveMarkers_EventRef<'a>;
     }
 
     /// The service `visualization_msgs/srv/GetInteractiveMarkers` (from `srv/GetInteractiveMarkers.srv`).
