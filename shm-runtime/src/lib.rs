@@ -38,8 +38,8 @@ pub use pool::{ShmContext, ShmStats};
 pub use publisher::{PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher};
 pub use shm_bytes::ShmBytes;
 pub use subscriber::{
-    CallbackSubscriber, CallbackSubscriberBuilder, RecvError, RosSample, RosSubscriber,
-    SubscriberBuilder,
+    CallbackSubscriber, CallbackSubscriberBuilder, History, MessageStream, RecvError, RosSample,
+    RosSubscriber, SampleStream, SubscriberBuilder,
 };
 
 pub use shm_cdr;

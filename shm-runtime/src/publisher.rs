@@ -219,23 +219,48 @@ impl<T: RosMessage> RosPublisher<T> {
 
     /// Wait until at least one subscriber matches this publisher, or `timeout`
     /// passes; returns whether one did. (Zenoh drops what is published before a
-    /// subscriber is known, like any pub/sub.)
+    /// subscriber is known, like any pub/sub.) Built on Zenoh's matching
+    /// listener: it wakes when the match happens.
     pub fn wait_for_subscribers(&self, timeout: std::time::Duration) -> bool {
         let deadline = std::time::Instant::now() + timeout;
-        loop {
-            if self
-                .publisher
-                .matching_status()
-                .wait()
-                .is_ok_and(|s| s.matching())
-            {
-                return true;
-            }
-            if std::time::Instant::now() >= deadline {
-                return false;
-            }
-            std::thread::sleep(std::time::Duration::from_millis(5));
+        // Listen first, then look: a match between the two is not missed.
+        let Ok(listener) = self.publisher.matching_listener().wait() else {
+            return false;
+        };
+        if self.has_subscribers() {
+            return true;
         }
+        loop {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            match listener.recv_timeout(left) {
+                Ok(Some(status)) if status.matching() => return true,
+                Ok(Some(_)) => {}
+                Ok(None) | Err(_) => return self.has_subscribers(),
+            }
+        }
+    }
+
+    /// Resolves once at least one subscriber matches this publisher (at once if
+    /// one already does). Cancellation-safe; bound it with your runtime's
+    /// timeout (e.g. `tokio::time::timeout`).
+    pub async fn subscribers_matched(&self) -> zenoh::Result<()> {
+        let listener = self.publisher.matching_listener().await?;
+        if self.has_subscribers() {
+            return Ok(());
+        }
+        loop {
+            if listener.recv_async().await?.matching() {
+                return Ok(());
+            }
+        }
+    }
+
+    /// Whether a subscriber matches this publisher now.
+    pub fn has_subscribers(&self) -> bool {
+        self.publisher
+            .matching_status()
+            .wait()
+            .is_ok_and(|s| s.matching())
     }
 
     /// The key expression published on.

@@ -5,17 +5,88 @@
 use std::fmt;
 use std::future::IntoFuture;
 use std::marker::PhantomData;
-use std::sync::OnceLock;
+use std::num::NonZeroUsize;
+use std::pin::Pin;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::task::{Context, Poll};
 use std::time::Duration;
 
 use shm_cdr::{CdrDecode, DecodeError, DecodeErrorKind, RosMessage};
 use zenoh::bytes::ZBytes;
-use zenoh::handlers::FifoChannelHandler;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
 
 use crate::rmw::{Attachment, AttachmentError};
+
+/// How many received samples a [`RosSubscriber`] keeps while the application is
+/// not reading: ROS 2's history QoS, applied on the subscriber's side.
+///
+/// Either way, Zenoh's receive thread never waits for the application. (With a
+/// bounded channel that blocks, as Zenoh's default handler does, a subscriber
+/// that stops reading stalls the whole connection; the publisher's `Block`
+/// congestion control then gives up after Zenoh's `wait_before_close` (5 s),
+/// closes the transport and drops what was in flight, with every `publish`
+/// having returned `Ok`.)
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum History {
+    /// Keep every sample until it is read (the default): nothing is lost, and
+    /// memory (or shared-memory chunks, which then make publishers fall back to
+    /// the heap) grows while the application does not read.
+    #[default]
+    KeepAll,
+    /// Keep the newest `n`: a sample arriving while `n` wait drops the oldest,
+    /// which is counted in [`RosSubscriber::lost`] (and logged once).
+    KeepLast(NonZeroUsize),
+}
+
+/// The queue between Zenoh's receive thread and the application.
+struct Queue {
+    sender: flume::Sender<Sample>,
+    /// Kept by the callback to drop the oldest sample under `KeepLast`.
+    receiver: flume::Receiver<Sample>,
+    lost: Arc<AtomicU64>,
+    key_expr: String,
+}
+
+impl Queue {
+    fn new(history: History, key_expr: &str) -> (Self, flume::Receiver<Sample>) {
+        let (sender, receiver) = match history {
+            History::KeepAll => flume::unbounded(),
+            History::KeepLast(n) => flume::bounded(n.get()),
+        };
+        let queue = Self {
+            sender,
+            receiver: receiver.clone(),
+            lost: Arc::new(AtomicU64::new(0)),
+            key_expr: key_expr.to_owned(),
+        };
+        (queue, receiver)
+    }
+
+    /// Called on Zenoh's thread for every sample; never blocks.
+    fn push(&self, mut sample: Sample) {
+        loop {
+            match self.sender.try_send(sample) {
+                Ok(()) => return,
+                Err(flume::TrySendError::Full(back)) => {
+                    sample = back;
+                    if self.receiver.try_recv().is_ok()
+                        && self.lost.fetch_add(1, Ordering::Relaxed) == 0
+                    {
+                        tracing::warn!(
+                            key_expr = %self.key_expr,
+                            "subscriber queue full (History::KeepLast): dropping the oldest samples; RosSubscriber::lost() counts them"
+                        );
+                    }
+                }
+                // The subscriber is gone; nobody will read.
+                Err(flume::TrySendError::Disconnected(_)) => return,
+            }
+        }
+    }
+}
 
 /// Builder of a [`RosSubscriber`]; resolve with `.wait()` or `.await`.
 #[must_use = "resolve the builder with .wait() or .await"]
@@ -24,6 +95,7 @@ pub struct SubscriberBuilder<'a, T> {
     pub(crate) key_expr: String,
     /// rmw_zenoh liveliness token (`MS`) to declare, for node subscribers.
     pub(crate) liveliness: Option<String>,
+    pub(crate) history: History,
     pub(crate) message: PhantomData<fn() -> T>,
 }
 
@@ -33,8 +105,15 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
             session,
             key_expr,
             liveliness: None,
+            history: History::KeepAll,
             message: PhantomData,
         }
+    }
+
+    /// How many unread samples to keep (default [`History::KeepAll`]).
+    pub fn history(mut self, history: History) -> Self {
+        self.history = history;
+        self
     }
 
     fn declare_token(&self) -> zenoh::Result<Option<LivelinessToken>> {
@@ -64,9 +143,17 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
 
     fn build(self) -> zenoh::Result<RosSubscriber<T>> {
         let token = self.declare_token()?;
-        let subscriber = self.session.declare_subscriber(self.key_expr).wait()?;
+        let (queue, receiver) = Queue::new(self.history, &self.key_expr);
+        let lost = queue.lost.clone();
+        let subscriber = self
+            .session
+            .declare_subscriber(self.key_expr)
+            .callback(move |sample| queue.push(sample))
+            .wait()?;
         Ok(RosSubscriber {
             subscriber,
+            receiver,
+            lost,
             _token: token,
             message: PhantomData,
         })
@@ -148,9 +235,12 @@ impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> IntoFuture
 }
 
 /// Receives messages published as `T` (decode them as `T` or as a borrowing
-/// variant of the same ROS type).
+/// variant of the same ROS type). Samples wait in the subscriber's own queue
+/// (see [`History`]) until read; undeclared when dropped.
 pub struct RosSubscriber<T> {
-    subscriber: zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>,
+    subscriber: zenoh::pubsub::Subscriber<()>,
+    receiver: flume::Receiver<Sample>,
+    lost: Arc<AtomicU64>,
     _token: Option<LivelinessToken>,
     message: PhantomData<fn() -> T>,
 }
@@ -166,24 +256,65 @@ impl<T> fmt::Debug for RosSubscriber<T> {
 impl<T: RosMessage> RosSubscriber<T> {
     /// Wait for the next sample.
     pub fn recv(&self) -> zenoh::Result<RosSample> {
-        self.subscriber.recv().map(RosSample::new)
+        Ok(RosSample::new(self.receiver.recv()?))
     }
 
-    /// Wait for the next sample, asynchronously.
+    /// Wait for the next sample, asynchronously. Cancellation-safe: dropping the
+    /// future before it completes loses no sample.
     pub async fn recv_async(&self) -> zenoh::Result<RosSample> {
-        self.subscriber.recv_async().await.map(RosSample::new)
+        Ok(RosSample::new(self.receiver.recv_async().await?))
     }
 
     /// Wait at most `timeout` for the next sample.
     pub fn recv_timeout(&self, timeout: Duration) -> zenoh::Result<Option<RosSample>> {
-        self.subscriber
-            .recv_timeout(timeout)
-            .map(|s| s.map(RosSample::new))
+        match self.receiver.recv_timeout(timeout) {
+            Ok(sample) => Ok(Some(RosSample::new(sample))),
+            Err(flume::RecvTimeoutError::Timeout) => Ok(None),
+            Err(e) => Err(e.into()),
+        }
     }
 
     /// The next sample if one is queued.
     pub fn try_recv(&self) -> zenoh::Result<Option<RosSample>> {
-        self.subscriber.try_recv().map(|s| s.map(RosSample::new))
+        match self.receiver.try_recv() {
+            Ok(sample) => Ok(Some(RosSample::new(sample))),
+            Err(flume::TryRecvError::Empty) => Ok(None),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// The samples as a [`Stream`](futures_core::Stream), in arrival order; it
+    /// ends when the subscriber is undeclared. Decode each item with
+    /// [`RosSample::decode`] as `T` or as a form borrowing from the item.
+    /// Cancellation-safe like [`recv_async`](Self::recv_async).
+    pub fn stream(&self) -> SampleStream<'_> {
+        SampleStream {
+            inner: self.receiver.stream(),
+        }
+    }
+
+    /// The messages, decoded as owned `T`, as a [`Stream`](futures_core::Stream);
+    /// a sample that is not a valid `T` is an `Err` item, and the stream goes on.
+    pub fn messages(&self) -> MessageStream<'_, T>
+    where
+        T: shm_cdr::DecodeOwned,
+    {
+        MessageStream {
+            samples: self.stream(),
+            message: PhantomData,
+        }
+    }
+
+    /// How many samples were dropped because the application did not read them
+    /// before [`History::KeepLast`]'s depth was exceeded (always 0 with
+    /// [`History::KeepAll`]).
+    pub fn lost(&self) -> u64 {
+        self.lost.load(Ordering::Relaxed)
+    }
+
+    /// How many samples wait to be read.
+    pub fn queued(&self) -> usize {
+        self.receiver.len()
     }
 
     /// Wait for the next sample and decode it as an owned `T`.
@@ -198,6 +329,51 @@ impl<T: RosMessage> RosSubscriber<T> {
     /// The key expression subscribed to.
     pub fn key_expr(&self) -> &str {
         self.subscriber.key_expr().as_str()
+    }
+}
+
+/// The samples of a [`RosSubscriber`], from [`RosSubscriber::stream`].
+#[must_use = "streams do nothing unless polled"]
+pub struct SampleStream<'a> {
+    inner: flume::r#async::RecvStream<'a, Sample>,
+}
+
+impl fmt::Debug for SampleStream<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("SampleStream").finish_non_exhaustive()
+    }
+}
+
+impl futures_core::Stream for SampleStream<'_> {
+    type Item = RosSample;
+
+    fn poll_next(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Option<RosSample>> {
+        Pin::new(&mut self.inner)
+            .poll_next(cx)
+            .map(|sample| sample.map(RosSample::new))
+    }
+}
+
+/// The decoded messages of a [`RosSubscriber`], from [`RosSubscriber::messages`].
+#[must_use = "streams do nothing unless polled"]
+pub struct MessageStream<'a, T> {
+    samples: SampleStream<'a>,
+    message: PhantomData<fn() -> T>,
+}
+
+impl<T> fmt::Debug for MessageStream<'_, T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("MessageStream").finish_non_exhaustive()
+    }
+}
+
+impl<T: shm_cdr::DecodeOwned> futures_core::Stream for MessageStream<'_, T> {
+    type Item = Result<T, DecodeError>;
+
+    fn poll_next(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Option<Self::Item>> {
+        Pin::new(&mut self.samples)
+            .poll_next(cx)
+            .map(|sample| sample.map(|s| s.decode::<T>()))
     }
 }
 

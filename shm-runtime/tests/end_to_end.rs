@@ -423,6 +423,68 @@ async fn async_publish_and_receive() {
     assert_eq!(Image::TYPE_NAME, "sensor_msgs/msg/Image");
 }
 
+/// The next item of a stream (no futures-util needed).
+async fn next<S: futures_core::Stream + Unpin>(stream: &mut S) -> Option<S::Item> {
+    std::future::poll_fn(|cx| std::pin::Pin::new(&mut *stream).poll_next(cx)).await
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn streams_of_samples_and_messages_with_async_matching() {
+    let (a, b) = session_pair();
+    let shm = ShmContext::new(ShmConfig::enabled()).unwrap();
+    let publisher = a
+        .declare_ros_publisher::<Image>("e2e/stream")
+        .shm(&shm)
+        .await
+        .unwrap();
+    assert!(!publisher.has_subscribers());
+    let subscriber = b
+        .declare_ros_subscriber::<Image>("e2e/stream")
+        .await
+        .unwrap();
+    tokio::time::timeout(TIMEOUT, publisher.subscribers_matched())
+        .await
+        .expect("no match")
+        .unwrap();
+    // Resolves at once when already matched.
+    tokio::time::timeout(Duration::from_millis(500), publisher.subscribers_matched())
+        .await
+        .expect("already matched")
+        .unwrap();
+
+    // A receive cancelled before anything arrived loses nothing.
+    assert!(
+        tokio::time::timeout(Duration::from_millis(50), subscriber.recv_async())
+            .await
+            .is_err()
+    );
+    for i in 0..6 {
+        publisher.publish(&image(32 * 1024 + i)).await.unwrap();
+    }
+    let mut samples = subscriber.stream();
+    for i in 0..3 {
+        let sample = tokio::time::timeout(TIMEOUT, next(&mut samples))
+            .await
+            .expect("message lost")
+            .expect("stream ended");
+        // Borrow within the item's lifetime.
+        let view: ImageRef = sample.decode().unwrap();
+        assert_eq!(view.data.len(), 32 * 1024 + i);
+        assert!(sample.is_shm());
+    }
+    drop(samples);
+    let mut messages = subscriber.messages();
+    for i in 3..6 {
+        let msg = tokio::time::timeout(TIMEOUT, next(&mut messages))
+            .await
+            .expect("message lost")
+            .expect("stream ended")
+            .unwrap();
+        assert_eq!(msg, image(32 * 1024 + i));
+    }
+    assert_eq!(subscriber.queued(), 0);
+}
+
 #[test]
 fn callback_subscriber_decodes_borrowed_inside_the_callback() {
     let (a, b) = session_pair();

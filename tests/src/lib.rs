@@ -151,40 +151,48 @@ pub mod fuzzing {
         decode_borrowed_as::<visualization_msgs::MarkerArrayRef>(data);
     }
 
-    /// Target `roundtrip_generated`: like `roundtrip`, for a generated standard
-    /// type chosen by the first byte.
-    pub fn roundtrip_generated(data: &[u8]) {
-        use shm_cdr::msgs::{diagnostic_msgs, nav_msgs, test_msgs, tf2_msgs, visualization_msgs};
-        fn check<T>(u: &mut arbitrary::Unstructured)
-        where
-            T: for<'a> Arbitrary<'a> + shm_cdr::CdrEncode + shm_cdr::DecodeOwned + std::fmt::Debug,
-        {
-            if let Ok(msg) = T::arbitrary(u) {
-                if let Err(why) = check_roundtrip(&msg) {
+    /// One generated type under the fuzzer: `data` decoded as it (owned and
+    /// borrowed, via `BorrowedForm`) must not panic and must re-encode
+    /// consistently; then an arbitrary value built from `data` must round-trip
+    /// and decode over another.
+    fn generated_case<T>(data: &[u8])
+    where
+        T: shm_cdr::BorrowedForm + shm_cdr::DecodeOwned + for<'a> Arbitrary<'a> + std::fmt::Debug,
+    {
+        decode_as::<T>(data);
+        decode_borrowed_as::<T::Ref<'_>>(data);
+        let mut u = arbitrary::Unstructured::new(data);
+        if let Ok(msg) = T::arbitrary(&mut u) {
+            if let Err(why) = check_roundtrip(&msg) {
+                panic!("{why}");
+            }
+            if let Ok(previous) = T::arbitrary(&mut u) {
+                if let Err(why) = check_decode_into(&previous, &msg) {
                     panic!("{why}");
-                }
-                if let Ok(previous) = T::arbitrary(u) {
-                    if let Err(why) = check_decode_into(&previous, &msg) {
-                        panic!("{why}");
-                    }
                 }
             }
         }
-        let Some((which, rest)) = data.split_first() else {
+    }
+
+    macro_rules! generated_table {
+        (messages: [$($m:path,)*], borrowed: [$(($o:path, $r:path),)*], services: [$($s:path,)*], actions: [$($a:path,)*],) => {
+            /// [`generated_case`] of every message type in `shm_cdr::msgs`.
+            pub const GENERATED_CASES: &[fn(&[u8])] = &[$(generated_case::<$m>,)*];
+        };
+    }
+
+    include!("../../examples/src/interfaces.rs");
+    for_each_interface!(generated_table);
+
+    /// Target `roundtrip_generated`: for the generated standard type chosen by
+    /// the first two bytes (all of `shm_cdr::msgs`), the rest decoded as it and
+    /// turned into an arbitrary value of it ([`GENERATED_CASES`]).
+    pub fn roundtrip_generated(data: &[u8]) {
+        let [a, b, rest @ ..] = data else {
             return;
         };
-        let mut u = arbitrary::Unstructured::new(rest);
-        match which % 9 {
-            0 => check::<test_msgs::Arrays>(&mut u),
-            1 => check::<test_msgs::BoundedSequences>(&mut u),
-            2 => check::<test_msgs::UnboundedSequences>(&mut u),
-            3 => check::<test_msgs::WStrings>(&mut u),
-            4 => check::<test_msgs::MultiNested>(&mut u),
-            5 => check::<nav_msgs::Odometry>(&mut u),
-            6 => check::<tf2_msgs::TFMessage>(&mut u),
-            7 => check::<visualization_msgs::MarkerArray>(&mut u),
-            _ => check::<diagnostic_msgs::DiagnosticArray>(&mut u),
-        }
+        let which = usize::from(u16::from_le_bytes([*a, *b])) % GENERATED_CASES.len();
+        GENERATED_CASES[which](rest);
     }
 
     /// Time + value; `#[repr(C)]` so sequences of it take the bulk path at phase 0.
