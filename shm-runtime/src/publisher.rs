@@ -5,13 +5,14 @@ use std::fmt;
 use std::future::{Future, IntoFuture};
 use std::marker::PhantomData;
 use std::pin::Pin;
-use std::sync::atomic::{AtomicI64, Ordering};
+use std::sync::atomic::{AtomicI64, AtomicU32, Ordering};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use shm_cdr::{EncodeError, RosMessage};
 use zenoh::bytes::ZBytes;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::qos::CongestionControl;
+use zenoh::sample::SourceInfo;
 use zenoh::{Resolvable, Session, Wait};
 
 use crate::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
@@ -164,6 +165,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             policy,
             rmw,
             sequence: AtomicI64::new(0),
+            source_sn: AtomicU32::new(0),
             message: PhantomData,
         })
     }
@@ -195,6 +197,9 @@ pub struct RosPublisher<T> {
     policy: Option<ShmPolicy>,
     rmw: Option<RmwPublisher>,
     sequence: AtomicI64,
+    /// Zenoh `SourceInfo` sequence number of the next put, from 0 (as zenoh-ext
+    /// numbers them): subscribers count the gaps as missed messages.
+    source_sn: AtomicU32,
     message: PhantomData<fn(&T)>,
 }
 
@@ -315,6 +320,10 @@ impl<T: RosMessage> RosPublisher<T> {
             outcome,
             payload: encoded.bytes,
             attachment,
+            source_info: SourceInfo::new(
+                self.publisher.id(),
+                self.source_sn.fetch_add(1, Ordering::Relaxed),
+            ),
         })
     }
 }
@@ -324,6 +333,7 @@ struct Prepared {
     outcome: PublishOutcome,
     payload: ZBytes,
     attachment: Option<ZBytes>,
+    source_info: SourceInfo,
 }
 
 impl Prepared {
@@ -331,7 +341,7 @@ impl Prepared {
         self,
         publisher: &'a zenoh::pubsub::Publisher<'static>,
     ) -> (PublishOutcome, zenoh::pubsub::PublisherPutBuilder<'a>) {
-        let put = publisher.put(self.payload);
+        let put = publisher.put(self.payload).source_info(self.source_info);
         let put = match self.attachment {
             Some(attachment) => put.attachment(attachment),
             None => put,

@@ -2,13 +2,14 @@
 //! one slice (shared memory or not) or a spliced set of fragments, with one copy
 //! otherwise.
 
+use std::collections::HashMap;
 use std::fmt;
 use std::future::IntoFuture;
 use std::marker::PhantomData;
 use std::num::NonZeroUsize;
 use std::pin::Pin;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::task::{Context, Poll};
 use std::time::Duration;
 
@@ -47,7 +48,19 @@ struct Queue {
     /// Kept by the callback to drop the oldest sample under `KeepLast`.
     receiver: flume::Receiver<Sample>,
     lost: Arc<AtomicU64>,
+    missed: Arc<AtomicU64>,
+    /// The highest sequence number seen from each publisher.
+    last_seen: Mutex<HashMap<Source, u64>>,
     key_expr: String,
+}
+
+/// A publisher, as its samples identify it.
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+enum Source {
+    /// Zenoh `SourceInfo` (ours, zenoh-ext's advanced publishers).
+    Zenoh(zenoh::session::EntityGlobalId),
+    /// The GID in an rmw_zenoh attachment (rmw_zenoh_cpp publishers).
+    Rmw(crate::rmw::Gid),
 }
 
 impl Queue {
@@ -60,13 +73,56 @@ impl Queue {
             sender,
             receiver: receiver.clone(),
             lost: Arc::new(AtomicU64::new(0)),
+            missed: Arc::new(AtomicU64::new(0)),
+            last_seen: Mutex::new(HashMap::new()),
             key_expr: key_expr.to_owned(),
         };
         (queue, receiver)
     }
 
+    /// Count the messages a gap in the sample's publisher's sequence numbers
+    /// says never arrived (Zenoh `SourceInfo`, else the rmw_zenoh attachment).
+    fn check_sequence(&self, sample: &Sample) {
+        let (source, sn) = if let Some(info) = sample.source_info() {
+            (
+                Source::Zenoh(*info.source_id()),
+                u64::from(info.source_sn()),
+            )
+        } else if let Some(Ok(attachment)) = sample
+            .attachment()
+            .map(|a| crate::rmw::Attachment::parse(&a.to_bytes()))
+        {
+            let Ok(sn) = u64::try_from(attachment.sequence_number) else {
+                return;
+            };
+            (Source::Rmw(attachment.gid), sn)
+        } else {
+            return;
+        };
+        let mut last_seen = self.last_seen.lock().unwrap_or_else(|e| e.into_inner());
+        let previous = last_seen.insert(source, sn);
+        let gap = match previous {
+            Some(previous) if sn > previous => sn - previous - 1,
+            // Late, duplicated or reordered: keep the highest.
+            Some(previous) => {
+                last_seen.insert(source, previous);
+                0
+            }
+            None => 0,
+        };
+        drop(last_seen);
+        if gap > 0 && self.missed.fetch_add(gap, Ordering::Relaxed) == 0 {
+            tracing::warn!(
+                key_expr = %self.key_expr,
+                count = gap,
+                "messages never arrived (a gap in the publisher's sequence numbers); RosSubscriber::missed() counts them"
+            );
+        }
+    }
+
     /// Called on Zenoh's thread for every sample; never blocks.
     fn push(&self, mut sample: Sample) {
+        self.check_sequence(&sample);
         loop {
             match self.sender.try_send(sample) {
                 Ok(()) => return,
@@ -145,6 +201,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         let token = self.declare_token()?;
         let (queue, receiver) = Queue::new(self.history, &self.key_expr);
         let lost = queue.lost.clone();
+        let missed = queue.missed.clone();
         let subscriber = self
             .session
             .declare_subscriber(self.key_expr)
@@ -154,6 +211,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
             subscriber,
             receiver,
             lost,
+            missed,
             _token: token,
             message: PhantomData,
         })
@@ -241,6 +299,7 @@ pub struct RosSubscriber<T> {
     subscriber: zenoh::pubsub::Subscriber<()>,
     receiver: flume::Receiver<Sample>,
     lost: Arc<AtomicU64>,
+    missed: Arc<AtomicU64>,
     _token: Option<LivelinessToken>,
     message: PhantomData<fn() -> T>,
 }
@@ -310,6 +369,16 @@ impl<T: RosMessage> RosSubscriber<T> {
     /// [`History::KeepAll`]).
     pub fn lost(&self) -> u64 {
         self.lost.load(Ordering::Relaxed)
+    }
+
+    /// How many messages never arrived: the gaps in each publisher's sequence
+    /// numbers (Zenoh `SourceInfo`, which our publishers attach, or the
+    /// rmw_zenoh attachment of ROS 2 publishers). Zenoh loses messages when it
+    /// closes a transport that stayed congested past its `wait_before_close`
+    /// (e.g. this process was stopped); a loss at the very end of a stream shows
+    /// only once that publisher sends again.
+    pub fn missed(&self) -> u64 {
+        self.missed.load(Ordering::Relaxed)
     }
 
     /// How many samples wait to be read.

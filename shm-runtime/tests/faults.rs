@@ -349,6 +349,7 @@ fn stalled_subscriber(stall: Duration, with_shm: bool) {
             next += 1;
         }
     });
+    assert_eq!((subscriber.lost(), subscriber.missed()), (0, 0));
     println!(
         "stall {stall:?} (shm {with_shm}): {N}/{N} delivered in order after the stall, in {:?}; {:?}",
         started.elapsed(),
@@ -411,4 +412,5 @@ fn keep_last_keeps_the_newest_and_counts_the_rest() {
         .collect();
     assert_eq!(got, (90..100).collect::<Vec<_>>());
     assert_eq!(subscriber.lost(), 90);
+    assert_eq!(subscriber.missed(), 0, "dropped here, not missed in transit");
 }
