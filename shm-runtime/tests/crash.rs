@@ -1,10 +1,11 @@
 //! A subscriber process SIGKILLed while it holds shared-memory samples: the
 //! publisher keeps publishing without loss, and the memory the dead process held
 //! comes back to the pool once its Zenoh watchdog expires and the application
-//! calls `ShmContext::reclaim_abandoned`.
+//! calls `ShmContext::reclaim_abandoned`. And a subscriber process SIGSTOPped
+//! past Zenoh's close timeout: it is told of every message that never arrived.
 //!
 //! The subscriber is this same test binary, re-executed with `CRASH_CHILD_PORT`
-//! set: it connects, keeps every sample it receives, and reports on stdout.
+//! (or `STOP_CHILD_PORT`) set: it connects, receives, and reports on stdout.
 
 use std::io::{BufRead, BufReader, Write};
 use std::process::{Command, Stdio};

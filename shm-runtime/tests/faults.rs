@@ -1,5 +1,6 @@
 //! Faults: garbage on the topic, a pool far smaller than the data in flight under
-//! load, and a publisher restarted mid-stream. Each test prints its figures.
+//! load, a publisher restarted mid-stream, and subscribers that stop reading.
+//! Each test prints its figures.
 
 use std::time::Duration;
 
