@@ -20,6 +20,10 @@ pub enum PayloadKind {
     /// Above the threshold, but the pool stayed full for the bounded wait: encoded
     /// on the heap instead (counted in [`ShmStats::fallbacks`](crate::ShmStats)).
     HeapFallback,
+    /// Above the threshold, but larger than the whole pool, so it can never fit:
+    /// encoded on the heap (counted in [`ShmStats::too_large`](crate::ShmStats),
+    /// warned about once).
+    TooLargeForPool,
 }
 
 /// An encoded message, ready to put.
@@ -55,7 +59,11 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
         Splice::NotNeeded(size) => size,
     };
     let mut kind = PayloadKind::Heap;
-    if let Some(policy) = policy.filter(|p| size >= p.threshold) {
+    let too_large = |p: &ShmPolicy| size > p.context.config().pool_size;
+    if let Some(policy) = policy.filter(|p| size >= p.threshold && too_large(p)) {
+        policy.context.count_too_large(size);
+        kind = PayloadKind::TooLargeForPool;
+    } else if let Some(policy) = policy.filter(|p| size >= p.threshold) {
         match policy
             .context
             .alloc_bounded(size, policy.context.config().alloc_timeout)

@@ -10,7 +10,7 @@ use zenoh::shm::{
 };
 use zenoh::Wait;
 
-use crate::config::ShmConfig;
+use crate::config::{ConfigError, ShmConfig};
 
 /// Allocations from this size up reclaim dropped chunks first (see
 /// [`ShmContext::alloc_bounded`]). Below it, writing into cold memory costs little,
@@ -38,6 +38,7 @@ struct Counters {
     shm: AtomicU64,
     heap: AtomicU64,
     fallbacks: AtomicU64,
+    too_large: AtomicU64,
 }
 
 /// How many messages went where (see [`ShmContext::stats`]).
@@ -50,6 +51,9 @@ pub struct ShmStats {
     /// Messages above the threshold that found the pool full after the bounded
     /// wait and were published from the heap instead.
     pub fallbacks: u64,
+    /// Messages larger than the whole pool, which can never fit and were
+    /// published from the heap.
+    pub too_large: u64,
 }
 
 impl std::fmt::Debug for ShmContext {
@@ -62,10 +66,30 @@ impl std::fmt::Debug for ShmContext {
 }
 
 impl ShmContext {
-    /// Create a pool of `config.pool_size` bytes.
-    pub fn new(config: ShmConfig) -> zenoh::Result<Self> {
-        let provider = ShmProviderBuilder::default_backend(config.pool_size).wait()?;
-        prefault(&provider, config.pool_size);
+    /// Create a pool of `config.pool_size` bytes. Settings Zenoh would refuse
+    /// are refused first ([`ShmConfig::validate`]); a pool the system cannot
+    /// provide (e.g. larger than `/dev/shm`) is an error that says so.
+    pub fn new(config: ShmConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        let provider = ShmProviderBuilder::default_backend(config.pool_size)
+            .wait()
+            .map_err(|e| ConfigError {
+                setting: "ShmConfig::pool_size",
+                value: config.pool_size.to_string(),
+                reason: format!(
+                    "Zenoh could not create a shared-memory pool of that size ({e}); check the room in /dev/shm (`df -h /dev/shm`; in Docker, `--shm-size`)"
+                ),
+            })?;
+        if config.threshold > config.pool_size {
+            tracing::warn!(
+                threshold = config.threshold,
+                pool_size = config.pool_size,
+                "SHM threshold above the pool size: no message will ever use shared memory"
+            );
+        }
+        if config.prefault {
+            prefault(&provider, config.pool_size);
+        }
         Ok(Self {
             inner: Arc::new(Inner {
                 provider,
@@ -77,7 +101,7 @@ impl ShmContext {
 
     /// A pool configured from `ZENOH_SHM_ALLOC_SIZE` /
     /// `ZENOH_SHM_MESSAGE_SIZE_THRESHOLD`, or `None` if neither is set.
-    pub fn from_env() -> zenoh::Result<Option<Self>> {
+    pub fn from_env() -> Result<Option<Self>, ConfigError> {
         match ShmConfig::from_env()? {
             Some(config) => Ok(Some(Self::new(config)?)),
             None => Ok(None),
@@ -109,6 +133,7 @@ impl ShmContext {
             shm: c.shm.load(Ordering::Relaxed),
             heap: c.heap.load(Ordering::Relaxed),
             fallbacks: c.fallbacks.load(Ordering::Relaxed),
+            too_large: c.too_large.load(Ordering::Relaxed),
         }
     }
 
@@ -187,12 +212,25 @@ impl ShmContext {
 
     pub(crate) fn count_fallback(&self, size: usize) {
         let n = self.inner.stats.fallbacks.fetch_add(1, Ordering::Relaxed) + 1;
-        tracing::warn!(
-            size,
-            fallbacks = n,
-            pool_size = self.inner.config.pool_size,
-            "shared-memory pool exhausted: message published from the heap"
-        );
+        // The 1st, 2nd, 4th, 8th… time: visible, without a line per message.
+        if n.is_power_of_two() {
+            tracing::warn!(
+                size,
+                fallbacks = n,
+                pool_size = self.inner.config.pool_size,
+                "shared-memory pool exhausted: message published from the heap (ShmContext::stats() counts them)"
+            );
+        }
+    }
+
+    pub(crate) fn count_too_large(&self, size: usize) {
+        if self.inner.stats.too_large.fetch_add(1, Ordering::Relaxed) == 0 {
+            tracing::warn!(
+                size,
+                pool_size = self.inner.config.pool_size,
+                "message larger than the whole shared-memory pool: it can never fit, so it is published from the heap; enlarge the pool (ShmConfig::pool_size / ZENOH_SHM_ALLOC_SIZE) to send it through shared memory"
+            );
+        }
     }
 }
 

@@ -142,7 +142,15 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
     }
 
     fn build(self) -> zenoh::Result<RosPublisher<T>> {
-        let policy = self.policy();
+        let mut policy = self.policy();
+        if policy.is_some() && !session_has_shm(self.session) {
+            // Zenoh would copy every SHM buffer out again: report what goes out.
+            tracing::warn!(
+                key_expr = %self.key_expr,
+                "the session has transport/shared_memory/enabled=false: this publisher publishes from the heap"
+            );
+            policy = None;
+        }
         let publisher = self
             .session
             .declare_publisher(self.key_expr)
@@ -189,6 +197,15 @@ impl<'a, T: RosMessage> IntoFuture for PublisherBuilder<'a, T> {
         // Declaring is local bookkeeping in Zenoh; nothing to await.
         std::future::ready(self.build())
     }
+}
+
+/// Whether the session's transports carry shared memory (Zenoh's
+/// `transport/shared_memory/enabled`, on by default).
+fn session_has_shm(session: &Session) -> bool {
+    session
+        .config()
+        .get_typed::<bool>("transport/shared_memory/enabled")
+        .unwrap_or(true)
 }
 
 /// Publishes messages of type `T`.

@@ -145,6 +145,61 @@ fn without_shm_and_threshold_override() {
     }
 }
 
+/// Outcomes say what went out: a session with SHM transport off publishes from
+/// the heap (not "Shm" while the receiver gets a copy), and a message larger
+/// than the whole pool is `TooLargeForPool`, counted apart from fallbacks.
+#[test]
+fn outcomes_report_what_actually_went_out() {
+    let (a, b) = session_pair_with(|config| {
+        let mut config = without_implicit_shm_copy(config);
+        config
+            .insert_json5("transport/shared_memory/enabled", "false")
+            .unwrap();
+        config
+    });
+    let shm = ShmContext::new(ShmConfig::enabled()).unwrap();
+    let publisher = a
+        .declare_ros_publisher::<Image>("e2e/session_off")
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    assert!(publisher.shm_context().is_none());
+    let subscriber = b
+        .declare_ros_subscriber::<Image>("e2e/session_off")
+        .wait()
+        .unwrap();
+    assert!(publisher.wait_for_subscribers(TIMEOUT));
+    let msg = image(64 * 1024);
+    assert_eq!(
+        publisher.publish(&msg).wait().unwrap().kind,
+        PayloadKind::Heap
+    );
+    let sample = subscriber.recv_timeout(TIMEOUT).unwrap().expect("lost");
+    assert!(!sample.is_shm());
+    assert_eq!(sample.decode::<Image>().unwrap(), msg);
+
+    let (a, b) = session_pair_with(without_implicit_shm_copy);
+    let small = ShmContext::new(ShmConfig::enabled().pool_size(64 * 1024)).unwrap();
+    let publisher = a
+        .declare_ros_publisher::<Image>("e2e/too_large")
+        .shm(&small)
+        .wait()
+        .unwrap();
+    let subscriber = b
+        .declare_ros_subscriber::<Image>("e2e/too_large")
+        .wait()
+        .unwrap();
+    assert!(publisher.wait_for_subscribers(TIMEOUT));
+    for _ in 0..3 {
+        let outcome = publisher.publish(&image(100 * 1024)).wait().unwrap();
+        assert_eq!(outcome.kind, PayloadKind::TooLargeForPool);
+        let sample = subscriber.recv_timeout(TIMEOUT).unwrap().expect("lost");
+        assert_eq!(sample.decode::<Image>().unwrap(), image(100 * 1024));
+    }
+    let stats = small.stats();
+    assert_eq!((stats.too_large, stats.fallbacks, stats.shm), (3, 0, 0));
+}
+
 fn cloud_with(data: ShmBytes, points: u32) -> shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
     shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
         header: header(),

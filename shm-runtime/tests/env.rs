@@ -28,6 +28,19 @@ fn environment_variables_enable_configure_and_reject() {
         err.to_string().contains("ZENOH_SHM_MESSAGE_SIZE_THRESHOLD"),
         "{err}"
     );
+
+    // Values Zenoh's allocator refuses (`Error initializing Talc backend!`, `out
+    // of range for ElemIndex!`) are refused first, naming the variable and range.
+    std::env::remove_var(ShmConfig::ENV_THRESHOLD);
+    for bad in ["1", "18446744073709551615"] {
+        std::env::set_var(ShmConfig::ENV_ALLOC_SIZE, bad);
+        let err = ShmContext::from_env().unwrap_err();
+        let text = format!("{err:?}");
+        assert!(
+            text.contains("ZENOH_SHM_ALLOC_SIZE") && text.contains("4096 to 4294967296"),
+            "{text}"
+        );
+    }
     std::env::remove_var(ShmConfig::ENV_ALLOC_SIZE);
     std::env::remove_var(ShmConfig::ENV_THRESHOLD);
 }

@@ -413,5 +413,9 @@ fn keep_last_keeps_the_newest_and_counts_the_rest() {
         .collect();
     assert_eq!(got, (90..100).collect::<Vec<_>>());
     assert_eq!(subscriber.lost(), 90);
-    assert_eq!(subscriber.missed(), 0, "dropped here, not missed in transit");
+    assert_eq!(
+        subscriber.missed(),
+        0,
+        "dropped here, not missed in transit"
+    );
 }
