@@ -52,6 +52,74 @@ struct Queue {
     /// The highest sequence number seen from each publisher.
     last_seen: Mutex<HashMap<Source, u64>>,
     key_expr: String,
+    type_check: TypeCheck,
+}
+
+/// The check that a sample is of the subscriber's type: our publishers name the
+/// type and its RIHS01 hash in the sample's encoding
+/// (`application/cdr;<type name>;<hash>`, see [`type_encoding`]). Samples
+/// without that (rmw_zenoh_cpp, plain Zenoh, other tools) are taken as they are.
+pub(crate) struct TypeCheck {
+    /// `type_encoding::<T>()`: the common case is one comparison.
+    expected: zenoh::bytes::Encoding,
+    name: &'static str,
+    hash: &'static str,
+    key_expr: String,
+    rejected: Arc<AtomicU64>,
+}
+
+impl TypeCheck {
+    pub(crate) fn new<T: RosMessage>(key_expr: &str) -> Self {
+        Self {
+            expected: type_encoding::<T>(),
+            name: T::TYPE_NAME,
+            hash: T::type_hash(),
+            key_expr: key_expr.to_owned(),
+            rejected: Arc::new(AtomicU64::new(0)),
+        }
+    }
+
+    /// Whether `sample` may be of this type; if it names another, count it and
+    /// say (once) which type arrived.
+    fn accepts(&self, sample: &Sample) -> bool {
+        let encoding = sample.encoding();
+        if *encoding == self.expected || *encoding == zenoh::bytes::Encoding::ZENOH_BYTES {
+            return true;
+        }
+        let Some((name, hash)) = sample_type(sample) else {
+            return true;
+        };
+        if name == self.name && hash == self.hash {
+            return true;
+        }
+        if self.rejected.fetch_add(1, Ordering::Relaxed) == 0 {
+            tracing::warn!(
+                key_expr = %self.key_expr,
+                expected = %format!("{} {}", self.name, self.hash),
+                received = %format!("{name} {hash}"),
+                "samples of another message type on this key are dropped (RosSubscriber::wrong_type() counts them)"
+            );
+        }
+        false
+    }
+}
+
+/// The message type (name, RIHS01 hash) a sample's encoding names, if it names
+/// one: `application/cdr;<name>;<hash>`.
+fn sample_type(sample: &Sample) -> Option<(String, String)> {
+    let encoding = sample.encoding().to_string();
+    let (name, hash) = encoding.strip_prefix("application/cdr;")?.split_once(';')?;
+    Some((name.to_owned(), hash.to_owned()))
+}
+
+/// The encoding our publishers give every sample of `T`:
+/// `application/cdr;<type name>;<RIHS01 hash>`.
+pub(crate) fn type_encoding<T: RosMessage>() -> zenoh::bytes::Encoding {
+    zenoh::bytes::Encoding::APPLICATION_CDR.with_schema(format!(
+        "{};{}",
+        T::TYPE_NAME,
+        T::type_hash()
+    ))
 }
 
 /// A publisher, as its samples identify it.
@@ -64,7 +132,11 @@ enum Source {
 }
 
 impl Queue {
-    fn new(history: History, key_expr: &str) -> (Self, flume::Receiver<Sample>) {
+    fn new(
+        history: History,
+        key_expr: &str,
+        type_check: TypeCheck,
+    ) -> (Self, flume::Receiver<Sample>) {
         let (sender, receiver) = match history {
             History::KeepAll => flume::unbounded(),
             History::KeepLast(n) => flume::bounded(n.get()),
@@ -76,6 +148,7 @@ impl Queue {
             missed: Arc::new(AtomicU64::new(0)),
             last_seen: Mutex::new(HashMap::new()),
             key_expr: key_expr.to_owned(),
+            type_check,
         };
         (queue, receiver)
     }
@@ -122,6 +195,9 @@ impl Queue {
 
     /// Called on Zenoh's thread for every sample; never blocks.
     fn push(&self, mut sample: Sample) {
+        if !self.type_check.accepts(&sample) {
+            return;
+        }
         self.check_sequence(&sample);
         loop {
             match self.sender.try_send(sample) {
@@ -199,9 +275,14 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
 
     fn build(self) -> zenoh::Result<RosSubscriber<T>> {
         let token = self.declare_token()?;
-        let (queue, receiver) = Queue::new(self.history, &self.key_expr);
+        let (queue, receiver) = Queue::new(
+            self.history,
+            &self.key_expr,
+            TypeCheck::new::<T>(&self.key_expr),
+        );
         let lost = queue.lost.clone();
         let missed = queue.missed.clone();
+        let wrong_type = queue.type_check.rejected.clone();
         let subscriber = self
             .session
             .declare_subscriber(self.key_expr)
@@ -212,6 +293,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
             receiver,
             lost,
             missed,
+            wrong_type,
             _token: token,
             message: PhantomData,
         })
@@ -254,11 +336,16 @@ impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> CallbackSubscriber
     fn build(self) -> zenoh::Result<CallbackSubscriber<T>> {
         let token = self.inner.declare_token()?;
         let callback = self.callback;
+        let type_check = TypeCheck::new::<T>(&self.inner.key_expr);
         let subscriber = self
             .inner
             .session
             .declare_subscriber(self.inner.key_expr)
-            .callback(move |sample| callback(RosSample::new(sample)))
+            .callback(move |sample| {
+                if type_check.accepts(&sample) {
+                    callback(RosSample::new(sample))
+                }
+            })
             .wait()?;
         Ok(CallbackSubscriber {
             _subscriber: subscriber,
@@ -300,6 +387,7 @@ pub struct RosSubscriber<T> {
     receiver: flume::Receiver<Sample>,
     lost: Arc<AtomicU64>,
     missed: Arc<AtomicU64>,
+    wrong_type: Arc<AtomicU64>,
     _token: Option<LivelinessToken>,
     message: PhantomData<fn() -> T>,
 }
@@ -379,6 +467,14 @@ impl<T: RosMessage> RosSubscriber<T> {
     /// only once that publisher sends again.
     pub fn missed(&self) -> u64 {
         self.missed.load(Ordering::Relaxed)
+    }
+
+    /// How many samples were dropped because their encoding names another
+    /// message type (name or RIHS01 hash) than `T`: e.g. a `Duration` publisher
+    /// on a key where this subscriber expects `Time`. The first one is logged
+    /// with both types.
+    pub fn wrong_type(&self) -> u64 {
+        self.wrong_type.load(Ordering::Relaxed)
     }
 
     /// How many samples wait to be read.
@@ -506,6 +602,12 @@ impl RosSample {
     /// The key expression it was published on.
     pub fn key_expr(&self) -> &str {
         self.sample.key_expr().as_str()
+    }
+
+    /// The message type (name, RIHS01 hash) the sample's encoding names, if any
+    /// (our publishers name it; rmw_zenoh_cpp's do not).
+    pub fn message_type(&self) -> Option<(String, String)> {
+        sample_type(&self.sample)
     }
 
     /// Whether the whole payload is one shared-memory buffer.

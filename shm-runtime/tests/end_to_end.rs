@@ -200,6 +200,41 @@ fn outcomes_report_what_actually_went_out() {
     assert_eq!((stats.too_large, stats.fallbacks, stats.shm), (3, 0, 0));
 }
 
+/// `Time` and `Duration` have the same layout: a `Time` subscriber on a raw key
+/// must not decode `Duration` samples as garbage. Our samples name their type
+/// in the encoding, and the subscriber drops (and counts) the wrong one.
+#[test]
+fn a_subscriber_drops_samples_of_another_type_and_says_which() {
+    use shm_cdr::msgs::builtin_interfaces::{Duration as RosDuration, Time};
+    let (a, b) = session_pair();
+    let wrong = a
+        .declare_ros_publisher::<RosDuration>("e2e/typed")
+        .wait()
+        .unwrap();
+    let right = a.declare_ros_publisher::<Time>("e2e/typed").wait().unwrap();
+    let subscriber = b
+        .declare_ros_subscriber::<Time>("e2e/typed")
+        .wait()
+        .unwrap();
+    assert!(wrong.wait_for_subscribers(TIMEOUT) && right.wait_for_subscribers(TIMEOUT));
+    wrong
+        .publish(&RosDuration { sec: 1, nanosec: 2 })
+        .wait()
+        .unwrap();
+    right.publish(&Time { sec: 3, nanosec: 4 }).wait().unwrap();
+    let sample = subscriber.recv_timeout(TIMEOUT).unwrap().expect("lost");
+    assert_eq!(
+        sample.decode::<Time>().unwrap(),
+        Time { sec: 3, nanosec: 4 }
+    );
+    assert_eq!(
+        sample.message_type(),
+        Some((Time::TYPE_NAME.to_owned(), Time::type_hash().to_owned()))
+    );
+    assert_eq!(subscriber.wrong_type(), 1);
+    assert!(subscriber.try_recv().unwrap().is_none());
+}
+
 fn cloud_with(data: ShmBytes, points: u32) -> shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
     shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
         header: header(),
