@@ -22,6 +22,26 @@ use syn::{parse_macro_input, DeriveInput};
 /// `#[ros(package = "pkg")]` (required, one of them), `#[ros(crate = "path")]`.
 /// Field attributes: `#[ros(byte)]`, `#[ros(char)]` (on `u8`/`i8` fields and their
 /// sequences/arrays), `#[ros(rename = "ros_name")]`.
+///
+/// Field types (anything else is a compile error that says what to write
+/// instead):
+///
+/// | Rust | ROS 2 |
+/// |---|---|
+/// | `bool`, `u8`…`u64`, `i8`…`i64`, `f32`, `f64` | the same primitives (`#[ros(byte)]` / `#[ros(char)]` on `u8`/`i8` for `byte` / `char`) |
+/// | `String`, `&'a str`, `Cow<'a, str>` | `string` |
+/// | `BoundedString<N>` | `string<=N` |
+/// | `WString`, `BoundedWString<N>` | `wstring`, `wstring<=N` |
+/// | `Vec<T>`, `&'a [u8]`, `Cow<'a, [T]>`, `bytes::Bytes` | `T[]` (`&[u8]` and `Cow<[u8]>` borrow) |
+/// | `BoundedVec<T, N>` | `T[<=N]` |
+/// | `[T; N]` | `T[N]` |
+/// | a struct deriving `RosMessage` (or a `…Ref<'a>` form, or `<T as BorrowedForm>::Ref<'a>`) | a nested message |
+///
+/// Refused, with the fix in the message: `usize`/`isize`, `u128`/`i128`, Rust
+/// `char`, maps and sets, `Option`, `Box`/`Rc`/`Arc`, tuples, enums, tuple
+/// structs, type generics, `Vec<Vec<T>>`, and `#[ros(byte)]` on a non-byte field.
+///
+/// See `shm_cdr`'s crate documentation for a worked example.
 #[proc_macro_derive(RosMessage, attributes(ros))]
 pub fn derive_ros_message(input: TokenStream) -> TokenStream {
     let input = parse_macro_input!(input as DeriveInput);
