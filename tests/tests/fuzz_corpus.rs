@@ -31,8 +31,17 @@ fn roundtrip_corpus() {
 }
 
 #[test]
-fn generated_types_over_both_corpora() {
-    // No corpus of its own yet: the other targets' inputs are arbitrary bytes too.
+fn roundtrip_generated_corpus() {
+    let n = replay(
+        "roundtrip_generated",
+        shm_cdr_tests::fuzzing::roundtrip_generated,
+    );
+    assert!(n >= 272, "only {n} roundtrip_generated corpus inputs");
+}
+
+#[test]
+fn generated_types_over_the_other_corpora() {
+    // The other targets' inputs are arbitrary bytes too.
     let n = replay("roundtrip", shm_cdr_tests::fuzzing::roundtrip_generated)
         + replay("decode", shm_cdr_tests::fuzzing::roundtrip_generated);
     assert!(n >= 20, "only {n} corpus inputs");
