@@ -123,9 +123,10 @@ pub enum Reliability {
 /// Durability QoS (rmw values).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Durability {
-    /// `RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL` (1), rmw_zenoh's default.
+    /// `RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL` (1).
     TransientLocal = 1,
-    /// `RMW_QOS_POLICY_DURABILITY_VOLATILE` (2), what ROS 2 nodes usually ask for.
+    /// `RMW_QOS_POLICY_DURABILITY_VOLATILE` (2), rmw_zenoh's default since
+    /// ros2/rmw_zenoh#521 (every current release) and what ROS 2 nodes ask for.
     Volatile = 2,
 }
 
@@ -163,15 +164,17 @@ impl Default for Qos {
 
 impl Qos {
     /// rmw_zenoh_cpp's `qos_to_keyexpr`: `rel:dur:hist,depth:dl_s,dl_ns:ls_s,ls_ns:liv,lease_s,lease_ns`,
-    /// each field empty when it equals rmw_zenoh's default (reliable,
-    /// transient-local, keep-last 42, no deadline/lifespan, automatic liveliness).
+    /// each field empty when it equals rmw_zenoh's default (reliable, volatile,
+    /// keep-last 42, no deadline/lifespan, automatic liveliness), as in
+    /// rmw_zenoh_cpp 0.6.7 (Kilted) `qos.cpp`. A peer re-writes our token in this
+    /// canonical form and derives our GID from it, so it must match exactly.
     pub fn to_key_expr(&self) -> String {
         let reliability = match self.reliability {
             Reliability::Reliable => String::new(),
             other => (other as u8).to_string(),
         };
         let durability = match self.durability {
-            Durability::TransientLocal => String::new(),
+            Durability::Volatile => String::new(),
             other => (other as u8).to_string(),
         };
         let (history, depth) = match self.history {
@@ -330,11 +333,11 @@ mod tests {
         let token = node.topic_token::<StringMsg>(10, EntityKind::Publisher, "/chatter", &qos);
         assert_eq!(
             token,
-            "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/10/MP/%/%/talker/%chatter/std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18/::,7:,:,:,,"
+            "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/10/MP/%/%/talker/%chatter/std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18/:1:,7:,:,:,,"
         );
         assert_eq!(
             format!("{:?}", Gid::from_token(&token)),
-            "ac170f31eadcd9ff0cd86d7a17907d1c"
+            "b3e22299e7b519d0c200986fd38d822d" // Python xxhash 3: xxh3_128 of the token, low then high 64 bits LE
         );
         assert_eq!(
             node.node_token(),
@@ -344,6 +347,14 @@ mod tests {
 
     #[test]
     fn ros_default_qos_string() {
-        assert_eq!(Qos::default().to_key_expr(), ":2:,10:,:,:,,");
+        // rmw_zenoh_cpp 0.6.7 writes ROS 2's default profile (reliable,
+        // volatile, keep last 10) as `::,10:,:,:,,`.
+        assert_eq!(Qos::default().to_key_expr(), "::,10:,:,:,,");
+        let all = Qos {
+            reliability: Reliability::BestEffort,
+            durability: Durability::TransientLocal,
+            history: History::KeepAll,
+        };
+        assert_eq!(all.to_key_expr(), "2:1:2,:,:,:,,");
     }
 }
