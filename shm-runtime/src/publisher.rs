@@ -104,9 +104,12 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
         }
     }
 
-    /// What Zenoh does when its transmit queue is full: `Block` (the default here,
-    /// so no message is lost) or `Drop` (Zenoh's own default, for data where only
-    /// the latest matters).
+    /// What Zenoh does when its transmit queue is full: `Block` (the default
+    /// here: `publish` waits rather than drop; if the queue stays full for
+    /// Zenoh's `wait_before_close`, 5 s, Zenoh closes that transport and what it
+    /// held is lost, which subscribers count in
+    /// [`RosSubscriber::missed`](crate::RosSubscriber::missed)) or `Drop`
+    /// (Zenoh's own default, for data where only the latest matters).
     pub fn congestion_control(mut self, congestion_control: CongestionControl) -> Self {
         self.congestion_control = congestion_control;
         self

@@ -32,9 +32,9 @@ use crate::rmw::{Attachment, AttachmentError};
 /// having returned `Ok`.)
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum History {
-    /// Keep every sample until it is read (the default): nothing is lost, and
-    /// memory (or shared-memory chunks, which then make publishers fall back to
-    /// the heap) grows while the application does not read.
+    /// Keep every sample until it is read (the default): nothing that arrives is
+    /// dropped, and memory (or shared-memory chunks, which then make publishers
+    /// fall back to the heap) grows while the application does not read.
     #[default]
     KeepAll,
     /// Keep the newest `n`: a sample arriving while `n` wait drops the oldest,
