@@ -27,6 +27,7 @@ mod node;
 mod payload;
 mod pool;
 mod publisher;
+mod queue;
 pub mod rmw;
 mod shm_bytes;
 mod subscriber;

@@ -158,7 +158,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             .session
             .declare_publisher(self.key_expr)
             .congestion_control(self.congestion_control)
-            .encoding(crate::subscriber::type_encoding::<T>())
+            .encoding(crate::queue::type_encoding::<T>())
             .wait()?;
         let rmw = match self.rmw {
             Some(mut rmw) => {

@@ -1,0 +1,211 @@
+//! The receive side between Zenoh and the application: every sample is checked
+//! for its message type and its publisher's sequence number, then queued under
+//! the subscriber's [`History`], on Zenoh's thread, without ever blocking it.
+
+use std::collections::HashMap;
+use std::num::NonZeroUsize;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use shm_cdr::RosMessage;
+use zenoh::sample::Sample;
+
+/// How many received samples a [`RosSubscriber`](crate::RosSubscriber) keeps
+/// while the application is not reading: ROS 2's history QoS, applied on the
+/// subscriber's side.
+///
+/// Either way, Zenoh's receive thread never waits for the application. (With a
+/// bounded channel that blocks, as Zenoh's default handler does, a subscriber
+/// that stops reading stalls the whole connection; the publisher's `Block`
+/// congestion control then gives up after Zenoh's `wait_before_close` (5 s),
+/// closes the transport and drops what was in flight, with every `publish`
+/// having returned `Ok`.)
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum History {
+    /// Keep every sample until it is read (the default): nothing that arrives is
+    /// dropped, and memory (or shared-memory chunks, which then make publishers
+    /// fall back to the heap) grows while the application does not read.
+    #[default]
+    KeepAll,
+    /// Keep the newest `n`: a sample arriving while `n` wait drops the oldest,
+    /// which is counted in [`RosSubscriber::lost`] (and logged once).
+    KeepLast(NonZeroUsize),
+}
+
+/// The queue between Zenoh's receive thread and the application.
+pub(crate) struct Queue {
+    sender: flume::Sender<Sample>,
+    /// Kept by the callback to drop the oldest sample under `KeepLast`.
+    receiver: flume::Receiver<Sample>,
+    pub(crate) lost: Arc<AtomicU64>,
+    pub(crate) missed: Arc<AtomicU64>,
+    /// The highest sequence number seen from each publisher.
+    last_seen: Mutex<HashMap<Source, u64>>,
+    key_expr: String,
+    pub(crate) type_check: TypeCheck,
+}
+
+/// The check that a sample is of the subscriber's type: our publishers name the
+/// type and its RIHS01 hash in the sample's encoding
+/// (`application/cdr;<type name>;<hash>`, see [`type_encoding`]). Samples
+/// without that (rmw_zenoh_cpp, plain Zenoh, other tools) are taken as they are.
+pub(crate) struct TypeCheck {
+    /// `type_encoding::<T>()`: the common case is one comparison.
+    expected: zenoh::bytes::Encoding,
+    name: &'static str,
+    hash: &'static str,
+    key_expr: String,
+    pub(crate) rejected: Arc<AtomicU64>,
+}
+
+impl TypeCheck {
+    pub(crate) fn new<T: RosMessage>(key_expr: &str) -> Self {
+        Self {
+            expected: type_encoding::<T>(),
+            name: T::TYPE_NAME,
+            hash: T::type_hash(),
+            key_expr: key_expr.to_owned(),
+            rejected: Arc::new(AtomicU64::new(0)),
+        }
+    }
+
+    /// Whether `sample` may be of this type; if it names another, count it and
+    /// say (once) which type arrived.
+    pub(crate) fn accepts(&self, sample: &Sample) -> bool {
+        let encoding = sample.encoding();
+        if *encoding == self.expected || *encoding == zenoh::bytes::Encoding::ZENOH_BYTES {
+            return true;
+        }
+        let Some((name, hash)) = sample_type(sample) else {
+            return true;
+        };
+        if name == self.name && hash == self.hash {
+            return true;
+        }
+        if self.rejected.fetch_add(1, Ordering::Relaxed) == 0 {
+            tracing::warn!(
+                key_expr = %self.key_expr,
+                expected = %format!("{} {}", self.name, self.hash),
+                received = %format!("{name} {hash}"),
+                "samples of another message type on this key are dropped (RosSubscriber::wrong_type() counts them)"
+            );
+        }
+        false
+    }
+}
+
+/// The message type (name, RIHS01 hash) a sample's encoding names, if it names
+/// one: `application/cdr;<name>;<hash>`.
+pub(crate) fn sample_type(sample: &Sample) -> Option<(String, String)> {
+    let encoding = sample.encoding().to_string();
+    let (name, hash) = encoding.strip_prefix("application/cdr;")?.split_once(';')?;
+    Some((name.to_owned(), hash.to_owned()))
+}
+
+/// The encoding our publishers give every sample of `T`:
+/// `application/cdr;<type name>;<RIHS01 hash>`.
+pub(crate) fn type_encoding<T: RosMessage>() -> zenoh::bytes::Encoding {
+    zenoh::bytes::Encoding::APPLICATION_CDR.with_schema(format!(
+        "{};{}",
+        T::TYPE_NAME,
+        T::type_hash()
+    ))
+}
+
+/// A publisher, as its samples identify it.
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+enum Source {
+    /// Zenoh `SourceInfo` (ours, zenoh-ext's advanced publishers).
+    Zenoh(zenoh::session::EntityGlobalId),
+    /// The GID in an rmw_zenoh attachment (rmw_zenoh_cpp publishers).
+    Rmw(crate::rmw::Gid),
+}
+
+impl Queue {
+    pub(crate) fn new(
+        history: History,
+        key_expr: &str,
+        type_check: TypeCheck,
+    ) -> (Self, flume::Receiver<Sample>) {
+        let (sender, receiver) = match history {
+            History::KeepAll => flume::unbounded(),
+            History::KeepLast(n) => flume::bounded(n.get()),
+        };
+        let queue = Self {
+            sender,
+            receiver: receiver.clone(),
+            lost: Arc::new(AtomicU64::new(0)),
+            missed: Arc::new(AtomicU64::new(0)),
+            last_seen: Mutex::new(HashMap::new()),
+            key_expr: key_expr.to_owned(),
+            type_check,
+        };
+        (queue, receiver)
+    }
+
+    /// Count the messages a gap in the sample's publisher's sequence numbers
+    /// says never arrived (Zenoh `SourceInfo`, else the rmw_zenoh attachment).
+    fn check_sequence(&self, sample: &Sample) {
+        let (source, sn) = if let Some(info) = sample.source_info() {
+            (
+                Source::Zenoh(*info.source_id()),
+                u64::from(info.source_sn()),
+            )
+        } else if let Some(Ok(attachment)) = sample
+            .attachment()
+            .map(|a| crate::rmw::Attachment::parse(&a.to_bytes()))
+        {
+            let Ok(sn) = u64::try_from(attachment.sequence_number) else {
+                return;
+            };
+            (Source::Rmw(attachment.gid), sn)
+        } else {
+            return;
+        };
+        let mut last_seen = self.last_seen.lock().unwrap_or_else(|e| e.into_inner());
+        let previous = last_seen.insert(source, sn);
+        let gap = match previous {
+            Some(previous) if sn > previous => sn - previous - 1,
+            // Late, duplicated or reordered: keep the highest.
+            Some(previous) => {
+                last_seen.insert(source, previous);
+                0
+            }
+            None => 0,
+        };
+        drop(last_seen);
+        if gap > 0 && self.missed.fetch_add(gap, Ordering::Relaxed) == 0 {
+            tracing::warn!(
+                key_expr = %self.key_expr,
+                count = gap,
+                "messages never arrived (a gap in the publisher's sequence numbers); RosSubscriber::missed() counts them"
+            );
+        }
+    }
+
+    /// Called on Zenoh's thread for every sample; never blocks.
+    pub(crate) fn push(&self, mut sample: Sample) {
+        if !self.type_check.accepts(&sample) {
+            return;
+        }
+        self.check_sequence(&sample);
+        loop {
+            match self.sender.try_send(sample) {
+                Ok(()) => return,
+                Err(flume::TrySendError::Full(back)) => {
+                    sample = back;
+                    if self.receiver.try_recv().is_ok()
+                        && self.lost.fetch_add(1, Ordering::Relaxed) == 0
+                    {
+                        tracing::warn!(
+                            key_expr = %self.key_expr,
+                            "subscriber queue full (History::KeepLast): dropping the oldest samples; RosSubscriber::lost() counts them"
+                        );
+                    }
+                }
+                // The subscriber is gone; nobody will read.
+                Err(flume::TrySendError::Disconnected(_)) => return,
+            }
+        }
+    }
+}
