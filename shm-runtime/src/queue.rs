@@ -28,7 +28,7 @@ pub enum History {
     #[default]
     KeepAll,
     /// Keep the newest `n`: a sample arriving while `n` wait drops the oldest,
-    /// which is counted in [`RosSubscriber::lost`] (and logged once).
+    /// which is counted in [`RosSubscriber::lost`](crate::RosSubscriber::lost) (and logged once).
     KeepLast(NonZeroUsize),
 }
 
