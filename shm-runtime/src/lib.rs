@@ -23,6 +23,7 @@
 
 mod config;
 pub mod msgs;
+pub mod names;
 mod node;
 mod payload;
 mod pool;

@@ -8,6 +8,7 @@ use shm_cdr::RosMessage;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::{Resolvable, Session, Wait};
 
+use crate::names::{self, NameError};
 use crate::pool::ShmContext;
 use crate::publisher::{PublisherBuilder, RmwPublisher};
 use crate::rmw::{topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
@@ -42,10 +43,7 @@ impl RosNode {
             name: name.to_owned(),
             namespace: "/".to_owned(),
             enclave: "/".to_owned(),
-            domain_id: std::env::var("ROS_DOMAIN_ID")
-                .ok()
-                .and_then(|d| d.parse().ok())
-                .unwrap_or(0),
+            domain_id: names::domain_id_from(std::env::var("ROS_DOMAIN_ID").ok().as_deref()),
             shm: None,
         }
     }
@@ -75,13 +73,15 @@ impl RosNode {
         qos: Qos,
     ) -> PublisherBuilder<'_, T> {
         let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
+        let (topic, invalid) = self.resolve(topic);
         let token = self
             .info
-            .topic_token::<T>(entity_id, EntityKind::Publisher, topic, &qos);
+            .topic_token::<T>(entity_id, EntityKind::Publisher, &topic, &qos);
         let mut builder = PublisherBuilder::new(
             &self.session,
-            topic_key_expr::<T>(self.info.domain_id, topic),
+            topic_key_expr::<T>(self.info.domain_id, &topic),
         );
+        builder.invalid = invalid;
         builder.inherited = self.shm.clone();
         builder.rmw = Some(RmwPublisher {
             gid: Gid::from_token(&token),
@@ -95,17 +95,35 @@ impl RosNode {
     /// its `MS` liveliness token.
     pub fn declare_subscriber<T: RosMessage>(&self, topic: &str) -> SubscriberBuilder<'_, T> {
         let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
+        let (topic, invalid) = self.resolve(topic);
         let mut builder = SubscriberBuilder::new(
             &self.session,
-            topic_key_expr::<T>(self.info.domain_id, topic),
+            topic_key_expr::<T>(self.info.domain_id, &topic),
         );
+        builder.invalid = invalid;
         builder.liveliness = Some(self.info.topic_token::<T>(
             entity_id,
             EntityKind::Subscriber,
-            topic,
+            &topic,
             &Qos::default(),
         ));
         builder
+    }
+
+    /// The fully qualified name of `topic` for this node (see
+    /// [`names::expand_topic_name`]): `rel` is `<namespace>/rel`, `~/x` is
+    /// `<namespace>/<node>/x`.
+    pub fn resolve_topic_name(&self, topic: &str) -> Result<String, NameError> {
+        names::expand_topic_name(topic, &self.info.name, &self.info.namespace)
+    }
+
+    /// The resolved name, or the name as given with the error that the builder
+    /// reports when it is resolved.
+    fn resolve(&self, topic: &str) -> (String, Option<NameError>) {
+        match self.resolve_topic_name(topic) {
+            Ok(full) => (full, None),
+            Err(e) => ("/".to_owned(), Some(e)),
+        }
     }
 }
 
@@ -116,20 +134,22 @@ pub struct RosNodeBuilder<'a> {
     name: String,
     namespace: String,
     enclave: String,
-    domain_id: u32,
+    domain_id: Result<u32, NameError>,
     shm: Option<ShmContext>,
 }
 
 impl RosNodeBuilder<'_> {
-    /// The node's namespace (default `/`).
+    /// The node's namespace (default `/`; `demo` means `/demo`).
     pub fn namespace(mut self, namespace: &str) -> Self {
         self.namespace = namespace.to_owned();
         self
     }
 
-    /// The ROS domain (default: `ROS_DOMAIN_ID`, else 0).
+    /// The ROS domain (default: `ROS_DOMAIN_ID`, else 0; a `ROS_DOMAIN_ID`
+    /// that is not a number makes the node's declaration fail unless this is
+    /// set).
     pub fn domain_id(mut self, domain_id: u32) -> Self {
-        self.domain_id = domain_id;
+        self.domain_id = Ok(domain_id);
         self
     }
 
@@ -140,12 +160,13 @@ impl RosNodeBuilder<'_> {
     }
 
     fn build(self) -> zenoh::Result<RosNode> {
+        names::validate_node_name(&self.name)?;
         let info = NodeInfo {
-            domain_id: self.domain_id,
+            domain_id: self.domain_id?,
             zid: self.session.zid().to_string(),
             node_id: NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1,
             enclave: self.enclave,
-            namespace: self.namespace,
+            namespace: names::normalize_namespace(&self.namespace)?,
             name: self.name,
         };
         let token = self

@@ -87,6 +87,8 @@ pub struct PublisherBuilder<'a, T> {
     pub(crate) threshold: Option<usize>,
     pub(crate) rmw: Option<RmwPublisher>,
     pub(crate) congestion_control: CongestionControl,
+    /// A name that failed to resolve (node publishers): reported by `build`.
+    pub(crate) invalid: Option<crate::names::NameError>,
     pub(crate) message: PhantomData<fn(&T)>,
 }
 
@@ -100,6 +102,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             threshold: None,
             rmw: None,
             congestion_control: CongestionControl::Block,
+            invalid: None,
             message: PhantomData,
         }
     }
@@ -145,6 +148,9 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
     }
 
     fn build(self) -> zenoh::Result<RosPublisher<T>> {
+        if let Some(invalid) = self.invalid {
+            return Err(invalid.into());
+        }
         let mut policy = self.policy();
         if policy.is_some() && !session_has_shm(self.session) {
             // Zenoh would copy every SHM buffer out again: report what goes out.

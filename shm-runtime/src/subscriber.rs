@@ -30,6 +30,8 @@ pub struct SubscriberBuilder<'a, T> {
     /// rmw_zenoh liveliness token (`MS`) to declare, for node subscribers.
     pub(crate) liveliness: Option<String>,
     pub(crate) history: History,
+    /// A name that failed to resolve (node subscribers): reported by `build`.
+    pub(crate) invalid: Option<crate::names::NameError>,
     pub(crate) message: PhantomData<fn() -> T>,
 }
 
@@ -40,6 +42,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
             key_expr,
             liveliness: None,
             history: History::KeepAll,
+            invalid: None,
             message: PhantomData,
         }
     }
@@ -51,6 +54,9 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
     }
 
     fn declare_token(&self) -> zenoh::Result<Option<LivelinessToken>> {
+        if let Some(invalid) = &self.invalid {
+            return Err(invalid.clone().into());
+        }
         match &self.liveliness {
             Some(token) => Ok(Some(
                 self.session

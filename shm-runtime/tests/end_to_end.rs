@@ -235,6 +235,70 @@ fn a_subscriber_drops_samples_of_another_type_and_says_which() {
     assert!(subscriber.try_recv().unwrap().is_none());
 }
 
+/// Names resolve as rcl resolves them (relative to the namespace, `~` to the
+/// node), and names ROS 2 refuses are refused with the rule they break, before
+/// Zenoh sees them.
+#[test]
+fn node_names_resolve_and_bad_names_are_refused() {
+    use shm_cdr::msgs::std_msgs::String as StringMsg;
+    let (a, b) = session_pair();
+    let node = RosNode::builder(&a, "talker")
+        .namespace("/demo")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let relative = node.declare_publisher::<StringMsg>("rel").wait().unwrap();
+    assert!(relative
+        .key_expr()
+        .starts_with("0/demo/rel/std_msgs::msg::dds_::String_/"));
+    assert!(relative.liveliness_token().unwrap().contains("/%demo%rel/"));
+    let private = node
+        .declare_publisher::<StringMsg>("~/private")
+        .wait()
+        .unwrap();
+    assert!(private.key_expr().starts_with("0/demo/talker/private/"));
+
+    // The same topic by its absolute name, from another node: they match.
+    let listener = RosNode::builder(&b, "listener")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let subscriber = listener
+        .declare_subscriber::<StringMsg>("/demo/rel")
+        .wait()
+        .unwrap();
+    assert!(relative.wait_for_subscribers(TIMEOUT));
+    relative
+        .publish(&StringMsg { data: "hi".into() })
+        .wait()
+        .unwrap();
+    let got: StringMsg = subscriber.recv_message().unwrap();
+    assert_eq!(got.data, "hi");
+
+    let err = node
+        .declare_publisher::<StringMsg>("a*b")
+        .wait()
+        .map(|_| ())
+        .unwrap_err();
+    assert!(err.to_string().contains("'*' is not allowed"), "{err}");
+    let err = node
+        .declare_subscriber::<StringMsg>("a//b")
+        .wait()
+        .map(|_| ())
+        .unwrap_err();
+    assert!(err.to_string().contains("empty part"), "{err}");
+    for bad in ["", "a b"] {
+        let err = RosNode::builder(&a, bad).wait().map(|_| ()).unwrap_err();
+        assert!(err.to_string().starts_with("invalid node name"), "{err}");
+    }
+    let err = RosNode::builder(&a, "ok")
+        .namespace("/x/")
+        .wait()
+        .map(|_| ())
+        .unwrap_err();
+    assert!(err.to_string().starts_with("invalid namespace"), "{err}");
+}
+
 fn cloud_with(data: ShmBytes, points: u32) -> shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
     shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
         header: header(),

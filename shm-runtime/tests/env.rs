@@ -1,10 +1,18 @@
-//! `ShmContext::from_env` against the real process environment. Alone in its own
-//! test binary: setting variables while other threads read the environment races.
+//! `ShmContext::from_env` and `ROS_DOMAIN_ID` against the real process
+//! environment. Alone in its own test binary, and one test: setting variables
+//! while other threads read the environment races.
 
-use shm_runtime::{ShmConfig, ShmContext};
+use shm_runtime::{RosNode, ShmConfig, ShmContext};
+use zenoh::Wait;
 
+/// One test: the steps below set variables, and must not run beside each other.
 #[test]
-fn environment_variables_enable_configure_and_reject() {
+fn environment_variables() {
+    shm_variables_enable_configure_and_reject();
+    a_bad_ros_domain_id_is_refused();
+}
+
+fn shm_variables_enable_configure_and_reject() {
     std::env::remove_var(ShmConfig::ENV_ALLOC_SIZE);
     std::env::remove_var(ShmConfig::ENV_THRESHOLD);
     assert!(ShmContext::from_env().unwrap().is_none(), "unset: SHM off");
@@ -43,4 +51,22 @@ fn environment_variables_enable_configure_and_reject() {
     }
     std::env::remove_var(ShmConfig::ENV_ALLOC_SIZE);
     std::env::remove_var(ShmConfig::ENV_THRESHOLD);
+}
+
+/// `ROS_DOMAIN_ID=abc` is an error (rcl refuses it), never silently domain 0.
+fn a_bad_ros_domain_id_is_refused() {
+    // Set before Zenoh starts its threads.
+    std::env::set_var("ROS_DOMAIN_ID", "abc");
+    let session = zenoh::open(zenoh::Config::default()).wait().unwrap();
+    let err = RosNode::builder(&session, "talker")
+        .wait()
+        .map(|_| ())
+        .unwrap_err();
+    assert!(err.to_string().contains("ROS_DOMAIN_ID"), "{err}");
+    // Setting the domain on the builder overrides the variable.
+    let node = RosNode::builder(&session, "talker")
+        .domain_id(3)
+        .wait()
+        .unwrap();
+    assert_eq!(node.info().domain_id, 3);
 }
