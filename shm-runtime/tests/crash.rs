@@ -36,6 +36,33 @@ impl Drop for KillOnDrop {
     }
 }
 
+/// This test binary re-executed as the subscriber process of `test`, told the
+/// port through `env`; returns it and a channel of its report lines (`TAG`
+/// stripped; libtest's own lines dropped).
+fn spawn_child(test: &str, env: &str, port: u16) -> (KillOnDrop, mpsc::Receiver<String>) {
+    let mut process = KillOnDrop(
+        Command::new(std::env::current_exe().unwrap())
+            .args([test, "--exact", "--nocapture", "--test-threads=1"])
+            .env(env, port.to_string())
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let (reports_tx, reports) = mpsc::channel();
+    let stdout = process.0.stdout.take().unwrap();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if let Some(report) = line.strip_prefix(TAG) {
+                if reports_tx.send(report.to_string()).is_err() {
+                    break;
+                }
+            }
+        }
+    });
+    (process, reports)
+}
+
 /// The subscriber process: hold every sample (so its shared memory stays
 /// borrowed) until killed.
 fn child(port: u16) -> ! {
@@ -112,32 +139,13 @@ fn killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed() {
         .wait()
         .unwrap();
 
-    let mut process = KillOnDrop(
-        Command::new(std::env::current_exe().unwrap())
-            .args([TEST_NAME, "--exact", "--nocapture", "--test-threads=1"])
-            .env(CHILD_ENV, port.to_string())
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .spawn()
-            .unwrap(),
-    );
-    let (lines_tx, lines) = mpsc::channel();
-    let stdout = process.0.stdout.take().unwrap();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            if lines_tx.send(line).is_err() {
-                break;
-            }
-        }
-    });
+    let (mut process, reports) = spawn_child(TEST_NAME, CHILD_ENV, port);
     let wait_for = |prefix: &str| loop {
-        let line = lines
+        let report = reports
             .recv_timeout(TIMEOUT)
             .expect("the subscriber process went quiet");
-        if let Some(report) = line.strip_prefix(TAG) {
-            if report.starts_with(prefix) {
-                return report.to_string();
-            }
+        if report.starts_with(prefix) {
+            return report;
         }
     };
     wait_for("ready");
@@ -307,26 +315,7 @@ fn stopped_subscriber_process_is_told_of_every_lost_message() {
         .declare_ros_publisher::<Image>("crash/stopped")
         .wait()
         .unwrap();
-    let mut process = KillOnDrop(
-        Command::new(std::env::current_exe().unwrap())
-            .args([STOP_TEST, "--exact", "--nocapture", "--test-threads=1"])
-            .env(STOP_ENV, port.to_string())
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .spawn()
-            .unwrap(),
-    );
-    let (lines_tx, lines) = mpsc::channel();
-    let stdout = process.0.stdout.take().unwrap();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            if let Some(report) = line.strip_prefix(TAG) {
-                if lines_tx.send(report.to_string()).is_err() {
-                    break;
-                }
-            }
-        }
-    });
+    let (process, lines) = spawn_child(STOP_TEST, STOP_ENV, port);
     assert_eq!(lines.recv_timeout(TIMEOUT).as_deref(), Ok("ready"));
     assert!(publisher.wait_for_subscribers(TIMEOUT));
     std::thread::sleep(Duration::from_millis(500));
