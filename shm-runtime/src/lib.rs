@@ -30,6 +30,7 @@ mod pool;
 mod publisher;
 mod queue;
 pub mod rmw;
+pub mod service;
 mod shm_bytes;
 mod subscriber;
 

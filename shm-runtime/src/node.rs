@@ -2,8 +2,10 @@
 //! shared shared-memory default for the node's publishers.
 
 use std::future::IntoFuture;
+use std::num::NonZeroUsize;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use shm_cdr::interface::RosService;
 use shm_cdr::RosMessage;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::{Resolvable, Session, Wait};
@@ -11,7 +13,8 @@ use zenoh::{Resolvable, Session, Wait};
 use crate::names::{self, NameError};
 use crate::pool::ShmContext;
 use crate::publisher::{PublisherBuilder, RmwPublisher};
-use crate::rmw::{topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
+use crate::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
+use crate::service::{ServiceClientBuilder, ServiceServerBuilder};
 use crate::subscriber::SubscriberBuilder;
 
 /// Entity ids are unique per process, hence per session as rmw_zenoh requires.
@@ -107,6 +110,59 @@ impl RosNode {
             &topic,
             &Qos::default(),
         ));
+        builder
+    }
+
+    /// A server of service `S` on `service` (e.g. `"/trigger"`, resolved like a
+    /// topic name): a queryable on rmw_zenoh's service key with an `SS`
+    /// liveliness token. Resolve it as it is for a queue of
+    /// [`ServiceRequest`](crate::service::ServiceRequest)s, or give it a
+    /// [`handler`](crate::service::ServiceServerBuilder::handler) or
+    /// [`callback`](crate::service::ServiceServerBuilder::callback) first. It
+    /// keeps `Qos::services_default()`'s 10 requests waiting unless told
+    /// otherwise, and replies from the node's shared memory.
+    pub fn declare_service<S: RosService>(&self, service: &str) -> ServiceServerBuilder<'_, S> {
+        let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
+        let (service, invalid) = self.resolve(service);
+        let qos = Qos::services_default();
+        let token =
+            self.info
+                .service_token::<S>(entity_id, EntityKind::ServiceServer, &service, &qos);
+        let mut builder = ServiceServerBuilder::new(
+            &self.session,
+            service_key_expr::<S>(self.info.domain_id, &service),
+        );
+        builder.gid = Some(Gid::from_token(&token));
+        builder.token = Some(token);
+        builder.invalid = invalid;
+        builder.inherited = self.shm.clone();
+        builder.history = match qos.history {
+            crate::rmw::History::KeepLast(depth) => {
+                NonZeroUsize::new(depth).map_or(crate::History::KeepAll, crate::History::KeepLast)
+            }
+            crate::rmw::History::KeepAll => crate::History::KeepAll,
+        };
+        builder
+    }
+
+    /// A client of service `S` on `service`, with an `SC` liveliness token; its
+    /// requests go out from the node's shared memory at or above the threshold.
+    pub fn declare_client<S: RosService>(&self, service: &str) -> ServiceClientBuilder<'_, S> {
+        let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
+        let (service, invalid) = self.resolve(service);
+        let token = self.info.service_token::<S>(
+            entity_id,
+            EntityKind::ServiceClient,
+            &service,
+            &Qos::services_default(),
+        );
+        let mut builder = ServiceClientBuilder::new(
+            &self.session,
+            service_key_expr::<S>(self.info.domain_id, &service),
+            token,
+        );
+        builder.invalid = invalid;
+        builder.inherited = self.shm.clone();
         builder
     }
 

@@ -1,7 +1,10 @@
-//! Turning a message into a Zenoh payload: exact size first, then one write into
-//! shared memory (at or above the threshold) or the heap.
+//! Turning a message into a Zenoh payload (exact size first, then one write into
+//! shared memory at or above the threshold, or the heap) and a received payload
+//! back into a message (borrowing from it wherever it can).
 
-use shm_cdr::{CdrEncode, EncodeError};
+use std::sync::OnceLock;
+
+use shm_cdr::{CdrDecode, CdrEncode, DecodeError, DecodeErrorKind, EncodeError};
 use zenoh::bytes::ZBytes;
 
 use crate::pool::ShmContext;
@@ -95,4 +98,60 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
         kind,
         size,
     })
+}
+
+/// Decode a received `payload` as `M`, borrowing from it: from its single slice,
+/// else from its fragments (a spliced shared-memory field stays where it is),
+/// else (a value straddles two fragments, or there are too many) from one
+/// contiguous copy, made at most once into `copy`.
+pub(crate) fn decode<'a, M: CdrDecode<'a>>(
+    payload: &'a ZBytes,
+    copy: &'a OnceLock<Vec<u8>>,
+) -> Result<M, DecodeError> {
+    read_payload(payload, copy, |body| match body {
+        Body::Contiguous(bytes) => shm_cdr::from_bytes(bytes),
+        Body::Fragments(segments) => shm_cdr::from_segments(segments),
+    })
+}
+
+/// [`decode`] into an existing value, reusing the memory it owns.
+pub(crate) fn decode_into<'a, M: CdrDecode<'a>>(
+    payload: &'a ZBytes,
+    copy: &'a OnceLock<Vec<u8>>,
+    out: &mut M,
+) -> Result<(), DecodeError> {
+    read_payload(payload, copy, |body| match body {
+        Body::Contiguous(bytes) => shm_cdr::from_bytes_into(bytes, out),
+        Body::Fragments(segments) => shm_cdr::from_segments_into(segments, out),
+    })
+}
+
+/// Hand `payload` to `read` in the cheapest form it can be read from.
+fn read_payload<'a, R>(
+    payload: &'a ZBytes,
+    copy: &'a OnceLock<Vec<u8>>,
+    mut read: impl FnMut(Body<'a, '_>) -> Result<R, DecodeError>,
+) -> Result<R, DecodeError> {
+    let mut slices = payload.slices();
+    match (slices.next(), slices.next()) {
+        (Some(only), None) => return read(Body::Contiguous(only)),
+        (None, _) => return read(Body::Contiguous(&[])),
+        _ => {}
+    }
+    if copy.get().is_none() && payload.slices().count() <= shm_cdr::MAX_SEGMENTS {
+        let segments: Vec<&'a [u8]> = payload.slices().collect();
+        match read(Body::Fragments(&segments)) {
+            Err(e) if matches!(e.kind(), DecodeErrorKind::Fragmented { .. }) => {}
+            done => return done,
+        }
+    }
+    read(Body::Contiguous(
+        copy.get_or_init(|| payload.to_bytes().into_owned()),
+    ))
+}
+
+/// A payload as [`read_payload`] hands it over.
+enum Body<'a, 's> {
+    Contiguous(&'a [u8]),
+    Fragments(&'s [&'a [u8]]),
 }

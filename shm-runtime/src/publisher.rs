@@ -70,6 +70,43 @@ pub(crate) enum ShmChoice {
     Off,
 }
 
+impl ShmChoice {
+    /// How an entity on `key_expr` encodes: this choice over the `inherited`
+    /// default, with the pool's threshold unless `threshold` overrides it; heap
+    /// only if the session does not carry shared memory.
+    pub(crate) fn resolve(
+        &self,
+        session: &Session,
+        key_expr: &str,
+        inherited: Option<&ShmContext>,
+        threshold: Option<usize>,
+    ) -> Option<ShmPolicy> {
+        let context = match self {
+            Self::Inherit => inherited?.clone(),
+            Self::Use(context) => context.clone(),
+            Self::Off => return None,
+        };
+        if !session_has_shm(session) {
+            // Zenoh would copy every SHM buffer out again: report what goes out.
+            tracing::warn!(
+                key_expr,
+                "the session has transport/shared_memory/enabled=false: this entity sends from the heap"
+            );
+            return None;
+        }
+        let threshold = threshold.unwrap_or(context.config().threshold);
+        Some(ShmPolicy { context, threshold })
+    }
+}
+
+/// The current time in nanoseconds since the Unix epoch, as rmw_zenoh_cpp puts
+/// it in attachments.
+pub(crate) fn now_ns() -> i64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
+}
+
 /// rmw_zenoh identity of a ROS-style publisher.
 pub(crate) struct RmwPublisher {
     pub(crate) gid: Gid,
@@ -137,29 +174,16 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
         self
     }
 
-    fn policy(&self) -> Option<ShmPolicy> {
-        let context = match &self.shm {
-            ShmChoice::Inherit => self.inherited.clone()?,
-            ShmChoice::Use(context) => context.clone(),
-            ShmChoice::Off => return None,
-        };
-        let threshold = self.threshold.unwrap_or(context.config().threshold);
-        Some(ShmPolicy { context, threshold })
-    }
-
     fn build(self) -> zenoh::Result<RosPublisher<T>> {
         if let Some(invalid) = self.invalid {
             return Err(invalid.into());
         }
-        let mut policy = self.policy();
-        if policy.is_some() && !session_has_shm(self.session) {
-            // Zenoh would copy every SHM buffer out again: report what goes out.
-            tracing::warn!(
-                key_expr = %self.key_expr,
-                "the session has transport/shared_memory/enabled=false: this publisher publishes from the heap"
-            );
-            policy = None;
-        }
+        let policy = self.shm.resolve(
+            self.session,
+            &self.key_expr,
+            self.inherited.as_ref(),
+            self.threshold,
+        );
         let publisher = self
             .session
             .declare_publisher(self.key_expr)
@@ -331,13 +355,10 @@ impl<T: RosMessage> RosPublisher<T> {
         let attachment = self.rmw.as_ref().map(|rmw| {
             let sequence_number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;
             outcome.sequence_number = Some(sequence_number);
-            let source_timestamp = SystemTime::now()
-                .duration_since(UNIX_EPOCH)
-                .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
             ZBytes::from(
                 Attachment {
                     sequence_number,
-                    source_timestamp,
+                    source_timestamp: now_ns(),
                     gid: rmw.gid,
                 }
                 .to_bytes(),

@@ -3,6 +3,7 @@
 
 use std::fmt;
 
+use shm_cdr::interface::RosService;
 use shm_cdr::RosMessage;
 
 /// The data key expression of a topic:
@@ -16,7 +17,19 @@ pub fn topic_key_expr<T: RosMessage>(domain_id: u32, topic: &str) -> String {
     )
 }
 
-/// The 33-byte attachment rmw_zenoh_cpp puts on every sample.
+/// The key expression of a service, which its server's queryable declares and its
+/// clients query: `<domain>/<service name without leading/trailing '/'>/<pkg>::srv::dds_::<Name>_/<RIHS01 hash of the service>`.
+pub fn service_key_expr<S: RosService>(domain_id: u32, service: &str) -> String {
+    format!(
+        "{domain_id}/{}/{}/{}",
+        service.trim_matches('/'),
+        S::DDS_TYPE_NAME,
+        S::type_hash()
+    )
+}
+
+/// The 33-byte attachment rmw_zenoh_cpp puts on every sample, request and reply
+/// (a reply carries its request's sequence number and client GID).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Attachment {
     /// Per-publisher sequence number, from 1.
@@ -163,6 +176,54 @@ impl Default for Qos {
 }
 
 impl Qos {
+    /// `rmw_qos_profile_sensor_data`: best effort, volatile, keep last 5.
+    pub const fn sensor_data() -> Self {
+        Self {
+            reliability: Reliability::BestEffort,
+            durability: Durability::Volatile,
+            history: History::KeepLast(5),
+        }
+    }
+
+    /// `rmw_qos_profile_services_default`: reliable, volatile, keep last 10 (what
+    /// servers and clients announce, and how many requests a server keeps).
+    pub const fn services_default() -> Self {
+        Self {
+            reliability: Reliability::Reliable,
+            durability: Durability::Volatile,
+            history: History::KeepLast(10),
+        }
+    }
+
+    /// `rmw_qos_profile_parameters`: reliable, volatile, keep last 1000.
+    pub const fn parameters() -> Self {
+        Self {
+            reliability: Reliability::Reliable,
+            durability: Durability::Volatile,
+            history: History::KeepLast(1000),
+        }
+    }
+
+    /// `rmw_qos_profile_system_default` as rmw_zenoh_cpp resolves it: reliable,
+    /// volatile, keep last 42 (every field of its token empty).
+    pub const fn system_default() -> Self {
+        Self {
+            reliability: Reliability::Reliable,
+            durability: Durability::Volatile,
+            history: History::KeepLast(42),
+        }
+    }
+
+    /// A latched topic (`/tf_static`, `/map`): reliable, transient local, keep
+    /// last `depth`; late subscribers receive the last `depth` messages.
+    pub const fn transient_local(depth: usize) -> Self {
+        Self {
+            reliability: Reliability::Reliable,
+            durability: Durability::TransientLocal,
+            history: History::KeepLast(depth),
+        }
+    }
+
     /// rmw_zenoh_cpp's `qos_to_keyexpr`: `rel:dur:hist,depth:dl_s,dl_ns:ls_s,ls_ns:liv,lease_s,lease_ns`,
     /// each field empty when it equals rmw_zenoh's default (reliable, volatile,
     /// keep-last 42, no deadline/lifespan, automatic liveliness), as in
@@ -227,7 +288,7 @@ impl NodeInfo {
 
     /// The node's own liveliness token (`NN`).
     pub fn node_token(&self) -> String {
-        self.prefix(self.node_id, "NN")
+        self.prefix(self.node_id, EntityKind::Node.as_str())
     }
 
     /// The liveliness token of a publisher (`MP`) or subscriber (`MS`) of message
@@ -239,32 +300,90 @@ impl NodeInfo {
         topic: &str,
         qos: &Qos,
     ) -> String {
-        format!(
-            "{}/{}/{}/{}/{}",
-            self.prefix(entity_id, kind.as_str()),
-            mangle_name(topic),
+        self.entity_token(
+            entity_id,
+            kind,
+            topic,
             T::DDS_TYPE_NAME,
             T::type_hash(),
+            qos,
+        )
+    }
+
+    /// The liveliness token of a server (`SS`) or client (`SC`) of service type
+    /// `S` on `service`.
+    pub fn service_token<S: RosService>(
+        &self,
+        entity_id: u64,
+        kind: EntityKind,
+        service: &str,
+        qos: &Qos,
+    ) -> String {
+        self.entity_token(
+            entity_id,
+            kind,
+            service,
+            S::DDS_TYPE_NAME,
+            S::type_hash(),
+            qos,
+        )
+    }
+
+    fn entity_token(
+        &self,
+        entity_id: u64,
+        kind: EntityKind,
+        name: &str,
+        dds_type_name: &str,
+        type_hash: &str,
+        qos: &Qos,
+    ) -> String {
+        format!(
+            "{}/{}/{dds_type_name}/{type_hash}/{}",
+            self.prefix(entity_id, kind.as_str()),
+            mangle_name(name),
             qos.to_key_expr()
         )
     }
 }
 
-/// The kind of a topic entity in a liveliness token.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// The kind of an entity in a liveliness token.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum EntityKind {
-    /// `MP`
+    /// `NN`: a node.
+    Node,
+    /// `MP`: a publisher.
     Publisher,
-    /// `MS`
+    /// `MS`: a subscriber.
     Subscriber,
+    /// `SS`: a service server.
+    ServiceServer,
+    /// `SC`: a service client.
+    ServiceClient,
 }
 
 impl EntityKind {
-    fn as_str(self) -> &'static str {
+    /// The two letters in the token.
+    pub fn as_str(self) -> &'static str {
         match self {
+            Self::Node => "NN",
             Self::Publisher => "MP",
             Self::Subscriber => "MS",
+            Self::ServiceServer => "SS",
+            Self::ServiceClient => "SC",
         }
+    }
+
+    /// The kind the two letters name.
+    pub fn from_token_field(field: &str) -> Option<Self> {
+        Some(match field {
+            "NN" => Self::Node,
+            "MP" => Self::Publisher,
+            "MS" => Self::Subscriber,
+            "SS" => Self::ServiceServer,
+            "SC" => Self::ServiceClient,
+            _ => return None,
+        })
     }
 }
 

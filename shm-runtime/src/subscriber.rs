@@ -11,7 +11,7 @@ use std::sync::{Arc, OnceLock};
 use std::task::{Context, Poll};
 use std::time::Duration;
 
-use shm_cdr::{CdrDecode, DecodeError, DecodeErrorKind, RosMessage};
+use shm_cdr::{CdrDecode, DecodeError, RosMessage};
 use zenoh::bytes::ZBytes;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::sample::Sample;
@@ -440,51 +440,13 @@ impl RosSample {
     /// (a `&[u8]` field then points into the shared-memory block); a payload in
     /// other fragments is copied once into a contiguous buffer first.
     pub fn decode<'a, M: CdrDecode<'a>>(&'a self) -> Result<M, DecodeError> {
-        self.read_payload(|body| match body {
-            Body::Contiguous(bytes) => shm_cdr::from_bytes(bytes),
-            Body::Fragments(segments) => shm_cdr::from_segments(segments),
-        })
+        crate::payload::decode(self.sample.payload(), &self.copy)
     }
 
     /// [`decode`](Self::decode) into an existing value, reusing the memory it owns
     /// (see [`shm_cdr::from_bytes_into`]): a subscriber that keeps one message and
     /// decodes every sample into it allocates only when a message outgrows it.
     pub fn decode_into<'a, M: CdrDecode<'a>>(&'a self, out: &mut M) -> Result<(), DecodeError> {
-        self.read_payload(|body| match body {
-            Body::Contiguous(bytes) => shm_cdr::from_bytes_into(bytes, out),
-            Body::Fragments(segments) => shm_cdr::from_segments_into(segments, out),
-        })
+        crate::payload::decode_into(self.sample.payload(), &self.copy, out)
     }
-
-    /// Hand the payload to `read` in the cheapest form it can be read from: the
-    /// single slice; else the fragments themselves; else (a value straddles two
-    /// fragments, or there are too many) one contiguous copy, made once per sample.
-    fn read_payload<'a, R>(
-        &'a self,
-        mut read: impl FnMut(Body<'a, '_>) -> Result<R, DecodeError>,
-    ) -> Result<R, DecodeError> {
-        let payload = self.sample.payload();
-        let mut slices = payload.slices();
-        match (slices.next(), slices.next()) {
-            (Some(only), None) => return read(Body::Contiguous(only)),
-            (None, _) => return read(Body::Contiguous(&[])),
-            _ => {}
-        }
-        if self.copy.get().is_none() && payload.slices().count() <= shm_cdr::MAX_SEGMENTS {
-            let segments: Vec<&'a [u8]> = payload.slices().collect();
-            match read(Body::Fragments(&segments)) {
-                Err(e) if matches!(e.kind(), DecodeErrorKind::Fragmented { .. }) => {}
-                done => return done,
-            }
-        }
-        read(Body::Contiguous(
-            self.copy.get_or_init(|| payload.to_bytes().into_owned()),
-        ))
-    }
-}
-
-/// A payload as [`RosSample::read_payload`] hands it over.
-enum Body<'a, 's> {
-    Contiguous(&'a [u8]),
-    Fragments(&'s [&'a [u8]]),
 }

@@ -1,0 +1,491 @@
+//! The calling side: each call is one Zenoh query, answered by the first reply
+//! that carries its sequence number and this client's GID.
+
+use std::fmt;
+use std::future::{Future, IntoFuture};
+use std::marker::PhantomData;
+use std::pin::Pin;
+use std::sync::atomic::{AtomicI64, Ordering};
+use std::sync::OnceLock;
+use std::time::Duration;
+
+use shm_cdr::interface::RosService;
+use shm_cdr::{CdrDecode, DecodeError, EncodeError};
+use zenoh::bytes::{Encoding, ZBytes};
+use zenoh::handlers::FifoChannelHandler;
+use zenoh::key_expr::KeyExpr;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::query::{ConsolidationMode, QueryTarget, Reply};
+use zenoh::sample::Sample;
+use zenoh::{Resolvable, Session, Wait};
+
+use crate::payload::{encode_payload, ShmPolicy};
+use crate::pool::ShmContext;
+use crate::publisher::{now_ns, ShmChoice};
+use crate::queue::type_encoding;
+use crate::rmw::{Attachment, AttachmentError, Gid};
+
+/// Zenoh's default query timeout, which rmw_zenoh_cpp's clients use too.
+const DEFAULT_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The longest timeout Zenoh carries (`u64::MAX` ms): what "no timeout" means,
+/// as rmw_zenoh_cpp uses for an action's `get_result`.
+pub(crate) const NO_TIMEOUT: Duration = Duration::from_millis(u64::MAX);
+
+/// Why a call failed.
+#[derive(Debug)]
+pub enum CallError {
+    /// The request could not be encoded (e.g. a bounded field over its bound).
+    Encode(EncodeError),
+    /// Zenoh refused the query.
+    Zenoh(zenoh::Error),
+    /// No reply within the call's timeout.
+    Timeout(Duration),
+    /// The call ended without a reply: no server was reachable, or the server
+    /// went away during the call, or it dropped the request unanswered.
+    NoReply,
+    /// The server answered with an error (e.g. it could not decode the request,
+    /// or its queue pushed the request out).
+    Remote(String),
+    /// The response is not a valid `S::Response`.
+    Decode(DecodeError),
+    /// The reply's attachment is not rmw_zenoh's.
+    Attachment(AttachmentError),
+}
+
+impl fmt::Display for CallError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Encode(e) => write!(f, "service call: {e}"),
+            Self::Zenoh(e) => write!(f, "service call: zenoh: {e}"),
+            Self::Timeout(t) => write!(f, "service call: no reply within {t:?}"),
+            Self::NoReply => write!(
+                f,
+                "service call ended without a reply: no server was reachable, or it went away or dropped the request"
+            ),
+            Self::Remote(why) => write!(f, "service call: the server replied with an error: {why}"),
+            Self::Decode(e) => write!(f, "service call: the response is not valid: {e}"),
+            Self::Attachment(e) => write!(f, "service call: reply {e}"),
+        }
+    }
+}
+
+impl std::error::Error for CallError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Self::Encode(e) => Some(e),
+            Self::Decode(e) => Some(e),
+            Self::Attachment(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+/// Builder of a [`ServiceClient`]; resolve with `.wait()` or `.await`.
+#[must_use = "resolve the builder with .wait() or .await"]
+pub struct ServiceClientBuilder<'a, S> {
+    pub(crate) session: &'a Session,
+    pub(crate) key_expr: String,
+    pub(crate) token: String,
+    pub(crate) gid: Gid,
+    pub(crate) inherited: Option<ShmContext>,
+    pub(crate) shm: ShmChoice,
+    pub(crate) threshold: Option<usize>,
+    pub(crate) timeout: Duration,
+    /// A name that failed to resolve: reported by `build`.
+    pub(crate) invalid: Option<crate::names::NameError>,
+    pub(crate) service: PhantomData<fn() -> S>,
+}
+
+impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
+    pub(crate) fn new(session: &'a Session, key_expr: String, token: String) -> Self {
+        Self {
+            session,
+            key_expr,
+            gid: Gid::from_token(&token),
+            token,
+            inherited: None,
+            shm: ShmChoice::Inherit,
+            threshold: None,
+            timeout: DEFAULT_TIMEOUT,
+            invalid: None,
+            service: PhantomData,
+        }
+    }
+
+    /// How long a call waits for its reply (default 10 s, Zenoh's and
+    /// rmw_zenoh_cpp's); [`Duration::MAX`] waits as long as the server is there.
+    /// [`CallBuilder::timeout`] overrides it for one call.
+    pub fn timeout(mut self, timeout: Duration) -> Self {
+        self.timeout = timeout.min(NO_TIMEOUT);
+        self
+    }
+
+    /// Send requests through this shared-memory pool (overrides the node's).
+    pub fn shm(mut self, context: &ShmContext) -> Self {
+        self.shm = ShmChoice::Use(context.clone());
+        self
+    }
+
+    /// Use shared memory for requests of at least `bytes` encoded bytes.
+    pub fn shm_threshold(mut self, bytes: usize) -> Self {
+        self.threshold = Some(bytes);
+        self
+    }
+
+    /// Never send requests from shared memory.
+    pub fn without_shm(mut self) -> Self {
+        self.shm = ShmChoice::Off;
+        self
+    }
+
+    fn build(self) -> zenoh::Result<ServiceClient<S>> {
+        if let Some(invalid) = self.invalid {
+            return Err(invalid.into());
+        }
+        let policy = self.shm.resolve(
+            self.session,
+            &self.key_expr,
+            self.inherited.as_ref(),
+            self.threshold,
+        );
+        let key_expr = KeyExpr::try_from(self.key_expr)?;
+        // Calls are session gets (each with its own timeout); the querier is
+        // declared for its matching status: whether a server is there.
+        let querier = self
+            .session
+            .declare_querier(key_expr.clone())
+            .target(QueryTarget::AllComplete)
+            .wait()?;
+        let token = self.session.liveliness().declare_token(self.token).wait()?;
+        Ok(ServiceClient {
+            session: self.session.clone(),
+            key_expr,
+            querier,
+            policy,
+            gid: self.gid,
+            sequence: AtomicI64::new(0),
+            timeout: self.timeout,
+            request_encoding: type_encoding::<S::Request>(),
+            _token: token,
+            service: PhantomData,
+        })
+    }
+}
+
+impl<S: RosService> Resolvable for ServiceClientBuilder<'_, S> {
+    type To = zenoh::Result<ServiceClient<S>>;
+}
+
+impl<S: RosService> Wait for ServiceClientBuilder<'_, S> {
+    fn wait(self) -> Self::To {
+        self.build()
+    }
+}
+
+impl<S: RosService> IntoFuture for ServiceClientBuilder<'_, S> {
+    type Output = zenoh::Result<ServiceClient<S>>;
+    type IntoFuture = std::future::Ready<Self::Output>;
+    fn into_future(self) -> Self::IntoFuture {
+        std::future::ready(self.build())
+    }
+}
+
+/// Calls service `S`; undeclared when dropped. Calls may be made from several
+/// threads or tasks at once: each is its own query, matched to its reply by
+/// sequence number.
+pub struct ServiceClient<S> {
+    session: Session,
+    key_expr: KeyExpr<'static>,
+    querier: zenoh::query::Querier<'static>,
+    policy: Option<ShmPolicy>,
+    gid: Gid,
+    sequence: AtomicI64,
+    timeout: Duration,
+    request_encoding: Encoding,
+    _token: LivelinessToken,
+    service: PhantomData<fn() -> S>,
+}
+
+impl<S> fmt::Debug for ServiceClient<S> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("ServiceClient")
+            .field("key_expr", &self.key_expr.as_str())
+            .field("gid", &self.gid)
+            .field("timeout", &self.timeout)
+            .finish()
+    }
+}
+
+impl<S: RosService> ServiceClient<S> {
+    /// Call the service with `request`; resolve with `.wait()` or `.await` into
+    /// the response.
+    pub fn call<'c>(&'c self, request: &'c S::Request) -> CallBuilder<'c, S, S::Response> {
+        CallBuilder {
+            client: self,
+            request,
+            timeout: self.timeout,
+            finish: |reply| reply.response().map_err(CallError::Decode),
+        }
+    }
+
+    /// Like [`call`](Self::call), resolving into the reply itself, to decode the
+    /// response borrowing from it ([`ServiceReply::decode`]) or look at its
+    /// attachment.
+    pub fn call_reply<'c>(
+        &'c self,
+        request: &'c S::Request,
+    ) -> CallBuilder<'c, S, ServiceReply<S>> {
+        CallBuilder {
+            client: self,
+            request,
+            timeout: self.timeout,
+            finish: Ok,
+        }
+    }
+
+    /// Whether a server is there now.
+    pub fn is_service_available(&self) -> bool {
+        self.querier
+            .matching_status()
+            .wait()
+            .is_ok_and(|s| s.matching())
+    }
+
+    /// Wait until a server is there, or `timeout` passes; returns whether one is.
+    /// Built on Zenoh's matching listener: it wakes when the server appears.
+    pub fn wait_for_service(&self, timeout: Duration) -> bool {
+        let deadline = std::time::Instant::now() + timeout;
+        // Listen first, then look: an arrival between the two is not missed.
+        let Ok(listener) = self.querier.matching_listener().wait() else {
+            return false;
+        };
+        if self.is_service_available() {
+            return true;
+        }
+        loop {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            match listener.recv_timeout(left) {
+                Ok(Some(status)) if status.matching() => return true,
+                Ok(Some(_)) => {}
+                Ok(None) | Err(_) => return self.is_service_available(),
+            }
+        }
+    }
+
+    /// Resolves once a server is there (at once if one is). Cancellation-safe;
+    /// bound it with your runtime's timeout.
+    pub async fn service_available(&self) -> zenoh::Result<()> {
+        let listener = self.querier.matching_listener().await?;
+        if self.is_service_available() {
+            return Ok(());
+        }
+        loop {
+            if listener.recv_async().await?.matching() {
+                return Ok(());
+            }
+        }
+    }
+
+    /// The service's key expression.
+    pub fn key_expr(&self) -> &str {
+        self.key_expr.as_str()
+    }
+
+    /// The client's rmw_zenoh GID, which its calls carry.
+    pub fn gid(&self) -> Gid {
+        self.gid
+    }
+
+    /// Encode `request` and number the call.
+    fn prepare(&self, request: &S::Request) -> Result<Prepared, CallError> {
+        let encoded = encode_payload(request, self.policy.as_ref()).map_err(CallError::Encode)?;
+        let sequence_number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;
+        Ok(Prepared {
+            payload: encoded.bytes,
+            sequence_number,
+        })
+    }
+
+    fn get(
+        &self,
+        prepared: Prepared,
+        timeout: Duration,
+    ) -> zenoh::session::SessionGetBuilder<'_, '_, zenoh::handlers::DefaultHandler> {
+        let attachment = Attachment {
+            sequence_number: prepared.sequence_number,
+            source_timestamp: now_ns(),
+            gid: self.gid,
+        };
+        self.session
+            .get(&self.key_expr)
+            .payload(prepared.payload)
+            .encoding(self.request_encoding.clone())
+            .attachment(ZBytes::from(attachment.to_bytes()))
+            .target(QueryTarget::AllComplete)
+            .consolidation(ConsolidationMode::None)
+            .timeout(timeout)
+    }
+
+    /// What one reply means for call `sequence_number`: its answer, or `None`
+    /// to wait for another (a reply that belongs to another call).
+    fn answer(
+        &self,
+        reply: Reply,
+        sequence_number: i64,
+        timeout: Duration,
+    ) -> Option<Result<ServiceReply<S>, CallError>> {
+        match reply.into_result() {
+            Ok(sample) => {
+                if let Some(attachment) = sample.attachment() {
+                    match Attachment::parse(&attachment.to_bytes()) {
+                        Ok(a) if a.sequence_number == sequence_number && a.gid == self.gid => {}
+                        Ok(a) => {
+                            tracing::debug!(
+                                key_expr = %self.key_expr,
+                                "reply for call {} of {:?} ignored (waiting for call {sequence_number})",
+                                a.sequence_number,
+                                a.gid
+                            );
+                            return None;
+                        }
+                        Err(e) => return Some(Err(CallError::Attachment(e))),
+                    }
+                }
+                Some(Ok(ServiceReply {
+                    sample,
+                    copy: OnceLock::new(),
+                    service: PhantomData,
+                }))
+            }
+            // Zenoh's timeout, from this session or from the routing node that
+            // held the query (servers' own errors are prefixed, see
+            // `error_reply_text`).
+            Err(e) if e.payload().to_bytes().as_ref() == b"Timeout" => {
+                Some(Err(CallError::Timeout(timeout)))
+            }
+            Err(e) => Some(Err(CallError::Remote(
+                String::from_utf8_lossy(&e.payload().to_bytes()).into_owned(),
+            ))),
+        }
+    }
+}
+
+/// An encoded request with its sequence number.
+struct Prepared {
+    payload: ZBytes,
+    sequence_number: i64,
+}
+
+/// One pending call; resolve with `.wait()` or `.await`.
+#[must_use = "resolve the call with .wait() or .await"]
+pub struct CallBuilder<'c, S: RosService, O> {
+    client: &'c ServiceClient<S>,
+    request: &'c S::Request,
+    timeout: Duration,
+    finish: fn(ServiceReply<S>) -> Result<O, CallError>,
+}
+
+impl<S: RosService, O> CallBuilder<'_, S, O> {
+    /// How long this call waits for its reply (overrides the client's);
+    /// [`Duration::MAX`] waits as long as the server is there.
+    pub fn timeout(mut self, timeout: Duration) -> Self {
+        self.timeout = timeout.min(NO_TIMEOUT);
+        self
+    }
+}
+
+impl<S: RosService, O> Resolvable for CallBuilder<'_, S, O> {
+    type To = Result<O, CallError>;
+}
+
+impl<S: RosService, O> Wait for CallBuilder<'_, S, O> {
+    fn wait(self) -> Self::To {
+        let client = self.client;
+        let prepared = client.prepare(self.request)?;
+        let sequence_number = prepared.sequence_number;
+        let replies: FifoChannelHandler<Reply> = client
+            .get(prepared, self.timeout)
+            .wait()
+            .map_err(CallError::Zenoh)?;
+        while let Ok(reply) = replies.recv() {
+            if let Some(answer) = client.answer(reply, sequence_number, self.timeout) {
+                return answer.and_then(self.finish);
+            }
+        }
+        Err(CallError::NoReply)
+    }
+}
+
+impl<'c, S: RosService, O: Send + 'c> IntoFuture for CallBuilder<'c, S, O> {
+    type Output = Result<O, CallError>;
+    type IntoFuture = Pin<Box<dyn Future<Output = Self::Output> + Send + 'c>>;
+
+    fn into_future(self) -> Self::IntoFuture {
+        // Encode now, so the future holds the payload and not the request.
+        let client = self.client;
+        let prepared = client.prepare(self.request);
+        let (timeout, finish) = (self.timeout, self.finish);
+        Box::pin(async move {
+            let prepared = prepared?;
+            let sequence_number = prepared.sequence_number;
+            let replies = client
+                .get(prepared, timeout)
+                .await
+                .map_err(CallError::Zenoh)?;
+            while let Ok(reply) = replies.recv_async().await {
+                if let Some(answer) = client.answer(reply, sequence_number, timeout) {
+                    return answer.and_then(finish);
+                }
+            }
+            Err(CallError::NoReply)
+        })
+    }
+}
+
+/// A service's reply: decode the response owned or borrowing from it.
+pub struct ServiceReply<S> {
+    sample: Sample,
+    copy: OnceLock<Vec<u8>>,
+    service: PhantomData<fn() -> S>,
+}
+
+impl<S> fmt::Debug for ServiceReply<S> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("ServiceReply")
+            .field("key_expr", &self.sample.key_expr().as_str())
+            .field("len", &self.sample.payload().len())
+            .field("shm", &self.sample.payload().as_shm().is_some())
+            .finish()
+    }
+}
+
+impl<S: RosService> ServiceReply<S> {
+    /// The response as an owned `S::Response`.
+    pub fn response(&self) -> Result<S::Response, DecodeError> {
+        self.decode()
+    }
+
+    /// The response decoded as `M` (`S::Response` or a form of it borrowing from
+    /// the reply).
+    pub fn decode<'a, M: CdrDecode<'a>>(&'a self) -> Result<M, DecodeError> {
+        crate::payload::decode(self.sample.payload(), &self.copy)
+    }
+
+    /// rmw_zenoh's attachment of the reply (the call's sequence number, the
+    /// client's GID, the server's timestamp), if it carries one.
+    pub fn attachment(&self) -> Option<Result<Attachment, AttachmentError>> {
+        let bytes = self.sample.attachment()?.to_bytes();
+        Some(Attachment::parse(&bytes))
+    }
+
+    /// Whether the response arrived in shared memory.
+    pub fn is_shm(&self) -> bool {
+        self.sample.payload().as_shm().is_some()
+    }
+
+    /// The Zenoh sample of the reply.
+    pub fn sample(&self) -> &Sample {
+        &self.sample
+    }
+}

@@ -1,0 +1,487 @@
+//! Services between peer sessions over TCP loopback: rmw_zenoh_cpp's key,
+//! attachments and tokens on the wire, every reply matched to its call under
+//! concurrent clients, servers that go away or refuse, malformed requests, and
+//! large requests and responses in shared memory.
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use shm_cdr::interface::RosService;
+use shm_cdr::msgs::rcl_interfaces::msg::{Parameter, ParameterValue, SetParametersResult};
+use shm_cdr::msgs::rcl_interfaces::srv::{
+    SetParameters, SetParameters_Request, SetParameters_RequestRef, SetParameters_Response,
+    SetParameters_ResponseRef,
+};
+use shm_cdr::msgs::std_srvs::srv::{Trigger, Trigger_Request, Trigger_Response};
+use shm_cdr::msgs::test_msgs::srv::{BasicTypes, BasicTypes_Request, BasicTypes_Response};
+use shm_runtime::rmw::{service_key_expr, Attachment, Gid};
+use shm_runtime::service::CallError;
+use shm_runtime::{History, RosNode, ShmConfig, ShmContext};
+use zenoh::bytes::ZBytes;
+use zenoh::{Session, Wait};
+
+mod common;
+use common::{free_port, peer_config, without_implicit_shm_copy};
+
+const TIMEOUT: Duration = Duration::from_secs(10);
+
+fn session_pair() -> (Session, Session, u16) {
+    let port = free_port();
+    let a = zenoh::open(without_implicit_shm_copy(peer_config(port, true)))
+        .wait()
+        .unwrap();
+    let b = zenoh::open(without_implicit_shm_copy(peer_config(port, false)))
+        .wait()
+        .unwrap();
+    (a, b, port)
+}
+
+fn node(session: &Session, name: &str) -> RosNode {
+    RosNode::builder(session, name).domain_id(0).wait().unwrap()
+}
+
+fn echo(request: BasicTypes_Request) -> BasicTypes_Response {
+    BasicTypes_Response {
+        int64_value: request.int64_value + 1,
+        string_value: request.string_value,
+        ..Default::default()
+    }
+}
+
+fn liveliness_keys(session: &Session) -> Vec<String> {
+    let replies = session.liveliness().get("@ros2_lv/0/**").wait().unwrap();
+    let mut keys = Vec::new();
+    while let Ok(Some(reply)) = replies.recv_timeout(Duration::from_secs(2)) {
+        keys.push(reply.result().unwrap().key_expr().to_string());
+    }
+    keys
+}
+
+#[test]
+fn a_call_carries_rmw_zenoh_key_attachments_and_tokens() {
+    let (a, b, _) = session_pair();
+    let server_node = node(&a, "server");
+    let client_node = node(&b, "client");
+    let seen = Arc::new(Mutex::new(Vec::<Attachment>::new()));
+    let seen_by_server = seen.clone();
+    let server = server_node
+        .declare_service::<Trigger>("trigger")
+        .callback(move |request| {
+            let attachment = *request.attachment().expect("rmw_zenoh attachment");
+            seen_by_server.lock().unwrap().push(attachment);
+            let _: Trigger_Request = request.request().unwrap();
+            let response = Trigger_Response {
+                success: true,
+                message: format!("call {}", attachment.sequence_number),
+            };
+            request.reply(&response).wait().unwrap();
+        })
+        .wait()
+        .unwrap();
+    assert_eq!(
+        server.key_expr(),
+        format!(
+            "0/trigger/std_srvs::srv::dds_::Trigger_/{}",
+            Trigger::type_hash()
+        )
+    );
+    assert_eq!(
+        server.key_expr(),
+        service_key_expr::<Trigger>(0, "/trigger")
+    );
+
+    let client = client_node
+        .declare_client::<Trigger>("/trigger")
+        .wait()
+        .unwrap();
+    assert_eq!(client.key_expr(), server.key_expr());
+    assert!(client.wait_for_service(TIMEOUT));
+    for seq in 1..=3 {
+        let reply = client.call_reply(&Trigger_Request).wait().unwrap();
+        let attachment = reply.attachment().unwrap().unwrap();
+        assert_eq!(attachment.sequence_number, seq);
+        assert_eq!(attachment.gid, client.gid());
+        let response: Trigger_Response = reply.response().unwrap();
+        assert_eq!(response.message, format!("call {seq}"));
+    }
+    let response = client.call(&Trigger_Request).wait().unwrap();
+    assert!(response.success);
+    assert_eq!(response.message, "call 4");
+    let seen = seen.lock().unwrap();
+    assert_eq!(
+        seen.iter().map(|a| a.sequence_number).collect::<Vec<_>>(),
+        [1, 2, 3, 4]
+    );
+    assert!(seen.iter().all(|a| a.gid == client.gid()));
+
+    // Both ends are on the ROS graph, with services' default QoS.
+    let keys = liveliness_keys(&b);
+    let ss = format!(
+        "/SS/%/%/server/%trigger/std_srvs::srv::dds_::Trigger_/{}/::,10:,:,:,,",
+        Trigger::type_hash()
+    );
+    let sc = ss.replace("/SS/", "/SC/").replace("/server/", "/client/");
+    let server_token = keys.iter().find(|k| k.ends_with(&ss)).expect("SS token");
+    let client_token = keys.iter().find(|k| k.ends_with(&sc)).expect("SC token");
+    assert_eq!(server.gid(), Some(Gid::from_token(server_token)));
+    assert_eq!(client.gid(), Gid::from_token(client_token));
+}
+
+#[test]
+fn four_clients_a_thousand_calls_each_every_reply_is_its_own() {
+    let (a, b, _) = session_pair();
+    let server_node = node(&a, "echo_server");
+    let _server = server_node
+        .declare_service::<BasicTypes>("echo")
+        .handler(echo)
+        .wait()
+        .unwrap();
+    let client_node = node(&b, "echo_clients");
+    let clients: Vec<_> = (0..4)
+        .map(|_| {
+            client_node
+                .declare_client::<BasicTypes>("echo")
+                .wait()
+                .unwrap()
+        })
+        .collect();
+    assert!(clients[0].wait_for_service(TIMEOUT));
+    std::thread::scope(|scope| {
+        for (c, client) in clients.iter().enumerate() {
+            scope.spawn(move || {
+                for i in 0..1000i64 {
+                    let request = BasicTypes_Request {
+                        int64_value: c as i64 * 1_000_000 + i,
+                        string_value: format!("client {c} call {i}"),
+                        ..Default::default()
+                    };
+                    let response = client.call(&request).wait().unwrap();
+                    assert_eq!(response.int64_value, request.int64_value + 1);
+                    assert_eq!(response.string_value, request.string_value);
+                }
+            });
+        }
+    });
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn concurrent_async_calls_to_an_async_server() {
+    let (a, b, _) = session_pair();
+    let server_node = node(&a, "async_server");
+    let server = server_node
+        .declare_service::<BasicTypes>("async_echo")
+        .history(History::KeepAll)
+        .await
+        .unwrap();
+    let serving = tokio::spawn(async move {
+        server
+            .serve(|request| async move {
+                tokio::task::yield_now().await;
+                echo(request)
+            })
+            .await
+    });
+    let client_node = node(&b, "async_client");
+    let client = Arc::new(
+        client_node
+            .declare_client::<BasicTypes>("async_echo")
+            .await
+            .unwrap(),
+    );
+    tokio::time::timeout(TIMEOUT, client.service_available())
+        .await
+        .unwrap()
+        .unwrap();
+    let calls: Vec<_> = (0..200i64)
+        .map(|i| {
+            let client = client.clone();
+            tokio::spawn(async move {
+                let request = BasicTypes_Request {
+                    int64_value: i,
+                    ..Default::default()
+                };
+                client.call(&request).await.map(|r| (i, r.int64_value))
+            })
+        })
+        .collect();
+    for call in calls {
+        let (i, answer) = call.await.unwrap().unwrap();
+        assert_eq!(answer, i + 1);
+    }
+    serving.abort();
+}
+
+#[test]
+fn a_server_gone_mid_call_ends_the_call_and_a_restarted_one_serves() {
+    let (_a, b, port) = session_pair();
+    let client_node = node(&b, "client");
+    let client = client_node
+        .declare_client::<Trigger>("restart")
+        .timeout(Duration::from_secs(60))
+        .wait()
+        .unwrap();
+
+    for round in 0..2 {
+        let server_session = zenoh::open(peer_config(port, false)).wait().unwrap();
+        let server_node = node(&server_session, "server");
+        let server = server_node
+            .declare_service::<Trigger>("restart")
+            .wait()
+            .unwrap();
+        assert!(client.wait_for_service(TIMEOUT));
+
+        // The server takes the call, then its session goes away without a reply.
+        let started = Instant::now();
+        std::thread::scope(|scope| {
+            let call = scope.spawn(|| client.call(&Trigger_Request).wait());
+            let request = server.recv_timeout(TIMEOUT).unwrap().expect("no request");
+            std::thread::sleep(Duration::from_millis(100));
+            server_session.close().wait().unwrap();
+            drop(request);
+            let result = call.join().unwrap();
+            assert!(
+                matches!(result, Err(CallError::NoReply)),
+                "round {round}: {result:?}"
+            );
+        });
+        assert!(
+            started.elapsed() < Duration::from_secs(10),
+            "round {round}: the client waited {:?} (its timeout is 60 s)",
+            started.elapsed()
+        );
+    }
+
+    // With no server at all, a call ends at once instead of waiting out its timeout.
+    let started = Instant::now();
+    assert!(matches!(
+        client.call(&Trigger_Request).wait(),
+        Err(CallError::NoReply)
+    ));
+    assert!(started.elapsed() < Duration::from_secs(10));
+
+    // A restarted server serves the same client.
+    let server_session = zenoh::open(peer_config(port, false)).wait().unwrap();
+    let server_node = node(&server_session, "server");
+    let _server = server_node
+        .declare_service::<Trigger>("restart")
+        .handler(|_| Trigger_Response {
+            success: true,
+            message: "back".into(),
+        })
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+    assert_eq!(
+        client.call(&Trigger_Request).wait().unwrap().message,
+        "back"
+    );
+}
+
+#[test]
+fn malformed_requests_get_an_error_reply_and_the_server_goes_on() {
+    let (a, b, _) = session_pair();
+    let server_node = node(&a, "server");
+    let server = server_node
+        .declare_service::<BasicTypes>("strict")
+        .handler(echo)
+        .wait()
+        .unwrap();
+    let key = server.key_expr().to_owned();
+    let client_node = node(&b, "client");
+    let client = client_node
+        .declare_client::<BasicTypes>("strict")
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+
+    let raw_call = |payload: Vec<u8>, attachment: Vec<u8>| -> String {
+        let replies = b
+            .get(&key)
+            .payload(ZBytes::from(payload))
+            .attachment(ZBytes::from(attachment))
+            .wait()
+            .unwrap();
+        let reply = replies.recv_timeout(TIMEOUT).unwrap().expect("no reply");
+        let error = reply.result().expect_err("an error reply");
+        String::from_utf8(error.payload().to_bytes().into_owned()).unwrap()
+    };
+    let attachment = Attachment {
+        sequence_number: 1,
+        source_timestamp: 0,
+        gid: Gid([7; 16]),
+    }
+    .to_bytes()
+    .to_vec();
+    // A BasicTypes request cut short after its first fields.
+    let valid = shm_cdr::to_vec(&BasicTypes_Request::default()).unwrap();
+    let truncated = raw_call(valid[..12].to_vec(), attachment.clone());
+    assert!(
+        truncated.contains("at byte 12 (in BasicTypes_Request.float64_value)"),
+        "{truncated}"
+    );
+    // An attachment that is not rmw_zenoh's.
+    let bad_attachment = raw_call(valid.clone(), vec![1, 2, 3, 4, 5]);
+    assert!(bad_attachment.contains("5 bytes"), "{bad_attachment}");
+    // Not even an encapsulation header.
+    let empty = raw_call(Vec::new(), attachment);
+    assert!(empty.contains("at byte 0"), "{empty}");
+    assert_eq!(server.malformed(), 3);
+
+    // Our client says what the server said.
+    let too_long = BasicTypes_Request {
+        int64_value: 41,
+        ..Default::default()
+    };
+    assert_eq!(client.call(&too_long).wait().unwrap().int64_value, 42);
+}
+
+#[test]
+fn timeouts_and_a_full_queue_are_told_to_the_client() {
+    let (a, b, _) = session_pair();
+    let server_node = node(&a, "busy");
+    let client_node = node(&b, "client");
+
+    // A server that never answers: the call times out, as its own error.
+    let _silent = server_node
+        .declare_service::<Trigger>("silent")
+        .wait()
+        .unwrap();
+    let client = client_node
+        .declare_client::<Trigger>("silent")
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+    let started = Instant::now();
+    let result = client
+        .call(&Trigger_Request)
+        .timeout(Duration::from_millis(300))
+        .wait();
+    assert!(
+        matches!(result, Err(CallError::Timeout(t)) if t == Duration::from_millis(300)),
+        "{result:?}"
+    );
+    assert!(started.elapsed() >= Duration::from_millis(300));
+
+    // A server keeping 2 requests: the 3 pushed out get an error reply.
+    let server = server_node
+        .declare_service::<BasicTypes>("queue")
+        .history(History::KeepLast(2.try_into().unwrap()))
+        .wait()
+        .unwrap();
+    let client = client_node
+        .declare_client::<BasicTypes>("queue")
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+    std::thread::scope(|scope| {
+        let calls: Vec<_> = (0..5i64)
+            .map(|i| {
+                let client = &client;
+                let call = scope.spawn(move || {
+                    let request = BasicTypes_Request {
+                        int64_value: i,
+                        ..Default::default()
+                    };
+                    client.call(&request).wait()
+                });
+                // One after the other, so that the queue's order is known.
+                let deadline = Instant::now() + TIMEOUT;
+                while server.queued() + server.dropped() as usize <= i as usize {
+                    assert!(Instant::now() < deadline, "request {i} never arrived");
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                call
+            })
+            .collect();
+        assert_eq!(server.dropped(), 3);
+        for _ in 0..2 {
+            let request = server.recv().unwrap();
+            let response = echo(request.request().unwrap());
+            request.reply(&response).wait().unwrap();
+        }
+        let results: Vec<_> = calls.into_iter().map(|c| c.join().unwrap()).collect();
+        for (i, result) in results.iter().enumerate() {
+            if i < 3 {
+                assert!(
+                    matches!(result, Err(CallError::Remote(why)) if why.contains("request dropped")),
+                    "call {i}: {result:?}"
+                );
+            } else {
+                assert_eq!(result.as_ref().unwrap().int64_value, i as i64 + 1);
+            }
+        }
+    });
+}
+
+#[test]
+fn large_requests_and_responses_travel_in_shared_memory() {
+    let (a, b, _) = session_pair();
+    let shm = ShmContext::new(ShmConfig::enabled().threshold(64 * 1024)).unwrap();
+    let server_node = RosNode::builder(&a, "parameters")
+        .domain_id(0)
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    let client_node = RosNode::builder(&b, "client")
+        .domain_id(0)
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    let blob: Vec<u8> = (0..1 << 20).map(|i| (i % 251) as u8).collect();
+    let expected = blob.clone();
+    let _server = server_node
+        .declare_service::<SetParameters>("set_parameters")
+        .callback(move |request| {
+            assert!(request.is_shm(), "the request should arrive in SHM");
+            // Borrowed straight from the shared-memory buffer.
+            let view: SetParameters_RequestRef = request.decode().unwrap();
+            let bytes = view.parameters[0].value.byte_array_value;
+            assert_eq!(bytes, expected.as_slice());
+            let response = SetParameters_Response {
+                results: vec![SetParametersResult {
+                    successful: true,
+                    reason: "x".repeat(200 * 1024),
+                }],
+            };
+            request.reply(&response).wait().unwrap();
+        })
+        .wait()
+        .unwrap();
+    let client = client_node
+        .declare_client::<SetParameters>("set_parameters")
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+    let request = SetParameters_Request {
+        parameters: vec![Parameter {
+            name: "blob".into(),
+            value: ParameterValue {
+                r#type: 5,
+                byte_array_value: blob,
+                ..Default::default()
+            },
+        }],
+    };
+    let reply = client.call_reply(&request).wait().unwrap();
+    assert!(reply.is_shm(), "the response should arrive in SHM");
+    let response: SetParameters_ResponseRef = reply.decode().unwrap();
+    assert!(response.results[0].successful);
+    assert_eq!(response.results[0].reason.len(), 200 * 1024);
+    assert_eq!(shm.stats().shm, 2);
+}
+
+#[test]
+fn bad_service_names_are_refused_when_declared() {
+    let (a, _b, _) = session_pair();
+    let node = node(&a, "names");
+    let error = node
+        .declare_service::<Trigger>("a*b")
+        .wait()
+        .expect_err("a*b is not a service name");
+    assert!(error.to_string().contains("a*b"), "{error}");
+    let error = node
+        .declare_client::<Trigger>("bad name")
+        .wait()
+        .expect_err("a space is not allowed");
+    assert!(error.to_string().contains("bad name"), "{error}");
+}
