@@ -61,15 +61,23 @@ fn session(endpoint: &str, listen: bool) -> Result<zenoh::Session, BoxError> {
         "connect/endpoints"
     };
     config.insert_json5(key, &format!("[\"{endpoint}\"]"))?;
-    Ok(zenoh::open(config).wait()?)
+    zenoh::open(config).wait()
 }
 
 fn main() -> Result<(), BoxError> {
     let args: Vec<String> = std::env::args().collect();
-    match args.iter().map(String::as_str).collect::<Vec<_>>().as_slice() {
+    match args
+        .iter()
+        .map(String::as_str)
+        .collect::<Vec<_>>()
+        .as_slice()
+    {
         [_, "client", endpoint, calls] => client(endpoint, calls.parse()?),
         [_, "server", endpoint] => server(endpoint),
-        _ => Err("usage: interop_service client <connect endpoint> <calls> | server <listen endpoint>".into()),
+        _ => Err(
+            "usage: interop_service client <connect endpoint> <calls> | server <listen endpoint>"
+                .into(),
+        ),
     }
 }
 

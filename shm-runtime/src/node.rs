@@ -68,8 +68,10 @@ impl RosNode {
         self.declare_publisher_with_qos(topic, Qos::default())
     }
 
-    /// [`declare_publisher`](Self::declare_publisher) with an explicit QoS for the
-    /// liveliness token.
+    /// [`declare_publisher`](Self::declare_publisher) with an explicit QoS, in the
+    /// liveliness token and in the Zenoh declaration (see
+    /// [`PublisherBuilder::qos`]): e.g. [`Qos::transient_local`] for a latched
+    /// topic.
     pub fn declare_publisher_with_qos<T: RosMessage>(
         &self,
         topic: &str,
@@ -85,6 +87,7 @@ impl RosNode {
             topic_key_expr::<T>(self.info.domain_id, &topic),
         );
         builder.invalid = invalid;
+        builder.qos = qos;
         builder.inherited = self.shm.clone();
         builder.rmw = Some(RmwPublisher {
             gid: Gid::from_token(&token),
@@ -97,6 +100,18 @@ impl RosNode {
     /// A subscriber to `T` on ROS topic `topic`, announced to the ROS graph by
     /// its `MS` liveliness token.
     pub fn declare_subscriber<T: RosMessage>(&self, topic: &str) -> SubscriberBuilder<'_, T> {
+        self.declare_subscriber_with_qos(topic, Qos::default())
+    }
+
+    /// [`declare_subscriber`](Self::declare_subscriber) with an explicit QoS, in
+    /// the liveliness token and in the Zenoh declaration (see
+    /// [`SubscriberBuilder::qos`]): [`Qos::transient_local`] receives the last
+    /// messages of latched topics.
+    pub fn declare_subscriber_with_qos<T: RosMessage>(
+        &self,
+        topic: &str,
+        qos: Qos,
+    ) -> SubscriberBuilder<'_, T> {
         let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
         let (topic, invalid) = self.resolve(topic);
         let mut builder = SubscriberBuilder::new(
@@ -104,12 +119,12 @@ impl RosNode {
             topic_key_expr::<T>(self.info.domain_id, &topic),
         );
         builder.invalid = invalid;
-        builder.liveliness = Some(self.info.topic_token::<T>(
-            entity_id,
-            EntityKind::Subscriber,
-            &topic,
-            &Qos::default(),
-        ));
+        builder.qos = qos;
+        builder.liveliness =
+            Some(
+                self.info
+                    .topic_token::<T>(entity_id, EntityKind::Subscriber, &topic, &qos),
+            );
         builder
     }
 

@@ -11,13 +11,14 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use shm_cdr::{EncodeError, RosMessage};
 use zenoh::bytes::ZBytes;
 use zenoh::liveliness::LivelinessToken;
-use zenoh::qos::CongestionControl;
+use zenoh::qos::{CongestionControl, Reliability as ZenohReliability};
 use zenoh::sample::SourceInfo;
 use zenoh::{Resolvable, Session, Wait};
+use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, MissDetectionConfig};
 
 use crate::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
 use crate::pool::ShmContext;
-use crate::rmw::{Attachment, Gid};
+use crate::rmw::{Attachment, Durability, Gid, History, Qos, Reliability};
 
 /// Why a publish failed. A full pool is not a failure: the message then goes on
 /// the heap ([`PayloadKind::HeapFallback`]).
@@ -123,7 +124,8 @@ pub struct PublisherBuilder<'a, T> {
     pub(crate) shm: ShmChoice,
     pub(crate) threshold: Option<usize>,
     pub(crate) rmw: Option<RmwPublisher>,
-    pub(crate) congestion_control: CongestionControl,
+    pub(crate) congestion_control: Option<CongestionControl>,
+    pub(crate) qos: Qos,
     /// A name that failed to resolve (node publishers): reported by `build`.
     pub(crate) invalid: Option<crate::names::NameError>,
     pub(crate) message: PhantomData<fn(&T)>,
@@ -138,20 +140,35 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             shm: ShmChoice::Inherit,
             threshold: None,
             rmw: None,
-            congestion_control: CongestionControl::Block,
+            congestion_control: None,
+            qos: Qos::default(),
             invalid: None,
             message: PhantomData,
         }
     }
 
     /// What Zenoh does when its transmit queue is full: `Block` (the default
-    /// here: `publish` waits rather than drop; if the queue stays full for
-    /// Zenoh's `wait_before_close`, 5 s, Zenoh closes that transport and what it
-    /// held is lost, which subscribers count in
+    /// for reliable publishers here: `publish` waits rather than drop; if the
+    /// queue stays full for Zenoh's `wait_before_close`, 5 s, Zenoh closes that
+    /// transport and what it held is lost, which subscribers count in
     /// [`RosSubscriber::missed`](crate::RosSubscriber::missed)) or `Drop`
-    /// (Zenoh's own default, for data where only the latest matters).
+    /// (Zenoh's own default and best-effort publishers', for data where only the
+    /// latest matters).
     pub fn congestion_control(mut self, congestion_control: CongestionControl) -> Self {
-        self.congestion_control = congestion_control;
+        self.congestion_control = Some(congestion_control);
+        self
+    }
+
+    /// The QoS this publisher's Zenoh declaration follows, as rmw_zenoh_cpp maps
+    /// it: best effort is Zenoh best effort with congestion control `Drop`;
+    /// transient local keeps the last `depth` messages in a zenoh-ext
+    /// `AdvancedPublisher` cache for subscribers that join later (with
+    /// publisher detection, and heartbeats every 500 ms for sample-miss
+    /// recovery when reliable). A node publisher's liveliness token carries the
+    /// same QoS: declare those with
+    /// [`RosNode::declare_publisher_with_qos`](crate::RosNode::declare_publisher_with_qos).
+    pub fn qos(mut self, qos: Qos) -> Self {
+        self.qos = qos;
         self
     }
 
@@ -184,12 +201,42 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             self.inherited.as_ref(),
             self.threshold,
         );
-        let publisher = self
+        let (reliability, congestion_control) = match self.qos.reliability {
+            Reliability::Reliable => (ZenohReliability::Reliable, CongestionControl::Block),
+            Reliability::BestEffort => (ZenohReliability::BestEffort, CongestionControl::Drop),
+        };
+        let builder = self
             .session
             .declare_publisher(self.key_expr)
-            .congestion_control(self.congestion_control)
-            .encoding(crate::queue::type_encoding::<T>())
-            .wait()?;
+            .reliability(reliability)
+            .congestion_control(self.congestion_control.unwrap_or(congestion_control))
+            .encoding(crate::queue::type_encoding::<T>());
+        let publisher = match (self.qos.durability, self.qos.history) {
+            (Durability::Volatile, _) => ZenohPublisher::Plain(builder.wait()?),
+            (Durability::TransientLocal, history) => {
+                let depth = match history {
+                    History::KeepLast(depth) => depth.max(1),
+                    // rmw_zenoh_cpp passes the profile's depth, whatever the kind.
+                    History::KeepAll => usize::MAX,
+                };
+                // Sequence numbers always (zenoh-ext would otherwise need
+                // timestamping on the session for a cache); heartbeats when
+                // reliable, so subscribers recover what they missed.
+                let miss_detection = match self.qos.reliability {
+                    Reliability::Reliable => {
+                        MissDetectionConfig::default().sporadic_heartbeat(HEARTBEAT_PERIOD)
+                    }
+                    Reliability::BestEffort => MissDetectionConfig::default(),
+                };
+                ZenohPublisher::Advanced(
+                    builder
+                        .cache(CacheConfig::default().max_samples(depth))
+                        .sample_miss_detection(miss_detection)
+                        .publisher_detection()
+                        .wait()?,
+                )
+            }
+        };
         let rmw = match self.rmw {
             Some(mut rmw) => {
                 rmw.liveliness = Some(
@@ -242,9 +289,54 @@ fn session_has_shm(session: &Session) -> bool {
         .unwrap_or(true)
 }
 
+/// Heartbeat period of reliable transient-local publishers (rmw_zenoh_cpp's).
+const HEARTBEAT_PERIOD: std::time::Duration = std::time::Duration::from_millis(500);
+
+/// A plain Zenoh publisher, or zenoh-ext's advanced one (transient local).
+enum ZenohPublisher {
+    Plain(zenoh::pubsub::Publisher<'static>),
+    Advanced(AdvancedPublisher<'static>),
+}
+
+impl ZenohPublisher {
+    fn key_expr(&self) -> &str {
+        match self {
+            Self::Plain(p) => p.key_expr().as_str(),
+            Self::Advanced(p) => p.key_expr().as_str(),
+        }
+    }
+
+    fn id(&self) -> zenoh::session::EntityGlobalId {
+        match self {
+            Self::Plain(p) => p.id(),
+            Self::Advanced(p) => p.id(),
+        }
+    }
+
+    fn matching_status(&self) -> zenoh::Result<zenoh::matching::MatchingStatus> {
+        match self {
+            Self::Plain(p) => p.matching_status().wait(),
+            Self::Advanced(p) => p.matching_status().wait(),
+        }
+    }
+
+    fn matching_listener(
+        &self,
+    ) -> zenoh::Result<
+        zenoh::matching::MatchingListener<
+            zenoh::handlers::FifoChannelHandler<zenoh::matching::MatchingStatus>,
+        >,
+    > {
+        match self {
+            Self::Plain(p) => p.matching_listener().wait(),
+            Self::Advanced(p) => p.matching_listener().wait(),
+        }
+    }
+}
+
 /// Publishes messages of type `T`.
 pub struct RosPublisher<T> {
-    publisher: zenoh::pubsub::Publisher<'static>,
+    publisher: ZenohPublisher,
     policy: Option<ShmPolicy>,
     rmw: Option<RmwPublisher>,
     sequence: AtomicI64,
@@ -257,7 +349,7 @@ pub struct RosPublisher<T> {
 impl<T> fmt::Debug for RosPublisher<T> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("RosPublisher")
-            .field("key_expr", &self.publisher.key_expr().as_str())
+            .field("key_expr", &self.publisher.key_expr())
             .field("shm", &self.policy)
             .field("gid", &self.rmw.as_ref().map(|r| r.gid))
             .finish()
@@ -280,7 +372,7 @@ impl<T: RosMessage> RosPublisher<T> {
     pub fn wait_for_subscribers(&self, timeout: std::time::Duration) -> bool {
         let deadline = std::time::Instant::now() + timeout;
         // Listen first, then look: a match between the two is not missed.
-        let Ok(listener) = self.publisher.matching_listener().wait() else {
+        let Ok(listener) = self.publisher.matching_listener() else {
             return false;
         };
         if self.has_subscribers() {
@@ -300,7 +392,7 @@ impl<T: RosMessage> RosPublisher<T> {
     /// one already does). Cancellation-safe; bound it with your runtime's
     /// timeout (e.g. `tokio::time::timeout`).
     pub async fn subscribers_matched(&self) -> zenoh::Result<()> {
-        let listener = self.publisher.matching_listener().await?;
+        let listener = self.publisher.matching_listener()?;
         if self.has_subscribers() {
             return Ok(());
         }
@@ -313,15 +405,12 @@ impl<T: RosMessage> RosPublisher<T> {
 
     /// Whether a subscriber matches this publisher now.
     pub fn has_subscribers(&self) -> bool {
-        self.publisher
-            .matching_status()
-            .wait()
-            .is_ok_and(|s| s.matching())
+        self.publisher.matching_status().is_ok_and(|s| s.matching())
     }
 
     /// The key expression published on.
     pub fn key_expr(&self) -> &str {
-        self.publisher.key_expr().as_str()
+        self.publisher.key_expr()
     }
 
     /// The rmw_zenoh GID, for ROS-style publishers.
@@ -385,16 +474,33 @@ struct Prepared {
 }
 
 impl Prepared {
-    fn put<'a>(
-        self,
-        publisher: &'a zenoh::pubsub::Publisher<'static>,
-    ) -> (PublishOutcome, zenoh::pubsub::PublisherPutBuilder<'a>) {
-        let put = publisher.put(self.payload).source_info(self.source_info);
-        let put = match self.attachment {
-            Some(attachment) => put.attachment(attachment),
-            None => put,
-        };
-        (self.outcome, put)
+    /// Put, then say what went out. zenoh-ext numbers an advanced publisher's
+    /// samples itself (its `SourceInfo`, from 0 like ours).
+    fn put_wait(self, publisher: &ZenohPublisher) -> Result<PublishOutcome, PublishError> {
+        match publisher {
+            ZenohPublisher::Plain(p) => p
+                .put(self.payload)
+                .source_info(self.source_info)
+                .attachment(self.attachment)
+                .wait(),
+            ZenohPublisher::Advanced(p) => p.put(self.payload).attachment(self.attachment).wait(),
+        }
+        .map_err(PublishError::Zenoh)?;
+        Ok(self.outcome)
+    }
+
+    async fn put_async(self, publisher: &ZenohPublisher) -> Result<PublishOutcome, PublishError> {
+        match publisher {
+            ZenohPublisher::Plain(p) => {
+                p.put(self.payload)
+                    .source_info(self.source_info)
+                    .attachment(self.attachment)
+                    .await
+            }
+            ZenohPublisher::Advanced(p) => p.put(self.payload).attachment(self.attachment).await,
+        }
+        .map_err(PublishError::Zenoh)?;
+        Ok(self.outcome)
     }
 }
 
@@ -411,12 +517,9 @@ impl<T: RosMessage> Resolvable for PublishBuilder<'_, T> {
 
 impl<T: RosMessage> Wait for PublishBuilder<'_, T> {
     fn wait(self) -> Self::To {
-        let (outcome, put) = self
-            .publisher
+        self.publisher
             .prepare(self.msg)?
-            .put(&self.publisher.publisher);
-        put.wait().map_err(PublishError::Zenoh)?;
-        Ok(outcome)
+            .put_wait(&self.publisher.publisher)
     }
 }
 
@@ -429,10 +532,6 @@ impl<'p, T: RosMessage> IntoFuture for PublishBuilder<'p, T> {
         // finished payload (and `T` need not be `Sync`).
         let prepared = self.publisher.prepare(self.msg);
         let publisher = &self.publisher.publisher;
-        Box::pin(async move {
-            let (outcome, put) = prepared?.put(publisher);
-            put.await.map_err(PublishError::Zenoh)?;
-            Ok(outcome)
-        })
+        Box::pin(async move { prepared?.put_async(publisher).await })
     }
 }

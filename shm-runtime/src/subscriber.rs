@@ -16,9 +16,12 @@ use zenoh::bytes::ZBytes;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
+use zenoh_ext::{AdvancedSubscriber, AdvancedSubscriberBuilderExt, HistoryConfig, RecoveryConfig};
 
 use crate::queue::{sample_type, Queue, TypeCheck};
-use crate::rmw::{Attachment, AttachmentError};
+use crate::rmw::{
+    Attachment, AttachmentError, Durability, History as RmwHistory, Qos, Reliability,
+};
 
 pub use crate::queue::History;
 
@@ -30,6 +33,7 @@ pub struct SubscriberBuilder<'a, T> {
     /// rmw_zenoh liveliness token (`MS`) to declare, for node subscribers.
     pub(crate) liveliness: Option<String>,
     pub(crate) history: History,
+    pub(crate) qos: Qos,
     /// A name that failed to resolve (node subscribers): reported by `build`.
     pub(crate) invalid: Option<crate::names::NameError>,
     pub(crate) message: PhantomData<fn() -> T>,
@@ -42,6 +46,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
             key_expr,
             liveliness: None,
             history: History::KeepAll,
+            qos: Qos::default(),
             invalid: None,
             message: PhantomData,
         }
@@ -51,6 +56,54 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
     pub fn history(mut self, history: History) -> Self {
         self.history = history;
         self
+    }
+
+    /// The QoS this subscriber's Zenoh declaration follows, as rmw_zenoh_cpp
+    /// maps it: transient local is a zenoh-ext `AdvancedSubscriber` that asks
+    /// every transient-local publisher, including ones that appear later, for
+    /// its last `depth` messages before the live ones (and, when reliable,
+    /// recovers messages it missed, told by the publisher's heartbeats).
+    /// Volatile (the default) receives only what is published after it is
+    /// declared. A node subscriber's liveliness token carries the same QoS:
+    /// declare those with
+    /// [`RosNode::declare_subscriber_with_qos`](crate::RosNode::declare_subscriber_with_qos).
+    pub fn qos(mut self, qos: Qos) -> Self {
+        self.qos = qos;
+        self
+    }
+
+    /// Declare the Zenoh subscriber `qos` asks for, calling `callback`.
+    fn declare(
+        session: &Session,
+        key_expr: String,
+        qos: Qos,
+        callback: impl Fn(Sample) + Send + Sync + 'static,
+    ) -> zenoh::Result<ZenohSubscriber> {
+        let builder = session.declare_subscriber(key_expr).callback(callback);
+        Ok(match qos.durability {
+            Durability::Volatile => ZenohSubscriber::Plain(builder.wait()?),
+            Durability::TransientLocal => {
+                let depth = match qos.history {
+                    RmwHistory::KeepLast(depth) => depth.max(1),
+                    RmwHistory::KeepAll => usize::MAX,
+                };
+                let builder = builder
+                    .history(
+                        HistoryConfig::default()
+                            .detect_late_publishers()
+                            .max_samples(depth),
+                    )
+                    .subscriber_detection()
+                    .query_timeout(crate::service::NO_TIMEOUT);
+                let builder = match qos.reliability {
+                    Reliability::Reliable => {
+                        builder.recovery(RecoveryConfig::default().heartbeat())
+                    }
+                    Reliability::BestEffort => builder,
+                };
+                ZenohSubscriber::Advanced(builder.wait()?)
+            }
+        })
     }
 
     fn declare_token(&self) -> zenoh::Result<Option<LivelinessToken>> {
@@ -91,11 +144,9 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         let lost = queue.lost.clone();
         let missed = queue.missed.clone();
         let wrong_type = queue.type_check.rejected.clone();
-        let subscriber = self
-            .session
-            .declare_subscriber(self.key_expr)
-            .callback(move |sample| queue.push(sample))
-            .wait()?;
+        let subscriber = Self::declare(self.session, self.key_expr, self.qos, move |sample| {
+            queue.push(sample)
+        })?;
         Ok(RosSubscriber {
             subscriber,
             receiver,
@@ -126,6 +177,21 @@ impl<T: RosMessage> IntoFuture for SubscriberBuilder<'_, T> {
     }
 }
 
+/// A plain Zenoh subscriber, or zenoh-ext's advanced one (transient local).
+enum ZenohSubscriber {
+    Plain(zenoh::pubsub::Subscriber<()>),
+    Advanced(AdvancedSubscriber<()>),
+}
+
+impl ZenohSubscriber {
+    fn key_expr(&self) -> &str {
+        match self {
+            Self::Plain(s) => s.key_expr().as_str(),
+            Self::Advanced(s) => s.key_expr().as_str(),
+        }
+    }
+}
+
 /// Builder of a callback subscriber; resolve with `.wait()` or `.await`.
 #[must_use = "resolve the builder with .wait() or .await"]
 pub struct CallbackSubscriberBuilder<'a, T, F> {
@@ -135,7 +201,7 @@ pub struct CallbackSubscriberBuilder<'a, T, F> {
 
 /// A subscriber that hands every sample to a callback; undeclared when dropped.
 pub struct CallbackSubscriber<T> {
-    _subscriber: zenoh::pubsub::Subscriber<()>,
+    _subscriber: ZenohSubscriber,
     _token: Option<LivelinessToken>,
     message: PhantomData<fn() -> T>,
 }
@@ -145,16 +211,16 @@ impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> CallbackSubscriber
         let token = self.inner.declare_token()?;
         let callback = self.callback;
         let type_check = TypeCheck::new::<T>(&self.inner.key_expr);
-        let subscriber = self
-            .inner
-            .session
-            .declare_subscriber(self.inner.key_expr)
-            .callback(move |sample| {
+        let subscriber = SubscriberBuilder::<T>::declare(
+            self.inner.session,
+            self.inner.key_expr,
+            self.inner.qos,
+            move |sample| {
                 if type_check.accepts(&sample) {
                     callback(RosSample::new(sample))
                 }
-            })
-            .wait()?;
+            },
+        )?;
         Ok(CallbackSubscriber {
             _subscriber: subscriber,
             _token: token,
@@ -191,7 +257,7 @@ impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> IntoFuture
 /// variant of the same ROS type). Samples wait in the subscriber's own queue
 /// (see [`History`]) until read; undeclared when dropped.
 pub struct RosSubscriber<T> {
-    subscriber: zenoh::pubsub::Subscriber<()>,
+    subscriber: ZenohSubscriber,
     receiver: flume::Receiver<Sample>,
     lost: Arc<AtomicU64>,
     missed: Arc<AtomicU64>,
@@ -203,7 +269,7 @@ pub struct RosSubscriber<T> {
 impl<T> fmt::Debug for RosSubscriber<T> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("RosSubscriber")
-            .field("key_expr", &self.subscriber.key_expr().as_str())
+            .field("key_expr", &self.subscriber.key_expr())
             .finish()
     }
 }
@@ -301,7 +367,7 @@ impl<T: RosMessage> RosSubscriber<T> {
 
     /// The key expression subscribed to.
     pub fn key_expr(&self) -> &str {
-        self.subscriber.key_expr().as_str()
+        self.subscriber.key_expr()
     }
 }
 

@@ -30,6 +30,7 @@
 mod client;
 mod server;
 
+pub(crate) use client::NO_TIMEOUT;
 pub use client::{CallBuilder, CallError, ServiceClient, ServiceClientBuilder, ServiceReply};
 pub use server::{
     CallbackServiceServer, CallbackServiceServerBuilder, ReplyBuilder, ServiceRequest,

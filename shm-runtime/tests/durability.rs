@@ -1,0 +1,174 @@
+//! QoS durability between peer sessions over TCP loopback: transient-local
+//! (latched) topics deliver their last `depth` messages to subscribers that join
+//! later, volatile ones do not, with shared-memory payloads kept as they were.
+
+use std::time::Duration;
+
+use shm_cdr::msgs::sensor_msgs::Image;
+use shm_cdr::msgs::std_msgs;
+use shm_runtime::rmw::{Qos, Reliability};
+use shm_runtime::{RosNode, RosSubscriber, ShmConfig, ShmContext};
+use zenoh::{Session, Wait};
+
+mod common;
+use common::{free_port, peer_config, without_implicit_shm_copy};
+
+const TIMEOUT: Duration = Duration::from_secs(10);
+
+fn session_pair() -> (Session, Session) {
+    let port = free_port();
+    let a = zenoh::open(without_implicit_shm_copy(peer_config(port, true)))
+        .wait()
+        .unwrap();
+    let b = zenoh::open(without_implicit_shm_copy(peer_config(port, false)))
+        .wait()
+        .unwrap();
+    (a, b)
+}
+
+fn node(session: &Session, name: &str) -> RosNode {
+    RosNode::builder(session, name).domain_id(0).wait().unwrap()
+}
+
+fn text(s: &str) -> std_msgs::String {
+    std_msgs::String { data: s.into() }
+}
+
+/// Every message that arrives within `quiet` of the previous one.
+fn drain(subscriber: &RosSubscriber<std_msgs::String>, quiet: Duration) -> Vec<(String, i64)> {
+    let mut got = Vec::new();
+    while let Some(sample) = subscriber.recv_timeout(quiet).unwrap() {
+        let msg: std_msgs::String = sample.decode().unwrap();
+        let seq = sample.attachment().unwrap().unwrap().sequence_number;
+        got.push((msg.data, seq));
+    }
+    got
+}
+
+#[test]
+fn a_late_subscriber_gets_the_last_depth_messages_then_live_ones() {
+    for reliability in [Reliability::Reliable, Reliability::BestEffort] {
+        let (a, b) = session_pair();
+        let talker = node(&a, "latched_talker");
+        let qos = Qos {
+            reliability,
+            ..Qos::transient_local(3)
+        };
+        let publisher = talker
+            .declare_publisher_with_qos::<std_msgs::String>("/latched", qos)
+            .wait()
+            .unwrap();
+        assert!(publisher
+            .liveliness_token()
+            .unwrap()
+            .ends_with(&format!("/{}", qos.to_key_expr())));
+        for i in 1..=5 {
+            publisher.publish(&text(&format!("m{i}"))).wait().unwrap();
+        }
+
+        let listener = node(&b, "late_listener");
+        let latched = listener
+            .declare_subscriber_with_qos::<std_msgs::String>("/latched", qos)
+            .wait()
+            .unwrap();
+        let volatile = listener
+            .declare_subscriber::<std_msgs::String>("/latched")
+            .wait()
+            .unwrap();
+        let history = drain(&latched, Duration::from_secs(2));
+        assert_eq!(
+            history,
+            [("m3".into(), 3), ("m4".into(), 4), ("m5".into(), 5)],
+            "{reliability:?}"
+        );
+        assert_eq!(
+            volatile
+                .try_recv()
+                .unwrap()
+                .map(|s| s.key_expr().to_owned()),
+            None
+        );
+
+        // Both receive what is published from now on, once.
+        assert!(publisher.wait_for_subscribers(TIMEOUT));
+        publisher.publish(&text("m6")).wait().unwrap();
+        for subscriber in [&latched, &volatile] {
+            assert_eq!(
+                drain(subscriber, Duration::from_millis(500)),
+                [("m6".into(), 6)],
+                "{reliability:?}"
+            );
+        }
+        assert_eq!(latched.missed(), 0);
+    }
+}
+
+#[test]
+fn a_publisher_that_appears_later_is_asked_for_its_history() {
+    let (a, b) = session_pair();
+    let qos = Qos::transient_local(10);
+    let listener = node(&b, "early_listener");
+    let subscriber = listener
+        .declare_subscriber_with_qos::<std_msgs::String>("/late_talker", qos)
+        .wait()
+        .unwrap();
+    // Published at once, before the subscriber's interest may have reached this
+    // session: the subscriber finds the new publisher and asks for its cache.
+    let talker = node(&a, "late_talker");
+    let publisher = talker
+        .declare_publisher_with_qos::<std_msgs::String>("/late_talker", qos)
+        .wait()
+        .unwrap();
+    for i in 1..=4 {
+        publisher
+            .publish(&text(&format!("early {i}")))
+            .wait()
+            .unwrap();
+    }
+    let got = drain(&subscriber, Duration::from_secs(2));
+    let expected: Vec<_> = (1..=4).map(|i| (format!("early {i}"), i)).collect();
+    assert_eq!(got, expected, "each once, in order");
+}
+
+#[test]
+fn latched_shared_memory_messages_arrive_in_shared_memory() {
+    let (a, b) = session_pair();
+    let shm = ShmContext::new(ShmConfig::enabled().threshold(4096)).unwrap();
+    let talker = RosNode::builder(&a, "map_server")
+        .domain_id(0)
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    let qos = Qos::transient_local(1);
+    let publisher = talker
+        .declare_publisher_with_qos::<Image>("/map_image", qos)
+        .wait()
+        .unwrap();
+    let image = Image {
+        height: 256,
+        width: 256,
+        encoding: "mono8".into(),
+        step: 256,
+        data: (0..65536).map(|i| (i % 249) as u8).collect(),
+        ..Default::default()
+    };
+    for _ in 0..3 {
+        publisher.publish(&image).wait().unwrap();
+    }
+    let listener = node(&b, "viewer");
+    let subscriber = listener
+        .declare_subscriber_with_qos::<Image>("/map_image", qos)
+        .wait()
+        .unwrap();
+    let sample = subscriber
+        .recv_timeout(TIMEOUT)
+        .unwrap()
+        .expect("latched image");
+    assert!(sample.is_shm());
+    assert_eq!(sample.decode::<Image>().unwrap(), image);
+    assert_eq!(sample.attachment().unwrap().unwrap().sequence_number, 3);
+    assert!(subscriber
+        .recv_timeout(Duration::from_millis(500))
+        .unwrap()
+        .is_none());
+}
