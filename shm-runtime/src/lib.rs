@@ -22,6 +22,7 @@
 #![warn(missing_docs)]
 
 mod config;
+pub mod graph;
 pub mod msgs;
 pub mod names;
 mod node;

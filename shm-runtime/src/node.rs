@@ -10,6 +10,7 @@ use shm_cdr::RosMessage;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::{Resolvable, Session, Wait};
 
+use crate::graph::Graph;
 use crate::names::{self, NameError};
 use crate::pool::ShmContext;
 use crate::publisher::{PublisherBuilder, RmwPublisher};
@@ -179,6 +180,26 @@ impl RosNode {
         builder.invalid = invalid;
         builder.inherited = self.shm.clone();
         builder
+    }
+
+    /// A snapshot of the ROS graph of this node's domain: every node and
+    /// endpoint whose liveliness token is alive now, ours and other processes'
+    /// (rmw_zenoh_cpp's included). A Zenoh liveliness query, answered within
+    /// `timeout`.
+    pub fn graph(&self, timeout: std::time::Duration) -> zenoh::Result<Graph> {
+        let replies = self
+            .session
+            .liveliness()
+            .get(format!("@ros2_lv/{}/**", self.info.domain_id))
+            .timeout(timeout)
+            .wait()?;
+        let mut tokens = Vec::new();
+        while let Ok(reply) = replies.recv() {
+            if let Ok(sample) = reply.result() {
+                tokens.push(sample.key_expr().to_string());
+            }
+        }
+        Ok(Graph::from_tokens(tokens.iter().map(String::as_str)))
     }
 
     /// The fully qualified name of `topic` for this node (see

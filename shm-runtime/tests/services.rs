@@ -485,3 +485,84 @@ fn bad_service_names_are_refused_when_declared() {
         .expect_err("a space is not allowed");
     assert!(error.to_string().contains("bad name"), "{error}");
 }
+
+#[test]
+fn the_graph_lists_nodes_topics_services_and_endpoints_with_qos_and_gids() {
+    use shm_cdr::msgs::std_msgs;
+    use shm_runtime::rmw::{EntityKind, Qos};
+
+    let (a, b, _) = session_pair();
+    let talker = RosNode::builder(&a, "talker")
+        .namespace("/demo")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let publisher = talker
+        .declare_publisher_with_qos::<std_msgs::String>("chatter", Qos::transient_local(2))
+        .wait()
+        .unwrap();
+    let server = talker.declare_service::<Trigger>("~/reset").wait().unwrap();
+    let listener = node(&b, "listener");
+    let _subscriber = listener
+        .declare_subscriber_with_qos::<std_msgs::String>("/demo/chatter", Qos::sensor_data())
+        .wait()
+        .unwrap();
+    let client = listener
+        .declare_client::<Trigger>("/demo/talker/reset")
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+
+    // Seen from the listener's side: its own entities and the other session's.
+    let graph = listener.graph(Duration::from_secs(2)).unwrap();
+    assert!(graph.unreadable.is_empty(), "{:?}", graph.unreadable);
+    assert_eq!(graph.nodes(), ["/demo/talker", "/listener"]);
+    let topics = graph.topics();
+    assert_eq!(
+        topics["/demo/chatter"].iter().collect::<Vec<_>>(),
+        ["std_msgs/msg/String"]
+    );
+    assert_eq!(
+        graph.services()["/demo/talker/reset"]
+            .iter()
+            .collect::<Vec<_>>(),
+        ["std_srvs/srv/Trigger"]
+    );
+    let publishers = graph.publishers("/demo/chatter");
+    assert_eq!(publishers.len(), 1);
+    assert_eq!(publishers[0].node_fqn(), "/demo/talker");
+    assert_eq!(Some(publishers[0].gid), publisher.gid());
+    assert_eq!(publishers[0].zid, a.zid().to_string());
+    let endpoint = publishers[0].endpoint.as_ref().unwrap();
+    assert_eq!(endpoint.qos, Qos::transient_local(2));
+    assert_eq!(
+        endpoint.type_hash,
+        <std_msgs::String as shm_cdr::RosMessage>::type_hash()
+    );
+    let subscribers = graph.subscribers("/demo/chatter");
+    assert_eq!(subscribers.len(), 1);
+    assert_eq!(
+        subscribers[0].endpoint.as_ref().unwrap().qos,
+        Qos::sensor_data()
+    );
+    let servers = graph.servers("/demo/talker/reset");
+    assert_eq!(servers.len(), 1);
+    assert_eq!(Some(servers[0].gid), server.gid());
+    let clients = graph.endpoints(EntityKind::ServiceClient, "/demo/talker/reset");
+    assert_eq!(clients.len(), 1);
+    assert_eq!(clients[0].gid, client.gid());
+    assert_eq!(clients[0].node_fqn(), "/listener");
+
+    // Gone from the graph once undeclared (the undeclaration travels).
+    drop(server);
+    let deadline = Instant::now() + TIMEOUT;
+    while !listener
+        .graph(Duration::from_secs(2))
+        .unwrap()
+        .servers("/demo/talker/reset")
+        .is_empty()
+    {
+        assert!(Instant::now() < deadline, "the server stayed on the graph");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
