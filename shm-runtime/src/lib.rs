@@ -7,6 +7,10 @@
 //! already wrote into shared memory is spliced in without a copy. Subscribers decode
 //! borrowing from the received buffers.
 //!
+//! On a [`RosNode`] the same runs with rmw_zenoh_cpp's conventions, so the
+//! program is a ROS 2 participant: topics with QoS (latched topics included),
+//! [`service`]s (servers and clients), and the ROS [`graph`].
+//!
 //! ```no_run
 //! use shm_runtime::{SessionExt, ShmConfig, ShmContext};
 //! use zenoh::Wait;
