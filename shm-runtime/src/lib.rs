@@ -27,6 +27,7 @@
 
 mod config;
 pub mod graph;
+mod matching;
 pub mod msgs;
 pub mod names;
 mod node;

@@ -89,7 +89,7 @@ impl RosNode {
         );
         builder.invalid = invalid;
         builder.qos = qos;
-        builder.inherited = self.shm.clone();
+        builder.shm.inherited = self.shm.clone();
         builder.rmw = Some(RmwPublisher {
             gid: Gid::from_token(&token),
             token,
@@ -151,7 +151,7 @@ impl RosNode {
         builder.gid = Some(Gid::from_token(&token));
         builder.token = Some(token);
         builder.invalid = invalid;
-        builder.inherited = self.shm.clone();
+        builder.shm.inherited = self.shm.clone();
         builder.history = match qos.history {
             crate::rmw::History::KeepLast(depth) => {
                 NonZeroUsize::new(depth).map_or(crate::History::KeepAll, crate::History::KeepLast)
@@ -178,7 +178,7 @@ impl RosNode {
             token,
         );
         builder.invalid = invalid;
-        builder.inherited = self.shm.clone();
+        builder.shm.inherited = self.shm.clone();
         builder
     }
 

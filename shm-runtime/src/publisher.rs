@@ -58,34 +58,50 @@ pub struct PublishOutcome {
     pub sequence_number: Option<i64>,
 }
 
-/// Shared-memory choice of one publisher, overriding its context's default.
+/// The shared-memory settings of one publisher, server or client, as its
+/// builder collects them.
 #[derive(Debug, Clone, Default)]
-pub(crate) enum ShmChoice {
-    /// Use the default of where the publisher was declared (none for a bare
-    /// session).
+pub(crate) struct ShmSettings {
+    /// The default of where the entity is declared (its node's pool; none on a
+    /// bare session).
+    pub(crate) inherited: Option<ShmContext>,
+    choice: ShmChoice,
+    threshold: Option<usize>,
+}
+
+/// An entity's own choice, overriding the inherited default.
+#[derive(Debug, Clone, Default)]
+enum ShmChoice {
     #[default]
     Inherit,
-    /// Use this pool.
     Use(ShmContext),
-    /// Heap only.
     Off,
 }
 
-impl ShmChoice {
-    /// How an entity on `key_expr` encodes: this choice over the `inherited`
-    /// default, with the pool's threshold unless `threshold` overrides it; heap
-    /// only if the session does not carry shared memory.
-    pub(crate) fn resolve(
-        &self,
-        session: &Session,
-        key_expr: &str,
-        inherited: Option<&ShmContext>,
-        threshold: Option<usize>,
-    ) -> Option<ShmPolicy> {
-        let context = match self {
-            Self::Inherit => inherited?.clone(),
-            Self::Use(context) => context.clone(),
-            Self::Off => return None,
+impl ShmSettings {
+    /// Use this pool.
+    pub(crate) fn use_pool(&mut self, context: &ShmContext) {
+        self.choice = ShmChoice::Use(context.clone());
+    }
+
+    /// Use shared memory from `bytes` encoded bytes on.
+    pub(crate) fn threshold(&mut self, bytes: usize) {
+        self.threshold = Some(bytes);
+    }
+
+    /// Heap only.
+    pub(crate) fn off(&mut self) {
+        self.choice = ShmChoice::Off;
+    }
+
+    /// How an entity on `key_expr` encodes: its choice over the inherited
+    /// default, with the pool's threshold unless overridden; heap only if the
+    /// session does not carry shared memory.
+    pub(crate) fn resolve(&self, session: &Session, key_expr: &str) -> Option<ShmPolicy> {
+        let context = match &self.choice {
+            ShmChoice::Inherit => self.inherited.clone()?,
+            ShmChoice::Use(context) => context.clone(),
+            ShmChoice::Off => return None,
         };
         if !session_has_shm(session) {
             // Zenoh would copy every SHM buffer out again: report what goes out.
@@ -95,7 +111,7 @@ impl ShmChoice {
             );
             return None;
         }
-        let threshold = threshold.unwrap_or(context.config().threshold);
+        let threshold = self.threshold.unwrap_or(context.config().threshold);
         Some(ShmPolicy { context, threshold })
     }
 }
@@ -120,9 +136,7 @@ pub(crate) struct RmwPublisher {
 pub struct PublisherBuilder<'a, T> {
     pub(crate) session: &'a Session,
     pub(crate) key_expr: String,
-    pub(crate) inherited: Option<ShmContext>,
-    pub(crate) shm: ShmChoice,
-    pub(crate) threshold: Option<usize>,
+    pub(crate) shm: ShmSettings,
     pub(crate) rmw: Option<RmwPublisher>,
     pub(crate) congestion_control: Option<CongestionControl>,
     pub(crate) qos: Qos,
@@ -136,9 +150,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
         Self {
             session,
             key_expr,
-            inherited: None,
-            shm: ShmChoice::Inherit,
-            threshold: None,
+            shm: ShmSettings::default(),
             rmw: None,
             congestion_control: None,
             qos: Qos::default(),
@@ -174,20 +186,20 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
 
     /// Publish through this shared-memory pool (overrides the context default).
     pub fn shm(mut self, context: &ShmContext) -> Self {
-        self.shm = ShmChoice::Use(context.clone());
+        self.shm.use_pool(context);
         self
     }
 
     /// Use shared memory for messages of at least `bytes` encoded bytes (overrides
     /// the pool's threshold).
     pub fn shm_threshold(mut self, bytes: usize) -> Self {
-        self.threshold = Some(bytes);
+        self.shm.threshold(bytes);
         self
     }
 
     /// Never use shared memory for this publisher.
     pub fn without_shm(mut self) -> Self {
-        self.shm = ShmChoice::Off;
+        self.shm.off();
         self
     }
 
@@ -195,12 +207,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
         if let Some(invalid) = self.invalid {
             return Err(invalid.into());
         }
-        let policy = self.shm.resolve(
-            self.session,
-            &self.key_expr,
-            self.inherited.as_ref(),
-            self.threshold,
-        );
+        let policy = self.shm.resolve(self.session, &self.key_expr);
         let (reliability, congestion_control) = match self.qos.reliability {
             Reliability::Reliable => (ZenohReliability::Reliable, CongestionControl::Block),
             Reliability::BestEffort => (ZenohReliability::BestEffort, CongestionControl::Drop),
@@ -320,13 +327,7 @@ impl ZenohPublisher {
         }
     }
 
-    fn matching_listener(
-        &self,
-    ) -> zenoh::Result<
-        zenoh::matching::MatchingListener<
-            zenoh::handlers::FifoChannelHandler<zenoh::matching::MatchingStatus>,
-        >,
-    > {
+    fn matching_listener(&self) -> zenoh::Result<crate::matching::Listener> {
         match self {
             Self::Plain(p) => p.matching_listener().wait(),
             Self::Advanced(p) => p.matching_listener().wait(),
@@ -370,37 +371,21 @@ impl<T: RosMessage> RosPublisher<T> {
     /// subscriber is known, like any pub/sub.) Built on Zenoh's matching
     /// listener: it wakes when the match happens.
     pub fn wait_for_subscribers(&self, timeout: std::time::Duration) -> bool {
-        let deadline = std::time::Instant::now() + timeout;
-        // Listen first, then look: a match between the two is not missed.
-        let Ok(listener) = self.publisher.matching_listener() else {
-            return false;
-        };
-        if self.has_subscribers() {
-            return true;
-        }
-        loop {
-            let left = deadline.saturating_duration_since(std::time::Instant::now());
-            match listener.recv_timeout(left) {
-                Ok(Some(status)) if status.matching() => return true,
-                Ok(Some(_)) => {}
-                Ok(None) | Err(_) => return self.has_subscribers(),
-            }
-        }
+        crate::matching::wait(
+            self.publisher.matching_listener(),
+            || self.has_subscribers(),
+            timeout,
+        )
     }
 
     /// Resolves once at least one subscriber matches this publisher (at once if
     /// one already does). Cancellation-safe; bound it with your runtime's
     /// timeout (e.g. `tokio::time::timeout`).
     pub async fn subscribers_matched(&self) -> zenoh::Result<()> {
-        let listener = self.publisher.matching_listener()?;
-        if self.has_subscribers() {
-            return Ok(());
-        }
-        loop {
-            if listener.recv_async().await?.matching() {
-                return Ok(());
-            }
-        }
+        crate::matching::matched(self.publisher.matching_listener(), || {
+            self.has_subscribers()
+        })
+        .await
     }
 
     /// Whether a subscriber matches this publisher now.

@@ -11,23 +11,13 @@ use shm_runtime::{RosNode, RosSubscriber, ShmConfig, ShmContext};
 use zenoh::{Session, Wait};
 
 mod common;
-use common::{free_port, peer_config, without_implicit_shm_copy};
+use common::{loopback_sessions, node};
 
 const TIMEOUT: Duration = Duration::from_secs(10);
 
 fn session_pair() -> (Session, Session) {
-    let port = free_port();
-    let a = zenoh::open(without_implicit_shm_copy(peer_config(port, true)))
-        .wait()
-        .unwrap();
-    let b = zenoh::open(without_implicit_shm_copy(peer_config(port, false)))
-        .wait()
-        .unwrap();
+    let (a, b, _) = loopback_sessions();
     (a, b)
-}
-
-fn node(session: &Session, name: &str) -> RosNode {
-    RosNode::builder(session, name).domain_id(0).wait().unwrap()
 }
 
 fn text(s: &str) -> std_msgs::String {

@@ -21,23 +21,12 @@ use zenoh::bytes::ZBytes;
 use zenoh::{Session, Wait};
 
 mod common;
-use common::{free_port, peer_config, without_implicit_shm_copy};
+use common::{loopback_sessions, node, peer_config};
 
 const TIMEOUT: Duration = Duration::from_secs(10);
 
 fn session_pair() -> (Session, Session, u16) {
-    let port = free_port();
-    let a = zenoh::open(without_implicit_shm_copy(peer_config(port, true)))
-        .wait()
-        .unwrap();
-    let b = zenoh::open(without_implicit_shm_copy(peer_config(port, false)))
-        .wait()
-        .unwrap();
-    (a, b, port)
-}
-
-fn node(session: &Session, name: &str) -> RosNode {
-    RosNode::builder(session, name).domain_id(0).wait().unwrap()
+    loopback_sessions()
 }
 
 fn echo(request: BasicTypes_Request) -> BasicTypes_Response {

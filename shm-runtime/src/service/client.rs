@@ -21,7 +21,7 @@ use zenoh::{Resolvable, Session, Wait};
 
 use crate::payload::{encode_payload, ShmPolicy};
 use crate::pool::ShmContext;
-use crate::publisher::{now_ns, ShmChoice};
+use crate::publisher::{now_ns, ShmSettings};
 use crate::queue::type_encoding;
 use crate::rmw::{Attachment, AttachmentError, Gid};
 
@@ -88,9 +88,7 @@ pub struct ServiceClientBuilder<'a, S> {
     pub(crate) key_expr: String,
     pub(crate) token: String,
     pub(crate) gid: Gid,
-    pub(crate) inherited: Option<ShmContext>,
-    pub(crate) shm: ShmChoice,
-    pub(crate) threshold: Option<usize>,
+    pub(crate) shm: ShmSettings,
     pub(crate) timeout: Duration,
     /// A name that failed to resolve: reported by `build`.
     pub(crate) invalid: Option<crate::names::NameError>,
@@ -104,9 +102,7 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
             key_expr,
             gid: Gid::from_token(&token),
             token,
-            inherited: None,
-            shm: ShmChoice::Inherit,
-            threshold: None,
+            shm: ShmSettings::default(),
             timeout: DEFAULT_TIMEOUT,
             invalid: None,
             service: PhantomData,
@@ -123,19 +119,19 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
 
     /// Send requests through this shared-memory pool (overrides the node's).
     pub fn shm(mut self, context: &ShmContext) -> Self {
-        self.shm = ShmChoice::Use(context.clone());
+        self.shm.use_pool(context);
         self
     }
 
     /// Use shared memory for requests of at least `bytes` encoded bytes.
     pub fn shm_threshold(mut self, bytes: usize) -> Self {
-        self.threshold = Some(bytes);
+        self.shm.threshold(bytes);
         self
     }
 
     /// Never send requests from shared memory.
     pub fn without_shm(mut self) -> Self {
-        self.shm = ShmChoice::Off;
+        self.shm.off();
         self
     }
 
@@ -143,12 +139,7 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
         if let Some(invalid) = self.invalid {
             return Err(invalid.into());
         }
-        let policy = self.shm.resolve(
-            self.session,
-            &self.key_expr,
-            self.inherited.as_ref(),
-            self.threshold,
-        );
+        let policy = self.shm.resolve(self.session, &self.key_expr);
         let key_expr = KeyExpr::try_from(self.key_expr)?;
         // Calls are session gets (each with its own timeout); the querier is
         // declared for its matching status: whether a server is there.
@@ -255,36 +246,20 @@ impl<S: RosService> ServiceClient<S> {
     /// Wait until a server is there, or `timeout` passes; returns whether one is.
     /// Built on Zenoh's matching listener: it wakes when the server appears.
     pub fn wait_for_service(&self, timeout: Duration) -> bool {
-        let deadline = std::time::Instant::now() + timeout;
-        // Listen first, then look: an arrival between the two is not missed.
-        let Ok(listener) = self.querier.matching_listener().wait() else {
-            return false;
-        };
-        if self.is_service_available() {
-            return true;
-        }
-        loop {
-            let left = deadline.saturating_duration_since(std::time::Instant::now());
-            match listener.recv_timeout(left) {
-                Ok(Some(status)) if status.matching() => return true,
-                Ok(Some(_)) => {}
-                Ok(None) | Err(_) => return self.is_service_available(),
-            }
-        }
+        crate::matching::wait(
+            self.querier.matching_listener().wait(),
+            || self.is_service_available(),
+            timeout,
+        )
     }
 
     /// Resolves once a server is there (at once if one is). Cancellation-safe;
     /// bound it with your runtime's timeout.
     pub async fn service_available(&self) -> zenoh::Result<()> {
-        let listener = self.querier.matching_listener().await?;
-        if self.is_service_available() {
-            return Ok(());
-        }
-        loop {
-            if listener.recv_async().await?.matching() {
-                return Ok(());
-            }
-        }
+        crate::matching::matched(self.querier.matching_listener().wait(), || {
+            self.is_service_available()
+        })
+        .await
     }
 
     /// The service's key expression.

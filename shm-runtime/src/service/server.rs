@@ -21,7 +21,7 @@ use zenoh::{Resolvable, Session, Wait};
 use super::error_reply_text;
 use crate::payload::{encode_payload, PayloadKind, ShmPolicy};
 use crate::pool::ShmContext;
-use crate::publisher::{now_ns, PublishError, ShmChoice};
+use crate::publisher::{now_ns, PublishError, ShmSettings};
 use crate::queue::{type_encoding, History};
 use crate::rmw::{Attachment, Gid};
 
@@ -34,9 +34,7 @@ pub struct ServiceServerBuilder<'a, S> {
     pub(crate) key_expr: String,
     pub(crate) token: Option<String>,
     pub(crate) gid: Option<Gid>,
-    pub(crate) inherited: Option<ShmContext>,
-    pub(crate) shm: ShmChoice,
-    pub(crate) threshold: Option<usize>,
+    pub(crate) shm: ShmSettings,
     pub(crate) history: History,
     /// A name that failed to resolve: reported by `build`.
     pub(crate) invalid: Option<crate::names::NameError>,
@@ -50,9 +48,7 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
             key_expr,
             token: None,
             gid: None,
-            inherited: None,
-            shm: ShmChoice::Inherit,
-            threshold: None,
+            shm: ShmSettings::default(),
             history: History::KeepAll,
             invalid: None,
             service: PhantomData,
@@ -71,19 +67,19 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
 
     /// Reply through this shared-memory pool (overrides the node's).
     pub fn shm(mut self, context: &ShmContext) -> Self {
-        self.shm = ShmChoice::Use(context.clone());
+        self.shm.use_pool(context);
         self
     }
 
     /// Use shared memory for responses of at least `bytes` encoded bytes.
     pub fn shm_threshold(mut self, bytes: usize) -> Self {
-        self.threshold = Some(bytes);
+        self.shm.threshold(bytes);
         self
     }
 
     /// Never reply from shared memory.
     pub fn without_shm(mut self) -> Self {
-        self.shm = ShmChoice::Off;
+        self.shm.off();
         self
     }
 
@@ -128,12 +124,7 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
         if let Some(invalid) = &self.invalid {
             return Err(invalid.clone().into());
         }
-        let policy = self.shm.resolve(
-            self.session,
-            &self.key_expr,
-            self.inherited.as_ref(),
-            self.threshold,
-        );
+        let policy = self.shm.resolve(self.session, &self.key_expr);
         let key_expr = KeyExpr::try_from(self.key_expr.clone())?;
         let token = match &self.token {
             Some(token) => Some(

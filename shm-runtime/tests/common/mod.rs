@@ -46,3 +46,27 @@ pub fn without_implicit_shm_copy(mut config: Config) -> Config {
         .unwrap();
     config
 }
+
+/// Two peer sessions on TCP loopback, the first listening on the returned port,
+/// both with Zenoh's implicit SHM copy off.
+#[allow(dead_code)] // not every test binary uses it
+pub fn loopback_sessions() -> (zenoh::Session, zenoh::Session, u16) {
+    use zenoh::Wait;
+    let port = free_port();
+    let open = |listen| {
+        zenoh::open(without_implicit_shm_copy(peer_config(port, listen)))
+            .wait()
+            .unwrap()
+    };
+    (open(true), open(false), port)
+}
+
+/// A node in domain 0 (whatever `ROS_DOMAIN_ID` says).
+#[allow(dead_code)] // not every test binary uses it
+pub fn node(session: &zenoh::Session, name: &str) -> shm_runtime::RosNode {
+    use zenoh::Wait;
+    shm_runtime::RosNode::builder(session, name)
+        .domain_id(0)
+        .wait()
+        .unwrap()
+}
