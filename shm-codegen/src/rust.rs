@@ -372,6 +372,55 @@ impl {krate}::RosAction for {name} {{
     type GetResult = {name}_GetResult;
     type FeedbackMessage = {name}_FeedbackMessage;
 
+    fn send_goal_request(goal_id: {krate}::interface::GoalId, goal: {name}_Goal) -> {name}_SendGoal_Request {{
+        let mut request = {name}_SendGoal_Request {{ goal_id: ::core::default::Default::default(), goal }};
+        request.goal_id.uuid = goal_id;
+        request
+    }}
+
+    fn send_goal_request_parts(request: {name}_SendGoal_Request) -> ({krate}::interface::GoalId, {name}_Goal) {{
+        (request.goal_id.uuid, request.goal)
+    }}
+
+    fn send_goal_response(accepted: bool, stamp: {krate}::interface::Stamp) -> {name}_SendGoal_Response {{
+        let mut response = {name}_SendGoal_Response {{ accepted, stamp: ::core::default::Default::default() }};
+        response.stamp.sec = stamp.sec;
+        response.stamp.nanosec = stamp.nanosec;
+        response
+    }}
+
+    fn send_goal_response_parts(response: &{name}_SendGoal_Response) -> (bool, {krate}::interface::Stamp) {{
+        (response.accepted, {krate}::interface::Stamp {{ sec: response.stamp.sec, nanosec: response.stamp.nanosec }})
+    }}
+
+    fn get_result_request(goal_id: {krate}::interface::GoalId) -> {name}_GetResult_Request {{
+        let mut request = {name}_GetResult_Request::default();
+        request.goal_id.uuid = goal_id;
+        request
+    }}
+
+    fn get_result_request_goal_id(request: &{name}_GetResult_Request) -> {krate}::interface::GoalId {{
+        request.goal_id.uuid
+    }}
+
+    fn get_result_response(status: i8, result: {name}_Result) -> {name}_GetResult_Response {{
+        {name}_GetResult_Response {{ status, result }}
+    }}
+
+    fn get_result_response_parts(response: {name}_GetResult_Response) -> (i8, {name}_Result) {{
+        (response.status, response.result)
+    }}
+
+    fn feedback_message(goal_id: {krate}::interface::GoalId, feedback: {name}_Feedback) -> {name}_FeedbackMessage {{
+        let mut message = {name}_FeedbackMessage {{ goal_id: ::core::default::Default::default(), feedback }};
+        message.goal_id.uuid = goal_id;
+        message
+    }}
+
+    fn feedback_message_parts(message: {name}_FeedbackMessage) -> ({krate}::interface::GoalId, {name}_Feedback) {{
+        (message.goal_id.uuid, message.feedback)
+    }}
+
     fn type_hash() -> &'static str {{
         static HASH: ::std::sync::OnceLock<::std::string::String> = ::std::sync::OnceLock::new();
         HASH.get_or_init({krate}::interface::compute_action_hash::<Self>)

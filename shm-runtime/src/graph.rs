@@ -227,6 +227,37 @@ impl Graph {
         self.names_and_types(&[EntityKind::ServiceServer, EntityKind::ServiceClient])
     }
 
+    /// Actions with their types (`ros2 action list -t`): every
+    /// `<action>/_action/send_goal` service, its type
+    /// `<pkg>/action/<Name>_SendGoal` read as `<pkg>/action/<Name>`.
+    pub fn actions(&self) -> BTreeMap<String, BTreeSet<String>> {
+        let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for (name, types) in self.services() {
+            let Some(action) = name.strip_suffix("/_action/send_goal") else {
+                continue;
+            };
+            let types = types
+                .iter()
+                .filter_map(|t| t.strip_suffix("_SendGoal"))
+                .map(str::to_owned);
+            out.entry(action.to_owned()).or_default().extend(types);
+        }
+        out
+    }
+
+    /// Servers of `action` (the servers of its `send_goal` service).
+    pub fn action_servers(&self, action: &str) -> Vec<&Entity> {
+        self.servers(&format!("{action}/_action/send_goal"))
+    }
+
+    /// Clients of `action` (the clients of its `send_goal` service).
+    pub fn action_clients(&self, action: &str) -> Vec<&Entity> {
+        self.endpoints(
+            EntityKind::ServiceClient,
+            &format!("{action}/_action/send_goal"),
+        )
+    }
+
     /// The endpoints of `kind` on topic or service `name` (`ros2 topic info -v`).
     pub fn endpoints(&self, kind: EntityKind, name: &str) -> Vec<&Entity> {
         self.entities

@@ -9,7 +9,8 @@
 //!
 //! On a [`RosNode`] the same runs with rmw_zenoh_cpp's conventions, so the
 //! program is a ROS 2 participant: topics with QoS (latched topics included),
-//! [`service`]s (servers and clients), and the ROS [`graph`].
+//! [`service`]s (servers and clients), [`action`]s (servers and clients, with
+//! rcl_action's goal state machine), and the ROS [`graph`].
 //!
 //! ```no_run
 //! use shm_runtime::{SessionExt, ShmConfig, ShmContext};
@@ -25,6 +26,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod action;
 mod config;
 pub mod graph;
 mod matching;

@@ -5,11 +5,12 @@ use std::future::IntoFuture;
 use std::num::NonZeroUsize;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use shm_cdr::interface::RosService;
+use shm_cdr::interface::{RosAction, RosService};
 use shm_cdr::RosMessage;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::{Resolvable, Session, Wait};
 
+use crate::action::{ActionClientBuilder, ActionServerBuilder};
 use crate::graph::Graph;
 use crate::names::{self, NameError};
 use crate::pool::ShmContext;
@@ -180,6 +181,21 @@ impl RosNode {
         builder.invalid = invalid;
         builder.shm.inherited = self.shm.clone();
         builder
+    }
+
+    /// A server of action `A` on `action` (e.g. `"/fibonacci"`, resolved like a
+    /// topic name): its three services and two topics under
+    /// `<action>/_action/`, as rcl_action and rmw_zenoh_cpp name them. Resolve
+    /// it as it is (every goal accepted, every cancel accepted) or decide with
+    /// [`on_goal`](crate::action::ActionServerBuilder::on_goal) /
+    /// [`on_cancel`](crate::action::ActionServerBuilder::on_cancel) first.
+    pub fn declare_action_server<A: RosAction>(&self, action: &str) -> ActionServerBuilder<'_, A> {
+        ActionServerBuilder::new(self, action)
+    }
+
+    /// A client of action `A` on `action`.
+    pub fn declare_action_client<A: RosAction>(&self, action: &str) -> ActionClientBuilder<'_, A> {
+        ActionClientBuilder::new(self, action)
     }
 
     /// A snapshot of the ROS graph of this node's domain: every node and

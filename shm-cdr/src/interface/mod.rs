@@ -10,7 +10,7 @@
 mod action;
 mod service;
 
-pub use action::{compute_action_hash, RosAction};
+pub use action::{compute_action_hash, GoalId, RequestOf, ResponseOf, RosAction, Stamp};
 pub use service::{compute_service_hash, RosService};
 
 use crate::describe::{rihs01_of_json, type_description_json, TypeDescription, TypeRegistry};

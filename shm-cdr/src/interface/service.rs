@@ -17,10 +17,10 @@ pub trait RosService: 'static {
     const DDS_TYPE_NAME: &'static str;
 
     /// The request message.
-    type Request: RosMessage + DecodeOwned;
+    type Request: RosMessage + DecodeOwned + Send + Sync;
 
     /// The response message.
-    type Response: RosMessage + DecodeOwned;
+    type Response: RosMessage + DecodeOwned + Send + Sync;
 
     /// The introspection event message (`service_msgs/ServiceEventInfo info`, the
     /// request and the response as sequences of at most one).

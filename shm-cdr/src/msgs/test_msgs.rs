@@ -320,6 +320,92 @@ pub mod action {
         type GetResult = Fibonacci_GetResult;
         type FeedbackMessage = Fibonacci_FeedbackMessage;
 
+        fn send_goal_request(
+            goal_id: crate::interface::GoalId,
+            goal: Fibonacci_Goal,
+        ) -> Fibonacci_SendGoal_Request {
+            let mut request = Fibonacci_SendGoal_Request {
+                goal_id: ::core::default::Default::default(),
+                goal,
+            };
+            request.goal_id.uuid = goal_id;
+            request
+        }
+
+        fn send_goal_request_parts(
+            request: Fibonacci_SendGoal_Request,
+        ) -> (crate::interface::GoalId, Fibonacci_Goal) {
+            (request.goal_id.uuid, request.goal)
+        }
+
+        fn send_goal_response(
+            accepted: bool,
+            stamp: crate::interface::Stamp,
+        ) -> Fibonacci_SendGoal_Response {
+            let mut response = Fibonacci_SendGoal_Response {
+                accepted,
+                stamp: ::core::default::Default::default(),
+            };
+            response.stamp.sec = stamp.sec;
+            response.stamp.nanosec = stamp.nanosec;
+            response
+        }
+
+        fn send_goal_response_parts(
+            response: &Fibonacci_SendGoal_Response,
+        ) -> (bool, crate::interface::Stamp) {
+            (
+                response.accepted,
+                crate::interface::Stamp {
+                    sec: response.stamp.sec,
+                    nanosec: response.stamp.nanosec,
+                },
+            )
+        }
+
+        fn get_result_request(goal_id: crate::interface::GoalId) -> Fibonacci_GetResult_Request {
+            let mut request = Fibonacci_GetResult_Request::default();
+            request.goal_id.uuid = goal_id;
+            request
+        }
+
+        fn get_result_request_goal_id(
+            request: &Fibonacci_GetResult_Request,
+        ) -> crate::interface::GoalId {
+            request.goal_id.uuid
+        }
+
+        fn get_result_response(
+            status: i8,
+            result: Fibonacci_Result,
+        ) -> Fibonacci_GetResult_Response {
+            Fibonacci_GetResult_Response { status, result }
+        }
+
+        fn get_result_response_parts(
+            response: Fibonacci_GetResult_Response,
+        ) -> (i8, Fibonacci_Result) {
+            (response.status, response.result)
+        }
+
+        fn feedback_message(
+            goal_id: crate::interface::GoalId,
+            feedback: Fibonacci_Feedback,
+        ) -> Fibonacci_FeedbackMessage {
+            let mut message = Fibonacci_FeedbackMessage {
+                goal_id: ::core::default::Default::default(),
+                feedback,
+            };
+            message.goal_id.uuid = goal_id;
+            message
+        }
+
+        fn feedback_message_parts(
+            message: Fibonacci_FeedbackMessage,
+        ) -> (crate::interface::GoalId, Fibonacci_Feedback) {
+            (message.goal_id.uuid, message.feedback)
+        }
+
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
                 ::std::sync::OnceLock::new();
@@ -658,6 +744,94 @@ pub mod action {
         type SendGoal = NestedMessage_SendGoal;
         type GetResult = NestedMessage_GetResult;
         type FeedbackMessage = NestedMessage_FeedbackMessage;
+
+        fn send_goal_request(
+            goal_id: crate::interface::GoalId,
+            goal: NestedMessage_Goal,
+        ) -> NestedMessage_SendGoal_Request {
+            let mut request = NestedMessage_SendGoal_Request {
+                goal_id: ::core::default::Default::default(),
+                goal,
+            };
+            request.goal_id.uuid = goal_id;
+            request
+        }
+
+        fn send_goal_request_parts(
+            request: NestedMessage_SendGoal_Request,
+        ) -> (crate::interface::GoalId, NestedMessage_Goal) {
+            (request.goal_id.uuid, request.goal)
+        }
+
+        fn send_goal_response(
+            accepted: bool,
+            stamp: crate::interface::Stamp,
+        ) -> NestedMessage_SendGoal_Response {
+            let mut response = NestedMessage_SendGoal_Response {
+                accepted,
+                stamp: ::core::default::Default::default(),
+            };
+            response.stamp.sec = stamp.sec;
+            response.stamp.nanosec = stamp.nanosec;
+            response
+        }
+
+        fn send_goal_response_parts(
+            response: &NestedMessage_SendGoal_Response,
+        ) -> (bool, crate::interface::Stamp) {
+            (
+                response.accepted,
+                crate::interface::Stamp {
+                    sec: response.stamp.sec,
+                    nanosec: response.stamp.nanosec,
+                },
+            )
+        }
+
+        fn get_result_request(
+            goal_id: crate::interface::GoalId,
+        ) -> NestedMessage_GetResult_Request {
+            let mut request = NestedMessage_GetResult_Request::default();
+            request.goal_id.uuid = goal_id;
+            request
+        }
+
+        fn get_result_request_goal_id(
+            request: &NestedMessage_GetResult_Request,
+        ) -> crate::interface::GoalId {
+            request.goal_id.uuid
+        }
+
+        fn get_result_response(
+            status: i8,
+            result: NestedMessage_Result,
+        ) -> NestedMessage_GetResult_Response {
+            NestedMessage_GetResult_Response { status, result }
+        }
+
+        fn get_result_response_parts(
+            response: NestedMessage_GetResult_Response,
+        ) -> (i8, NestedMessage_Result) {
+            (response.status, response.result)
+        }
+
+        fn feedback_message(
+            goal_id: crate::interface::GoalId,
+            feedback: NestedMessage_Feedback,
+        ) -> NestedMessage_FeedbackMessage {
+            let mut message = NestedMessage_FeedbackMessage {
+                goal_id: ::core::default::Default::default(),
+                feedback,
+            };
+            message.goal_id.uuid = goal_id;
+            message
+        }
+
+        fn feedback_message_parts(
+            message: NestedMessage_FeedbackMessage,
+        ) -> (crate::interface::GoalId, NestedMessage_Feedback) {
+            (message.goal_id.uuid, message.feedback)
+        }
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

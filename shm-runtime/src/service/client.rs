@@ -262,6 +262,19 @@ impl<S: RosService> ServiceClient<S> {
         .await
     }
 
+    /// Call `changed(matching)` whenever the first server appears or the last
+    /// one goes away, until the client is undeclared.
+    pub(crate) fn on_matching_change(
+        &self,
+        changed: impl Fn(bool) + Send + Sync + 'static,
+    ) -> zenoh::Result<()> {
+        self.querier
+            .matching_listener()
+            .callback(move |status| changed(status.matching()))
+            .background()
+            .wait()
+    }
+
     /// The service's key expression.
     pub fn key_expr(&self) -> &str {
         self.key_expr.as_str()
