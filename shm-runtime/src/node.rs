@@ -12,7 +12,7 @@ use zenoh::{Resolvable, Session, Wait};
 
 use crate::action::{ActionClientBuilder, ActionServerBuilder};
 use crate::graph::Graph;
-use crate::names::{self, NameError};
+use crate::names::{self, NameError, NameKind, RemapRule, Remaps};
 use crate::pool::ShmContext;
 use crate::publisher::{PublisherBuilder, RmwPublisher};
 use crate::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
@@ -28,6 +28,7 @@ pub struct RosNode {
     session: Session,
     info: NodeInfo,
     shm: Option<ShmContext>,
+    remaps: Remaps,
     _token: LivelinessToken,
 }
 
@@ -50,6 +51,8 @@ impl RosNode {
             enclave: "/".to_owned(),
             domain_id: names::domain_id_from(std::env::var("ROS_DOMAIN_ID").ok().as_deref()),
             shm: None,
+            remaps: Remaps::default(),
+            invalid: None,
         }
     }
 
@@ -80,7 +83,7 @@ impl RosNode {
         qos: Qos,
     ) -> PublisherBuilder<'_, T> {
         let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
-        let (topic, invalid) = self.resolve(topic);
+        let (topic, invalid) = self.resolve(topic, NameKind::Topic);
         let token = self
             .info
             .topic_token::<T>(entity_id, EntityKind::Publisher, &topic, &qos);
@@ -115,7 +118,7 @@ impl RosNode {
         qos: Qos,
     ) -> SubscriberBuilder<'_, T> {
         let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
-        let (topic, invalid) = self.resolve(topic);
+        let (topic, invalid) = self.resolve(topic, NameKind::Topic);
         let mut builder = SubscriberBuilder::new(
             &self.session,
             topic_key_expr::<T>(self.info.domain_id, &topic),
@@ -140,7 +143,7 @@ impl RosNode {
     /// otherwise, and replies from the node's shared memory.
     pub fn declare_service<S: RosService>(&self, service: &str) -> ServiceServerBuilder<'_, S> {
         let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
-        let (service, invalid) = self.resolve(service);
+        let (service, invalid) = self.resolve(service, NameKind::Service);
         let qos = Qos::services_default();
         let token =
             self.info
@@ -166,7 +169,7 @@ impl RosNode {
     /// requests go out from the node's shared memory at or above the threshold.
     pub fn declare_client<S: RosService>(&self, service: &str) -> ServiceClientBuilder<'_, S> {
         let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
-        let (service, invalid) = self.resolve(service);
+        let (service, invalid) = self.resolve(service, NameKind::Service);
         let token = self.info.service_token::<S>(
             entity_id,
             EntityKind::ServiceClient,
@@ -220,15 +223,27 @@ impl RosNode {
 
     /// The fully qualified name of `topic` for this node (see
     /// [`names::expand_topic_name`]): `rel` is `<namespace>/rel`, `~/x` is
-    /// `<namespace>/<node>/x`.
+    /// `<namespace>/<node>/x`; then the node's remapping rules apply.
     pub fn resolve_topic_name(&self, topic: &str) -> Result<String, NameError> {
-        names::expand_topic_name(topic, &self.info.name, &self.info.namespace)
+        self.resolve_name(topic, NameKind::Topic)
+    }
+
+    /// [`resolve_topic_name`](Self::resolve_topic_name) for a service name
+    /// (`rosservice://` rules apply, `rostopic://` ones do not).
+    pub fn resolve_service_name(&self, service: &str) -> Result<String, NameError> {
+        self.resolve_name(service, NameKind::Service)
+    }
+
+    fn resolve_name(&self, name: &str, kind: NameKind) -> Result<String, NameError> {
+        let (node, namespace) = (&self.info.name, &self.info.namespace);
+        let expanded = names::expand_topic_name(name, node, namespace)?;
+        self.remaps.name(&expanded, kind, node, namespace)
     }
 
     /// The resolved name, or the name as given with the error that the builder
     /// reports when it is resolved.
-    fn resolve(&self, topic: &str) -> (String, Option<NameError>) {
-        match self.resolve_topic_name(topic) {
+    fn resolve(&self, name: &str, kind: NameKind) -> (String, Option<NameError>) {
+        match self.resolve_name(name, kind) {
             Ok(full) => (full, None),
             Err(e) => ("/".to_owned(), Some(e)),
         }
@@ -244,6 +259,9 @@ pub struct RosNodeBuilder<'a> {
     enclave: String,
     domain_id: Result<u32, NameError>,
     shm: Option<ShmContext>,
+    remaps: Remaps,
+    /// The first rule or argument that did not parse: reported by `build`.
+    invalid: Option<NameError>,
 }
 
 impl RosNodeBuilder<'_> {
@@ -267,15 +285,55 @@ impl RosNodeBuilder<'_> {
         self
     }
 
+    /// Add a remapping rule, as `--ros-args -r` gives it: `chatter:=talk`,
+    /// `talker:chatter:=talk` (this node only if it is called `talker`),
+    /// `rostopic://…` / `rosservice://…` (one kind of name), `__node:=name`,
+    /// `__ns:=/namespace`. Rules apply in the order added, the first match
+    /// wins, as in rcl. A rule that does not parse makes the declaration fail
+    /// with the reason.
+    pub fn remap(mut self, rule: &str) -> Self {
+        match RemapRule::parse(rule) {
+            Ok(rule) => self.remaps.push(rule),
+            Err(e) => {
+                self.invalid.get_or_insert(e);
+            }
+        }
+        self
+    }
+
+    /// Take the remapping rules of a command line's ROS arguments (e.g.
+    /// `std::env::args()` of a node started by `ros2 run … --ros-args -r
+    /// chatter:=talk -r __ns:=/robot1` or by a launch file); see
+    /// [`names::ros_args_remaps`].
+    pub fn ros_args<I, S>(mut self, args: I) -> Self
+    where
+        I: IntoIterator<Item = S>,
+        S: AsRef<str>,
+    {
+        match names::ros_args_remaps(args) {
+            Ok(rules) => rules.into_iter().for_each(|r| self.remaps.push(r)),
+            Err(e) => {
+                self.invalid.get_or_insert(e);
+            }
+        }
+        self
+    }
+
     fn build(self) -> zenoh::Result<RosNode> {
+        if let Some(invalid) = self.invalid {
+            return Err(invalid.into());
+        }
         names::validate_node_name(&self.name)?;
+        // As rcl: the name first, then the namespace rules of the renamed node.
+        let name = self.remaps.node_name(&self.name);
+        let namespace = self.remaps.namespace(&name).unwrap_or(self.namespace);
         let info = NodeInfo {
             domain_id: self.domain_id?,
             zid: self.session.zid().to_string(),
             node_id: NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1,
             enclave: self.enclave,
-            namespace: names::normalize_namespace(&self.namespace)?,
-            name: self.name,
+            namespace: names::normalize_namespace(&namespace)?,
+            name,
         };
         let token = self
             .session
@@ -286,6 +344,7 @@ impl RosNodeBuilder<'_> {
             session: self.session.clone(),
             info,
             shm: self.shm,
+            remaps: self.remaps,
             _token: token,
         })
     }

@@ -299,6 +299,90 @@ fn node_names_resolve_and_bad_names_are_refused() {
     assert!(err.to_string().starts_with("invalid namespace"), "{err}");
 }
 
+/// Remapping rules from a launch-style command line rename the node, move it
+/// and rename its topics, services and actions, as rcl does; a bad rule is
+/// refused when the node is declared.
+#[test]
+fn remapping_rules_from_ros_args_apply_like_rcl() {
+    use shm_cdr::msgs::std_msgs::String as StringMsg;
+    use shm_cdr::msgs::std_srvs::srv::Trigger;
+    use shm_cdr::msgs::test_msgs::action::Fibonacci;
+    let (a, _b) = session_pair();
+    let args = [
+        "my_node",
+        "--ros-args",
+        "-r",
+        "__node:=renamed",
+        "-r",
+        "__ns:=/robot1",
+        "-r",
+        "chatter:=talk",
+        "-r",
+        "other:chatter:=never",
+        "-r",
+        "rosservice://reset:=~/reset_now",
+        "-r",
+        "fib:=/shared/fibonacci",
+        "-p",
+        "rate:=10",
+        "--",
+    ];
+    let node = RosNode::builder(&a, "talker")
+        .namespace("/ignored")
+        .domain_id(0)
+        .ros_args(args)
+        .wait()
+        .unwrap();
+    assert_eq!(
+        (node.info().name.as_str(), node.info().namespace.as_str()),
+        ("renamed", "/robot1")
+    );
+    let publisher = node
+        .declare_publisher::<StringMsg>("chatter")
+        .wait()
+        .unwrap();
+    assert!(
+        publisher.key_expr().starts_with("0/robot1/talk/"),
+        "{}",
+        publisher.key_expr()
+    );
+    assert!(publisher
+        .liveliness_token()
+        .unwrap()
+        .contains("/%robot1/renamed/%robot1%talk/"));
+    // A `rosservice://` rule leaves topics of that name alone.
+    let topic = node.declare_publisher::<StringMsg>("reset").wait().unwrap();
+    assert!(topic.key_expr().starts_with("0/robot1/reset/"));
+    let server = node.declare_service::<Trigger>("reset").wait().unwrap();
+    assert!(
+        server.key_expr().starts_with("0/robot1/renamed/reset_now/"),
+        "{}",
+        server.key_expr()
+    );
+    assert_eq!(
+        node.resolve_service_name("reset").unwrap(),
+        "/robot1/renamed/reset_now"
+    );
+    let action = node
+        .declare_action_server::<Fibonacci>("fib")
+        .wait()
+        .unwrap();
+    assert_eq!(action.name(), "/shared/fibonacci");
+
+    let err = RosNode::builder(&a, "talker")
+        .remap("chatter:=a*b")
+        .wait()
+        .map(|_| ())
+        .unwrap_err();
+    assert!(err.to_string().contains("invalid remapping rule"), "{err}");
+    let err = RosNode::builder(&a, "talker")
+        .ros_args(["--ros-args", "--unknown"])
+        .wait()
+        .map(|_| ())
+        .unwrap_err();
+    assert!(err.to_string().contains("unknown"), "{err}");
+}
+
 fn cloud_with(data: ShmBytes, points: u32) -> shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
     shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
         header: header(),

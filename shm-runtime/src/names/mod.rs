@@ -1,9 +1,14 @@
 //! ROS 2 names as rcl resolves and validates them: node names, namespaces, topic
 //! names (absolute, relative to the namespace, private `~`, `{node}` / `{ns}`
-//! substitutions) and `ROS_DOMAIN_ID`. A bad name is an error that says which
-//! rule it breaks, before Zenoh ever sees it.
+//! substitutions), remapping rules (`--ros-args -r from:=to`) and
+//! `ROS_DOMAIN_ID`. A bad name is an error that says which rule it breaks,
+//! before Zenoh ever sees it.
 
 use std::fmt;
+
+mod remap;
+
+pub use remap::{ros_args_remaps, NameKind, RemapRule, RemapTarget, Remaps};
 
 /// A name (or domain id) that ROS 2 would refuse.
 #[derive(Clone, PartialEq, Eq)]
