@@ -1,11 +1,11 @@
 //! Print the ROS graph the way `ros2 node list`, `ros2 topic list -t`,
-//! `ros2 service list -t` and `ros2 topic info -v` would, from rmw_zenoh_cpp's
-//! liveliness tokens.
+//! `ros2 service list -t`, `ros2 action list -t` and `ros2 topic info -v`
+//! would, from rmw_zenoh_cpp's liveliness tokens.
 //!
 //! `ros_graph <connect endpoint>` (e.g. `tcp/127.0.0.1:7447`, a router or a
 //! peer) lists what is there; `ros_graph` alone first starts a small demo (a
-//! talker with a latched topic and a service, a listener with a client) on two
-//! loopback sessions and lists that.
+//! talker with a latched topic, a service and an action; a listener with a
+//! subscriber and two clients) on two loopback sessions and lists that.
 
 use std::time::Duration;
 
@@ -46,6 +46,9 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
                 .declare_service::<Trigger>("~/reset")
                 .handler(|_| Trigger_Response::default())
                 .wait()?;
+            let _navigate = talker
+                .declare_action_server::<shm_cdr::msgs::test_msgs::action::Fibonacci>("fibonacci")
+                .wait()?;
             let listener = RosNode::builder(&b, "listener").wait()?;
             let _sub = listener
                 .declare_subscriber_with_qos::<std_msgs::String>(
@@ -57,10 +60,22 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
                 .declare_client::<Trigger>("/demo/talker/reset")
                 .wait()?;
             client.wait_for_service(Duration::from_secs(5));
+            let fibonacci = listener
+                .declare_action_client::<shm_cdr::msgs::test_msgs::action::Fibonacci>(
+                    "/demo/fibonacci",
+                )
+                .wait()?;
+            fibonacci.wait_for_server(Duration::from_secs(5));
             print(&listener.graph(Duration::from_secs(3))?);
         }
     }
     Ok(())
+}
+
+/// A name the `ros2` CLI hides unless asked: one with a part starting with
+/// `_` (an action's `_action/…` services and topics).
+fn hidden(name: &str) -> bool {
+    name.split('/').any(|part| part.starts_with('_'))
 }
 
 fn print(graph: &Graph) {
@@ -69,14 +84,18 @@ fn print(graph: &Graph) {
         println!("{node}");
     }
     println!("\n$ ros2 topic list -t");
-    for (topic, types) in graph.topics() {
+    for (topic, types) in graph.topics().into_iter().filter(|(t, _)| !hidden(t)) {
         println!("{topic} [{}]", Vec::from_iter(types).join(", "));
     }
     println!("\n$ ros2 service list -t");
-    for (service, types) in graph.services() {
+    for (service, types) in graph.services().into_iter().filter(|(s, _)| !hidden(s)) {
         println!("{service} [{}]", Vec::from_iter(types).join(", "));
     }
-    for (topic, types) in graph.topics() {
+    println!("\n$ ros2 action list -t");
+    for (action, types) in graph.actions() {
+        println!("{action} [{}]", Vec::from_iter(types).join(", "));
+    }
+    for (topic, types) in graph.topics().into_iter().filter(|(t, _)| !hidden(t)) {
         println!("\n$ ros2 topic info -v {topic}");
         println!("Type: {}", Vec::from_iter(types).join(", "));
         for (label, kind) in [
