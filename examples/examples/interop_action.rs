@@ -9,7 +9,8 @@
 //! - `interop_action client <connect endpoint>`: against the Python server's
 //!   `/py_fibonacci`: a goal of order 10 (feedback, result), a goal of order
 //!   -1 (rejected), a goal of order 1000 canceled after its first feedback.
-//!   Prints one line per goal.
+//!   Prints one line per goal, then what the ROS graph says of the Python
+//!   server (its node, action, servers and status publisher with its QoS).
 //! - `interop_action server <listen endpoint>`: serve `/rust_fibonacci` (orders
 //!   below 0 rejected, one feedback per number every 10 ms, cancel honoured)
 //!   until stdin closes, then print `succeeded <n> canceled <m>`.
@@ -118,6 +119,22 @@ fn client(endpoint: &str) -> Result<(), BoxError> {
         cancel.return_code,
         cancel.goals_canceling.len(),
         result.status
+    );
+
+    // The Python peer's entities, read back from its tokens.
+    let graph = node.graph(Duration::from_secs(2))?;
+    let types = graph.actions().remove("/py_fibonacci").unwrap_or_default();
+    let status = graph.publishers("/py_fibonacci/_action/status");
+    println!(
+        "graph node {} action {:?} servers {} status publishers {} qos {:?}",
+        graph.nodes().contains(&"/py_action_server".to_owned()),
+        types,
+        graph.action_servers("/py_fibonacci").len(),
+        status.len(),
+        status
+            .first()
+            .and_then(|e| e.endpoint.as_ref())
+            .map(|e| e.qos)
     );
     Ok(())
 }

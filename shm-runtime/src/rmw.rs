@@ -347,6 +347,23 @@ impl NodeInfo {
     }
 }
 
+/// The key expression of the liveliness tokens of every `kind` endpoint with
+/// the same domain, name, type and type hash as endpoint token `token`,
+/// whoever declared them, whatever their QoS: e.g. the publishers (`MP`) a
+/// subscriber's `MS` token can match. `None` if `token` is not an endpoint
+/// token.
+pub fn counterpart_tokens_key_expr(token: &str, kind: EntityKind) -> Option<String> {
+    // @ros2_lv/<domain>/<zid>/<nid>/<eid>/<kind>/<enclave>/<ns>/<node>/<name>/<type>/<hash>/<qos>
+    let parts: Vec<&str> = token.split('/').collect();
+    let [root, domain, _, _, _, _, _, _, _, name, type_name, hash, _] = parts.as_slice() else {
+        return None;
+    };
+    Some(format!(
+        "{root}/{domain}/*/*/*/{}/*/*/*/{name}/{type_name}/{hash}/*",
+        kind.as_str()
+    ))
+}
+
 /// The kind of an entity in a liveliness token.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum EntityKind {

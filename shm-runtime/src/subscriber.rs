@@ -13,6 +13,7 @@ use std::time::Duration;
 
 use shm_cdr::{CdrDecode, DecodeError, RosMessage};
 use zenoh::bytes::ZBytes;
+use zenoh::handlers::FifoChannelHandler;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
@@ -20,7 +21,8 @@ use zenoh_ext::{AdvancedSubscriber, AdvancedSubscriberBuilderExt, HistoryConfig,
 
 use crate::queue::{sample_type, Queue, TypeCheck};
 use crate::rmw::{
-    Attachment, AttachmentError, Durability, History as RmwHistory, Qos, Reliability,
+    counterpart_tokens_key_expr, Attachment, AttachmentError, Durability, EntityKind,
+    History as RmwHistory, Qos, Reliability,
 };
 
 pub use crate::queue::History;
@@ -147,8 +149,13 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         let subscriber = Self::declare(self.session, self.key_expr, self.qos, move |sample| {
             queue.push(sample)
         })?;
+        let publishers = self.liveliness.as_deref().and_then(|token| {
+            let key = counterpart_tokens_key_expr(token, EntityKind::Publisher)?;
+            Some((self.session.clone(), key))
+        });
         Ok(RosSubscriber {
             subscriber,
+            publishers,
             receiver,
             lost,
             missed,
@@ -258,6 +265,9 @@ impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> IntoFuture
 /// (see [`History`]) until read; undeclared when dropped.
 pub struct RosSubscriber<T> {
     subscriber: ZenohSubscriber,
+    /// For node subscribers: the session and the key expression of the
+    /// tokens of the publishers this subscriber matches.
+    publishers: Option<(Session, String)>,
     receiver: flume::Receiver<Sample>,
     lost: Arc<AtomicU64>,
     missed: Arc<AtomicU64>,
@@ -369,6 +379,67 @@ impl<T: RosMessage> RosSubscriber<T> {
     pub fn key_expr(&self) -> &str {
         self.subscriber.key_expr()
     }
+
+    /// Wait until at least one publisher of this topic and type is on the ROS
+    /// graph (its `MP` liveliness token: ours, rmw_zenoh_cpp's), or `timeout`
+    /// passes; returns whether one is. It wakes when the publisher appears.
+    /// Only node subscribers have a ROS topic: one on a raw key returns
+    /// `false`.
+    pub fn wait_for_publishers(&self, timeout: Duration) -> bool {
+        let Some(publishers) = self.publisher_tokens() else {
+            return false;
+        };
+        let deadline = std::time::Instant::now() + timeout;
+        let mut alive = std::collections::HashSet::new();
+        loop {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            match publishers.recv_timeout(left) {
+                Ok(Some(sample)) => {
+                    if track(&mut alive, &sample) {
+                        return true;
+                    }
+                }
+                Ok(None) | Err(_) => return false,
+            }
+        }
+    }
+
+    /// Resolves once at least one publisher of this topic and type is on the
+    /// ROS graph (at once if one is). Cancellation-safe; bound it with your
+    /// runtime's timeout. A subscriber on a raw key has no ROS topic: an error.
+    pub async fn publishers_matched(&self) -> zenoh::Result<()> {
+        let publishers = self
+            .publisher_tokens()
+            .ok_or("a subscriber on a raw key expression has no ROS topic to match")?;
+        let mut alive = std::collections::HashSet::new();
+        loop {
+            if track(&mut alive, &publishers.recv_async().await?) {
+                return Ok(());
+            }
+        }
+    }
+
+    /// A liveliness subscriber to the publishers' tokens, with the ones alive
+    /// now delivered first (history).
+    fn publisher_tokens(&self) -> Option<zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>> {
+        let (session, key) = self.publishers.as_ref()?;
+        session
+            .liveliness()
+            .declare_subscriber(key.as_str())
+            .history(true)
+            .wait()
+            .ok()
+    }
+}
+
+/// Follow one liveliness change in `alive`; whether any token is alive.
+fn track(alive: &mut std::collections::HashSet<String>, sample: &Sample) -> bool {
+    let key = sample.key_expr().as_str().to_owned();
+    match sample.kind() {
+        zenoh::sample::SampleKind::Put => alive.insert(key),
+        zenoh::sample::SampleKind::Delete => alive.remove(&key),
+    };
+    !alive.is_empty()
 }
 
 /// The samples of a [`RosSubscriber`], from [`RosSubscriber::stream`].

@@ -383,6 +383,45 @@ fn remapping_rules_from_ros_args_apply_like_rcl() {
     assert!(err.to_string().contains("unknown"), "{err}");
 }
 
+/// A node subscriber waits for publishers of its topic and type on the ROS
+/// graph, as a publisher waits for subscribers.
+#[test]
+fn a_subscriber_waits_for_its_publishers() {
+    use shm_cdr::msgs::std_msgs::String as StringMsg;
+    let (a, b) = session_pair();
+    let listener = RosNode::builder(&a, "listener")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let subscriber = listener
+        .declare_subscriber::<StringMsg>("/waited")
+        .wait()
+        .unwrap();
+    assert!(!subscriber.wait_for_publishers(Duration::from_millis(200)));
+    let talker = RosNode::builder(&b, "talker").domain_id(0).wait().unwrap();
+    // Another type on the same topic does not match.
+    let _other = talker
+        .declare_publisher::<Header>("/waited")
+        .wait()
+        .unwrap();
+    assert!(!subscriber.wait_for_publishers(Duration::from_millis(300)));
+    std::thread::scope(|scope| {
+        let waiting = scope.spawn(|| subscriber.wait_for_publishers(TIMEOUT));
+        std::thread::sleep(Duration::from_millis(100));
+        let publisher = talker
+            .declare_publisher::<StringMsg>("waited")
+            .wait()
+            .unwrap();
+        assert!(waiting.join().unwrap());
+        drop(publisher);
+    });
+    let raw = a
+        .declare_ros_subscriber::<StringMsg>("raw/key")
+        .wait()
+        .unwrap();
+    assert!(!raw.wait_for_publishers(Duration::from_millis(10)));
+}
+
 fn cloud_with(data: ShmBytes, points: u32) -> shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
     shm_runtime::msgs::sensor_msgs::PointCloud2Shm {
         header: header(),

@@ -9,7 +9,8 @@ rosidl's `.json` hashes, python-xxhash GIDs. `test_msgs/action/Fibonacci`.
    of real rcl_action (through rclpy's binding, on rmw_fastrtps_cpp) must give
    the state, or the refusal, that `interop_action states` prints.
 1. Python serves, Rust calls: three complete queryables and two publishers
-   under `/py_fibonacci/_action/`, with tokens. `interop_action client` sends a
+   under `/py_fibonacci/_action/`, with tokens (and the node's), which the Rust
+   side's graph must read back. `interop_action client` sends a
    goal of order 10 (9 feedbacks, then the result), one of order -1 (rejected)
    and one of order 1000 that it cancels after the first feedback. Every
    request must deserialize with rclpy; goal ids must be random version-4
@@ -197,6 +198,7 @@ class PythonServer:
         self.order = []
         self.requests = {"send_goal": [], "cancel_goal": [], "get_result": []}
         node = "py_action_server"
+        self.node_token = session.liveliness().declare_token(f"@ros2_lv/0/{session.zid()}/0/0/NN/%/%/{node}")
         self.tokens = [session.liveliness().declare_token(token(session, 10 + i, "SS", node, action, part, DEFAULT_QOS))
                        for i, part in enumerate(["send_goal", "cancel_goal", "get_result"])]
         fb_token = token(session, 20, "MP", node, action, "feedback", DEFAULT_QOS)
@@ -315,6 +317,7 @@ class PythonServer:
             q.undeclare()
         for t in self.tokens:
             t.undeclare()
+        self.node_token.undeclare()
         self.status_pub.undeclare()
         self.feedback_pub.undeclare()
 
@@ -329,7 +332,7 @@ def python_serves_rust_calls():
     server = PythonServer(session, "/py_fibonacci")
     proc = subprocess.run([str(BIN), "client", endpoint], capture_output=True, text=True, timeout=120)
     lines = proc.stdout.strip().split("\n")
-    check(proc.returncode == 0 and len(lines) == 3,
+    check(proc.returncode == 0 and len(lines) == 4,
           f"Rust client: exit {proc.returncode}, {proc.stdout.strip()!r} {proc.stderr.strip()[-800:]!r}")
     sent = server.requests["send_goal"]
     check([order for _, _, order in sent] == [10, -1, 1000], f"goal orders {[o for _, _, o in sent]}")
@@ -337,11 +340,15 @@ def python_serves_rust_calls():
     check(len({att[2] for att, _, _ in sent}) == 1, "one send_goal client GID")
     ids = [gid for _, gid, _ in sent]
     check(all(is_uuid4(g) for g in ids) and len(set(ids)) == 3, f"goal ids {[g.hex() for g in ids]}")
-    if len(lines) == 3 and len(ids) == 3:
+    if len(lines) == 4 and len(ids) == 3:
         expected = f"goal {ids[0].hex()} Succeeded {fib(10)} feedback 9"
         check(lines[0] == expected, f"first goal: {lines[0]!r} != {expected!r}")
         check(lines[1] == "rejected", f"second goal: {lines[1]!r}")
         check(lines[2] == f"goal {ids[2].hex()} cancel code 0 canceling 1 Canceled", f"third goal: {lines[2]!r}")
+        # Our graph reads this peer's tokens back: its node, action and status QoS.
+        graph = ('graph node true action {"test_msgs/action/Fibonacci"} servers 1 status publishers 1 '
+                 'qos Some(Qos { reliability: Reliable, durability: TransientLocal, history: KeepLast(1) })')
+        check(lines[3] == graph, f"graph of the Python peer: {lines[3]!r}")
     check(server.requests["cancel_goal"] == [(ids[2], (0, 0))] if len(ids) == 3 else False,
           f"cancel requests {server.requests['cancel_goal']}")
     check(server.requests["get_result"] == [ids[0], ids[2]] if len(ids) == 3 else False,
