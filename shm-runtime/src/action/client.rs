@@ -273,13 +273,10 @@ impl<A: RosAction> ActionClient<A> {
     /// passes; returns whether they do.
     pub fn wait_for_server(&self, timeout: Duration) -> bool {
         let deadline = std::time::Instant::now() + timeout;
-        [
-            &self.inner.send_goal as &dyn Available,
-            &self.inner.cancel_goal,
-            &self.inner.get_result,
-        ]
-        .iter()
-        .all(|s| s.wait(deadline.saturating_duration_since(std::time::Instant::now())))
+        let left = || deadline.saturating_duration_since(std::time::Instant::now());
+        self.inner.send_goal.wait_for_service(left())
+            && self.inner.cancel_goal.wait_for_service(left())
+            && self.inner.get_result.wait_for_service(left())
     }
 
     /// Resolves once the action's three services have a server.
@@ -338,17 +335,6 @@ impl<A: RosAction> ActionClient<A> {
             stamp,
             feedback,
         })
-    }
-}
-
-/// A service client's wait-for-server, for the three of an action.
-trait Available {
-    fn wait(&self, timeout: Duration) -> bool;
-}
-
-impl<S: shm_cdr::interface::RosService> Available for ServiceClient<S> {
-    fn wait(&self, timeout: Duration) -> bool {
-        self.wait_for_service(timeout)
     }
 }
 

@@ -700,12 +700,5 @@ impl<A: RosAction> ServerGoalHandle<A> {
 
 /// A goal id as rclcpp prints UUIDs (lowercase hex, hyphenated 8-4-4-4-12).
 pub(crate) fn uuid_text(id: &GoalId) -> String {
-    let mut out = String::with_capacity(36);
-    for (i, b) in id.iter().enumerate() {
-        if matches!(i, 4 | 6 | 8 | 10) {
-            out.push('-');
-        }
-        out.push_str(&format!("{b:02x}"));
-    }
-    out
+    uuid::Uuid::from_bytes(*id).hyphenated().to_string()
 }
