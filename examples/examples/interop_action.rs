@@ -23,26 +23,14 @@ use std::time::Duration;
 use shm_cdr::msgs::test_msgs::action::{
     Fibonacci, Fibonacci_Feedback, Fibonacci_Goal, Fibonacci_Result,
 };
+use shm_cdr_examples::peer_session;
 use shm_runtime::action::{
     transition, ActionError, GoalDecision, GoalEvent, GoalStatus, ServerGoalHandle,
 };
 use shm_runtime::RosNode;
-use zenoh::{Config, Wait};
+use zenoh::Wait;
 
 type BoxError = Box<dyn std::error::Error + Send + Sync>;
-
-fn session(endpoint: &str, listen: bool) -> Result<zenoh::Session, BoxError> {
-    let mut config = Config::default();
-    config.insert_json5("mode", "\"peer\"")?;
-    config.insert_json5("scouting/multicast/enabled", "false")?;
-    let key = if listen {
-        "listen/endpoints"
-    } else {
-        "connect/endpoints"
-    };
-    config.insert_json5(key, &format!("[\"{endpoint}\"]"))?;
-    zenoh::open(config).wait()
-}
 
 fn main() -> Result<(), BoxError> {
     let args: Vec<String> = std::env::args().collect();
@@ -76,7 +64,7 @@ fn states() {
 }
 
 fn client(endpoint: &str) -> Result<(), BoxError> {
-    let session = session(endpoint, false)?;
+    let session = peer_session(endpoint, false)?;
     let node = RosNode::builder(&session, "rust_action_client")
         .domain_id(0)
         .wait()?;
@@ -164,7 +152,7 @@ fn run(goal: ServerGoalHandle<Fibonacci>, succeeded: &AtomicU64, canceled: &Atom
 }
 
 fn server(endpoint: &str) -> Result<(), BoxError> {
-    let session = session(endpoint, true)?;
+    let session = peer_session(endpoint, true)?;
     let node = RosNode::builder(&session, "rust_action_server")
         .domain_id(0)
         .wait()?;

@@ -12,8 +12,9 @@ use std::io::{BufRead, Write};
 use std::time::Duration;
 
 use shm_cdr::msgs::test_msgs::srv::{BasicTypes, BasicTypes_Request, BasicTypes_Response};
+use shm_cdr_examples::peer_session;
 use shm_runtime::RosNode;
-use zenoh::{Config, Wait};
+use zenoh::Wait;
 
 type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
@@ -51,19 +52,6 @@ fn echo(request: BasicTypes_Request) -> BasicTypes_Response {
     }
 }
 
-fn session(endpoint: &str, listen: bool) -> Result<zenoh::Session, BoxError> {
-    let mut config = Config::default();
-    config.insert_json5("mode", "\"peer\"")?;
-    config.insert_json5("scouting/multicast/enabled", "false")?;
-    let key = if listen {
-        "listen/endpoints"
-    } else {
-        "connect/endpoints"
-    };
-    config.insert_json5(key, &format!("[\"{endpoint}\"]"))?;
-    zenoh::open(config).wait()
-}
-
 fn main() -> Result<(), BoxError> {
     let args: Vec<String> = std::env::args().collect();
     match args
@@ -82,7 +70,7 @@ fn main() -> Result<(), BoxError> {
 }
 
 fn client(endpoint: &str, calls: i64) -> Result<(), BoxError> {
-    let session = session(endpoint, false)?;
+    let session = peer_session(endpoint, false)?;
     let node = RosNode::builder(&session, "rust_client")
         .domain_id(0)
         .wait()?;
@@ -101,7 +89,7 @@ fn client(endpoint: &str, calls: i64) -> Result<(), BoxError> {
 }
 
 fn server(endpoint: &str) -> Result<(), BoxError> {
-    let session = session(endpoint, true)?;
+    let session = peer_session(endpoint, true)?;
     let node = RosNode::builder(&session, "rust_server")
         .domain_id(0)
         .wait()?;

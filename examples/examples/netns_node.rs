@@ -17,9 +17,9 @@ use std::time::Duration;
 use sha2::{Digest, Sha256};
 use shm_cdr::msgs::sensor_msgs::PointCloud2;
 use shm_cdr::msgs::std_msgs::Header;
-use shm_cdr_examples::xyzi_fields;
+use shm_cdr_examples::{peer_session, xyzi_fields};
 use shm_runtime::{SessionExt, ShmConfig, ShmContext};
-use zenoh::{Config, Wait};
+use zenoh::Wait;
 
 type Error = Box<dyn std::error::Error + Send + Sync>;
 
@@ -53,16 +53,8 @@ fn cloud(i: u32) -> PointCloud2 {
     }
 }
 
-fn session(key: &str, endpoint: &str) -> Result<zenoh::Session, Error> {
-    let mut config = Config::default();
-    config.insert_json5("mode", "\"peer\"")?;
-    config.insert_json5("scouting/multicast/enabled", "false")?;
-    config.insert_json5(key, &format!("[\"{endpoint}\"]"))?;
-    zenoh::open(config).wait()
-}
-
 fn publish(endpoint: &str, count: u32, subscribers: usize) -> Result<(), Error> {
-    let session = session("listen/endpoints", endpoint)?;
+    let session = peer_session(endpoint, true)?;
     let hellos = session.declare_subscriber(HELLO).wait()?;
     let shm = ShmContext::new(ShmConfig::enabled().pool_size(8 << 20))?;
     let publisher = session
@@ -99,7 +91,7 @@ fn publish(endpoint: &str, count: u32, subscribers: usize) -> Result<(), Error> 
 }
 
 fn subscribe(endpoint: &str, count: u32, name: &str) -> Result<(), Error> {
-    let session = session("connect/endpoints", endpoint)?;
+    let session = peer_session(endpoint, false)?;
     let subscriber = session
         .declare_ros_subscriber::<PointCloud2>(TOPIC)
         .wait()?;

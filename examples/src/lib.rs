@@ -15,18 +15,27 @@ pub mod generated {
 use shm_cdr::msgs::sensor_msgs::PointField;
 use zenoh::{Config, Session, Wait};
 
+/// A peer session on `endpoint` with multicast scouting off: listening on it,
+/// or connecting to it.
+pub fn peer_session(endpoint: &str, listen: bool) -> zenoh::Result<Session> {
+    let mut config = Config::default();
+    config.insert_json5("mode", "\"peer\"")?;
+    config.insert_json5("scouting/multicast/enabled", "false")?;
+    let key = if listen {
+        "listen/endpoints"
+    } else {
+        "connect/endpoints"
+    };
+    config.insert_json5(key, &format!("[\"{endpoint}\"]"))?;
+    zenoh::open(config).wait()
+}
+
 /// Two peer sessions: the first listens on `tcp/127.0.0.1:<port>`, the second
 /// connects to it.
 pub fn loopback_pair(port: u16) -> zenoh::Result<(Session, Session)> {
-    let config = |key: &str| -> zenoh::Result<Config> {
-        let mut c = Config::default();
-        c.insert_json5("mode", "\"peer\"")?;
-        c.insert_json5("scouting/multicast/enabled", "false")?;
-        c.insert_json5(key, &format!("[\"tcp/127.0.0.1:{port}\"]"))?;
-        Ok(c)
-    };
-    let publisher_side = zenoh::open(config("listen/endpoints")?).wait()?;
-    let subscriber_side = zenoh::open(config("connect/endpoints")?).wait()?;
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let publisher_side = peer_session(&endpoint, true)?;
+    let subscriber_side = peer_session(&endpoint, false)?;
     Ok((publisher_side, subscriber_side))
 }
 

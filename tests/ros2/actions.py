@@ -28,8 +28,6 @@ rosidl's `.json` hashes, python-xxhash GIDs. `test_msgs/action/Fibonacci`.
 """
 import json
 import os
-import socket
-import struct
 import subprocess
 import sys
 import threading
@@ -39,13 +37,14 @@ from pathlib import Path
 
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
 
-import xxhash  # noqa: E402
 import zenoh  # noqa: E402
 import zenoh.ext  # noqa: E402
 from action_msgs.msg import GoalInfo, GoalStatus, GoalStatusArray  # noqa: E402
 from action_msgs.srv import CancelGoal  # noqa: E402
 from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
 from test_msgs.action import Fibonacci  # noqa: E402
+
+from rmw_zenoh import attachment, free_port, gid_of, open_session, parse_attachment  # noqa: E402
 
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples") / "interop_action"
 SHARE = Path(sys.prefix) / "share"
@@ -93,36 +92,6 @@ def token(session, entity_id, kind, node, action, part, qos):
     mangled = f"{action}/_action/{part}".replace("/", "%")
     return (f"@ros2_lv/0/{session.zid()}/0/{entity_id}/{kind}/%/%/{node}/{mangled}/{dds}/{rosidl_hash(ros, js)}/"
             f"{qos}")
-
-
-def gid_of(tok):
-    h = xxhash.xxh3_128_intdigest(tok.encode())
-    return struct.pack("<QQ", h & (2**64 - 1), h >> 64)
-
-
-def attachment(seq, gid):
-    return struct.pack("<qqB", seq, time.time_ns(), 16) + gid
-
-
-def parse_attachment(raw):
-    if raw is None or len(raw) != 33 or raw[16] != 16:
-        return None
-    seq, stamp, _ = struct.unpack("<qqB", raw[:17])
-    return seq, stamp, bytes(raw[17:])
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def open_session(endpoint, listen):
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    conf.insert_json5("listen/endpoints" if listen else "connect/endpoints", json.dumps([endpoint]))
-    return zenoh.open(conf)
 
 
 def fib(order):

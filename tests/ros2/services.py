@@ -19,17 +19,16 @@ the CDR, rosidl's `.json` for the type hash, python-xxhash for GIDs.
     python tests/ros2/services.py <dir with the interop_service binary>
 """
 import json
-import socket
-import struct
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-import xxhash
 import zenoh
 from rclpy.serialization import deserialize_message, serialize_message
 from test_msgs.srv import BasicTypes
+
+from rmw_zenoh import attachment, free_port, gid_of, open_session, parse_attachment
 
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples") / "interop_service"
 SHARE = Path(sys.prefix) / "share"
@@ -52,23 +51,6 @@ def rosidl_hash(type_name):
 def service_key(name, type_name):
     pkg, _, srv = type_name.split("/")
     return f"0/{name.strip('/')}/{pkg}::srv::dds_::{srv}_/{rosidl_hash(type_name)}"
-
-
-def gid_of(token):
-    """rmw_zenoh_cpp's GID: XXH3-128 of the liveliness token, low then high 64 bits, little-endian."""
-    h = xxhash.xxh3_128_intdigest(token.encode())
-    return struct.pack("<QQ", h & (2**64 - 1), h >> 64)
-
-
-def attachment(seq, gid):
-    return struct.pack("<qqB", seq, time.time_ns(), 16) + gid
-
-
-def parse_attachment(raw):
-    if raw is None or len(raw) != 33 or raw[16] != 16:
-        return None
-    seq, stamp, _ = struct.unpack("<qqB", raw[:17])
-    return seq, stamp, bytes(raw[17:])
 
 
 def request(i):
@@ -96,20 +78,6 @@ def echo(req):
 
 def same(a, b):
     return all(getattr(a, f) == getattr(b, f) for f in FIELDS)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def open_session(endpoint, listen):
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    conf.insert_json5("listen/endpoints" if listen else "connect/endpoints", json.dumps([endpoint]))
-    return zenoh.open(conf)
 
 
 def tokens(session, kind):

@@ -1,0 +1,43 @@
+"""rmw_zenoh_cpp's conventions as the independent Python peers (services.py,
+actions.py) speak them: GIDs, the 33-byte attachment, peer sessions."""
+import json
+import socket
+import struct
+import time
+
+import xxhash
+import zenoh
+
+
+def gid_of(token):
+    """rmw_zenoh_cpp's GID: XXH3-128 of the liveliness token, low then high 64 bits, little-endian."""
+    h = xxhash.xxh3_128_intdigest(token.encode())
+    return struct.pack("<QQ", h & (2**64 - 1), h >> 64)
+
+
+def attachment(seq, gid):
+    """Sequence number, timestamp (ns), GID length 16 as LEB128, GID."""
+    return struct.pack("<qqB", seq, time.time_ns(), 16) + gid
+
+
+def parse_attachment(raw):
+    """(sequence number, timestamp, GID), or None if it is not rmw_zenoh's."""
+    if raw is None or len(raw) != 33 or raw[16] != 16:
+        return None
+    seq, stamp, _ = struct.unpack("<qqB", raw[:17])
+    return seq, stamp, bytes(raw[17:])
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def open_session(endpoint, listen):
+    """A peer session without multicast scouting, listening on or connecting to `endpoint`."""
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"peer"')
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    conf.insert_json5("listen/endpoints" if listen else "connect/endpoints", json.dumps([endpoint]))
+    return zenoh.open(conf)
