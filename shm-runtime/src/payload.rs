@@ -69,7 +69,7 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
     } else if let Some(policy) = policy.filter(|p| size >= p.threshold) {
         match policy
             .context
-            .alloc_bounded(size, policy.context.config().alloc_timeout)
+            .alloc_message(size, policy.context.config().alloc_timeout)
         {
             Some(mut buffer) => {
                 // The provider hands out exactly `size` bytes, so the payload is the

@@ -103,6 +103,10 @@ fn above_threshold_is_shared_memory_below_is_heap_and_bytes_are_exact() {
             // Borrowed straight from the shared-memory buffer.
             let payload = sample.payload().slices().next().unwrap().as_ptr_range();
             assert!(payload.contains(&view.data.as_ptr()));
+            // One contiguous chunk whose CDR body (after the 4-byte header) is
+            // 8-aligned in the reader's mapping too: `f64`s are naturally aligned.
+            assert_eq!(sample.payload().slices().count(), 1);
+            assert_eq!(payload.start as usize % 8, 4, "{size}-byte image");
         }
     }
     assert_eq!(shm.stats().shm, 2);
