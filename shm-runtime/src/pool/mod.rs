@@ -290,7 +290,7 @@ mod tests {
         let largest = |pool: &ShmContext| {
             let (mut lo, mut hi) = (1, pool_size);
             while lo < hi {
-                let mid = (lo + hi + 1) / 2;
+                let mid = (lo + hi).div_ceil(2);
                 match pool.alloc_message(mid, Duration::ZERO) {
                     Some(_) => lo = mid,
                     None => hi = mid - 1,
