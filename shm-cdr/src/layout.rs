@@ -410,3 +410,54 @@ pub(crate) fn plain_extend<T>(
     }
     Some(())
 }
+
+/// `bytes` as the `T`s whose CDR encoding they are (see [`PlainLayout`]), borrowed
+/// in place. `None` if `bytes` is not a whole number of `T`s or is not aligned for
+/// `T` in memory (then the caller copies).
+#[allow(unsafe_code)]
+pub(crate) fn plain_slice<T>(_proof: PlainLayout<T>, bytes: &[u8]) -> Option<&[T]> {
+    let size = std::mem::size_of::<T>();
+    if size == 0 || bytes.len() % size != 0 || bytes.as_ptr() as usize % std::mem::align_of::<T>() != 0 {
+        return None;
+    }
+    // SAFETY: the pointer is aligned for `T` (checked) and non-null (from a slice);
+    // the `bytes.len() / size` values span exactly `bytes`, which are initialized
+    // and borrowed immutably for the returned lifetime; the proof guarantees every
+    // bit pattern is a valid `T` with no padding, so any initialized bytes are
+    // valid `T`s.
+    Some(unsafe { std::slice::from_raw_parts(bytes.as_ptr().cast::<T>(), bytes.len() / size) })
+}
+
+/// [`plain_slice`] for writing: the `T`s lying in `bytes`, mutably.
+#[allow(unsafe_code)]
+pub(crate) fn plain_slice_mut<T>(_proof: PlainLayout<T>, bytes: &mut [u8]) -> Option<&mut [T]> {
+    let size = std::mem::size_of::<T>();
+    if size == 0 || bytes.len() % size != 0 || bytes.as_ptr() as usize % std::mem::align_of::<T>() != 0 {
+        return None;
+    }
+    // SAFETY: as in `plain_slice`; in addition the borrow of `bytes` is unique, so
+    // the returned slice is the only access to that memory, and any `T` written
+    // through it leaves bytes that are valid `u8`s (no padding, per the proof).
+    Some(unsafe { std::slice::from_raw_parts_mut(bytes.as_mut_ptr().cast::<T>(), bytes.len() / size) })
+}
+
+/// `bytes`, zeroed, as `bool`s (all `false`).
+#[allow(unsafe_code)]
+pub(crate) fn zeroed_bools(bytes: &mut [u8]) -> &mut [bool] {
+    bytes.fill(0);
+    // SAFETY: `bool` has the size and alignment of `u8`, and 0 is `false`, a valid
+    // `bool`; the unique borrow of `bytes` passes to the result, and every value a
+    // `&mut bool` can store (0 or 1) is a valid `u8`, and CDR's encoding of a bool.
+    unsafe { std::slice::from_raw_parts_mut(bytes.as_mut_ptr().cast::<bool>(), bytes.len()) }
+}
+
+/// The bytes of `items`, mutably (see [`PlainLayout`]).
+#[allow(unsafe_code)]
+pub(crate) fn plain_bytes_mut<T>(_proof: PlainLayout<T>, items: &mut [T]) -> &mut [u8] {
+    // SAFETY: as in `plain_bytes`; in addition the borrow of `items` is unique and
+    // passes to the result, and the proof guarantees every bit pattern is a valid
+    // `T`, so any bytes written through it leave valid `T`s.
+    unsafe {
+        std::slice::from_raw_parts_mut(items.as_mut_ptr().cast::<u8>(), std::mem::size_of_val(items))
+    }
+}

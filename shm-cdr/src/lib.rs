@@ -36,6 +36,7 @@ mod endian;
 mod error;
 pub mod interface;
 pub mod layout;
+pub mod loan;
 mod message;
 pub mod msgs;
 #[cfg(any(feature = "proptest", feature = "arbitrary"))]

@@ -8,6 +8,7 @@ use crate::ctxt::Ctxt;
 
 pub struct Container<'a> {
     pub ident: &'a Ident,
+    pub vis: &'a syn::Visibility,
     pub generics: &'a syn::Generics,
     pub attrs: ContainerAttrs,
     /// `pkg/msg/Name`, from `type_name` or `package` (validated in `check`).
@@ -21,6 +22,7 @@ pub struct Field<'a> {
     pub ros_name: String,
     pub ros_name_span: proc_macro2::Span,
     pub ty: &'a Type,
+    pub vis: &'a syn::Visibility,
     pub attrs: FieldAttrs,
 }
 
@@ -85,6 +87,7 @@ impl<'a> Container<'a> {
         };
         Some(Self {
             ident: &input.ident,
+            vis: &input.vis,
             generics: &input.generics,
             attrs,
             type_name,
@@ -112,6 +115,7 @@ impl<'a> Field<'a> {
             ros_name,
             ros_name_span,
             ty: &field.ty,
+            vis: &field.vis,
             attrs,
         })
     }

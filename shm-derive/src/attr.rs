@@ -14,6 +14,9 @@ pub struct ContainerAttrs {
     pub package: Option<LitStr>,
     /// `crate = "path"`: where shm_cdr is reachable from the user's crate.
     pub crate_path: Option<syn::Path>,
+    /// `no_loan`: generate no `…Lens` / `…Mut` types (for fields of custom types
+    /// that cannot be built in place).
+    pub no_loan: bool,
     /// An attribute failed to parse (so a missing name is not reported twice).
     pub malformed: bool,
 }
@@ -62,6 +65,8 @@ impl ContainerAttrs {
                             "`crate` must be a path, e.g. `#[ros(crate = \"my_crate::shm_cdr\")]`",
                         ),
                     }
+                } else if meta.path.is_ident("no_loan") {
+                    out.no_loan = true;
                 } else if meta.path.is_ident("char") || meta.path.is_ident("byte") || meta.path.is_ident("rename") {
                     cx.error_spanned_by(
                         &meta.path,
@@ -71,7 +76,7 @@ impl ContainerAttrs {
                 } else {
                     cx.error_spanned_by(
                         &meta.path,
-                        "unknown struct attribute: expected `type_name = \"pkg/msg/Name\"`, `package = \"pkg\"` or `crate = \"path\"`",
+                        "unknown struct attribute: expected `type_name = \"pkg/msg/Name\"`, `package = \"pkg\"`, `crate = \"path\"` or `no_loan`",
                     );
                     skip_value(&meta)?;
                 }

@@ -181,7 +181,11 @@ pub fn expand(container: &Container) -> TokenStream {
         }
     });
 
+    let in_place = crate::loan::expand(container, &krate);
+
     quote! {
+        #in_place
+
         #[automatically_derived]
         #[allow(clippy::all, clippy::pedantic)]
         const _: () = {

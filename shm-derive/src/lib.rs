@@ -11,6 +11,7 @@ mod attr;
 mod check;
 mod ctxt;
 mod expand;
+mod loan;
 
 use proc_macro::TokenStream;
 use syn::{parse_macro_input, DeriveInput};
@@ -19,7 +20,13 @@ use syn::{parse_macro_input, DeriveInput};
 /// named fields.
 ///
 /// Struct attributes: `#[ros(type_name = "pkg/msg/Name")]` or
-/// `#[ros(package = "pkg")]` (required, one of them), `#[ros(crate = "path")]`.
+/// `#[ros(package = "pkg")]` (required, one of them), `#[ros(crate = "path")]`,
+/// `#[ros(no_loan)]`.
+///
+/// On a struct `Name` with no generic parameters it also generates `NameLens`
+/// and `NameMut<'a>` and implements `shm_cdr::loan::InPlace`, to build the message
+/// in place in its final buffer (see `shm_cdr::loan`); `#[ros(no_loan)]` leaves
+/// them out (needed only for fields of custom types without `InPlace`).
 /// Field attributes: `#[ros(byte)]`, `#[ros(char)]` (on `u8`/`i8` fields and their
 /// sequences/arrays), `#[ros(rename = "ros_name")]`.
 ///

@@ -6,6 +6,7 @@ use crate::encode::{CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, EncodeError};
 use crate::layout::{FixedLayout, PlainLayout};
+use crate::loan::{Carver, InPlace, InPlaceElement, LoanError};
 
 impl<T: CdrEncode, const N: usize> CdrEncode for [T; N] {
     const FIXED_LAYOUT: Option<FixedLayout> = FixedLayout::of_array(T::FIXED_LAYOUT, N);
@@ -65,5 +66,28 @@ impl<T: RosElement, const N: usize> RosType for [T; N] {
     const FIELD_TYPE: FieldType = T::FIELD_TYPE.array(N);
     fn register_types(registry: &mut TypeRegistry) {
         T::register_types(registry);
+    }
+}
+
+/// Arrays in place, as the element type decides (numbers: a zeroed
+/// `&mut [T; N]`).
+impl<T: InPlaceElement, const N: usize> InPlace for [T; N] {
+    type Lens = T::ArrayLens;
+    type Mut<'a> = T::ArrayMut<'a, N>;
+
+    fn lens(&self) -> T::ArrayLens {
+        T::array_lens(self)
+    }
+
+    fn end_in_place(lens: &T::ArrayLens, start: usize) -> Option<usize> {
+        T::array_end::<N>(lens, start)
+    }
+
+    fn carve<'a>(lens: &T::ArrayLens, c: &mut Carver<'a>) -> Result<T::ArrayMut<'a, N>, LoanError> {
+        T::carve_array::<N>(lens, c)
+    }
+
+    fn write_in_place(&self, place: T::ArrayMut<'_, N>) -> Result<(), LoanError> {
+        T::write_array(self, place)
     }
 }

@@ -11,7 +11,8 @@ use crate::describe::{FieldType, RosElement, RosType, TypeId};
 use crate::encode::{CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError};
-use crate::layout::{align_up, FixedLayout, PlainLayout};
+use crate::layout::{align_up, zeroed_bools, FixedLayout, PlainLayout};
+use crate::loan::{self, Carver, InPlace, InPlaceElement, LoanError, Uninit};
 
 macro_rules! number {
     ($($ty:ty => $size:literal, $type_id:ident $(, $borrow:ident)?;)*) => {$(
@@ -193,3 +194,160 @@ impl RosType for bool {
     const FIELD_TYPE: FieldType = FieldType::scalar(TypeId::Boolean);
 }
 impl RosElement for bool {}
+
+/// Numbers in place: one is a zeroed `&mut` into the buffer, a run is an
+/// [`Uninit`] slice, an array a zeroed `&mut [T; N]`.
+macro_rules! number_in_place {
+    ($($ty:ty => $size:literal;)*) => {$(
+        impl InPlace for $ty {
+            type Lens = ();
+            type Mut<'a> = &'a mut $ty;
+
+            fn lens(&self) {}
+
+            fn end_in_place((): &(), start: usize) -> Option<usize> {
+                align_up(start, $size).checked_add($size)
+            }
+
+            fn carve<'a>((): &(), c: &mut Carver<'a>) -> Result<&'a mut $ty, LoanError> {
+                loan::carve_plain_one(c, $size)
+            }
+
+            fn write_in_place(&self, place: &mut $ty) -> Result<(), LoanError> {
+                *place = *self;
+                Ok(())
+            }
+        }
+
+        impl InPlaceElement for $ty {
+            type RunLens = usize;
+            type RunMut<'a> = Uninit<'a, $ty>;
+            type ArrayLens = ();
+            type ArrayMut<'a, const N: usize> = &'a mut [$ty; N];
+
+            fn run_lens(items: &[Self]) -> usize {
+                items.len()
+            }
+
+            fn run_count(lens: &usize) -> usize {
+                *lens
+            }
+
+            fn run_end(_: &usize, n: usize, start: usize) -> Option<usize> {
+                loan::plain_run_end::<$ty>(n, start)
+            }
+
+            fn carve_run<'a>(_: &usize, n: usize, c: &mut Carver<'a>) -> Result<Uninit<'a, $ty>, LoanError> {
+                // A number is always at a phase where memory and wire agree.
+                loan::carve_plain_run(n, c).unwrap_or(Err(LoanError::TooLarge))
+            }
+
+            fn write_run(items: &[Self], place: Uninit<'_, $ty>) -> Result<(), LoanError> {
+                place.write_slice(items).map(drop)
+            }
+
+            fn array_lens<const N: usize>(_: &[Self; N]) {}
+
+            fn array_end<const N: usize>((): &(), start: usize) -> Option<usize> {
+                loan::plain_run_end::<$ty>(N, start)
+            }
+
+            fn carve_array<'a, const N: usize>((): &(), c: &mut Carver<'a>) -> Result<&'a mut [$ty; N], LoanError> {
+                loan::carve_plain_array(c, $size)
+            }
+
+            fn write_array<const N: usize>(items: &[Self; N], place: &mut [$ty; N]) -> Result<(), LoanError> {
+                *place = *items;
+                Ok(())
+            }
+        }
+    )*};
+}
+
+number_in_place! {
+    u8 => 1;
+    i8 => 1;
+    u16 => 2;
+    i16 => 2;
+    u32 => 4;
+    i32 => 4;
+    u64 => 8;
+    i64 => 8;
+    f32 => 4;
+    f64 => 8;
+}
+
+impl InPlace for bool {
+    type Lens = ();
+    type Mut<'a> = &'a mut bool;
+
+    fn lens(&self) {}
+
+    fn end_in_place((): &(), start: usize) -> Option<usize> {
+        start.checked_add(1)
+    }
+
+    fn carve<'a>((): &(), c: &mut Carver<'a>) -> Result<&'a mut bool, LoanError> {
+        match zeroed_bools(c.take(1, 1)?) {
+            [one] => Ok(one),
+            _ => Err(LoanError::TooLarge),
+        }
+    }
+
+    fn write_in_place(&self, place: &mut bool) -> Result<(), LoanError> {
+        *place = *self;
+        Ok(())
+    }
+}
+
+/// `bool`s are not plain (only 0 and 1 are valid), so runs of them are zeroed
+/// (`false`) rather than left unwritten.
+impl InPlaceElement for bool {
+    type RunLens = usize;
+    type RunMut<'a> = &'a mut [bool];
+    type ArrayLens = ();
+    type ArrayMut<'a, const N: usize> = &'a mut [bool; N];
+
+    fn run_lens(items: &[Self]) -> usize {
+        items.len()
+    }
+
+    fn run_count(lens: &usize) -> usize {
+        *lens
+    }
+
+    fn run_end(_: &usize, n: usize, start: usize) -> Option<usize> {
+        start.checked_add(n)
+    }
+
+    fn carve_run<'a>(_: &usize, n: usize, c: &mut Carver<'a>) -> Result<&'a mut [bool], LoanError> {
+        Ok(zeroed_bools(c.take(1, n)?))
+    }
+
+    fn write_run(items: &[Self], place: &mut [bool]) -> Result<(), LoanError> {
+        if items.len() != place.len() {
+            return Err(LoanError::LengthMismatch {
+                at: 0,
+                expected: place.len(),
+                got: items.len(),
+            });
+        }
+        place.copy_from_slice(items);
+        Ok(())
+    }
+
+    fn array_lens<const N: usize>(_: &[Self; N]) {}
+
+    fn array_end<const N: usize>((): &(), start: usize) -> Option<usize> {
+        start.checked_add(N)
+    }
+
+    fn carve_array<'a, const N: usize>((): &(), c: &mut Carver<'a>) -> Result<&'a mut [bool; N], LoanError> {
+        <&mut [bool; N]>::try_from(zeroed_bools(c.take(1, N)?)).map_err(|_| LoanError::TooLarge)
+    }
+
+    fn write_array<const N: usize>(items: &[Self; N], place: &mut [bool; N]) -> Result<(), LoanError> {
+        *place = *items;
+        Ok(())
+    }
+}

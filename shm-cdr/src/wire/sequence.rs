@@ -10,6 +10,7 @@ use crate::encode::{CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
 use crate::layout::{align_up, FixedLayout};
+use crate::loan::{Carver, InPlace, InPlaceElement, LoanError};
 
 #[inline(always)]
 fn sequence_end<T: CdrEncode>(items: &[T], start: usize) -> usize {
@@ -197,3 +198,55 @@ impl<T: RosElement, const N: usize> RosType for BoundedVec<T, N> {
         T::register_types(registry);
     }
 }
+
+/// The end of a sequence of `lens` starting at `start`: count, then the run.
+#[inline]
+fn sequence_end_in_place<T: InPlaceElement>(lens: &T::RunLens, start: usize) -> Option<usize> {
+    T::run_end(lens, T::run_count(lens), align_up(start, 4).checked_add(4)?)
+}
+
+/// Lay out a sequence: its count written, its run carved by the element type.
+#[inline]
+fn carve_sequence<'a, T: InPlaceElement>(
+    lens: &T::RunLens,
+    bound: Option<usize>,
+    c: &mut Carver<'a>,
+) -> Result<T::RunMut<'a>, LoanError> {
+    let n = T::run_count(lens);
+    if let Some(bound) = bound.filter(|&bound| n > bound) {
+        return Err(LoanError::BoundExceeded { len: n, bound });
+    }
+    c.count(n)?;
+    T::carve_run(lens, n, c)
+}
+
+/// Sequences in place: the count is written at once, the elements are laid out
+/// as the element type decides (numbers: one [`Uninit`](crate::loan::Uninit)).
+macro_rules! sequence_in_place {
+    ([$($g:tt)*] $ty:ty, $bound:expr) => {
+        impl<$($g)*> InPlace for $ty {
+            type Lens = T::RunLens;
+            type Mut<'a> = T::RunMut<'a>;
+
+            fn lens(&self) -> T::RunLens {
+                T::run_lens(self)
+            }
+
+            fn end_in_place(lens: &T::RunLens, start: usize) -> Option<usize> {
+                sequence_end_in_place::<T>(lens, start)
+            }
+
+            fn carve<'a>(lens: &T::RunLens, c: &mut Carver<'a>) -> Result<T::RunMut<'a>, LoanError> {
+                carve_sequence::<T>(lens, $bound, c)
+            }
+
+            fn write_in_place(&self, place: T::RunMut<'_>) -> Result<(), LoanError> {
+                T::write_run(self, place)
+            }
+        }
+    };
+}
+
+sequence_in_place!([T: InPlaceElement] Vec<T>, None);
+sequence_in_place!([T: InPlaceElement + Clone] Cow<'_, [T]>, None);
+sequence_in_place!([T: InPlaceElement, const N: usize] BoundedVec<T, N>, Some(N));

@@ -8,6 +8,7 @@ use crate::describe::{FieldType, RosElement, RosType, TypeId};
 use crate::encode::{zero_padding, CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
+use crate::loan::{Carver, InPlace, InPlaceElement, LoanError, StrSlot};
 use crate::layout::align_up;
 
 #[inline(always)]
@@ -351,3 +352,132 @@ mod tests {
         }
     }
 }
+
+/// The end of a string of `len` bytes starting at `start`: count, bytes, NUL.
+fn string_end_in_place(len: usize, start: usize) -> Option<usize> {
+    align_up(start, 4).checked_add(5)?.checked_add(len)
+}
+
+/// Lay out a string of `len` bytes: its count and NUL written, its bytes left for
+/// the [`StrSlot`].
+fn carve_string<'a>(len: usize, bound: Option<usize>, c: &mut Carver<'a>) -> Result<StrSlot<'a>, LoanError> {
+    if let Some(bound) = bound.filter(|&bound| len > bound) {
+        return Err(LoanError::BoundExceeded { len, bound });
+    }
+    c.count(len.checked_add(1).ok_or(LoanError::TooLarge)?)?;
+    let at = c.offset();
+    let slot = c.take(1, len + 1)?;
+    let (bytes, nul) = slot.split_at_mut(len);
+    nul.fill(0);
+    Ok(StrSlot::new(bytes, at, c.written()))
+}
+
+fn strings_run_end(lens: &[usize], n: usize, start: usize) -> Option<usize> {
+    let mut pos = start;
+    for i in 0..n {
+        pos = string_end_in_place(lens.get(i).copied().unwrap_or(0), pos)?;
+    }
+    Some(pos)
+}
+
+fn carve_strings<'a>(
+    lens: &[usize],
+    n: usize,
+    bound: Option<usize>,
+    c: &mut Carver<'a>,
+) -> Result<Vec<StrSlot<'a>>, LoanError> {
+    if !lens.is_empty() && lens.len() != n {
+        return Err(LoanError::ArrayLength { len: lens.len(), expected: n });
+    }
+    // Every string takes at least 5 bytes of the buffer: bound the allocation.
+    let mut slots = Vec::with_capacity(n.min(c.remaining() / 5));
+    for i in 0..n {
+        slots.push(carve_string(lens.get(i).copied().unwrap_or(0), bound, c)?);
+    }
+    Ok(slots)
+}
+
+fn write_string_slots<T: std::ops::Deref>(items: &[T], places: Vec<StrSlot<'_>>) -> Result<(), LoanError>
+where
+    T::Target: AsRef<str>,
+{
+    if items.len() != places.len() {
+        return Err(LoanError::ArrayLength { len: items.len(), expected: places.len() });
+    }
+    items.iter().zip(places).try_for_each(|(s, place)| place.write((**s).as_ref()))
+}
+
+/// Strings in place: a [`StrSlot`] of the stated length; runs and arrays of them
+/// one slot per string (lengths `Vec<usize>`; for an array, empty means `N`
+/// empty strings).
+macro_rules! string_in_place {
+    ([$($g:tt)*] $ty:ty, $bound:expr) => {
+        impl<$($g)*> InPlace for $ty {
+            type Lens = usize;
+            type Mut<'a> = StrSlot<'a>;
+
+            fn lens(&self) -> usize {
+                self.len()
+            }
+
+            fn end_in_place(lens: &usize, start: usize) -> Option<usize> {
+                string_end_in_place(*lens, start)
+            }
+
+            fn carve<'a>(lens: &usize, c: &mut Carver<'a>) -> Result<StrSlot<'a>, LoanError> {
+                carve_string(*lens, $bound, c)
+            }
+
+            fn write_in_place(&self, place: StrSlot<'_>) -> Result<(), LoanError> {
+                place.write(self)
+            }
+        }
+
+        impl<$($g)*> InPlaceElement for $ty {
+            type RunLens = Vec<usize>;
+            type RunMut<'a> = Vec<StrSlot<'a>>;
+            type ArrayLens = Vec<usize>;
+            type ArrayMut<'a, const M: usize> = Vec<StrSlot<'a>>;
+
+            fn run_lens(items: &[Self]) -> Vec<usize> {
+                items.iter().map(|s| s.len()).collect()
+            }
+
+            fn run_count(lens: &Vec<usize>) -> usize {
+                lens.len()
+            }
+
+            fn run_end(lens: &Vec<usize>, n: usize, start: usize) -> Option<usize> {
+                strings_run_end(lens, n, start)
+            }
+
+            fn carve_run<'a>(lens: &Vec<usize>, n: usize, c: &mut Carver<'a>) -> Result<Vec<StrSlot<'a>>, LoanError> {
+                carve_strings(lens, n, $bound, c)
+            }
+
+            fn write_run(items: &[Self], place: Vec<StrSlot<'_>>) -> Result<(), LoanError> {
+                write_string_slots(items, place)
+            }
+
+            fn array_lens<const M: usize>(items: &[Self; M]) -> Vec<usize> {
+                items.iter().map(|s| s.len()).collect()
+            }
+
+            fn array_end<const M: usize>(lens: &Vec<usize>, start: usize) -> Option<usize> {
+                strings_run_end(lens, M, start)
+            }
+
+            fn carve_array<'a, const M: usize>(lens: &Vec<usize>, c: &mut Carver<'a>) -> Result<Vec<StrSlot<'a>>, LoanError> {
+                carve_strings(lens, M, $bound, c)
+            }
+
+            fn write_array<const M: usize>(items: &[Self; M], place: Vec<StrSlot<'_>>) -> Result<(), LoanError> {
+                write_string_slots(items, place)
+            }
+        }
+    };
+}
+
+string_in_place!([] String, None);
+string_in_place!(['c] Cow<'c, str>, None);
+string_in_place!([const N: usize] BoundedString<N>, Some(N));

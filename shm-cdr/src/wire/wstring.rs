@@ -8,6 +8,7 @@ use crate::encode::{CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
 use crate::layout::align_up;
+use crate::loan::{Carver, InPlace, InPlaceElement, LoanError, WStrSlot};
 
 fn utf16_len(s: &str) -> usize {
     s.chars().map(char::len_utf16).sum()
@@ -129,3 +130,121 @@ impl<const N: usize> RosType for BoundedWString<N> {
     const FIELD_TYPE: FieldType = FieldType::bounded_string(TypeId::BoundedWString, N);
 }
 impl<const N: usize> RosElement for BoundedWString<N> {}
+
+/// The end of a wstring of `units` UTF-16 code units starting at `start`.
+fn wstring_end_in_place(units: usize, start: usize) -> Option<usize> {
+    align_up(start, 4).checked_add(4)?.checked_add(units.checked_mul(4)?)
+}
+
+fn carve_wstring<'a>(units: usize, bound: Option<usize>, c: &mut Carver<'a>) -> Result<WStrSlot<'a>, LoanError> {
+    if let Some(bound) = bound.filter(|&bound| units > bound) {
+        return Err(LoanError::BoundExceeded { len: units, bound });
+    }
+    c.count(units)?;
+    let at = c.offset();
+    let slot = c.take(4, units.checked_mul(4).ok_or(LoanError::TooLarge)?)?;
+    Ok(WStrSlot::new(slot, at, c.written()))
+}
+
+fn wstrings_end(lens: &[usize], n: usize, start: usize) -> Option<usize> {
+    (0..n).try_fold(start, |pos, i| wstring_end_in_place(lens.get(i).copied().unwrap_or(0), pos))
+}
+
+fn carve_wstrings<'a>(
+    lens: &[usize],
+    n: usize,
+    bound: Option<usize>,
+    c: &mut Carver<'a>,
+) -> Result<Vec<WStrSlot<'a>>, LoanError> {
+    if !lens.is_empty() && lens.len() != n {
+        return Err(LoanError::ArrayLength { len: lens.len(), expected: n });
+    }
+    let mut slots = Vec::with_capacity(n.min(c.remaining() / 4));
+    for i in 0..n {
+        slots.push(carve_wstring(lens.get(i).copied().unwrap_or(0), bound, c)?);
+    }
+    Ok(slots)
+}
+
+fn write_wstring_slots<T: std::ops::Deref<Target = String>>(
+    items: &[T],
+    places: Vec<WStrSlot<'_>>,
+) -> Result<(), LoanError> {
+    if items.len() != places.len() {
+        return Err(LoanError::ArrayLength { len: items.len(), expected: places.len() });
+    }
+    items.iter().zip(places).try_for_each(|(s, place)| place.write(s))
+}
+
+/// Wide strings in place: a [`WStrSlot`] of the stated number of UTF-16 code
+/// units; runs and arrays of them one slot each (as for strings).
+macro_rules! wstring_in_place {
+    ([$($g:tt)*] $ty:ty, $bound:expr) => {
+        impl<$($g)*> InPlace for $ty {
+            type Lens = usize;
+            type Mut<'a> = WStrSlot<'a>;
+
+            fn lens(&self) -> usize {
+                utf16_len(self)
+            }
+
+            fn end_in_place(lens: &usize, start: usize) -> Option<usize> {
+                wstring_end_in_place(*lens, start)
+            }
+
+            fn carve<'a>(lens: &usize, c: &mut Carver<'a>) -> Result<WStrSlot<'a>, LoanError> {
+                carve_wstring(*lens, $bound, c)
+            }
+
+            fn write_in_place(&self, place: WStrSlot<'_>) -> Result<(), LoanError> {
+                place.write(self)
+            }
+        }
+
+        impl<$($g)*> InPlaceElement for $ty {
+            type RunLens = Vec<usize>;
+            type RunMut<'a> = Vec<WStrSlot<'a>>;
+            type ArrayLens = Vec<usize>;
+            type ArrayMut<'a, const M: usize> = Vec<WStrSlot<'a>>;
+
+            fn run_lens(items: &[Self]) -> Vec<usize> {
+                items.iter().map(|s| utf16_len(s)).collect()
+            }
+
+            fn run_count(lens: &Vec<usize>) -> usize {
+                lens.len()
+            }
+
+            fn run_end(lens: &Vec<usize>, n: usize, start: usize) -> Option<usize> {
+                wstrings_end(lens, n, start)
+            }
+
+            fn carve_run<'a>(lens: &Vec<usize>, n: usize, c: &mut Carver<'a>) -> Result<Vec<WStrSlot<'a>>, LoanError> {
+                carve_wstrings(lens, n, $bound, c)
+            }
+
+            fn write_run(items: &[Self], place: Vec<WStrSlot<'_>>) -> Result<(), LoanError> {
+                write_wstring_slots(items, place)
+            }
+
+            fn array_lens<const M: usize>(items: &[Self; M]) -> Vec<usize> {
+                items.iter().map(|s| utf16_len(s)).collect()
+            }
+
+            fn array_end<const M: usize>(lens: &Vec<usize>, start: usize) -> Option<usize> {
+                wstrings_end(lens, M, start)
+            }
+
+            fn carve_array<'a, const M: usize>(lens: &Vec<usize>, c: &mut Carver<'a>) -> Result<Vec<WStrSlot<'a>>, LoanError> {
+                carve_wstrings(lens, M, $bound, c)
+            }
+
+            fn write_array<const M: usize>(items: &[Self; M], place: Vec<WStrSlot<'_>>) -> Result<(), LoanError> {
+                write_wstring_slots(items, place)
+            }
+        }
+    };
+}
+
+wstring_in_place!([] WString, None);
+wstring_in_place!([const N: usize] BoundedWString<N>, Some(N));
