@@ -416,6 +416,10 @@ pub(crate) fn plain_extend<T>(
 /// `T` in memory (then the caller copies).
 #[allow(unsafe_code)]
 pub(crate) fn plain_slice<T>(_proof: PlainLayout<T>, bytes: &[u8]) -> Option<&[T]> {
+    if bytes.is_empty() {
+        // No element to align (an empty sequence has no padding before it).
+        return Some(&[]);
+    }
     let size = std::mem::size_of::<T>();
     if size == 0 || bytes.len() % size != 0 || bytes.as_ptr() as usize % std::mem::align_of::<T>() != 0 {
         return None;
@@ -431,6 +435,9 @@ pub(crate) fn plain_slice<T>(_proof: PlainLayout<T>, bytes: &[u8]) -> Option<&[T
 /// [`plain_slice`] for writing: the `T`s lying in `bytes`, mutably.
 #[allow(unsafe_code)]
 pub(crate) fn plain_slice_mut<T>(_proof: PlainLayout<T>, bytes: &mut [u8]) -> Option<&mut [T]> {
+    if bytes.is_empty() {
+        return Some(<&mut [T]>::default());
+    }
     let size = std::mem::size_of::<T>();
     if size == 0 || bytes.len() % size != 0 || bytes.as_ptr() as usize % std::mem::align_of::<T>() != 0 {
         return None;

@@ -107,3 +107,54 @@ where
     }
     Ok(())
 }
+
+/// Verify that `msg` built in place ([`crate::loan`]) is byte for byte what
+/// [`to_vec`](crate::to_vec) writes (in the host's byte order):
+/// - the size computed from `msg.lens()` is [`encoded_size`];
+/// - carving those lengths into a buffer pre-filled with garbage and writing every
+///   field of `msg` through the places leaves exactly `to_vec`'s bytes (so every
+///   padding byte, count and terminator is written), with nothing left unwritten;
+/// - carving again leaves every string and non-empty run counted as unwritten
+///   until it is written.
+///
+/// Returns a description of the first violation.
+pub fn check_in_place<T>(msg: &T) -> Result<(), String>
+where
+    T: crate::loan::InPlace + std::fmt::Debug,
+{
+    use crate::loan::{self, AlignedBuffer, Written};
+
+    let expected = to_vec_with(msg, loan::HOST_ORDER).map_err(|e| format!("to_vec: {e}"))?;
+    let lens = msg.lens();
+    let size = loan::encoded_size::<T>(&lens).map_err(|e| format!("size: {e}"))?;
+    if size != encoded_size(msg) {
+        return Err(format!(
+            "in-place size {size} but encoded_size {}",
+            encoded_size(msg)
+        ));
+    }
+    for garbage in [0xA5, 0xFF] {
+        let mut buffer = AlignedBuffer::new(size);
+        buffer.as_mut_slice().fill(garbage);
+        let mut written = Written::new();
+        let place = loan::carve::<T>(&lens, buffer.as_mut_slice(), &mut written)
+            .map_err(|e| format!("carve: {e}"))?;
+        msg.write_in_place(place)
+            .map_err(|e| format!("write_in_place: {e}"))?;
+        written
+            .check()
+            .map_err(|e| format!("after writing every field: {e}"))?;
+        if buffer.as_slice() != expected.as_slice() {
+            let at = buffer
+                .as_slice()
+                .iter()
+                .zip(&expected)
+                .position(|(a, b)| a != b)
+                .unwrap_or(0);
+            return Err(format!(
+                "built in place over {garbage:#04x}, the bytes differ from to_vec first at byte {at}"
+            ));
+        }
+    }
+    Ok(())
+}

@@ -8,7 +8,7 @@
 
 use proptest::prelude::*;
 use proptest_derive::Arbitrary;
-use shm_cdr::testing::{check_decode_into, check_roundtrip};
+use shm_cdr::testing::{check_decode_into, check_in_place, check_roundtrip};
 use shm_cdr::{BoundedString, BoundedVec, BoundedWString, RosMessage, WString};
 use shm_cdr_tests::msgs::{HeaderRef, Image, ImageRef, Time};
 
@@ -176,6 +176,10 @@ macro_rules! roundtrip_properties {
                     if let Err(why) = check_roundtrip(&msg) {
                         prop_assert!(false, "{}", why);
                     }
+                    // Built in place, field by field, into a garbage-filled buffer.
+                    if let Err(why) = check_in_place(&msg) {
+                        prop_assert!(false, "in place: {}", why);
+                    }
                 }
             )*
         }
@@ -291,14 +295,15 @@ fn fixed_layouts_are_known_at_compile_time() {
 mod generated {
     use arbitrary::{Arbitrary, Unstructured};
     use proptest::test_runner::{Config, TestCaseError, TestRunner};
-    use shm_cdr::testing::{check_decode_into, check_roundtrip};
+    use shm_cdr::loan::InPlace;
+    use shm_cdr::testing::{check_decode_into, check_in_place, check_roundtrip};
     use shm_cdr::{BorrowedForm, DecodeOwned};
 
     include!("../../examples/src/interfaces.rs");
 
     fn check<T>() -> usize
     where
-        T: BorrowedForm + DecodeOwned + for<'a> Arbitrary<'a> + std::fmt::Debug,
+        T: BorrowedForm + DecodeOwned + InPlace + for<'a> Arbitrary<'a> + std::fmt::Debug,
     {
         let mut runner = TestRunner::new(Config {
             cases: 32,
@@ -315,6 +320,7 @@ mod generated {
             built.set(built.get() + 1);
             check_roundtrip(&msg).map_err(TestCaseError::fail)?;
             check_decode_into(&previous, &msg).map_err(TestCaseError::fail)?;
+            check_in_place(&msg).map_err(|e| TestCaseError::fail(format!("in place: {e}")))?;
             let encoded = shm_cdr::to_vec(&msg).map_err(|e| TestCaseError::fail(e.to_string()))?;
             let view: T::Ref<'_> = shm_cdr::from_bytes(&encoded)
                 .map_err(|e| TestCaseError::fail(format!("Ref form: {e}")))?;
