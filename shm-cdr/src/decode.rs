@@ -4,7 +4,7 @@ use std::marker::PhantomData;
 
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind};
-use crate::layout::{align_up, plain_extend, PlainLayout};
+use crate::layout::{align_up, plain_extend, plain_slice, PlainLayout};
 
 /// Size of the encapsulation header, the origin of error offsets.
 pub(crate) const HEADER_LEN: usize = 4;
@@ -83,7 +83,15 @@ pub trait CdrDecode<'de>: Sized {
     }
 
     /// Read `n` consecutive values into a [`std::borrow::Cow`]: borrowed from the
-    /// input where the memory layout allows (bytes), owned otherwise.
+    /// input when they lie there as `&[Self]` would, copied otherwise.
+    ///
+    /// They are borrowed, in O(1), when `Self` is [plain](Self::PLAIN) (numbers,
+    /// structs packed from them), the input is in the host's byte order, the run
+    /// starts at a phase where memory and wire layout agree, and its first byte is
+    /// aligned for `Self` in memory. A shared-memory payload from shm-runtime
+    /// (body 8-aligned) meets the last condition for every type; a payload from
+    /// elsewhere may not (an `f64` run 4 bytes off its alignment), and is then
+    /// copied: `Cow::Borrowed` or `Cow::Owned` says which happened.
     #[inline]
     fn decode_cow_slice<B: ByteOrder>(
         r: &mut Reader<'de, B>,
@@ -92,6 +100,27 @@ pub trait CdrDecode<'de>: Sized {
     where
         Self: Clone,
     {
+        if let (true, Some(plain)) = (B::NATIVE, Self::PLAIN) {
+            if n > 0 && plain.bulk_at(r.position()) {
+                let at = r.position();
+                let len = n.saturating_mul(std::mem::size_of::<Self>());
+                let bytes = r.read_aligned_bytes(plain.first_align(), len)?;
+                if let Some(items) = plain_slice(plain, bytes) {
+                    return Ok(std::borrow::Cow::Borrowed(items));
+                }
+                let mut out = Vec::new();
+                return match plain_extend(plain, &mut out, bytes, n) {
+                    Some(()) => Ok(std::borrow::Cow::Owned(out)),
+                    None => Err(r.error_at(
+                        at,
+                        DecodeErrorKind::UnexpectedEof {
+                            needed: len,
+                            remaining: bytes.len(),
+                        },
+                    )),
+                };
+            }
+        }
         Self::decode_vec(r, n).map(std::borrow::Cow::Owned)
     }
 }

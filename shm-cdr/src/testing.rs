@@ -136,8 +136,8 @@ where
     for garbage in [0xA5, 0xFF] {
         let mut buffer = AlignedBuffer::new(size);
         buffer.as_mut_slice().fill(garbage);
-        let mut written = Written::new();
-        let place = loan::carve::<T>(&lens, buffer.as_mut_slice(), &mut written)
+        let written = Written::new();
+        let place = loan::carve::<T>(&lens, buffer.as_mut_slice(), &written)
             .map_err(|e| format!("carve: {e}"))?;
         msg.write_in_place(place)
             .map_err(|e| format!("write_in_place: {e}"))?;

@@ -128,11 +128,15 @@ impl<'a> Index<'a> {
             (BaseType::Primitive(p), Property::Eq) => !p.is_float(),
             (BaseType::Primitive(p), Property::Borrows) => match p {
                 Primitive::String(None) => true,
-                Primitive::Byte | Primitive::Char | Primitive::UInt8 => {
-                    f.ty.container == Container::Sequence
-                }
-                _ => false,
+                // Byte sequences borrow as they are; other number sequences when
+                // they lie aligned (always, in a shm-runtime payload).
+                _ if p.is_string() || *p == Primitive::Bool => false,
+                _ => f.ty.container == Container::Sequence,
             },
+            (BaseType::Message(r), Property::Borrows) => {
+                self.has(r, property)
+                    || (f.ty.container == Container::Sequence && self.has(r, Property::Plain))
+            }
             (BaseType::Message(r), Property::Copy | Property::Plain) => {
                 fixed && self.has(r, property)
             }
@@ -675,6 +679,13 @@ fn field_type(index: &Index, ty: &FieldType, from: &TypeRef, form: Form) -> Stri
         Container::BoundedSequence(n) => format!("{krate}::BoundedVec<{element}, {n}>"),
         Container::Sequence => match (&ty.base, form) {
             (BaseType::Primitive(p), Form::Borrowed) if is_octet(*p) => "&'a [u8]".into(),
+            // Numbers and plain messages: borrowed in O(1) where aligned.
+            (BaseType::Primitive(p), Form::Borrowed) if !p.is_string() && *p != Primitive::Bool => {
+                format!("::std::borrow::Cow<'a, [{element}]>")
+            }
+            (BaseType::Message(r), Form::Borrowed) if index.has(r, Property::Plain) => {
+                format!("::std::borrow::Cow<'a, [{element}]>")
+            }
             _ => format!("::std::vec::Vec<{element}>"),
         },
     }
@@ -715,6 +726,14 @@ fn default_expr(f: &Field, form: Form, krate: &str) -> String {
         (Value::List(items), Container::Sequence) if form == Form::Borrowed && is_octet(p) => {
             format!(
                 "&[{}]",
+                items.iter().map(scalar).collect::<Vec<_>>().join(", ")
+            )
+        }
+        (Value::List(items), Container::Sequence)
+            if form == Form::Borrowed && !p.is_string() && p != Primitive::Bool =>
+        {
+            format!(
+                "::std::borrow::Cow::Owned(::std::vec![{}])",
                 items.iter().map(scalar).collect::<Vec<_>>().join(", ")
             )
         }

@@ -13,6 +13,7 @@
 use std::cell::RefCell;
 use std::ops::Deref;
 
+use shm_cdr::loan::{Carver, InPlace, LoanError, Uninit};
 use shm_cdr::describe::{FieldType, OctetType, TypeId};
 use shm_cdr::{ByteOrder, CdrDecode, CdrEncode, DecodeError, EncodeError, Reader, RosType, Writer};
 use zenoh::bytes::ZBytes;
@@ -151,6 +152,29 @@ impl CdrEncode for ShmBytes {
             }
         }
         w.write_bytes(self)
+    }
+}
+
+/// In place, a `uint8[]` run written straight into the loaned buffer (a loan has
+/// no need to splice: its bytes are already in shared memory).
+impl InPlace for ShmBytes {
+    type Lens = usize;
+    type Mut<'a> = Uninit<'a, u8>;
+
+    fn lens(&self) -> usize {
+        self.len()
+    }
+
+    fn end_in_place(lens: &usize, start: usize) -> Option<usize> {
+        <Vec<u8> as InPlace>::end_in_place(lens, start)
+    }
+
+    fn carve<'a>(lens: &usize, c: &mut Carver<'a>) -> Result<Uninit<'a, u8>, LoanError> {
+        <Vec<u8> as InPlace>::carve(lens, c)
+    }
+
+    fn write_in_place(&self, place: Uninit<'_, u8>) -> Result<(), LoanError> {
+        place.write_slice(self).map(drop)
     }
 }
 

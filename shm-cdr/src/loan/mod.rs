@@ -20,8 +20,8 @@
 //!
 //! let lens = ScanLens { frame_id: 5, ranges: 1080, poses: 3, ..Default::default() };
 //! let mut buffer = loan::AlignedBuffer::new(loan::encoded_size::<Scan>(&lens)?);
-//! let mut written = loan::Written::new();
-//! let scan = loan::carve::<Scan>(&lens, buffer.as_mut_slice(), &mut written)?;
+//! let written = loan::Written::new();
+//! let scan = loan::carve::<Scan>(&lens, buffer.as_mut_slice(), &written)?;
 //! *scan.angle_min = -1.5;
 //! scan.frame_id.write("laser")?;
 //! let ranges = scan.ranges.write_with(|i| i as f32 * 0.01); // in place, no copy
@@ -66,6 +66,8 @@ use crate::endian::Endianness;
 use crate::layout::align_up;
 
 mod slots;
+#[cfg(all(test, feature = "msgs"))]
+mod tests;
 
 pub use slots::{AlignedBuffer, Run, SeqLens, StrSlot, Uninit, WStrSlot};
 
@@ -190,7 +192,7 @@ impl Written {
         self.pending.set(self.pending.get().saturating_sub(1));
     }
 
-    pub(crate) fn reset(&mut self) {
+    pub(crate) fn reset(&self) {
         self.pending.set(0);
     }
 }
@@ -280,7 +282,7 @@ pub const HOST_ORDER: Endianness = if cfg!(target_endian = "little") {
 pub fn carve<'a, M: InPlace>(
     lens: &M::Lens,
     message: &'a mut [u8],
-    written: &'a mut Written,
+    written: &'a Written,
 ) -> Result<M::Mut<'a>, LoanError> {
     let size = encoded_size::<M>(lens)?;
     if message.len() != size {
@@ -297,7 +299,6 @@ pub fn carve<'a, M: InPlace>(
     }
     header.copy_from_slice(&HOST_ORDER.header());
     written.reset();
-    let written: &'a Written = written;
     let mut c = Carver {
         rest: body,
         pos: 0,

@@ -94,8 +94,24 @@ pub mod msg {
         }
     }
 
+    /// [`GoalStatusArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "action_msgs/msg/GoalStatusArray", crate = "crate")]
+    pub struct GoalStatusArrayRef<'a> {
+        /// An array of goal statuses.
+        pub status_list: ::std::borrow::Cow<'a, [GoalStatus]>,
+    }
+
+    impl<'a> ::core::default::Default for GoalStatusArrayRef<'a> {
+        fn default() -> Self {
+            Self {
+                status_list: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for GoalStatusArray {
-        type Ref<'a> = Self;
+        type Ref<'a> = GoalStatusArrayRef<'a>;
     }
 }
 
@@ -181,8 +197,31 @@ pub mod srv {
         }
     }
 
+    /// \#
+    /// \# Return codes.
+    /// \#
+    ///
+    /// [`CancelGoal_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "action_msgs/srv/CancelGoal_Response", crate = "crate")]
+    pub struct CancelGoal_ResponseRef<'a> {
+        /// Return code, see above definitions.
+        pub return_code: i8,
+        /// Goals that accepted the cancel request.
+        pub goals_canceling: ::std::borrow::Cow<'a, [super::super::action_msgs::msg::GoalInfo]>,
+    }
+
+    impl<'a> ::core::default::Default for CancelGoal_ResponseRef<'a> {
+        fn default() -> Self {
+            Self {
+                return_code: ::core::default::Default::default(),
+                goals_canceling: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for CancelGoal_Response {
-        type Ref<'a> = Self;
+        type Ref<'a> = CancelGoal_ResponseRef<'a>;
     }
 
     /// An introspection event of `action_msgs/srv/CancelGoal`.
@@ -210,8 +249,32 @@ pub mod srv {
         }
     }
 
+    /// An introspection event of `action_msgs/srv/CancelGoal`.
+    ///
+    /// [`CancelGoal_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "action_msgs/srv/CancelGoal_Event", crate = "crate")]
+    pub struct CancelGoal_EventRef<'a> {
+        /// What happened, when, and to which call.
+        pub info: super::super::service_msgs::msg::ServiceEventInfo,
+        /// The request, if the event carries it.
+        pub request: crate::BoundedVec<CancelGoal_Request, 1>,
+        /// The response, if the event carries it.
+        pub response: crate::BoundedVec<CancelGoal_ResponseRef<'a>, 1>,
+    }
+
+    impl<'a> ::core::default::Default for CancelGoal_EventRef<'a> {
+        fn default() -> Self {
+            Self {
+                info: ::core::default::Default::default(),
+                request: ::core::default::Default::default(),
+                response: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for CancelGoal_Event {
-        type Ref<'a> = Self;
+        type Ref<'a> = CancelGoal_EventRef<'a>;
     }
 
     /// Cancel one or more goals with the following policy:

@@ -374,8 +374,26 @@ pub mod msg {
         }
     }
 
+    /// A specification of a polygon where the first and last points are assumed to be connected
+    ///
+    /// [`Polygon`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "geometry_msgs/msg/Polygon", crate = "crate")]
+    pub struct PolygonRef<'a> {
+        /// `geometry_msgs/Point32[] points`
+        pub points: ::std::borrow::Cow<'a, [Point32]>,
+    }
+
+    impl<'a> ::core::default::Default for PolygonRef<'a> {
+        fn default() -> Self {
+            Self {
+                points: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for Polygon {
-        type Ref<'a> = Self;
+        type Ref<'a> = PolygonRef<'a>;
     }
 
     /// A specification of a polygon where the first and last points are assumed to be connected
@@ -401,8 +419,30 @@ pub mod msg {
         }
     }
 
+    /// A specification of a polygon where the first and last points are assumed to be connected
+    /// It includes a unique identification field for disambiguating multiple instances
+    ///
+    /// [`PolygonInstance`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "geometry_msgs/msg/PolygonInstance", crate = "crate")]
+    pub struct PolygonInstanceRef<'a> {
+        /// `geometry_msgs/Polygon polygon`
+        pub polygon: PolygonRef<'a>,
+        /// `int64 id`
+        pub id: i64,
+    }
+
+    impl<'a> ::core::default::Default for PolygonInstanceRef<'a> {
+        fn default() -> Self {
+            Self {
+                polygon: ::core::default::Default::default(),
+                id: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for PolygonInstance {
-        type Ref<'a> = Self;
+        type Ref<'a> = PolygonInstanceRef<'a>;
     }
 
     /// This represents a Polygon with reference coordinate frame and timestamp
@@ -444,7 +484,7 @@ pub mod msg {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// `geometry_msgs/PolygonInstance polygon`
-        pub polygon: PolygonInstance,
+        pub polygon: PolygonInstanceRef<'a>,
     }
 
     impl<'a> ::core::default::Default for PolygonInstanceStampedRef<'a> {
@@ -491,7 +531,7 @@ pub mod msg {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// `geometry_msgs/Polygon polygon`
-        pub polygon: Polygon,
+        pub polygon: PolygonRef<'a>,
     }
 
     impl<'a> ::core::default::Default for PolygonStampedRef<'a> {
@@ -596,7 +636,7 @@ pub mod msg {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// `geometry_msgs/Pose[] poses`
-        pub poses: ::std::vec::Vec<Pose>,
+        pub poses: ::std::borrow::Cow<'a, [Pose]>,
     }
 
     impl<'a> ::core::default::Default for PoseArrayRef<'a> {

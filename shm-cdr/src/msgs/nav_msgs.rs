@@ -100,7 +100,7 @@ pub mod msg {
         /// Height of each cell
         pub cell_height: f32,
         /// Each cell is represented by the Point at the center of the cell
-        pub cells: ::std::vec::Vec<super::super::geometry_msgs::msg::Point>,
+        pub cells: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Point]>,
     }
 
     impl<'a> ::core::default::Default for GridCellsRef<'a> {
@@ -197,7 +197,7 @@ pub mod msg {
         /// The values inside are application dependent, but frequently,
         /// 0 represents unoccupied, 1 represents definitely occupied, and
         /// \-1 represents unknown.
-        pub data: ::std::vec::Vec<i8>,
+        pub data: ::std::borrow::Cow<'a, [i8]>,
     }
 
     impl<'a> ::core::default::Default for OccupancyGridRef<'a> {

@@ -709,9 +709,9 @@ pub mod msg {
         /// An array of boolean values.
         pub bool_array_value: ::std::vec::Vec<bool>,
         /// An array of 64-bit integer values.
-        pub integer_array_value: ::std::vec::Vec<i64>,
+        pub integer_array_value: ::std::borrow::Cow<'a, [i64]>,
         /// An array of 64-bit floating point values.
-        pub double_array_value: ::std::vec::Vec<f64>,
+        pub double_array_value: ::std::borrow::Cow<'a, [f64]>,
         /// An array of string values.
         pub string_array_value: ::std::vec::Vec<&'a str>,
     }

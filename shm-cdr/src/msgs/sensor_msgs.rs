@@ -157,10 +157,10 @@ pub mod msg {
         /// True if the battery is present
         pub present: bool,
         /// An array of individual cell voltages for each cell in the pack
-        pub cell_voltage: ::std::vec::Vec<f32>,
+        pub cell_voltage: ::std::borrow::Cow<'a, [f32]>,
         /// If individual voltages unknown but number of cells known set each to NaN
         /// An array of individual cell temperatures for each cell in the pack
-        pub cell_temperature: ::std::vec::Vec<f32>,
+        pub cell_temperature: ::std::borrow::Cow<'a, [f32]>,
         /// If individual temperatures unknown but number of cells known set each to NaN
         /// The location into which the battery is inserted. (slot number or plug)
         pub location: &'a str,
@@ -358,7 +358,7 @@ pub mod msg {
         pub distortion_model: &'a str,
         /// The distortion parameters, size depending on the distortion model.
         /// For "plumb_bob", the 5 parameters are: (k1, k2, t1, t2, k3).
-        pub d: ::std::vec::Vec<f64>,
+        pub d: ::std::borrow::Cow<'a, [f64]>,
         /// Intrinsic camera matrix for the raw (distorted) images.
         /// \[fx  0 cx\]
         /// K = \[ 0 fy cy\]
@@ -505,7 +505,7 @@ pub mod msg {
         pub name: &'a str,
         /// The values array should be 1-1 with the elements of the associated
         /// PointCloud.
-        pub values: ::std::vec::Vec<f32>,
+        pub values: ::std::borrow::Cow<'a, [f32]>,
     }
 
     impl<'a> ::core::default::Default for ChannelFloat32Ref<'a> {
@@ -980,11 +980,11 @@ pub mod msg {
         /// `string[] name`
         pub name: ::std::vec::Vec<&'a str>,
         /// `float64[] position`
-        pub position: ::std::vec::Vec<f64>,
+        pub position: ::std::borrow::Cow<'a, [f64]>,
         /// `float64[] velocity`
-        pub velocity: ::std::vec::Vec<f64>,
+        pub velocity: ::std::borrow::Cow<'a, [f64]>,
         /// `float64[] effort`
-        pub effort: ::std::vec::Vec<f64>,
+        pub effort: ::std::borrow::Cow<'a, [f64]>,
     }
 
     impl<'a> ::core::default::Default for JointStateRef<'a> {
@@ -1037,9 +1037,9 @@ pub mod msg {
         /// The timestamp is the time at which data is received from the joystick.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// The axes measurements from a joystick.
-        pub axes: ::std::vec::Vec<f32>,
+        pub axes: ::std::borrow::Cow<'a, [f32]>,
         /// The buttons measurements from a joystick.
-        pub buttons: ::std::vec::Vec<i32>,
+        pub buttons: ::std::borrow::Cow<'a, [i32]>,
     }
 
     impl<'a> ::core::default::Default for JoyRef<'a> {
@@ -1112,8 +1112,24 @@ pub mod msg {
         }
     }
 
+    /// [`JoyFeedbackArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "sensor_msgs/msg/JoyFeedbackArray", crate = "crate")]
+    pub struct JoyFeedbackArrayRef<'a> {
+        /// This message publishes values for multiple feedback at once.
+        pub array: ::std::borrow::Cow<'a, [JoyFeedback]>,
+    }
+
+    impl<'a> ::core::default::Default for JoyFeedbackArrayRef<'a> {
+        fn default() -> Self {
+            Self {
+                array: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for JoyFeedbackArray {
-        type Ref<'a> = Self;
+        type Ref<'a> = JoyFeedbackArrayRef<'a>;
     }
 
     /// This message is a submessage of MultiEchoLaserScan and is not intended
@@ -1136,8 +1152,27 @@ pub mod msg {
         }
     }
 
+    /// This message is a submessage of MultiEchoLaserScan and is not intended
+    /// to be used separately.
+    ///
+    /// [`LaserEcho`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "sensor_msgs/msg/LaserEcho", crate = "crate")]
+    pub struct LaserEchoRef<'a> {
+        /// Multiple values of ranges or intensities.
+        pub echoes: ::std::borrow::Cow<'a, [f32]>,
+    }
+
+    impl<'a> ::core::default::Default for LaserEchoRef<'a> {
+        fn default() -> Self {
+            Self {
+                echoes: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for LaserEcho {
-        type Ref<'a> = Self;
+        type Ref<'a> = LaserEchoRef<'a>;
     }
 
     /// Single scan from a planar laser range-finder
@@ -1222,10 +1257,10 @@ pub mod msg {
         /// maximum range value \[m\]
         pub range_max: f32,
         /// range data \[m\]
-        pub ranges: ::std::vec::Vec<f32>,
+        pub ranges: ::std::borrow::Cow<'a, [f32]>,
         /// (Note: values \< range_min or \> range_max should be discarded)
         /// intensity data \[device-specific units\].  If your
-        pub intensities: ::std::vec::Vec<f32>,
+        pub intensities: ::std::borrow::Cow<'a, [f32]>,
     }
 
     impl<'a> ::core::default::Default for LaserScanRef<'a> {
@@ -1398,11 +1433,11 @@ pub mod msg {
         /// `string[] joint_names`
         pub joint_names: ::std::vec::Vec<&'a str>,
         /// `geometry_msgs/Transform[] transforms`
-        pub transforms: ::std::vec::Vec<super::super::geometry_msgs::msg::Transform>,
+        pub transforms: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Transform]>,
         /// `geometry_msgs/Twist[] twist`
-        pub twist: ::std::vec::Vec<super::super::geometry_msgs::msg::Twist>,
+        pub twist: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Twist]>,
         /// `geometry_msgs/Wrench[] wrench`
-        pub wrench: ::std::vec::Vec<super::super::geometry_msgs::msg::Wrench>,
+        pub wrench: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Wrench]>,
     }
 
     impl<'a> ::core::default::Default for MultiDOFJointStateRef<'a> {
@@ -1505,12 +1540,12 @@ pub mod msg {
         /// maximum range value \[m\]
         pub range_max: f32,
         /// range data \[m\]
-        pub ranges: ::std::vec::Vec<LaserEcho>,
+        pub ranges: ::std::vec::Vec<LaserEchoRef<'a>>,
         /// (Note: NaNs, values \< range_min or \> range_max should be discarded)
         /// \+Inf measurements are out of range
         /// \-Inf measurements are too close to determine exact distance.
         /// intensity data \[device-specific units\].  If your
-        pub intensities: ::std::vec::Vec<LaserEcho>,
+        pub intensities: ::std::vec::Vec<LaserEchoRef<'a>>,
     }
 
     impl<'a> ::core::default::Default for MultiEchoLaserScanRef<'a> {
@@ -1748,7 +1783,7 @@ pub mod msg {
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// Array of 3d points. Each Point32 should be interpreted as a 3d point
         /// in the frame given in the header.
-        pub points: ::std::vec::Vec<super::super::geometry_msgs::msg::Point32>,
+        pub points: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Point32]>,
         /// Each channel should have the same number of elements as points array,
         /// and the data in each channel should correspond 1:1 with each point.
         /// Channel names in common practice are listed in ChannelFloat32.msg.

@@ -26,8 +26,29 @@ pub mod msg {
         }
     }
 
+    /// Definition of a mesh.
+    ///
+    /// [`Mesh`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "shape_msgs/msg/Mesh", crate = "crate")]
+    pub struct MeshRef<'a> {
+        /// List of triangles; the index values refer to positions in vertices\[\].
+        pub triangles: ::std::borrow::Cow<'a, [MeshTriangle]>,
+        /// The actual vertices that make up the mesh.
+        pub vertices: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Point]>,
+    }
+
+    impl<'a> ::core::default::Default for MeshRef<'a> {
+        fn default() -> Self {
+            Self {
+                triangles: ::core::default::Default::default(),
+                vertices: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for Mesh {
-        type Ref<'a> = Self;
+        type Ref<'a> = MeshRef<'a>;
     }
 
     /// Definition of a triangle's vertices.
@@ -139,8 +160,34 @@ pub mod msg {
         }
     }
 
+    /// Defines box, sphere, cylinder, cone and prism.
+    /// All shapes are defined to have their bounding boxes centered around 0,0,0.
+    ///
+    /// [`SolidPrimitive`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "shape_msgs/msg/SolidPrimitive", crate = "crate")]
+    pub struct SolidPrimitiveRef<'a> {
+        /// The type of the shape
+        pub r#type: u8,
+        /// The dimensions of the shape
+        /// At no point will dimensions have a length \> 3.
+        pub dimensions: crate::BoundedVec<f64, 3>,
+        /// `geometry_msgs/Polygon polygon`
+        pub polygon: super::super::geometry_msgs::msg::PolygonRef<'a>,
+    }
+
+    impl<'a> ::core::default::Default for SolidPrimitiveRef<'a> {
+        fn default() -> Self {
+            Self {
+                r#type: ::core::default::Default::default(),
+                dimensions: ::core::default::Default::default(),
+                polygon: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for SolidPrimitive {
-        type Ref<'a> = Self;
+        type Ref<'a> = SolidPrimitiveRef<'a>;
     }
 }
 

@@ -252,7 +252,7 @@ pub mod msg {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
         /// array of data
-        pub data: ::std::vec::Vec<f32>,
+        pub data: ::std::borrow::Cow<'a, [f32]>,
     }
 
     impl<'a> ::core::default::Default for Float32MultiArrayRef<'a> {
@@ -332,7 +332,7 @@ pub mod msg {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
         /// array of data
-        pub data: ::std::vec::Vec<f64>,
+        pub data: ::std::borrow::Cow<'a, [f64]>,
     }
 
     impl<'a> ::core::default::Default for Float64MultiArrayRef<'a> {
@@ -463,7 +463,7 @@ pub mod msg {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
         /// array of data
-        pub data: ::std::vec::Vec<i16>,
+        pub data: ::std::borrow::Cow<'a, [i16]>,
     }
 
     impl<'a> ::core::default::Default for Int16MultiArrayRef<'a> {
@@ -543,7 +543,7 @@ pub mod msg {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
         /// array of data
-        pub data: ::std::vec::Vec<i32>,
+        pub data: ::std::borrow::Cow<'a, [i32]>,
     }
 
     impl<'a> ::core::default::Default for Int32MultiArrayRef<'a> {
@@ -623,7 +623,7 @@ pub mod msg {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
         /// array of data
-        pub data: ::std::vec::Vec<i64>,
+        pub data: ::std::borrow::Cow<'a, [i64]>,
     }
 
     impl<'a> ::core::default::Default for Int64MultiArrayRef<'a> {
@@ -703,7 +703,7 @@ pub mod msg {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
         /// array of data
-        pub data: ::std::vec::Vec<i8>,
+        pub data: ::std::borrow::Cow<'a, [i8]>,
     }
 
     impl<'a> ::core::default::Default for Int8MultiArrayRef<'a> {
@@ -942,7 +942,7 @@ pub mod msg {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
         /// array of data
-        pub data: ::std::vec::Vec<u16>,
+        pub data: ::std::borrow::Cow<'a, [u16]>,
     }
 
     impl<'a> ::core::default::Default for UInt16MultiArrayRef<'a> {
@@ -1022,7 +1022,7 @@ pub mod msg {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
         /// array of data
-        pub data: ::std::vec::Vec<u32>,
+        pub data: ::std::borrow::Cow<'a, [u32]>,
     }
 
     impl<'a> ::core::default::Default for UInt32MultiArrayRef<'a> {
@@ -1102,7 +1102,7 @@ pub mod msg {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
         /// array of data
-        pub data: ::std::vec::Vec<u64>,
+        pub data: ::std::borrow::Cow<'a, [u64]>,
     }
 
     impl<'a> ::core::default::Default for UInt64MultiArrayRef<'a> {

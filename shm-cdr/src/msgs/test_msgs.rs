@@ -43,8 +43,24 @@ pub mod action {
         }
     }
 
+    /// [`Fibonacci_Result`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "test_msgs/action/Fibonacci_Result", crate = "crate")]
+    pub struct Fibonacci_ResultRef<'a> {
+        /// result definition
+        pub sequence: ::std::borrow::Cow<'a, [i32]>,
+    }
+
+    impl<'a> ::core::default::Default for Fibonacci_ResultRef<'a> {
+        fn default() -> Self {
+            Self {
+                sequence: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for Fibonacci_Result {
-        type Ref<'a> = Self;
+        type Ref<'a> = Fibonacci_ResultRef<'a>;
     }
 
     /// `test_msgs/action/Fibonacci_Feedback` (from `action/Fibonacci.action`).
@@ -64,8 +80,24 @@ pub mod action {
         }
     }
 
+    /// [`Fibonacci_Feedback`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(type_name = "test_msgs/action/Fibonacci_Feedback", crate = "crate")]
+    pub struct Fibonacci_FeedbackRef<'a> {
+        /// feedback
+        pub sequence: ::std::borrow::Cow<'a, [i32]>,
+    }
+
+    impl<'a> ::core::default::Default for Fibonacci_FeedbackRef<'a> {
+        fn default() -> Self {
+            Self {
+                sequence: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for Fibonacci_Feedback {
-        type Ref<'a> = Self;
+        type Ref<'a> = Fibonacci_FeedbackRef<'a>;
     }
 
     /// `test_msgs/action/Fibonacci_SendGoal_Request` (from `action/Fibonacci.action`).
@@ -223,8 +255,30 @@ pub mod action {
         }
     }
 
+    /// [`Fibonacci_GetResult_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(
+        type_name = "test_msgs/action/Fibonacci_GetResult_Response",
+        crate = "crate"
+    )]
+    pub struct Fibonacci_GetResult_ResponseRef<'a> {
+        /// The goal's final status (`action_msgs/msg/GoalStatus`).
+        pub status: i8,
+        /// The result.
+        pub result: Fibonacci_ResultRef<'a>,
+    }
+
+    impl<'a> ::core::default::Default for Fibonacci_GetResult_ResponseRef<'a> {
+        fn default() -> Self {
+            Self {
+                status: ::core::default::Default::default(),
+                result: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for Fibonacci_GetResult_Response {
-        type Ref<'a> = Self;
+        type Ref<'a> = Fibonacci_GetResult_ResponseRef<'a>;
     }
 
     /// An introspection event of `test_msgs/action/Fibonacci_GetResult`.
@@ -255,8 +309,35 @@ pub mod action {
         }
     }
 
+    /// An introspection event of `test_msgs/action/Fibonacci_GetResult`.
+    ///
+    /// [`Fibonacci_GetResult_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(
+        type_name = "test_msgs/action/Fibonacci_GetResult_Event",
+        crate = "crate"
+    )]
+    pub struct Fibonacci_GetResult_EventRef<'a> {
+        /// What happened, when, and to which call.
+        pub info: super::super::service_msgs::msg::ServiceEventInfo,
+        /// The request, if the event carries it.
+        pub request: crate::BoundedVec<Fibonacci_GetResult_Request, 1>,
+        /// The response, if the event carries it.
+        pub response: crate::BoundedVec<Fibonacci_GetResult_ResponseRef<'a>, 1>,
+    }
+
+    impl<'a> ::core::default::Default for Fibonacci_GetResult_EventRef<'a> {
+        fn default() -> Self {
+            Self {
+                info: ::core::default::Default::default(),
+                request: ::core::default::Default::default(),
+                response: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for Fibonacci_GetResult_Event {
-        type Ref<'a> = Self;
+        type Ref<'a> = Fibonacci_GetResult_EventRef<'a>;
     }
 
     /// Waits for the result of a goal of `test_msgs/action/Fibonacci`.
@@ -302,8 +383,30 @@ pub mod action {
         }
     }
 
+    /// [`Fibonacci_FeedbackMessage`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(
+        type_name = "test_msgs/action/Fibonacci_FeedbackMessage",
+        crate = "crate"
+    )]
+    pub struct Fibonacci_FeedbackMessageRef<'a> {
+        /// The goal's unique id.
+        pub goal_id: super::super::unique_identifier_msgs::msg::UUID,
+        /// The feedback.
+        pub feedback: Fibonacci_FeedbackRef<'a>,
+    }
+
+    impl<'a> ::core::default::Default for Fibonacci_FeedbackMessageRef<'a> {
+        fn default() -> Self {
+            Self {
+                goal_id: ::core::default::Default::default(),
+                feedback: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for Fibonacci_FeedbackMessage {
-        type Ref<'a> = Self;
+        type Ref<'a> = Fibonacci_FeedbackMessageRef<'a>;
     }
 
     /// The action `test_msgs/action/Fibonacci` (from `action/Fibonacci.action`).
@@ -2024,25 +2127,25 @@ pub mod msg {
         #[ros(char)]
         pub char_values: &'a [u8],
         /// `float32[] float32_values`
-        pub float32_values: ::std::vec::Vec<f32>,
+        pub float32_values: ::std::borrow::Cow<'a, [f32]>,
         /// `float64[] float64_values`
-        pub float64_values: ::std::vec::Vec<f64>,
+        pub float64_values: ::std::borrow::Cow<'a, [f64]>,
         /// `int8[] int8_values`
-        pub int8_values: ::std::vec::Vec<i8>,
+        pub int8_values: ::std::borrow::Cow<'a, [i8]>,
         /// `uint8[] uint8_values`
         pub uint8_values: &'a [u8],
         /// `int16[] int16_values`
-        pub int16_values: ::std::vec::Vec<i16>,
+        pub int16_values: ::std::borrow::Cow<'a, [i16]>,
         /// `uint16[] uint16_values`
-        pub uint16_values: ::std::vec::Vec<u16>,
+        pub uint16_values: ::std::borrow::Cow<'a, [u16]>,
         /// `int32[] int32_values`
-        pub int32_values: ::std::vec::Vec<i32>,
+        pub int32_values: ::std::borrow::Cow<'a, [i32]>,
         /// `uint32[] uint32_values`
-        pub uint32_values: ::std::vec::Vec<u32>,
+        pub uint32_values: ::std::borrow::Cow<'a, [u32]>,
         /// `int64[] int64_values`
-        pub int64_values: ::std::vec::Vec<i64>,
+        pub int64_values: ::std::borrow::Cow<'a, [i64]>,
         /// `uint64[] uint64_values`
-        pub uint64_values: ::std::vec::Vec<u64>,
+        pub uint64_values: ::std::borrow::Cow<'a, [u64]>,
         /// `string[] string_values`
         pub string_values: ::std::vec::Vec<&'a str>,
         /// `test_msgs/BasicTypes[] basic_types_values`
@@ -2060,25 +2163,25 @@ pub mod msg {
         #[ros(char)]
         pub char_values_default: &'a [u8],
         /// `float32[] float32_values_default`
-        pub float32_values_default: ::std::vec::Vec<f32>,
+        pub float32_values_default: ::std::borrow::Cow<'a, [f32]>,
         /// `float64[] float64_values_default`
-        pub float64_values_default: ::std::vec::Vec<f64>,
+        pub float64_values_default: ::std::borrow::Cow<'a, [f64]>,
         /// `int8[] int8_values_default`
-        pub int8_values_default: ::std::vec::Vec<i8>,
+        pub int8_values_default: ::std::borrow::Cow<'a, [i8]>,
         /// `uint8[] uint8_values_default`
         pub uint8_values_default: &'a [u8],
         /// `int16[] int16_values_default`
-        pub int16_values_default: ::std::vec::Vec<i16>,
+        pub int16_values_default: ::std::borrow::Cow<'a, [i16]>,
         /// `uint16[] uint16_values_default`
-        pub uint16_values_default: ::std::vec::Vec<u16>,
+        pub uint16_values_default: ::std::borrow::Cow<'a, [u16]>,
         /// `int32[] int32_values_default`
-        pub int32_values_default: ::std::vec::Vec<i32>,
+        pub int32_values_default: ::std::borrow::Cow<'a, [i32]>,
         /// `uint32[] uint32_values_default`
-        pub uint32_values_default: ::std::vec::Vec<u32>,
+        pub uint32_values_default: ::std::borrow::Cow<'a, [u32]>,
         /// `int64[] int64_values_default`
-        pub int64_values_default: ::std::vec::Vec<i64>,
+        pub int64_values_default: ::std::borrow::Cow<'a, [i64]>,
         /// `uint64[] uint64_values_default`
-        pub uint64_values_default: ::std::vec::Vec<u64>,
+        pub uint64_values_default: ::std::borrow::Cow<'a, [u64]>,
         /// `string[] string_values_default`
         pub string_values_default: ::std::vec::Vec<&'a str>,
         /// Regression test: check alignment of basic field after a sequence field is correct
@@ -2108,16 +2211,30 @@ pub mod msg {
                 bool_values_default: ::std::vec![false, true, false],
                 byte_values_default: &[0, 1, 255],
                 char_values_default: &[0, 1, 127],
-                float32_values_default: ::std::vec![1.125, 0.0, -1.125],
-                float64_values_default: ::std::vec![3.1415, 0.0, -3.1415],
-                int8_values_default: ::std::vec![0, 127, -128],
+                float32_values_default: ::std::borrow::Cow::Owned(::std::vec![1.125, 0.0, -1.125]),
+                float64_values_default: ::std::borrow::Cow::Owned(::std::vec![
+                    3.1415, 0.0, -3.1415
+                ]),
+                int8_values_default: ::std::borrow::Cow::Owned(::std::vec![0, 127, -128]),
                 uint8_values_default: &[0, 1, 255],
-                int16_values_default: ::std::vec![0, 32767, -32768],
-                uint16_values_default: ::std::vec![0, 1, 65535],
-                int32_values_default: ::std::vec![0, 2147483647, -2147483648],
-                uint32_values_default: ::std::vec![0, 1, 4294967295],
-                int64_values_default: ::std::vec![0, 9223372036854775807, -9223372036854775808],
-                uint64_values_default: ::std::vec![0, 1, 18446744073709551615],
+                int16_values_default: ::std::borrow::Cow::Owned(::std::vec![0, 32767, -32768]),
+                uint16_values_default: ::std::borrow::Cow::Owned(::std::vec![0, 1, 65535]),
+                int32_values_default: ::std::borrow::Cow::Owned(::std::vec![
+                    0,
+                    2147483647,
+                    -2147483648
+                ]),
+                uint32_values_default: ::std::borrow::Cow::Owned(::std::vec![0, 1, 4294967295]),
+                int64_values_default: ::std::borrow::Cow::Owned(::std::vec![
+                    0,
+                    9223372036854775807,
+                    -9223372036854775808
+                ]),
+                uint64_values_default: ::std::borrow::Cow::Owned(::std::vec![
+                    0,
+                    1,
+                    18446744073709551615
+                ]),
                 string_values_default: ::std::vec!["", "max value", "min value"],
                 alignment_check: ::core::default::Default::default(),
             }

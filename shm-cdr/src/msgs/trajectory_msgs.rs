@@ -42,7 +42,7 @@ pub mod msg {
         pub joint_names: ::std::vec::Vec<&'a str>,
         /// Array of trajectory points, which describe the positions, velocities,
         /// accelerations and/or efforts of the joints at each time point.
-        pub points: ::std::vec::Vec<JointTrajectoryPoint>,
+        pub points: ::std::vec::Vec<JointTrajectoryPointRef<'a>>,
     }
 
     impl<'a> ::core::default::Default for JointTrajectoryRef<'a> {
@@ -103,8 +103,51 @@ pub mod msg {
         }
     }
 
+    /// Each trajectory point specifies either positions\[, velocities\[, accelerations\]\]
+    /// or positions\[, effort\] for the trajectory to be executed.
+    /// All specified values are in the same order as the joint names in JointTrajectory.msg.
+    ///
+    /// [`JointTrajectoryPoint`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(
+        type_name = "trajectory_msgs/msg/JointTrajectoryPoint",
+        crate = "crate"
+    )]
+    pub struct JointTrajectoryPointRef<'a> {
+        /// Single DOF joint positions for each joint relative to their "0" position.
+        /// The units depend on the specific joint type: radians for revolute or
+        /// continuous joints, and meters for prismatic joints.
+        pub positions: ::std::borrow::Cow<'a, [f64]>,
+        /// The rate of change in position of each joint. Units are joint type dependent.
+        /// Radians/second for revolute or continuous joints, and meters/second for
+        /// prismatic joints.
+        pub velocities: ::std::borrow::Cow<'a, [f64]>,
+        /// Rate of change in velocity of each joint. Units are joint type dependent.
+        /// Radians/second^2 for revolute or continuous joints, and meters/second^2 for
+        /// prismatic joints.
+        pub accelerations: ::std::borrow::Cow<'a, [f64]>,
+        /// The torque or the force to be applied at each joint. For revolute/continuous
+        /// joints effort denotes a torque in newton-meters. For prismatic joints, effort
+        /// denotes a force in newtons.
+        pub effort: ::std::borrow::Cow<'a, [f64]>,
+        /// Desired time from the trajectory start to arrive at this trajectory point.
+        pub time_from_start: super::super::builtin_interfaces::msg::Duration,
+    }
+
+    impl<'a> ::core::default::Default for JointTrajectoryPointRef<'a> {
+        fn default() -> Self {
+            Self {
+                positions: ::core::default::Default::default(),
+                velocities: ::core::default::Default::default(),
+                accelerations: ::core::default::Default::default(),
+                effort: ::core::default::Default::default(),
+                time_from_start: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for JointTrajectoryPoint {
-        type Ref<'a> = Self;
+        type Ref<'a> = JointTrajectoryPointRef<'a>;
     }
 
     /// `trajectory_msgs/msg/MultiDOFJointTrajectory` (from `msg/MultiDOFJointTrajectory.msg`).
@@ -145,7 +188,7 @@ pub mod msg {
         /// `string[] joint_names`
         pub joint_names: ::std::vec::Vec<&'a str>,
         /// `trajectory_msgs/MultiDOFJointTrajectoryPoint[] points`
-        pub points: ::std::vec::Vec<MultiDOFJointTrajectoryPoint>,
+        pub points: ::std::vec::Vec<MultiDOFJointTrajectoryPointRef<'a>>,
     }
 
     impl<'a> ::core::default::Default for MultiDOFJointTrajectoryRef<'a> {
@@ -191,8 +234,36 @@ pub mod msg {
         }
     }
 
+    /// [`MultiDOFJointTrajectoryPoint`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
+    #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
+    #[ros(
+        type_name = "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint",
+        crate = "crate"
+    )]
+    pub struct MultiDOFJointTrajectoryPointRef<'a> {
+        /// Each multi-dof joint can specify a transform (up to 6 DOF).
+        pub transforms: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Transform]>,
+        /// There can be a velocity specified for the origin of the joint.
+        pub velocities: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Twist]>,
+        /// There can be an acceleration specified for the origin of the joint.
+        pub accelerations: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Twist]>,
+        /// Desired time from the trajectory start to arrive at this trajectory point.
+        pub time_from_start: super::super::builtin_interfaces::msg::Duration,
+    }
+
+    impl<'a> ::core::default::Default for MultiDOFJointTrajectoryPointRef<'a> {
+        fn default() -> Self {
+            Self {
+                transforms: ::core::default::Default::default(),
+                velocities: ::core::default::Default::default(),
+                accelerations: ::core::default::Default::default(),
+                time_from_start: ::core::default::Default::default(),
+            }
+        }
+    }
+
     impl crate::BorrowedForm for MultiDOFJointTrajectoryPoint {
-        type Ref<'a> = Self;
+        type Ref<'a> = MultiDOFJointTrajectoryPointRef<'a>;
     }
 }
 

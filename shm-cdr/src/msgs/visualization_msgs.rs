@@ -103,9 +103,9 @@ pub mod msg {
         /// 0 indicates forever.
         pub lifetime: super::super::builtin_interfaces::msg::Duration,
         /// Coordinates in 2D in pixel coords. Used for LINE_STRIP, LINE_LIST, POINTS, etc.
-        pub points: ::std::vec::Vec<super::super::geometry_msgs::msg::Point>,
+        pub points: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Point]>,
         /// The color for each line, point, etc. in the points field.
-        pub outline_colors: ::std::vec::Vec<super::super::std_msgs::msg::ColorRGBA>,
+        pub outline_colors: ::std::borrow::Cow<'a, [super::super::std_msgs::msg::ColorRGBA]>,
     }
 
     impl<'a> ::core::default::Default for ImageMarkerRef<'a> {
@@ -888,11 +888,11 @@ pub mod msg {
         /// If this marker should be frame-locked, i.e. retransformed into its frame every timestep.
         pub frame_locked: bool,
         /// Only used if the type specified has some use for them (eg. POINTS, LINE_STRIP, ARROW_STRIP, etc.)
-        pub points: ::std::vec::Vec<super::super::geometry_msgs::msg::Point>,
+        pub points: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Point]>,
         /// Only used if the type specified has some use for them (eg. POINTS, LINE_STRIP, etc.)
         /// The number of colors provided must either be 0 or equal to the number of points provided.
         /// NOTE: alpha is not yet used
-        pub colors: ::std::vec::Vec<super::super::std_msgs::msg::ColorRGBA>,
+        pub colors: ::std::borrow::Cow<'a, [super::super::std_msgs::msg::ColorRGBA]>,
         /// Texture resource is a special URI that can either reference a texture file in
         /// a format acceptable to (resource retriever)\[<https://docs.ros.org/en/rolling/p/resource_retriever/>\]
         /// or an embedded texture via a string matching the format:
@@ -902,7 +902,7 @@ pub mod msg {
         /// This will be used iff texture_resource is set to embedded.
         pub texture: super::super::sensor_msgs::msg::CompressedImageRef<'a>,
         /// Location of each vertex within the texture; in the range: \[0.0-1.0\]
-        pub uv_coordinates: ::std::vec::Vec<UVCoordinate>,
+        pub uv_coordinates: ::std::borrow::Cow<'a, [UVCoordinate]>,
         /// Only used for text markers
         pub text: &'a str,
         /// Only used for MESH_RESOURCE markers.
