@@ -421,7 +421,10 @@ pub(crate) fn plain_slice<T>(_proof: PlainLayout<T>, bytes: &[u8]) -> Option<&[T
         return Some(&[]);
     }
     let size = std::mem::size_of::<T>();
-    if size == 0 || bytes.len() % size != 0 || bytes.as_ptr() as usize % std::mem::align_of::<T>() != 0 {
+    if size == 0
+        || bytes.len() % size != 0
+        || bytes.as_ptr() as usize % std::mem::align_of::<T>() != 0
+    {
         return None;
     }
     // SAFETY: the pointer is aligned for `T` (checked) and non-null (from a slice);
@@ -439,13 +442,18 @@ pub(crate) fn plain_slice_mut<T>(_proof: PlainLayout<T>, bytes: &mut [u8]) -> Op
         return Some(<&mut [T]>::default());
     }
     let size = std::mem::size_of::<T>();
-    if size == 0 || bytes.len() % size != 0 || bytes.as_ptr() as usize % std::mem::align_of::<T>() != 0 {
+    if size == 0
+        || bytes.len() % size != 0
+        || bytes.as_ptr() as usize % std::mem::align_of::<T>() != 0
+    {
         return None;
     }
     // SAFETY: as in `plain_slice`; in addition the borrow of `bytes` is unique, so
     // the returned slice is the only access to that memory, and any `T` written
     // through it leaves bytes that are valid `u8`s (no padding, per the proof).
-    Some(unsafe { std::slice::from_raw_parts_mut(bytes.as_mut_ptr().cast::<T>(), bytes.len() / size) })
+    Some(unsafe {
+        std::slice::from_raw_parts_mut(bytes.as_mut_ptr().cast::<T>(), bytes.len() / size)
+    })
 }
 
 /// `bytes`, zeroed, as `bool`s (all `false`).
@@ -465,6 +473,9 @@ pub(crate) fn plain_bytes_mut<T>(_proof: PlainLayout<T>, items: &mut [T]) -> &mu
     // passes to the result, and the proof guarantees every bit pattern is a valid
     // `T`, so any bytes written through it leave valid `T`s.
     unsafe {
-        std::slice::from_raw_parts_mut(items.as_mut_ptr().cast::<u8>(), std::mem::size_of_val(items))
+        std::slice::from_raw_parts_mut(
+            items.as_mut_ptr().cast::<u8>(),
+            std::mem::size_of_val(items),
+        )
     }
 }

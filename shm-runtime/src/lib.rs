@@ -29,6 +29,7 @@
 pub mod action;
 mod config;
 pub mod graph;
+mod loan;
 mod matching;
 pub mod msgs;
 pub mod names;
@@ -43,6 +44,7 @@ mod shm_bytes;
 mod subscriber;
 
 pub use config::{ConfigError, ShmConfig};
+pub use loan::{Loan, LoanPublish};
 pub use node::{RosNode, RosNodeBuilder};
 pub use payload::{EncodedPayload, PayloadKind};
 pub use pool::{ShmContext, ShmStats};

@@ -28,6 +28,8 @@ pub enum PublishError {
     Encode(EncodeError),
     /// Zenoh refused the put.
     Zenoh(zenoh::Error),
+    /// A loaned message still had strings or sequences to write.
+    Loan(shm_cdr::loan::LoanError),
 }
 
 impl fmt::Display for PublishError {
@@ -35,6 +37,7 @@ impl fmt::Display for PublishError {
         match self {
             Self::Encode(e) => write!(f, "publish: {e}"),
             Self::Zenoh(e) => write!(f, "publish: zenoh: {e}"),
+            Self::Loan(e) => write!(f, "publish: loan: {e}"),
         }
     }
 }
@@ -300,7 +303,7 @@ fn session_has_shm(session: &Session) -> bool {
 const HEARTBEAT_PERIOD: std::time::Duration = std::time::Duration::from_millis(500);
 
 /// A plain Zenoh publisher, or zenoh-ext's advanced one (transient local).
-enum ZenohPublisher {
+pub(crate) enum ZenohPublisher {
     Plain(zenoh::pubsub::Publisher<'static>),
     Advanced(AdvancedPublisher<'static>),
 }
@@ -420,7 +423,11 @@ impl<T: RosMessage> RosPublisher<T> {
 
     /// Encode `msg` and build its attachment: everything a put needs.
     fn prepare(&self, msg: &T) -> Result<Prepared, PublishError> {
-        let encoded = self.encode(msg)?;
+        Ok(self.prepare_encoded(self.encode(msg)?))
+    }
+
+    /// The attachment and source info for an encoded message.
+    pub(crate) fn prepare_encoded(&self, encoded: EncodedPayload) -> Prepared {
         let mut outcome = PublishOutcome {
             kind: encoded.kind,
             size: encoded.size,
@@ -438,7 +445,7 @@ impl<T: RosMessage> RosPublisher<T> {
                 .to_bytes(),
             )
         });
-        Ok(Prepared {
+        Prepared {
             outcome,
             payload: encoded.bytes,
             attachment,
@@ -446,12 +453,22 @@ impl<T: RosMessage> RosPublisher<T> {
                 self.publisher.id(),
                 self.source_sn.fetch_add(1, Ordering::Relaxed),
             ),
-        })
+        }
+    }
+
+    /// The pool and threshold, if any.
+    pub(crate) fn policy(&self) -> Option<&ShmPolicy> {
+        self.policy.as_ref()
+    }
+
+    /// The Zenoh publisher, to put prepared payloads.
+    pub(crate) fn zenoh(&self) -> &ZenohPublisher {
+        &self.publisher
     }
 }
 
 /// An encoded message with its attachment, ready to put.
-struct Prepared {
+pub(crate) struct Prepared {
     outcome: PublishOutcome,
     payload: ZBytes,
     attachment: Option<ZBytes>,
@@ -461,7 +478,10 @@ struct Prepared {
 impl Prepared {
     /// Put, then say what went out. zenoh-ext numbers an advanced publisher's
     /// samples itself (its `SourceInfo`, from 0 like ours).
-    fn put_wait(self, publisher: &ZenohPublisher) -> Result<PublishOutcome, PublishError> {
+    pub(crate) fn put_wait(
+        self,
+        publisher: &ZenohPublisher,
+    ) -> Result<PublishOutcome, PublishError> {
         match publisher {
             ZenohPublisher::Plain(p) => p
                 .put(self.payload)
@@ -474,7 +494,10 @@ impl Prepared {
         Ok(self.outcome)
     }
 
-    async fn put_async(self, publisher: &ZenohPublisher) -> Result<PublishOutcome, PublishError> {
+    pub(crate) async fn put_async(
+        self,
+        publisher: &ZenohPublisher,
+    ) -> Result<PublishOutcome, PublishError> {
         match publisher {
             ZenohPublisher::Plain(p) => {
                 p.put(self.payload)

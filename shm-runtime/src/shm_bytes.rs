@@ -13,8 +13,8 @@
 use std::cell::RefCell;
 use std::ops::Deref;
 
-use shm_cdr::loan::{Carver, InPlace, LoanError, Uninit};
 use shm_cdr::describe::{FieldType, OctetType, TypeId};
+use shm_cdr::loan::{Carver, InPlace, LoanError, Uninit};
 use shm_cdr::{ByteOrder, CdrDecode, CdrEncode, DecodeError, EncodeError, Reader, RosType, Writer};
 use zenoh::bytes::ZBytes;
 use zenoh::shm::{ZShm, ZShmMut};

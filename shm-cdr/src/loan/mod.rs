@@ -459,7 +459,11 @@ pub(crate) fn carve_plain_run<'a, T: CdrEncode>(
 }
 
 /// The end of a run of messages with these lengths.
-pub fn struct_run_end<T: InPlace>(lens: &SeqLens<T::Lens>, n: usize, start: usize) -> Option<usize> {
+pub fn struct_run_end<T: InPlace>(
+    lens: &SeqLens<T::Lens>,
+    n: usize,
+    start: usize,
+) -> Option<usize> {
     match lens {
         SeqLens::Count(_) => {
             if let Some(layout) = T::FIXED_LAYOUT {
@@ -471,9 +475,9 @@ pub fn struct_run_end<T: InPlace>(lens: &SeqLens<T::Lens>, n: usize, start: usiz
             let each = T::Lens::default();
             (0..n).try_fold(start, |pos, _| T::end_in_place(&each, pos))
         }
-        SeqLens::Each(each) if each.len() == n => {
-            each.iter().try_fold(start, |pos, lens| T::end_in_place(lens, pos))
-        }
+        SeqLens::Each(each) if each.len() == n => each
+            .iter()
+            .try_fold(start, |pos, lens| T::end_in_place(lens, pos)),
         SeqLens::Each(_) => None,
     }
 }
@@ -534,14 +538,24 @@ pub fn struct_run_lens<T: InPlace>(items: &[T]) -> SeqLens<T::Lens> {
 /// a count of `N`, or `N` sets.
 fn check_array<L>(lens: &SeqLens<L>, n: usize) -> Result<(), LoanError> {
     match lens {
-        SeqLens::Count(len) if *len != 0 && *len != n => Err(LoanError::ArrayLength { len: *len, expected: n }),
-        SeqLens::Each(each) if each.len() != n => Err(LoanError::ArrayLength { len: each.len(), expected: n }),
+        SeqLens::Count(len) if *len != 0 && *len != n => Err(LoanError::ArrayLength {
+            len: *len,
+            expected: n,
+        }),
+        SeqLens::Each(each) if each.len() != n => Err(LoanError::ArrayLength {
+            len: each.len(),
+            expected: n,
+        }),
         _ => Ok(()),
     }
 }
 
 /// The end of a fixed array of `n` messages.
-pub fn struct_array_end<T: InPlace>(lens: &SeqLens<T::Lens>, n: usize, start: usize) -> Option<usize> {
+pub fn struct_array_end<T: InPlace>(
+    lens: &SeqLens<T::Lens>,
+    n: usize,
+    start: usize,
+) -> Option<usize> {
     check_array(lens, n).ok()?;
     struct_run_end::<T>(lens, n, start)
 }

@@ -361,7 +361,10 @@ impl<'a, T: InPlace> Run<'a, T> {
 }
 
 /// Write `values` into `places`, one by one.
-pub(crate) fn write_each<T: InPlace>(values: &[T], places: Vec<T::Mut<'_>>) -> Result<(), LoanError> {
+pub(crate) fn write_each<T: InPlace>(
+    values: &[T],
+    places: Vec<T::Mut<'_>>,
+) -> Result<(), LoanError> {
     if values.len() != places.len() {
         return Err(LoanError::LengthMismatch {
             at: 0,

@@ -43,7 +43,10 @@ fn bytemuck_bytes(words: &mut [u64]) -> &mut [u8] {
 fn a_joint_state_built_in_place_is_to_vec_and_reads_back_borrowed() {
     let expected = joint_state(6);
     let lens = JointStateLens {
-        header: HeaderLens { frame_id: 4, ..Default::default() },
+        header: HeaderLens {
+            frame_id: 4,
+            ..Default::default()
+        },
         name: (0..6).map(|i| format!("joint{i}").len()).collect(),
         position: 6,
         velocity: 6,
@@ -79,7 +82,10 @@ fn a_joint_state_built_in_place_is_to_vec_and_reads_back_borrowed() {
     let Cow::Borrowed(position) = &view.position else {
         panic!("an aligned float64[] in host order is borrowed");
     };
-    assert!(buffer.as_slice().as_ptr_range().contains(&position.as_ptr().cast::<u8>()));
+    assert!(buffer
+        .as_slice()
+        .as_ptr_range()
+        .contains(&position.as_ptr().cast::<u8>()));
     assert_eq!(*position, &expected.position[..]);
     assert_eq!(&*view.velocity, &expected.velocity[..]);
 }
@@ -119,8 +125,17 @@ fn poses_borrow_as_structs_in_o1() {
         header: Header::default(),
         poses: (0..50)
             .map(|i| Pose {
-                position: Point { x: i as f64, y: 1.0, z: 2.0 },
-                orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+                position: Point {
+                    x: i as f64,
+                    y: 1.0,
+                    z: 2.0,
+                },
+                orientation: Quaternion {
+                    x: 0.0,
+                    y: 0.0,
+                    z: 0.0,
+                    w: 1.0,
+                },
             })
             .collect(),
     };
@@ -149,7 +164,10 @@ fn poses_borrow_as_structs_in_o1() {
 #[test]
 fn unwritten_and_wrongly_sized_writes_are_refused() {
     let lens = LaserScanLens {
-        header: HeaderLens { frame_id: 5, ..Default::default() },
+        header: HeaderLens {
+            frame_id: 5,
+            ..Default::default()
+        },
         ranges: 10,
         intensities: 10,
         ..Default::default()
@@ -158,14 +176,45 @@ fn unwritten_and_wrongly_sized_writes_are_refused() {
     let written = Written::new();
     let scan = carve::<LaserScan>(&lens, buffer.as_mut_slice(), &written).unwrap();
     let err = scan.header.frame_id.write("lidar0").unwrap_err();
-    assert!(matches!(err, LoanError::LengthMismatch { expected: 5, got: 6, .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            LoanError::LengthMismatch {
+                expected: 5,
+                got: 6,
+                ..
+            }
+        ),
+        "{err}"
+    );
     let err = scan.ranges.write_slice(&[1.0; 9]).unwrap_err();
-    assert!(matches!(err, LoanError::LengthMismatch { expected: 10, got: 9, .. }));
-    let err = scan.intensities.write_iter((0..11).map(|i| i as f32)).unwrap_err();
-    assert!(matches!(err, LoanError::LengthMismatch { expected: 10, got: 11, .. }));
+    assert!(matches!(
+        err,
+        LoanError::LengthMismatch {
+            expected: 10,
+            got: 9,
+            ..
+        }
+    ));
+    let err = scan
+        .intensities
+        .write_iter((0..11).map(|i| i as f32))
+        .unwrap_err();
+    assert!(matches!(
+        err,
+        LoanError::LengthMismatch {
+            expected: 10,
+            got: 11,
+            ..
+        }
+    ));
     // All three refused writes left their places unwritten.
     assert_eq!(written.check(), Err(LoanError::Unwritten { pending: 3 }));
-    assert!(written.check().unwrap_err().to_string().contains("never written"));
+    assert!(written
+        .check()
+        .unwrap_err()
+        .to_string()
+        .contains("never written"));
 
     // A buffer of another size, or whose body is not 8-aligned, is refused.
     let size = encoded_size::<LaserScan>(&lens).unwrap();
@@ -181,7 +230,10 @@ fn unwritten_and_wrongly_sized_writes_are_refused() {
         Err(LoanError::Misaligned { .. })
     ));
     // Lengths that cannot be laid out.
-    let huge = LaserScanLens { ranges: usize::MAX / 2, ..Default::default() };
+    let huge = LaserScanLens {
+        ranges: usize::MAX / 2,
+        ..Default::default()
+    };
     assert_eq!(encoded_size::<LaserScan>(&huge), Err(LoanError::TooLarge));
 }
 
@@ -189,7 +241,10 @@ fn unwritten_and_wrongly_sized_writes_are_refused() {
 #[cfg(feature = "test_msgs")]
 fn bounds_and_array_lengths_are_checked() {
     use crate::msgs::test_msgs::{Arrays, ArraysLens, BoundedSequences, BoundedSequencesLens};
-    let lens = BoundedSequencesLens { int32_values: 4, ..Default::default() };
+    let lens = BoundedSequencesLens {
+        int32_values: 4,
+        ..Default::default()
+    };
     let size = encoded_size::<BoundedSequences>(&lens).unwrap();
     let mut buffer = AlignedBuffer::new(size);
     let written = Written::new();
@@ -198,11 +253,16 @@ fn bounds_and_array_lengths_are_checked() {
         Some(LoanError::BoundExceeded { len: 4, bound: 3 })
     );
     // A `string[3]` with lengths for 2 strings.
-    let lens = ArraysLens { string_values: vec![1, 2], ..Default::default() };
-    assert!(encoded_size::<Arrays>(&lens).is_err() || {
-        let mut buffer = AlignedBuffer::new(encoded_size::<Arrays>(&lens).unwrap());
-        carve::<Arrays>(&lens, buffer.as_mut_slice(), &written).is_err()
-    });
+    let lens = ArraysLens {
+        string_values: vec![1, 2],
+        ..Default::default()
+    };
+    assert!(
+        encoded_size::<Arrays>(&lens).is_err() || {
+            let mut buffer = AlignedBuffer::new(encoded_size::<Arrays>(&lens).unwrap());
+            carve::<Arrays>(&lens, buffer.as_mut_slice(), &written).is_err()
+        }
+    );
 }
 
 #[derive(crate::RosMessage, Debug, Clone, Copy, PartialEq, Default)]
@@ -218,7 +278,12 @@ struct PointXyzi {
 #[test]
 fn a_cloud_of_typed_points_is_written_in_place() {
     let points: Vec<PointXyzi> = (0..100)
-        .map(|i| PointXyzi { x: i as f32, y: 0.5, z: -1.0, intensity: 7.0 })
+        .map(|i| PointXyzi {
+            x: i as f32,
+            y: 0.5,
+            z: -1.0,
+            intensity: 7.0,
+        })
         .collect();
     let field = |name: &str, offset: u32| PointField {
         name: name.into(),
@@ -226,7 +291,12 @@ fn a_cloud_of_typed_points_is_written_in_place() {
         datatype: PointField::FLOAT32,
         count: 1,
     };
-    let fields = vec![field("x", 0), field("y", 4), field("z", 8), field("intensity", 12)];
+    let fields = vec![
+        field("x", 0),
+        field("y", 4),
+        field("z", 8),
+        field("intensity", 12),
+    ];
     let expected = PointCloud2 {
         header: Header::default(),
         height: 1,

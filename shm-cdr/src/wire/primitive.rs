@@ -342,11 +342,17 @@ impl InPlaceElement for bool {
         start.checked_add(N)
     }
 
-    fn carve_array<'a, const N: usize>((): &(), c: &mut Carver<'a>) -> Result<&'a mut [bool; N], LoanError> {
+    fn carve_array<'a, const N: usize>(
+        (): &(),
+        c: &mut Carver<'a>,
+    ) -> Result<&'a mut [bool; N], LoanError> {
         <&mut [bool; N]>::try_from(zeroed_bools(c.take(1, N)?)).map_err(|_| LoanError::TooLarge)
     }
 
-    fn write_array<const N: usize>(items: &[Self; N], place: &mut [bool; N]) -> Result<(), LoanError> {
+    fn write_array<const N: usize>(
+        items: &[Self; N],
+        place: &mut [bool; N],
+    ) -> Result<(), LoanError> {
         *place = *items;
         Ok(())
     }

@@ -8,8 +8,8 @@ use crate::describe::{FieldType, RosElement, RosType, TypeId};
 use crate::encode::{zero_padding, CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
-use crate::loan::{Carver, InPlace, InPlaceElement, LoanError, StrSlot};
 use crate::layout::align_up;
+use crate::loan::{Carver, InPlace, InPlaceElement, LoanError, StrSlot};
 
 #[inline(always)]
 fn string_end(start: usize, len: usize) -> usize {
@@ -360,7 +360,11 @@ fn string_end_in_place(len: usize, start: usize) -> Option<usize> {
 
 /// Lay out a string of `len` bytes: its count and NUL written, its bytes left for
 /// the [`StrSlot`].
-fn carve_string<'a>(len: usize, bound: Option<usize>, c: &mut Carver<'a>) -> Result<StrSlot<'a>, LoanError> {
+fn carve_string<'a>(
+    len: usize,
+    bound: Option<usize>,
+    c: &mut Carver<'a>,
+) -> Result<StrSlot<'a>, LoanError> {
     if let Some(bound) = bound.filter(|&bound| len > bound) {
         return Err(LoanError::BoundExceeded { len, bound });
     }
@@ -387,7 +391,10 @@ fn carve_strings<'a>(
     c: &mut Carver<'a>,
 ) -> Result<Vec<StrSlot<'a>>, LoanError> {
     if !lens.is_empty() && lens.len() != n {
-        return Err(LoanError::ArrayLength { len: lens.len(), expected: n });
+        return Err(LoanError::ArrayLength {
+            len: lens.len(),
+            expected: n,
+        });
     }
     // Every string takes at least 5 bytes of the buffer: bound the allocation.
     let mut slots = Vec::with_capacity(n.min(c.remaining() / 5));
@@ -397,14 +404,23 @@ fn carve_strings<'a>(
     Ok(slots)
 }
 
-fn write_string_slots<T: std::ops::Deref>(items: &[T], places: Vec<StrSlot<'_>>) -> Result<(), LoanError>
+fn write_string_slots<T: std::ops::Deref>(
+    items: &[T],
+    places: Vec<StrSlot<'_>>,
+) -> Result<(), LoanError>
 where
     T::Target: AsRef<str>,
 {
     if items.len() != places.len() {
-        return Err(LoanError::ArrayLength { len: items.len(), expected: places.len() });
+        return Err(LoanError::ArrayLength {
+            len: items.len(),
+            expected: places.len(),
+        });
     }
-    items.iter().zip(places).try_for_each(|(s, place)| place.write((**s).as_ref()))
+    items
+        .iter()
+        .zip(places)
+        .try_for_each(|(s, place)| place.write((**s).as_ref()))
 }
 
 /// Strings in place: a [`StrSlot`] of the stated length; runs and arrays of them

@@ -133,10 +133,16 @@ impl<const N: usize> RosElement for BoundedWString<N> {}
 
 /// The end of a wstring of `units` UTF-16 code units starting at `start`.
 fn wstring_end_in_place(units: usize, start: usize) -> Option<usize> {
-    align_up(start, 4).checked_add(4)?.checked_add(units.checked_mul(4)?)
+    align_up(start, 4)
+        .checked_add(4)?
+        .checked_add(units.checked_mul(4)?)
 }
 
-fn carve_wstring<'a>(units: usize, bound: Option<usize>, c: &mut Carver<'a>) -> Result<WStrSlot<'a>, LoanError> {
+fn carve_wstring<'a>(
+    units: usize,
+    bound: Option<usize>,
+    c: &mut Carver<'a>,
+) -> Result<WStrSlot<'a>, LoanError> {
     if let Some(bound) = bound.filter(|&bound| units > bound) {
         return Err(LoanError::BoundExceeded { len: units, bound });
     }
@@ -147,7 +153,9 @@ fn carve_wstring<'a>(units: usize, bound: Option<usize>, c: &mut Carver<'a>) -> 
 }
 
 fn wstrings_end(lens: &[usize], n: usize, start: usize) -> Option<usize> {
-    (0..n).try_fold(start, |pos, i| wstring_end_in_place(lens.get(i).copied().unwrap_or(0), pos))
+    (0..n).try_fold(start, |pos, i| {
+        wstring_end_in_place(lens.get(i).copied().unwrap_or(0), pos)
+    })
 }
 
 fn carve_wstrings<'a>(
@@ -157,7 +165,10 @@ fn carve_wstrings<'a>(
     c: &mut Carver<'a>,
 ) -> Result<Vec<WStrSlot<'a>>, LoanError> {
     if !lens.is_empty() && lens.len() != n {
-        return Err(LoanError::ArrayLength { len: lens.len(), expected: n });
+        return Err(LoanError::ArrayLength {
+            len: lens.len(),
+            expected: n,
+        });
     }
     let mut slots = Vec::with_capacity(n.min(c.remaining() / 4));
     for i in 0..n {
@@ -171,9 +182,15 @@ fn write_wstring_slots<T: std::ops::Deref<Target = String>>(
     places: Vec<WStrSlot<'_>>,
 ) -> Result<(), LoanError> {
     if items.len() != places.len() {
-        return Err(LoanError::ArrayLength { len: items.len(), expected: places.len() });
+        return Err(LoanError::ArrayLength {
+            len: items.len(),
+            expected: places.len(),
+        });
     }
-    items.iter().zip(places).try_for_each(|(s, place)| place.write(s))
+    items
+        .iter()
+        .zip(places)
+        .try_for_each(|(s, place)| place.write(s))
 }
 
 /// Wide strings in place: a [`WStrSlot`] of the stated number of UTF-16 code
