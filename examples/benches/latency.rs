@@ -8,6 +8,13 @@
 //! (d) SHM disabled in both sessions: our publisher on the heap, borrowed decode
 //! (e) the floor: a pre-filled `ZShmMut` of the same size put and received, no
 //!     decode
+//! (f) ours, a loan: the cloud built in place (typed points written into the
+//!     chunk) before the clock, then published as it lies + borrowed decode
+//! (g) (a) with a fresh data buffer allocated and filled per message before the
+//!     clock, as applications do (a) re-sends one buffer)
+//!
+//! (e), (f) and (g) allocate and fill before the clock, so they compare what
+//! publishing a ready message costs.
 //!
 //! `cargo bench -p shm-cdr-examples --bench latency` prints a table of medians and
 //! p90s, and writes `latency.svg` (latency vs size) next to this file's crate.
@@ -120,7 +127,7 @@ fn stats(mut samples: Vec<Duration>) -> (f64, f64) {
 /// One size: (a), (b), (c) and (e) share one session pair and are interleaved
 /// round by round, so that drift in Zenoh's delivery latency hits them alike; (d)
 /// needs sessions with SHM disabled and runs interleaved on its own pair.
-fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 6] {
+fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 8] {
     let (a, b) = sessions(port, true);
     let (a_noshm, b_noshm) = sessions(port + 1, false);
     let shm = ShmContext::new(ShmConfig::enabled().pool_size(64 << 20)).unwrap();
@@ -167,7 +174,12 @@ fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 6] {
     let msg = vec_cloud(bytes);
 
     let mut scratch = vec![0u8; bytes];
-    let mut samples: [Vec<Duration>; 6] = Default::default();
+    let mut samples: [Vec<Duration>; 8] = Default::default();
+    let (header, width, fields) = cloud_fields(bytes);
+    let mut lens = shm_cdr::loan::InPlace::lens(&vec_cloud(0));
+    lens.header = shm_cdr::loan::InPlace::lens(&header);
+    lens.fields = shm_cdr::loan::InPlace::lens(&fields);
+    lens.data = bytes;
     for round in 0..rounds(bytes) + 10 {
         let keep = round >= 10; // the first rounds warm up
         let da = ros_round(&pub_a, &sub_a, &msg_a); // (a)
@@ -197,8 +209,34 @@ fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 6] {
         scratch.copy_from_slice(std::hint::black_box(&msg.data));
         std::hint::black_box(&scratch);
         let dm = t.elapsed();
+        // (f): the loan is taken and written before the clock starts.
+        let mut loan = pub_b.loan(lens.clone()).unwrap();
+        let cloud = loan.fields().unwrap();
+        cloud.header.frame_id.write(&header.frame_id).unwrap();
+        *cloud.height = 1;
+        *cloud.width = width;
+        *cloud.point_step = 16;
+        *cloud.row_step = width * 16;
+        *cloud.is_dense = true;
+        cloud.fields.write_slice(&fields).unwrap();
+        let points = cloud.data.cast::<[f32; 4]>().unwrap();
+        points.write_with(|i| [i as f32, 0.5, -1.0, 7.0]);
+        let t = Instant::now();
+        loan.publish().wait().unwrap();
+        let sample = sub_b.recv_timeout(TIMEOUT).unwrap().unwrap();
+        let cloud: PointCloud2Ref = sample.decode().unwrap();
+        std::hint::black_box(cloud.data.len());
+        let df = t.elapsed();
+        drop(cloud);
+        drop(sample);
+        // (g): a fresh SHM data buffer per message, filled before the clock.
+        let mut block = shm.alloc(bytes).unwrap();
+        block.fill(7);
+        let fresh = shm_cloud(bytes, ShmBytes::from(block));
+        let dg = ros_round(&pub_a, &sub_a, &fresh);
+        drop(fresh);
         if keep {
-            for (store, d) in samples.iter_mut().zip([da, db, dc, dd, de, dm]) {
+            for (store, d) in samples.iter_mut().zip([da, db, dc, dd, de, dm, df, dg]) {
                 store.push(d);
             }
         }
@@ -213,6 +251,8 @@ fn main() {
         "(c) to_vec + put (Zenoh defaults), owned decode",
         "(d) SHM disabled, heap + borrowed decode",
         "(e) floor: pre-filled ZShmMut put, no decode",
+        "(f) ours, loan: built in place + borrowed decode",
+        "(g) (a) with a fresh SHM buffer per message",
     ];
     let mut rows: Vec<Row> = labels
         .iter()
@@ -224,8 +264,10 @@ fn main() {
     let mut copies = Vec::new();
     for (i, (bytes, _)) in SIZES.iter().enumerate() {
         let results = measure_size(*bytes, 27450 + 2 * i as u16);
-        for (row, result) in rows.iter_mut().zip(results) {
-            row.results.push(result);
+        // Index 5 is the memcpy reference, not a row.
+        let measured = results[..5].iter().chain(&results[6..]);
+        for (row, result) in rows.iter_mut().zip(measured) {
+            row.results.push(*result);
         }
         copies.push(results[5].0);
     }
@@ -276,6 +318,7 @@ fn print_table(rows: &[Row], copies: &[f64]) {
     }
     let floor = &rows[4].results;
     let (a, b, c) = (&rows[0].results, &rows[1].results, &rows[2].results);
+    let (f, g) = (&rows[5].results, &rows[6].results);
     for (i, (bytes, name)) in SIZES.iter().enumerate() {
         let hot = memcpy_us(*bytes);
         let over = b[i].0 - floor[i].0;
@@ -286,6 +329,12 @@ fn print_table(rows: &[Row], copies: &[f64]) {
             if over <= budget { "within" } else { "OVER" },
             copies[i],
             c[i].0 / b[i].0
+        );
+        println!(
+            "{name}: loan (f)/(e) = {:.2}×, (b)/(f) = {:.2}×; fresh splice (g)/(e) = {:.2}×",
+            f[i].0 / floor[i].0,
+            b[i].0 / f[i].0,
+            g[i].0 / floor[i].0
         );
     }
 }
@@ -317,7 +366,7 @@ fn plot(rows: &[Row]) {
         .x_desc("message size (KiB)")
         .y_desc("latency (µs)")
         .draw();
-    let colors = [RED, BLUE, MAGENTA, GREEN, BLACK];
+    let colors = [RED, BLUE, MAGENTA, GREEN, BLACK, CYAN, YELLOW];
     for (row, color) in rows.iter().zip(colors) {
         let points: Vec<(f64, f64)> = sizes
             .iter()
