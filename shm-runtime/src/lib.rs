@@ -47,7 +47,7 @@ pub use config::{ConfigError, ShmConfig};
 pub use loan::{Loan, LoanPublish};
 pub use node::{RosNode, RosNodeBuilder};
 pub use payload::{EncodedPayload, PayloadKind};
-pub use pool::{ShmContext, ShmStats};
+pub use pool::{CdrBackend, ShmContext, ShmStats};
 pub use publisher::{PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher};
 pub use shm_bytes::ShmBytes;
 pub use subscriber::{
