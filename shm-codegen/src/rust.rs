@@ -508,9 +508,11 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
     if form == Form::Owned && index.options.arbitrary {
         out.push_str("#[cfg_attr(feature = \"arbitrary\", derive(arbitrary::Arbitrary))]\n");
     }
+    // Owned forms can be built in place (loans); borrowing forms are read only.
+    let loan = if form == Form::Borrowed { "" } else { ", loan" };
     let _ = writeln!(
         out,
-        "#[ros(type_name = \"{}\", crate = \"{krate}\")]",
+        "#[ros(type_name = \"{}\", crate = \"{krate}\"{loan})]",
         m.ty.full_name()
     );
     if index.has(&m.ty, Property::Plain) {

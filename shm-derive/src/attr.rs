@@ -14,9 +14,9 @@ pub struct ContainerAttrs {
     pub package: Option<LitStr>,
     /// `crate = "path"`: where shm_cdr is reachable from the user's crate.
     pub crate_path: Option<syn::Path>,
-    /// `no_loan`: generate no `…Lens` / `…Mut` types (for fields of custom types
-    /// that cannot be built in place).
-    pub no_loan: bool,
+    /// `loan`: also generate the `…Lens` / `…Mut` types and `InPlace`, to build
+    /// the message in place.
+    pub loan: Option<proc_macro2::Span>,
     /// An attribute failed to parse (so a missing name is not reported twice).
     pub malformed: bool,
 }
@@ -65,8 +65,8 @@ impl ContainerAttrs {
                             "`crate` must be a path, e.g. `#[ros(crate = \"my_crate::shm_cdr\")]`",
                         ),
                     }
-                } else if meta.path.is_ident("no_loan") {
-                    out.no_loan = true;
+                } else if meta.path.is_ident("loan") {
+                    out.loan = Some(syn::spanned::Spanned::span(&meta.path));
                 } else if meta.path.is_ident("char") || meta.path.is_ident("byte") || meta.path.is_ident("rename") {
                     cx.error_spanned_by(
                         &meta.path,
@@ -76,7 +76,7 @@ impl ContainerAttrs {
                 } else {
                     cx.error_spanned_by(
                         &meta.path,
-                        "unknown struct attribute: expected `type_name = \"pkg/msg/Name\"`, `package = \"pkg\"`, `crate = \"path\"` or `no_loan`",
+                        "unknown struct attribute: expected `type_name = \"pkg/msg/Name\"`, `package = \"pkg\"`, `crate = \"path\"` or `loan`",
                     );
                     skip_value(&meta)?;
                 }

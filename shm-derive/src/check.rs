@@ -9,6 +9,12 @@ use crate::ctxt::Ctxt;
 
 pub fn check(cx: &Ctxt, container: &Container) {
     check_generics(cx, container);
+    if let (Some(span), false) = (container.attrs.loan, container.generics.params.is_empty()) {
+        cx.syn_error(syn::Error::new(
+            span,
+            "#[ros(loan)] builds a message in place, which a borrowing form cannot be: put it on the owned form",
+        ));
+    }
     if let Some((name, span)) = &container.type_name {
         if let Err(why) = validate_type_name(name) {
             cx.syn_error(syn::Error::new(*span, why));

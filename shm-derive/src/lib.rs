@@ -21,12 +21,13 @@ use syn::{parse_macro_input, DeriveInput};
 ///
 /// Struct attributes: `#[ros(type_name = "pkg/msg/Name")]` or
 /// `#[ros(package = "pkg")]` (required, one of them), `#[ros(crate = "path")]`,
-/// `#[ros(no_loan)]`.
+/// `#[ros(loan)]`.
 ///
-/// On a struct `Name` with no generic parameters it also generates `NameLens`
-/// and `NameMut<'a>` and implements `shm_cdr::loan::InPlace`, to build the message
-/// in place in its final buffer (see `shm_cdr::loan`); `#[ros(no_loan)]` leaves
-/// them out (needed only for fields of custom types without `InPlace`).
+/// With `#[ros(loan)]`, on a struct `Name` with no generic parameters, it also
+/// generates `NameLens` and `NameMut<'a>` and implements
+/// `shm_cdr::loan::InPlace`, to build the message in place in its final buffer
+/// (see `shm_cdr::loan`). Its nested message types need `#[ros(loan)]` too; every
+/// generated standard interface has it.
 /// Field attributes: `#[ros(byte)]`, `#[ros(char)]` (on `u8`/`i8` fields and their
 /// sequences/arrays), `#[ros(rename = "ros_name")]`.
 ///

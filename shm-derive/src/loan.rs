@@ -6,11 +6,14 @@ use quote::{format_ident, quote};
 
 use crate::ast::Container;
 
-/// The in-place types and impls for `container`, or nothing when it opts out
-/// (`#[ros(no_loan)]`) or has generic parameters (borrowing forms are read, not
-/// built: build their owned form).
+/// The in-place types and impls for a container marked `#[ros(loan)]` (`check`
+/// refuses the attribute on a generic struct: borrowing forms are read, not built).
+///
+/// Opt-in, because a field type without `InPlace` makes every use of its `Lens`
+/// and `Mut` an error: a struct that is not a message would bury its one clear
+/// error under a dozen.
 pub fn expand(container: &Container, krate: &TokenStream) -> TokenStream {
-    if container.attrs.no_loan || !container.generics.params.is_empty() {
+    if container.attrs.loan.is_none() || !container.generics.params.is_empty() {
         return TokenStream::new();
     }
     let ident = container.ident;

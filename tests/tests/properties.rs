@@ -13,7 +13,7 @@ use shm_cdr::{BoundedString, BoundedVec, BoundedWString, RosMessage, WString};
 use shm_cdr_tests::msgs::{HeaderRef, Image, ImageRef, Time};
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/Scalars")]
+#[ros(type_name = "prop/msg/Scalars", loan)]
 struct Scalars {
     b: bool,
     u8: u8,
@@ -29,7 +29,7 @@ struct Scalars {
 }
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/Texts")]
+#[ros(type_name = "prop/msg/Texts", loan)]
 struct Texts {
     s: String,
     many: Vec<String>,
@@ -42,7 +42,7 @@ struct Texts {
 }
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, Copy, PartialEq)]
-#[ros(type_name = "prop/msg/Stamp")]
+#[ros(type_name = "prop/msg/Stamp", loan)]
 struct Stamp {
     sec: i32,
     nanosec: u32,
@@ -50,28 +50,28 @@ struct Stamp {
 
 /// CDR pads between `stamp` and `value` only when the element starts 8-aligned + 4.
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/Stamped")]
+#[ros(type_name = "prop/msg/Stamped", loan)]
 struct Stamped {
     stamp: Stamp,
     value: f64,
 }
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/PairU32")]
+#[ros(type_name = "prop/msg/PairU32", loan)]
 struct PairU32 {
     a: u32,
     b: u32,
 }
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/OddTail")]
+#[ros(type_name = "prop/msg/OddTail", loan)]
 struct OddTail {
     x: f64,
     tag: u8,
 }
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/Nested")]
+#[ros(type_name = "prop/msg/Nested", loan)]
 struct Nested {
     lead: u8,
     stamped: Vec<Stamped>,
@@ -85,7 +85,7 @@ struct Nested {
 }
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/Arrays")]
+#[ros(type_name = "prop/msg/Arrays", loan)]
 struct Arrays {
     lead: u8,
     f: [f64; 3],
@@ -96,7 +96,7 @@ struct Arrays {
 }
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/Seqs")]
+#[ros(type_name = "prop/msg/Seqs", loan)]
 struct Seqs {
     lead: u8,
     v8: Vec<u8>,
@@ -109,7 +109,7 @@ struct Seqs {
 }
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/Bounded")]
+#[ros(type_name = "prop/msg/Bounded", loan)]
 struct Bounded {
     ints: BoundedVec<i32, 3>,
     stamped: BoundedVec<Stamped, 2>,
@@ -117,11 +117,11 @@ struct Bounded {
 }
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/Nothing")]
+#[ros(type_name = "prop/msg/Nothing", loan)]
 struct Nothing;
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/WithEmpty")]
+#[ros(type_name = "prop/msg/WithEmpty", loan)]
 struct WithEmpty {
     a: u8,
     e: Nothing,
@@ -130,7 +130,7 @@ struct WithEmpty {
 }
 
 #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-#[ros(type_name = "prop/msg/Octets")]
+#[ros(type_name = "prop/msg/Octets", loan)]
 struct Octets {
     #[ros(byte)]
     b: u8,
@@ -144,7 +144,7 @@ macro_rules! shifted {
     ($($name:ident($lead:ty, $inner:ty)),* $(,)?) => {$(
         /// `$inner` starting after a `$lead`, i.e. at another alignment phase.
         #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-        #[ros(package = "prop")]
+        #[ros(package = "prop", loan)]
         struct $name {
             lead: $lead,
             inner: $inner,

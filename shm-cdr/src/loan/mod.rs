@@ -1,16 +1,17 @@
 //! Messages built in place: lay a message out in its final buffer from the lengths
 //! of its strings and sequences, then write every field straight where it goes.
 //!
-//! `#[derive(RosMessage)]` on a struct `Foo` (with no generic parameters) also
-//! generates `FooLens`, the lengths of its variable parts, and `FooMut<'a>`, write
-//! access to every field at its final offset, and implements [`InPlace`]:
+//! `#[derive(RosMessage)]` with `#[ros(loan)]` on a struct `Foo` (with no generic
+//! parameters) also generates `FooLens`, the lengths of its variable parts, and
+//! `FooMut<'a>`, write access to every field at its final offset, and implements
+//! [`InPlace`]. Every generated standard interface has it:
 //!
 //! ```
 //! use shm_cdr::loan::{self, InPlace};
 //! use shm_cdr::RosMessage;
 //!
 //! #[derive(RosMessage, Debug, Default, PartialEq)]
-//! #[ros(type_name = "my_pkg/msg/Scan")]
+//! #[ros(type_name = "my_pkg/msg/Scan", loan)]
 //! struct Scan {
 //!     frame_id: String,
 //!     angle_min: f32,
@@ -83,7 +84,7 @@ pub use slots::{AlignedBuffer, Run, SeqLens, StrSlot, Uninit, WStrSlot};
 #[diagnostic::on_unimplemented(
     message = "`{Self}` cannot be built in place",
     label = "no in-place layout",
-    note = "numbers, bool, strings, sequences, arrays and #[derive(RosMessage)] structs can; a custom field type needs its own `InPlace` implementation"
+    note = "numbers, bool, strings, sequences, arrays and structs with #[derive(RosMessage)] and #[ros(loan)] can: add `loan` to the nested message's #[ros(...)]"
 )]
 pub trait InPlace: CdrEncode {
     /// The lengths of this value's variable parts (`()` when it has none).

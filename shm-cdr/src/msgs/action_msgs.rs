@@ -7,7 +7,7 @@ pub mod msg {
     /// `action_msgs/msg/GoalInfo` (from `msg/GoalInfo.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "action_msgs/msg/GoalInfo", crate = "crate")]
+    #[ros(type_name = "action_msgs/msg/GoalInfo", crate = "crate", loan)]
     #[repr(C)]
     pub struct GoalInfo {
         /// Goal ID
@@ -37,7 +37,7 @@ pub mod msg {
     /// `action_msgs/msg/GoalStatus` (from `msg/GoalStatus.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "action_msgs/msg/GoalStatus", crate = "crate")]
+    #[ros(type_name = "action_msgs/msg/GoalStatus", crate = "crate", loan)]
     #[repr(C)]
     pub struct GoalStatus {
         /// Goal info (contains ID and timestamp).
@@ -80,7 +80,7 @@ pub mod msg {
     /// `action_msgs/msg/GoalStatusArray` (from `msg/GoalStatusArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "action_msgs/msg/GoalStatusArray", crate = "crate")]
+    #[ros(type_name = "action_msgs/msg/GoalStatusArray", crate = "crate", loan)]
     pub struct GoalStatusArray {
         /// An array of goal statuses.
         pub status_list: ::std::vec::Vec<GoalStatus>,
@@ -131,7 +131,11 @@ pub mod srv {
     /// `action_msgs/srv/CancelGoal_Request` (from `srv/CancelGoal.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "action_msgs/srv/CancelGoal_Request", crate = "crate")]
+    #[ros(
+        type_name = "action_msgs/srv/CancelGoal_Request",
+        crate = "crate",
+        loan
+    )]
     #[repr(C)]
     pub struct CancelGoal_Request {
         /// Goal info describing the goals to cancel, see above.
@@ -157,7 +161,11 @@ pub mod srv {
     /// `action_msgs/srv/CancelGoal_Response` (from `srv/CancelGoal.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "action_msgs/srv/CancelGoal_Response", crate = "crate")]
+    #[ros(
+        type_name = "action_msgs/srv/CancelGoal_Response",
+        crate = "crate",
+        loan
+    )]
     pub struct CancelGoal_Response {
         /// Return code, see above definitions.
         pub return_code: i8,
@@ -229,7 +237,7 @@ pub mod srv {
     /// `action_msgs/srv/CancelGoal_Event` (from `srv/CancelGoal.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "action_msgs/srv/CancelGoal_Event", crate = "crate")]
+    #[ros(type_name = "action_msgs/srv/CancelGoal_Event", crate = "crate", loan)]
     pub struct CancelGoal_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,

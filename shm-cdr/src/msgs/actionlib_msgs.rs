@@ -7,7 +7,7 @@ pub mod msg {
     /// `actionlib_msgs/msg/GoalID` (from `msg/GoalID.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "actionlib_msgs/msg/GoalID", crate = "crate")]
+    #[ros(type_name = "actionlib_msgs/msg/GoalID", crate = "crate", loan)]
     pub struct GoalID {
         /// The stamp should store the time at which this goal was requested.
         /// It is used by an action server when it tries to preempt all
@@ -58,7 +58,7 @@ pub mod msg {
     /// `actionlib_msgs/msg/GoalStatus` (from `msg/GoalStatus.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "actionlib_msgs/msg/GoalStatus", crate = "crate")]
+    #[ros(type_name = "actionlib_msgs/msg/GoalStatus", crate = "crate", loan)]
     pub struct GoalStatus {
         /// `actionlib_msgs/GoalID goal_id`
         pub goal_id: GoalID,
@@ -137,7 +137,11 @@ pub mod msg {
     /// `actionlib_msgs/msg/GoalStatusArray` (from `msg/GoalStatusArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "actionlib_msgs/msg/GoalStatusArray", crate = "crate")]
+    #[ros(
+        type_name = "actionlib_msgs/msg/GoalStatusArray",
+        crate = "crate",
+        loan
+    )]
     pub struct GoalStatusArray {
         /// Stores the statuses for goals that are currently being tracked
         /// by an action server

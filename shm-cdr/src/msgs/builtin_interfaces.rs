@@ -11,7 +11,7 @@ pub mod msg {
     /// `builtin_interfaces/msg/Duration` (from `msg/Duration.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "builtin_interfaces/msg/Duration", crate = "crate")]
+    #[ros(type_name = "builtin_interfaces/msg/Duration", crate = "crate", loan)]
     #[repr(C)]
     pub struct Duration {
         /// Seconds component, range is valid over any possible int32 value.
@@ -39,7 +39,7 @@ pub mod msg {
     /// `builtin_interfaces/msg/Time` (from `msg/Time.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "builtin_interfaces/msg/Time", crate = "crate")]
+    #[ros(type_name = "builtin_interfaces/msg/Time", crate = "crate", loan)]
     #[repr(C)]
     pub struct Time {
         /// The seconds component, valid over all int32 values.

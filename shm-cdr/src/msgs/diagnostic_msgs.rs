@@ -7,7 +7,11 @@ pub mod msg {
     /// `diagnostic_msgs/msg/DiagnosticArray` (from `msg/DiagnosticArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "diagnostic_msgs/msg/DiagnosticArray", crate = "crate")]
+    #[ros(
+        type_name = "diagnostic_msgs/msg/DiagnosticArray",
+        crate = "crate",
+        loan
+    )]
     pub struct DiagnosticArray {
         /// This message is used to send diagnostic information about the state of the robot.
         /// for timestamp
@@ -54,7 +58,11 @@ pub mod msg {
     /// `diagnostic_msgs/msg/DiagnosticStatus` (from `msg/DiagnosticStatus.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "diagnostic_msgs/msg/DiagnosticStatus", crate = "crate")]
+    #[ros(
+        type_name = "diagnostic_msgs/msg/DiagnosticStatus",
+        crate = "crate",
+        loan
+    )]
     pub struct DiagnosticStatus {
         /// Level of operation enumerated above.
         #[ros(byte)]
@@ -130,7 +138,7 @@ pub mod msg {
     /// `diagnostic_msgs/msg/KeyValue` (from `msg/KeyValue.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "diagnostic_msgs/msg/KeyValue", crate = "crate")]
+    #[ros(type_name = "diagnostic_msgs/msg/KeyValue", crate = "crate", loan)]
     pub struct KeyValue {
         /// What to label this value when viewing.
         pub key: ::std::string::String,
@@ -184,7 +192,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "diagnostic_msgs/srv/AddDiagnostics_Request",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct AddDiagnostics_Request {
         /// The load_namespace parameter defines the namespace where parameters for the
@@ -252,7 +261,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "diagnostic_msgs/srv/AddDiagnostics_Response",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct AddDiagnostics_Response {
         /// True if diagnostic aggregator was updated with new diagnostics, False
@@ -309,7 +319,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "diagnostic_msgs/srv/AddDiagnostics_Event",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct AddDiagnostics_Event {
         /// What happened, when, and to which call.
@@ -387,7 +398,11 @@ pub mod srv {
     /// `diagnostic_msgs/srv/SelfTest_Request` (from `srv/SelfTest.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "diagnostic_msgs/srv/SelfTest_Request", crate = "crate")]
+    #[ros(
+        type_name = "diagnostic_msgs/srv/SelfTest_Request",
+        crate = "crate",
+        loan
+    )]
     pub struct SelfTest_Request;
 
     impl ::core::default::Default for SelfTest_Request {
@@ -403,7 +418,11 @@ pub mod srv {
     /// `diagnostic_msgs/srv/SelfTest_Response` (from `srv/SelfTest.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "diagnostic_msgs/srv/SelfTest_Response", crate = "crate")]
+    #[ros(
+        type_name = "diagnostic_msgs/srv/SelfTest_Response",
+        crate = "crate",
+        loan
+    )]
     pub struct SelfTest_Response {
         /// `string id`
         pub id: ::std::string::String,
@@ -456,7 +475,11 @@ pub mod srv {
     /// `diagnostic_msgs/srv/SelfTest_Event` (from `srv/SelfTest.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "diagnostic_msgs/srv/SelfTest_Event", crate = "crate")]
+    #[ros(
+        type_name = "diagnostic_msgs/srv/SelfTest_Event",
+        crate = "crate",
+        loan
+    )]
     pub struct SelfTest_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,

@@ -7,7 +7,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Accel` (from `msg/Accel.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Accel", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Accel", crate = "crate", loan)]
     #[repr(C)]
     pub struct Accel {
         /// This expresses acceleration in free space broken into its linear and angular parts.
@@ -32,7 +32,7 @@ pub mod msg {
     /// `geometry_msgs/msg/AccelStamped` (from `msg/AccelStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/AccelStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/AccelStamped", crate = "crate", loan)]
     pub struct AccelStamped {
         /// An accel with reference coordinate frame and timestamp
         pub header: super::super::std_msgs::msg::Header,
@@ -77,7 +77,11 @@ pub mod msg {
     /// `geometry_msgs/msg/AccelWithCovariance` (from `msg/AccelWithCovariance.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/AccelWithCovariance", crate = "crate")]
+    #[ros(
+        type_name = "geometry_msgs/msg/AccelWithCovariance",
+        crate = "crate",
+        loan
+    )]
     #[repr(C)]
     pub struct AccelWithCovariance {
         /// `geometry_msgs/Accel accel`
@@ -107,7 +111,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "geometry_msgs/msg/AccelWithCovarianceStamped",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct AccelWithCovarianceStamped {
         /// This represents an estimated accel with reference coordinate frame and timestamp.
@@ -154,7 +159,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Inertia` (from `msg/Inertia.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Inertia", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Inertia", crate = "crate", loan)]
     #[repr(C)]
     pub struct Inertia {
         /// Mass \[kg\]
@@ -202,7 +207,7 @@ pub mod msg {
     /// `geometry_msgs/msg/InertiaStamped` (from `msg/InertiaStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/InertiaStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/InertiaStamped", crate = "crate", loan)]
     pub struct InertiaStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -247,7 +252,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Point` (from `msg/Point.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Point", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Point", crate = "crate", loan)]
     #[repr(C)]
     pub struct Point {
         /// This contains the position of a point in free space
@@ -283,7 +288,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Point32` (from `msg/Point32.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Point32", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Point32", crate = "crate", loan)]
     #[repr(C)]
     pub struct Point32 {
         /// `float32 x`
@@ -313,7 +318,7 @@ pub mod msg {
     /// `geometry_msgs/msg/PointStamped` (from `msg/PointStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PointStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/PointStamped", crate = "crate", loan)]
     pub struct PointStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -360,7 +365,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Polygon` (from `msg/Polygon.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Polygon", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Polygon", crate = "crate", loan)]
     pub struct Polygon {
         /// `geometry_msgs/Point32[] points`
         pub points: ::std::vec::Vec<Point32>,
@@ -402,7 +407,7 @@ pub mod msg {
     /// `geometry_msgs/msg/PolygonInstance` (from `msg/PolygonInstance.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PolygonInstance", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/PolygonInstance", crate = "crate", loan)]
     pub struct PolygonInstance {
         /// `geometry_msgs/Polygon polygon`
         pub polygon: Polygon,
@@ -453,7 +458,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "geometry_msgs/msg/PolygonInstanceStamped",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct PolygonInstanceStamped {
         /// `std_msgs/Header header`
@@ -505,7 +511,7 @@ pub mod msg {
     /// `geometry_msgs/msg/PolygonStamped` (from `msg/PolygonStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PolygonStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/PolygonStamped", crate = "crate", loan)]
     pub struct PolygonStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -552,7 +558,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Pose` (from `msg/Pose.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Pose", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Pose", crate = "crate", loan)]
     #[repr(C)]
     pub struct Pose {
         /// `geometry_msgs/Point position`
@@ -580,7 +586,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Pose2D` (from `msg/Pose2D.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Pose2D", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Pose2D", crate = "crate", loan)]
     #[repr(C)]
     pub struct Pose2D {
         /// `float64 x`
@@ -610,7 +616,7 @@ pub mod msg {
     /// `geometry_msgs/msg/PoseArray` (from `msg/PoseArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PoseArray", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/PoseArray", crate = "crate", loan)]
     pub struct PoseArray {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -657,7 +663,7 @@ pub mod msg {
     /// `geometry_msgs/msg/PoseStamped` (from `msg/PoseStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PoseStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/PoseStamped", crate = "crate", loan)]
     pub struct PoseStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -704,7 +710,11 @@ pub mod msg {
     /// `geometry_msgs/msg/PoseWithCovariance` (from `msg/PoseWithCovariance.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PoseWithCovariance", crate = "crate")]
+    #[ros(
+        type_name = "geometry_msgs/msg/PoseWithCovariance",
+        crate = "crate",
+        loan
+    )]
     #[repr(C)]
     pub struct PoseWithCovariance {
         /// `geometry_msgs/Pose pose`
@@ -736,7 +746,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "geometry_msgs/msg/PoseWithCovarianceStamped",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct PoseWithCovarianceStamped {
         /// `std_msgs/Header header`
@@ -787,7 +798,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Quaternion` (from `msg/Quaternion.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Quaternion", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Quaternion", crate = "crate", loan)]
     #[repr(C)]
     pub struct Quaternion {
         /// `float64 x`
@@ -820,7 +831,11 @@ pub mod msg {
     /// `geometry_msgs/msg/QuaternionStamped` (from `msg/QuaternionStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/QuaternionStamped", crate = "crate")]
+    #[ros(
+        type_name = "geometry_msgs/msg/QuaternionStamped",
+        crate = "crate",
+        loan
+    )]
     pub struct QuaternionStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -867,7 +882,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Transform` (from `msg/Transform.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Transform", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Transform", crate = "crate", loan)]
     #[repr(C)]
     pub struct Transform {
         /// `geometry_msgs/Vector3 translation`
@@ -903,7 +918,11 @@ pub mod msg {
     /// `geometry_msgs/msg/TransformStamped` (from `msg/TransformStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/TransformStamped", crate = "crate")]
+    #[ros(
+        type_name = "geometry_msgs/msg/TransformStamped",
+        crate = "crate",
+        loan
+    )]
     pub struct TransformStamped {
         /// The frame id in the header is used as the reference frame of this transform.
         pub header: super::super::std_msgs::msg::Header,
@@ -965,7 +984,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Twist` (from `msg/Twist.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Twist", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Twist", crate = "crate", loan)]
     #[repr(C)]
     pub struct Twist {
         /// `geometry_msgs/Vector3 linear`
@@ -992,7 +1011,7 @@ pub mod msg {
     /// `geometry_msgs/msg/TwistStamped` (from `msg/TwistStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/TwistStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/TwistStamped", crate = "crate", loan)]
     pub struct TwistStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -1039,7 +1058,11 @@ pub mod msg {
     /// `geometry_msgs/msg/TwistWithCovariance` (from `msg/TwistWithCovariance.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/TwistWithCovariance", crate = "crate")]
+    #[ros(
+        type_name = "geometry_msgs/msg/TwistWithCovariance",
+        crate = "crate",
+        loan
+    )]
     #[repr(C)]
     pub struct TwistWithCovariance {
         /// `geometry_msgs/Twist twist`
@@ -1071,7 +1094,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "geometry_msgs/msg/TwistWithCovarianceStamped",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct TwistWithCovarianceStamped {
         /// `std_msgs/Header header`
@@ -1122,7 +1146,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Vector3` (from `msg/Vector3.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Vector3", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Vector3", crate = "crate", loan)]
     #[repr(C)]
     pub struct Vector3 {
         /// `float64 x`
@@ -1152,7 +1176,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Vector3Stamped` (from `msg/Vector3Stamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Vector3Stamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Vector3Stamped", crate = "crate", loan)]
     pub struct Vector3Stamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -1201,7 +1225,7 @@ pub mod msg {
     /// `geometry_msgs/msg/VelocityStamped` (from `msg/VelocityStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/VelocityStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/VelocityStamped", crate = "crate", loan)]
     pub struct VelocityStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -1262,7 +1286,7 @@ pub mod msg {
     /// `geometry_msgs/msg/Wrench` (from `msg/Wrench.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Wrench", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Wrench", crate = "crate", loan)]
     #[repr(C)]
     pub struct Wrench {
         /// `geometry_msgs/Vector3 force`
@@ -1289,7 +1313,7 @@ pub mod msg {
     /// `geometry_msgs/msg/WrenchStamped` (from `msg/WrenchStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/WrenchStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/WrenchStamped", crate = "crate", loan)]
     pub struct WrenchStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,

@@ -10,7 +10,7 @@ pub mod msg {
     /// `lifecycle_msgs/msg/State` (from `msg/State.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/msg/State", crate = "crate")]
+    #[ros(type_name = "lifecycle_msgs/msg/State", crate = "crate", loan)]
     pub struct State {
         /// The state id value from the above definitions.
         pub id: u8,
@@ -94,7 +94,7 @@ pub mod msg {
     /// `lifecycle_msgs/msg/Transition` (from `msg/Transition.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/msg/Transition", crate = "crate")]
+    #[ros(type_name = "lifecycle_msgs/msg/Transition", crate = "crate", loan)]
     pub struct Transition {
         /// The transition id from above definitions.
         pub id: u8,
@@ -217,7 +217,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "lifecycle_msgs/msg/TransitionDescription",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct TransitionDescription {
         /// The transition id and label of this description.
@@ -270,7 +271,11 @@ pub mod msg {
     /// `lifecycle_msgs/msg/TransitionEvent` (from `msg/TransitionEvent.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/msg/TransitionEvent", crate = "crate")]
+    #[ros(
+        type_name = "lifecycle_msgs/msg/TransitionEvent",
+        crate = "crate",
+        loan
+    )]
     pub struct TransitionEvent {
         /// The time point at which this event occurred.
         pub timestamp: u64,
@@ -329,7 +334,11 @@ pub mod srv {
     /// `lifecycle_msgs/srv/ChangeState_Request` (from `srv/ChangeState.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/srv/ChangeState_Request", crate = "crate")]
+    #[ros(
+        type_name = "lifecycle_msgs/srv/ChangeState_Request",
+        crate = "crate",
+        loan
+    )]
     pub struct ChangeState_Request {
         /// The requested transition.
         ///
@@ -370,7 +379,11 @@ pub mod srv {
     /// `lifecycle_msgs/srv/ChangeState_Response` (from `srv/ChangeState.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/srv/ChangeState_Response", crate = "crate")]
+    #[ros(
+        type_name = "lifecycle_msgs/srv/ChangeState_Response",
+        crate = "crate",
+        loan
+    )]
     pub struct ChangeState_Response {
         /// Indicates whether the service was able to initiate the state transition
         pub success: bool,
@@ -393,7 +406,11 @@ pub mod srv {
     /// `lifecycle_msgs/srv/ChangeState_Event` (from `srv/ChangeState.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/srv/ChangeState_Event", crate = "crate")]
+    #[ros(
+        type_name = "lifecycle_msgs/srv/ChangeState_Event",
+        crate = "crate",
+        loan
+    )]
     pub struct ChangeState_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -464,7 +481,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableStates_Request",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetAvailableStates_Request;
 
@@ -483,7 +501,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableStates_Response",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetAvailableStates_Response {
         /// Array of possible states that can be transitioned to.
@@ -528,7 +547,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableStates_Event",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetAvailableStates_Event {
         /// What happened, when, and to which call.
@@ -603,7 +623,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableTransitions_Request",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetAvailableTransitions_Request;
 
@@ -622,7 +643,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableTransitions_Response",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetAvailableTransitions_Response {
         /// An array of the possible start_state-goal_state transitions
@@ -669,7 +691,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableTransitions_Event",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetAvailableTransitions_Event {
         /// What happened, when, and to which call.
@@ -742,7 +765,11 @@ pub mod srv {
     /// `lifecycle_msgs/srv/GetState_Request` (from `srv/GetState.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/srv/GetState_Request", crate = "crate")]
+    #[ros(
+        type_name = "lifecycle_msgs/srv/GetState_Request",
+        crate = "crate",
+        loan
+    )]
     pub struct GetState_Request;
 
     impl ::core::default::Default for GetState_Request {
@@ -758,7 +785,11 @@ pub mod srv {
     /// `lifecycle_msgs/srv/GetState_Response` (from `srv/GetState.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/srv/GetState_Response", crate = "crate")]
+    #[ros(
+        type_name = "lifecycle_msgs/srv/GetState_Response",
+        crate = "crate",
+        loan
+    )]
     pub struct GetState_Response {
         /// The current state-machine state of the node.
         pub current_state: super::super::lifecycle_msgs::msg::State,
@@ -797,7 +828,7 @@ pub mod srv {
     /// `lifecycle_msgs/srv/GetState_Event` (from `srv/GetState.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/srv/GetState_Event", crate = "crate")]
+    #[ros(type_name = "lifecycle_msgs/srv/GetState_Event", crate = "crate", loan)]
     pub struct GetState_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,

@@ -9,7 +9,7 @@ pub mod msg {
     /// `nav_msgs/msg/Goals` (from `msg/Goals.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/Goals", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/Goals", crate = "crate", loan)]
     pub struct Goals {
         /// This header will store the time at which the poses were computed (not to be confused with the stamps of the poses themselves)
         /// In the case that individual poses do not have their frame_id set or their timetamp set they will use the default value here.
@@ -64,7 +64,7 @@ pub mod msg {
     /// `nav_msgs/msg/GridCells` (from `msg/GridCells.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/GridCells", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/GridCells", crate = "crate", loan)]
     pub struct GridCells {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -123,7 +123,7 @@ pub mod msg {
     /// `nav_msgs/msg/MapMetaData` (from `msg/MapMetaData.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/MapMetaData", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/MapMetaData", crate = "crate", loan)]
     #[repr(C)]
     pub struct MapMetaData {
         /// The time at which the map was loaded
@@ -158,7 +158,7 @@ pub mod msg {
     /// `nav_msgs/msg/OccupancyGrid` (from `msg/OccupancyGrid.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/OccupancyGrid", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/OccupancyGrid", crate = "crate", loan)]
     pub struct OccupancyGrid {
         /// This represents a 2-D grid map
         pub header: super::super::std_msgs::msg::Header,
@@ -221,7 +221,7 @@ pub mod msg {
     /// `nav_msgs/msg/Odometry` (from `msg/Odometry.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/Odometry", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/Odometry", crate = "crate", loan)]
     pub struct Odometry {
         /// Includes the frame id of the pose parent.
         pub header: super::super::std_msgs::msg::Header,
@@ -282,7 +282,7 @@ pub mod msg {
     /// `nav_msgs/msg/Path` (from `msg/Path.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/Path", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/Path", crate = "crate", loan)]
     pub struct Path {
         /// Indicates the frame_id of the path.
         pub header: super::super::std_msgs::msg::Header,
@@ -333,7 +333,7 @@ pub mod srv {
     /// `nav_msgs/srv/GetMap_Request` (from `srv/GetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetMap_Request", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/GetMap_Request", crate = "crate", loan)]
     pub struct GetMap_Request;
 
     impl ::core::default::Default for GetMap_Request {
@@ -349,7 +349,7 @@ pub mod srv {
     /// `nav_msgs/srv/GetMap_Response` (from `srv/GetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetMap_Response", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/GetMap_Response", crate = "crate", loan)]
     pub struct GetMap_Response {
         /// The current map hosted by this map service.
         pub map: super::super::nav_msgs::msg::OccupancyGrid,
@@ -388,7 +388,7 @@ pub mod srv {
     /// `nav_msgs/srv/GetMap_Event` (from `srv/GetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetMap_Event", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/GetMap_Event", crate = "crate", loan)]
     pub struct GetMap_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -461,7 +461,7 @@ pub mod srv {
     /// `nav_msgs/srv/GetPlan_Request` (from `srv/GetPlan.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetPlan_Request", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/GetPlan_Request", crate = "crate", loan)]
     pub struct GetPlan_Request {
         /// The start pose for the plan
         pub start: super::super::geometry_msgs::msg::PoseStamped,
@@ -514,7 +514,7 @@ pub mod srv {
     /// `nav_msgs/srv/GetPlan_Response` (from `srv/GetPlan.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetPlan_Response", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/GetPlan_Response", crate = "crate", loan)]
     pub struct GetPlan_Response {
         /// Array of poses from start to goal if one was successfully found.
         pub plan: super::super::nav_msgs::msg::Path,
@@ -553,7 +553,7 @@ pub mod srv {
     /// `nav_msgs/srv/GetPlan_Event` (from `srv/GetPlan.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetPlan_Event", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/GetPlan_Event", crate = "crate", loan)]
     pub struct GetPlan_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -624,7 +624,7 @@ pub mod srv {
     /// `nav_msgs/srv/LoadMap_Request` (from `srv/LoadMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/LoadMap_Request", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/LoadMap_Request", crate = "crate", loan)]
     pub struct LoadMap_Request {
         /// URL of map resource
         /// Can be an absolute path to a file: file:///path/to/maps/floor1.yaml
@@ -665,7 +665,7 @@ pub mod srv {
     /// `nav_msgs/srv/LoadMap_Response` (from `srv/LoadMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/LoadMap_Response", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/LoadMap_Response", crate = "crate", loan)]
     pub struct LoadMap_Response {
         /// Returned map is only valid if result equals RESULT_SUCCESS
         pub map: super::super::nav_msgs::msg::OccupancyGrid,
@@ -723,7 +723,7 @@ pub mod srv {
     /// `nav_msgs/srv/LoadMap_Event` (from `srv/LoadMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/LoadMap_Event", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/LoadMap_Event", crate = "crate", loan)]
     pub struct LoadMap_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -794,7 +794,7 @@ pub mod srv {
     /// `nav_msgs/srv/SetMap_Request` (from `srv/SetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/SetMap_Request", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/SetMap_Request", crate = "crate", loan)]
     pub struct SetMap_Request {
         /// Requested 2D map to be set.
         pub map: super::super::nav_msgs::msg::OccupancyGrid,
@@ -839,7 +839,7 @@ pub mod srv {
     /// `nav_msgs/srv/SetMap_Response` (from `srv/SetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/SetMap_Response", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/SetMap_Response", crate = "crate", loan)]
     pub struct SetMap_Response {
         /// True if the map was successfully set, false otherwise.
         pub success: bool,
@@ -862,7 +862,7 @@ pub mod srv {
     /// `nav_msgs/srv/SetMap_Event` (from `srv/SetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/SetMap_Event", crate = "crate")]
+    #[ros(type_name = "nav_msgs/srv/SetMap_Event", crate = "crate", loan)]
     pub struct SetMap_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,

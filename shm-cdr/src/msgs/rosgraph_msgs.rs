@@ -7,7 +7,7 @@ pub mod msg {
     /// `rosgraph_msgs/msg/Clock` (from `msg/Clock.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "rosgraph_msgs/msg/Clock", crate = "crate")]
+    #[ros(type_name = "rosgraph_msgs/msg/Clock", crate = "crate", loan)]
     #[repr(C)]
     pub struct Clock {
         /// This message communicates the current time.

@@ -12,7 +12,7 @@ pub mod msg {
     /// `sensor_msgs/msg/BatteryState` (from `msg/BatteryState.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/BatteryState", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/BatteryState", crate = "crate", loan)]
     pub struct BatteryState {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -222,7 +222,7 @@ pub mod msg {
     /// `sensor_msgs/msg/CameraInfo` (from `msg/CameraInfo.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/CameraInfo", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/CameraInfo", crate = "crate", loan)]
     pub struct CameraInfo {
         /// Time of image acquisition, camera coordinate frame ID
         /// Header timestamp should be acquisition time of image
@@ -460,7 +460,7 @@ pub mod msg {
     /// `sensor_msgs/msg/ChannelFloat32` (from `msg/ChannelFloat32.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/ChannelFloat32", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/ChannelFloat32", crate = "crate", loan)]
     pub struct ChannelFloat32 {
         /// The channel name should give semantics of the channel (e.g.
         /// "intensity" instead of "value").
@@ -526,7 +526,7 @@ pub mod msg {
     /// `sensor_msgs/msg/CompressedImage` (from `msg/CompressedImage.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/CompressedImage", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/CompressedImage", crate = "crate", loan)]
     pub struct CompressedImage {
         /// Header timestamp should be acquisition time of image
         pub header: super::super::std_msgs::msg::Header,
@@ -583,7 +583,7 @@ pub mod msg {
     /// `sensor_msgs/msg/FluidPressure` (from `msg/FluidPressure.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/FluidPressure", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/FluidPressure", crate = "crate", loan)]
     pub struct FluidPressure {
         /// timestamp of the measurement
         pub header: super::super::std_msgs::msg::Header,
@@ -652,7 +652,7 @@ pub mod msg {
     /// `sensor_msgs/msg/Illuminance` (from `msg/Illuminance.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Illuminance", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Illuminance", crate = "crate", loan)]
     pub struct Illuminance {
         /// timestamp is the time the illuminance was measured
         pub header: super::super::std_msgs::msg::Header,
@@ -718,7 +718,7 @@ pub mod msg {
     /// `sensor_msgs/msg/Image` (from `msg/Image.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Image", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Image", crate = "crate", loan)]
     pub struct Image {
         /// Header timestamp should be acquisition time of image
         pub header: super::super::std_msgs::msg::Header,
@@ -808,7 +808,7 @@ pub mod msg {
     /// `sensor_msgs/msg/Imu` (from `msg/Imu.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Imu", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Imu", crate = "crate", loan)]
     pub struct Imu {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -926,7 +926,7 @@ pub mod msg {
     /// `sensor_msgs/msg/JointState` (from `msg/JointState.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/JointState", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/JointState", crate = "crate", loan)]
     pub struct JointState {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -1008,7 +1008,7 @@ pub mod msg {
     /// `sensor_msgs/msg/Joy` (from `msg/Joy.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Joy", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Joy", crate = "crate", loan)]
     pub struct Joy {
         /// The timestamp is the time at which data is received from the joystick.
         pub header: super::super::std_msgs::msg::Header,
@@ -1059,7 +1059,7 @@ pub mod msg {
     /// `sensor_msgs/msg/JoyFeedback` (from `msg/JoyFeedback.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/JoyFeedback", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/JoyFeedback", crate = "crate", loan)]
     #[repr(C)]
     pub struct JoyFeedback {
         /// `uint8 type`
@@ -1098,7 +1098,7 @@ pub mod msg {
     /// `sensor_msgs/msg/JoyFeedbackArray` (from `msg/JoyFeedbackArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/JoyFeedbackArray", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/JoyFeedbackArray", crate = "crate", loan)]
     pub struct JoyFeedbackArray {
         /// This message publishes values for multiple feedback at once.
         pub array: ::std::vec::Vec<JoyFeedback>,
@@ -1138,7 +1138,7 @@ pub mod msg {
     /// `sensor_msgs/msg/LaserEcho` (from `msg/LaserEcho.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/LaserEcho", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/LaserEcho", crate = "crate", loan)]
     pub struct LaserEcho {
         /// Multiple values of ranges or intensities.
         pub echoes: ::std::vec::Vec<f32>,
@@ -1184,7 +1184,7 @@ pub mod msg {
     /// `sensor_msgs/msg/LaserScan` (from `msg/LaserScan.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/LaserScan", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/LaserScan", crate = "crate", loan)]
     pub struct LaserScan {
         /// timestamp in the header is the acquisition time of
         pub header: super::super::std_msgs::msg::Header,
@@ -1296,7 +1296,7 @@ pub mod msg {
     /// `sensor_msgs/msg/MagneticField` (from `msg/MagneticField.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/MagneticField", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/MagneticField", crate = "crate", loan)]
     pub struct MagneticField {
         /// timestamp is the time the
         pub header: super::super::std_msgs::msg::Header,
@@ -1378,7 +1378,11 @@ pub mod msg {
     /// `sensor_msgs/msg/MultiDOFJointState` (from `msg/MultiDOFJointState.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/MultiDOFJointState", crate = "crate")]
+    #[ros(
+        type_name = "sensor_msgs/msg/MultiDOFJointState",
+        crate = "crate",
+        loan
+    )]
     pub struct MultiDOFJointState {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -1465,7 +1469,11 @@ pub mod msg {
     /// `sensor_msgs/msg/MultiEchoLaserScan` (from `msg/MultiEchoLaserScan.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/MultiEchoLaserScan", crate = "crate")]
+    #[ros(
+        type_name = "sensor_msgs/msg/MultiEchoLaserScan",
+        crate = "crate",
+        loan
+    )]
     pub struct MultiEchoLaserScan {
         /// timestamp in the header is the acquisition time of
         pub header: super::super::std_msgs::msg::Header,
@@ -1576,7 +1584,7 @@ pub mod msg {
     /// `sensor_msgs/msg/NavSatFix` (from `msg/NavSatFix.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/NavSatFix", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/NavSatFix", crate = "crate", loan)]
     pub struct NavSatFix {
         /// header.stamp specifies the ROS time for this measurement (the
         /// corresponding satellite time may be reported using the
@@ -1698,7 +1706,7 @@ pub mod msg {
     /// `sensor_msgs/msg/NavSatStatus` (from `msg/NavSatStatus.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/NavSatStatus", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/NavSatStatus", crate = "crate", loan)]
     #[repr(C)]
     pub struct NavSatStatus {
         /// STATUS_UNKNOWN
@@ -1749,7 +1757,7 @@ pub mod msg {
     /// `sensor_msgs/msg/PointCloud` (from `msg/PointCloud.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/PointCloud", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/PointCloud", crate = "crate", loan)]
     pub struct PointCloud {
         /// Time of sensor data acquisition, coordinate frame ID.
         pub header: super::super::std_msgs::msg::Header,
@@ -1816,7 +1824,7 @@ pub mod msg {
     /// `sensor_msgs/msg/PointCloud2` (from `msg/PointCloud2.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/PointCloud2", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/PointCloud2", crate = "crate", loan)]
     pub struct PointCloud2 {
         /// Time of sensor data acquisition, and the coordinate frame ID (for 3d points).
         pub header: super::super::std_msgs::msg::Header,
@@ -1912,7 +1920,7 @@ pub mod msg {
     /// `sensor_msgs/msg/PointField` (from `msg/PointField.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/PointField", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/PointField", crate = "crate", loan)]
     pub struct PointField {
         /// Common PointField names are x, y, z, intensity, rgb, rgba
         /// Name of field
@@ -1999,7 +2007,7 @@ pub mod msg {
     /// `sensor_msgs/msg/Range` (from `msg/Range.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Range", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Range", crate = "crate", loan)]
     pub struct Range {
         /// timestamp in the header is the time the ranger
         pub header: super::super::std_msgs::msg::Header,
@@ -2097,7 +2105,7 @@ pub mod msg {
     /// `sensor_msgs/msg/RegionOfInterest` (from `msg/RegionOfInterest.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/RegionOfInterest", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/RegionOfInterest", crate = "crate", loan)]
     pub struct RegionOfInterest {
         /// Leftmost pixel of the ROI
         pub x_offset: u32,
@@ -2139,7 +2147,7 @@ pub mod msg {
     /// `sensor_msgs/msg/RelativeHumidity` (from `msg/RelativeHumidity.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/RelativeHumidity", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/RelativeHumidity", crate = "crate", loan)]
     pub struct RelativeHumidity {
         /// timestamp of the measurement
         pub header: super::super::std_msgs::msg::Header,
@@ -2194,7 +2202,7 @@ pub mod msg {
     /// `sensor_msgs/msg/Temperature` (from `msg/Temperature.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Temperature", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Temperature", crate = "crate", loan)]
     pub struct Temperature {
         /// timestamp is the time the temperature was measured
         pub header: super::super::std_msgs::msg::Header,
@@ -2247,7 +2255,7 @@ pub mod msg {
     /// `sensor_msgs/msg/TimeReference` (from `msg/TimeReference.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/TimeReference", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/TimeReference", crate = "crate", loan)]
     pub struct TimeReference {
         /// stamp is system time for which measurement was valid
         pub header: super::super::std_msgs::msg::Header,
@@ -2310,7 +2318,11 @@ pub mod srv {
     /// `sensor_msgs/srv/SetCameraInfo_Request` (from `srv/SetCameraInfo.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/srv/SetCameraInfo_Request", crate = "crate")]
+    #[ros(
+        type_name = "sensor_msgs/srv/SetCameraInfo_Request",
+        crate = "crate",
+        loan
+    )]
     pub struct SetCameraInfo_Request {
         /// The camera_info to store
         pub camera_info: super::super::sensor_msgs::msg::CameraInfo,
@@ -2355,7 +2367,11 @@ pub mod srv {
     /// `sensor_msgs/srv/SetCameraInfo_Response` (from `srv/SetCameraInfo.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/srv/SetCameraInfo_Response", crate = "crate")]
+    #[ros(
+        type_name = "sensor_msgs/srv/SetCameraInfo_Response",
+        crate = "crate",
+        loan
+    )]
     pub struct SetCameraInfo_Response {
         /// True if the call succeeded
         pub success: bool,
@@ -2400,7 +2416,11 @@ pub mod srv {
     /// `sensor_msgs/srv/SetCameraInfo_Event` (from `srv/SetCameraInfo.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/srv/SetCameraInfo_Event", crate = "crate")]
+    #[ros(
+        type_name = "sensor_msgs/srv/SetCameraInfo_Event",
+        crate = "crate",
+        loan
+    )]
     pub struct SetCameraInfo_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,

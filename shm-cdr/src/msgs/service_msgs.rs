@@ -7,7 +7,7 @@ pub mod msg {
     /// `service_msgs/msg/ServiceEventInfo` (from `msg/ServiceEventInfo.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "service_msgs/msg/ServiceEventInfo", crate = "crate")]
+    #[ros(type_name = "service_msgs/msg/ServiceEventInfo", crate = "crate", loan)]
     #[repr(C)]
     pub struct ServiceEventInfo {
         /// The type of event this message represents

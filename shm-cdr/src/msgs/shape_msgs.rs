@@ -9,7 +9,7 @@ pub mod msg {
     /// `shape_msgs/msg/Mesh` (from `msg/Mesh.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "shape_msgs/msg/Mesh", crate = "crate")]
+    #[ros(type_name = "shape_msgs/msg/Mesh", crate = "crate", loan)]
     pub struct Mesh {
         /// List of triangles; the index values refer to positions in vertices\[\].
         pub triangles: ::std::vec::Vec<MeshTriangle>,
@@ -56,7 +56,7 @@ pub mod msg {
     /// `shape_msgs/msg/MeshTriangle` (from `msg/MeshTriangle.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "shape_msgs/msg/MeshTriangle", crate = "crate")]
+    #[ros(type_name = "shape_msgs/msg/MeshTriangle", crate = "crate", loan)]
     #[repr(C)]
     pub struct MeshTriangle {
         /// `uint32[3] vertex_indices`
@@ -78,7 +78,7 @@ pub mod msg {
     /// `shape_msgs/msg/Plane` (from `msg/Plane.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "shape_msgs/msg/Plane", crate = "crate")]
+    #[ros(type_name = "shape_msgs/msg/Plane", crate = "crate", loan)]
     #[repr(C)]
     pub struct Plane {
         /// Representation of a plane, using the plane equation ax + by + cz + d = 0.
@@ -108,7 +108,7 @@ pub mod msg {
     /// `shape_msgs/msg/SolidPrimitive` (from `msg/SolidPrimitive.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "shape_msgs/msg/SolidPrimitive", crate = "crate")]
+    #[ros(type_name = "shape_msgs/msg/SolidPrimitive", crate = "crate", loan)]
     pub struct SolidPrimitive {
         /// The type of the shape
         pub r#type: u8,

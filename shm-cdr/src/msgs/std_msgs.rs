@@ -12,7 +12,7 @@ pub mod msg {
     /// `std_msgs/msg/Bool` (from `msg/Bool.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Bool", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Bool", crate = "crate", loan)]
     pub struct Bool {
         /// `bool data`
         pub data: bool,
@@ -38,7 +38,7 @@ pub mod msg {
     /// `std_msgs/msg/Byte` (from `msg/Byte.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Byte", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Byte", crate = "crate", loan)]
     #[repr(C)]
     pub struct Byte {
         /// `byte data`
@@ -66,7 +66,7 @@ pub mod msg {
     /// `std_msgs/msg/ByteMultiArray` (from `msg/ByteMultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/ByteMultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/ByteMultiArray", crate = "crate", loan)]
     pub struct ByteMultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -121,7 +121,7 @@ pub mod msg {
     /// `std_msgs/msg/Char` (from `msg/Char.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Char", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Char", crate = "crate", loan)]
     #[repr(C)]
     pub struct Char {
         /// `char data`
@@ -144,7 +144,7 @@ pub mod msg {
     /// `std_msgs/msg/ColorRGBA` (from `msg/ColorRGBA.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/ColorRGBA", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/ColorRGBA", crate = "crate", loan)]
     #[repr(C)]
     pub struct ColorRGBA {
         /// `float32 r`
@@ -175,7 +175,7 @@ pub mod msg {
     /// `std_msgs/msg/Empty` (from `msg/Empty.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Empty", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Empty", crate = "crate", loan)]
     pub struct Empty;
 
     impl ::core::default::Default for Empty {
@@ -196,7 +196,7 @@ pub mod msg {
     /// `std_msgs/msg/Float32` (from `msg/Float32.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Float32", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Float32", crate = "crate", loan)]
     #[repr(C)]
     pub struct Float32 {
         /// `float32 data`
@@ -223,7 +223,7 @@ pub mod msg {
     /// `std_msgs/msg/Float32MultiArray` (from `msg/Float32MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Float32MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Float32MultiArray", crate = "crate", loan)]
     pub struct Float32MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -276,7 +276,7 @@ pub mod msg {
     /// `std_msgs/msg/Float64` (from `msg/Float64.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Float64", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Float64", crate = "crate", loan)]
     #[repr(C)]
     pub struct Float64 {
         /// `float64 data`
@@ -303,7 +303,7 @@ pub mod msg {
     /// `std_msgs/msg/Float64MultiArray` (from `msg/Float64MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Float64MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Float64MultiArray", crate = "crate", loan)]
     pub struct Float64MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -355,7 +355,7 @@ pub mod msg {
     /// `std_msgs/msg/Header` (from `msg/Header.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Header", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Header", crate = "crate", loan)]
     pub struct Header {
         /// Two-integer timestamp that is expressed as seconds and nanoseconds.
         pub stamp: super::super::builtin_interfaces::msg::Time,
@@ -407,7 +407,7 @@ pub mod msg {
     /// `std_msgs/msg/Int16` (from `msg/Int16.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int16", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int16", crate = "crate", loan)]
     #[repr(C)]
     pub struct Int16 {
         /// `int16 data`
@@ -434,7 +434,7 @@ pub mod msg {
     /// `std_msgs/msg/Int16MultiArray` (from `msg/Int16MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int16MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int16MultiArray", crate = "crate", loan)]
     pub struct Int16MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -487,7 +487,7 @@ pub mod msg {
     /// `std_msgs/msg/Int32` (from `msg/Int32.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int32", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int32", crate = "crate", loan)]
     #[repr(C)]
     pub struct Int32 {
         /// `int32 data`
@@ -514,7 +514,7 @@ pub mod msg {
     /// `std_msgs/msg/Int32MultiArray` (from `msg/Int32MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int32MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int32MultiArray", crate = "crate", loan)]
     pub struct Int32MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -567,7 +567,7 @@ pub mod msg {
     /// `std_msgs/msg/Int64` (from `msg/Int64.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int64", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int64", crate = "crate", loan)]
     #[repr(C)]
     pub struct Int64 {
         /// `int64 data`
@@ -594,7 +594,7 @@ pub mod msg {
     /// `std_msgs/msg/Int64MultiArray` (from `msg/Int64MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int64MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int64MultiArray", crate = "crate", loan)]
     pub struct Int64MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -647,7 +647,7 @@ pub mod msg {
     /// `std_msgs/msg/Int8` (from `msg/Int8.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int8", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int8", crate = "crate", loan)]
     #[repr(C)]
     pub struct Int8 {
         /// `int8 data`
@@ -674,7 +674,7 @@ pub mod msg {
     /// `std_msgs/msg/Int8MultiArray` (from `msg/Int8MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int8MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int8MultiArray", crate = "crate", loan)]
     pub struct Int8MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -727,7 +727,7 @@ pub mod msg {
     /// `std_msgs/msg/MultiArrayDimension` (from `msg/MultiArrayDimension.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/MultiArrayDimension", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/MultiArrayDimension", crate = "crate", loan)]
     pub struct MultiArrayDimension {
         /// label of given dimension
         pub label: ::std::string::String,
@@ -786,7 +786,7 @@ pub mod msg {
     /// `std_msgs/msg/MultiArrayLayout` (from `msg/MultiArrayLayout.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/MultiArrayLayout", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/MultiArrayLayout", crate = "crate", loan)]
     pub struct MultiArrayLayout {
         /// Array of dimension properties
         pub dim: ::std::vec::Vec<MultiArrayDimension>,
@@ -839,7 +839,7 @@ pub mod msg {
     /// `std_msgs/msg/String` (from `msg/String.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/String", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/String", crate = "crate", loan)]
     pub struct String {
         /// `string data`
         pub data: ::std::string::String,
@@ -886,7 +886,7 @@ pub mod msg {
     /// `std_msgs/msg/UInt16` (from `msg/UInt16.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt16", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt16", crate = "crate", loan)]
     #[repr(C)]
     pub struct UInt16 {
         /// `uint16 data`
@@ -913,7 +913,7 @@ pub mod msg {
     /// `std_msgs/msg/UInt16MultiArray` (from `msg/UInt16MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt16MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt16MultiArray", crate = "crate", loan)]
     pub struct UInt16MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -966,7 +966,7 @@ pub mod msg {
     /// `std_msgs/msg/UInt32` (from `msg/UInt32.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt32", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt32", crate = "crate", loan)]
     #[repr(C)]
     pub struct UInt32 {
         /// `uint32 data`
@@ -993,7 +993,7 @@ pub mod msg {
     /// `std_msgs/msg/UInt32MultiArray` (from `msg/UInt32MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt32MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt32MultiArray", crate = "crate", loan)]
     pub struct UInt32MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -1046,7 +1046,7 @@ pub mod msg {
     /// `std_msgs/msg/UInt64` (from `msg/UInt64.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt64", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt64", crate = "crate", loan)]
     #[repr(C)]
     pub struct UInt64 {
         /// `uint64 data`
@@ -1073,7 +1073,7 @@ pub mod msg {
     /// `std_msgs/msg/UInt64MultiArray` (from `msg/UInt64MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt64MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt64MultiArray", crate = "crate", loan)]
     pub struct UInt64MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -1126,7 +1126,7 @@ pub mod msg {
     /// `std_msgs/msg/UInt8` (from `msg/UInt8.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt8", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt8", crate = "crate", loan)]
     #[repr(C)]
     pub struct UInt8 {
         /// `uint8 data`
@@ -1153,7 +1153,7 @@ pub mod msg {
     /// `std_msgs/msg/UInt8MultiArray` (from `msg/UInt8MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt8MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt8MultiArray", crate = "crate", loan)]
     pub struct UInt8MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,

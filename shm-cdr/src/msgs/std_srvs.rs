@@ -7,7 +7,7 @@ pub mod srv {
     /// `std_srvs/srv/Empty_Request` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Empty_Request", crate = "crate")]
+    #[ros(type_name = "std_srvs/srv/Empty_Request", crate = "crate", loan)]
     pub struct Empty_Request;
 
     impl ::core::default::Default for Empty_Request {
@@ -23,7 +23,7 @@ pub mod srv {
     /// `std_srvs/srv/Empty_Response` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Empty_Response", crate = "crate")]
+    #[ros(type_name = "std_srvs/srv/Empty_Response", crate = "crate", loan)]
     pub struct Empty_Response;
 
     impl ::core::default::Default for Empty_Response {
@@ -41,7 +41,7 @@ pub mod srv {
     /// `std_srvs/srv/Empty_Event` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Empty_Event", crate = "crate")]
+    #[ros(type_name = "std_srvs/srv/Empty_Event", crate = "crate", loan)]
     pub struct Empty_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -86,7 +86,7 @@ pub mod srv {
     /// `std_srvs/srv/SetBool_Request` (from `srv/SetBool.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/SetBool_Request", crate = "crate")]
+    #[ros(type_name = "std_srvs/srv/SetBool_Request", crate = "crate", loan)]
     pub struct SetBool_Request {
         /// e.g. for hardware enabling / disabling
         pub data: bool,
@@ -107,7 +107,7 @@ pub mod srv {
     /// `std_srvs/srv/SetBool_Response` (from `srv/SetBool.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/SetBool_Response", crate = "crate")]
+    #[ros(type_name = "std_srvs/srv/SetBool_Response", crate = "crate", loan)]
     pub struct SetBool_Response {
         /// indicate successful run of triggered service
         pub success: bool,
@@ -152,7 +152,7 @@ pub mod srv {
     /// `std_srvs/srv/SetBool_Event` (from `srv/SetBool.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/SetBool_Event", crate = "crate")]
+    #[ros(type_name = "std_srvs/srv/SetBool_Event", crate = "crate", loan)]
     pub struct SetBool_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -221,7 +221,7 @@ pub mod srv {
     /// `std_srvs/srv/Trigger_Request` (from `srv/Trigger.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Trigger_Request", crate = "crate")]
+    #[ros(type_name = "std_srvs/srv/Trigger_Request", crate = "crate", loan)]
     pub struct Trigger_Request;
 
     impl ::core::default::Default for Trigger_Request {
@@ -237,7 +237,7 @@ pub mod srv {
     /// `std_srvs/srv/Trigger_Response` (from `srv/Trigger.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Trigger_Response", crate = "crate")]
+    #[ros(type_name = "std_srvs/srv/Trigger_Response", crate = "crate", loan)]
     pub struct Trigger_Response {
         /// indicate successful run of triggered service
         pub success: bool,
@@ -282,7 +282,7 @@ pub mod srv {
     /// `std_srvs/srv/Trigger_Event` (from `srv/Trigger.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Trigger_Event", crate = "crate")]
+    #[ros(type_name = "std_srvs/srv/Trigger_Event", crate = "crate", loan)]
     pub struct Trigger_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,

@@ -7,7 +7,7 @@ pub mod msg {
     /// `stereo_msgs/msg/DisparityImage` (from `msg/DisparityImage.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "stereo_msgs/msg/DisparityImage", crate = "crate")]
+    #[ros(type_name = "stereo_msgs/msg/DisparityImage", crate = "crate", loan)]
     pub struct DisparityImage {
         /// Separate header for compatibility with current TimeSynchronizer.
         /// Likely to be removed in a later release, use image.header instead.

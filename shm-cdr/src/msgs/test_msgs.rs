@@ -7,7 +7,7 @@ pub mod action {
     /// `test_msgs/action/Fibonacci_Goal` (from `action/Fibonacci.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/action/Fibonacci_Goal", crate = "crate")]
+    #[ros(type_name = "test_msgs/action/Fibonacci_Goal", crate = "crate", loan)]
     #[repr(C)]
     pub struct Fibonacci_Goal {
         /// goal definition
@@ -29,7 +29,7 @@ pub mod action {
     /// `test_msgs/action/Fibonacci_Result` (from `action/Fibonacci.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/action/Fibonacci_Result", crate = "crate")]
+    #[ros(type_name = "test_msgs/action/Fibonacci_Result", crate = "crate", loan)]
     pub struct Fibonacci_Result {
         /// result definition
         pub sequence: ::std::vec::Vec<i32>,
@@ -66,7 +66,11 @@ pub mod action {
     /// `test_msgs/action/Fibonacci_Feedback` (from `action/Fibonacci.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/action/Fibonacci_Feedback", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/action/Fibonacci_Feedback",
+        crate = "crate",
+        loan
+    )]
     pub struct Fibonacci_Feedback {
         /// feedback
         pub sequence: ::std::vec::Vec<i32>,
@@ -105,7 +109,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/Fibonacci_SendGoal_Request",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     #[repr(C)]
     pub struct Fibonacci_SendGoal_Request {
@@ -133,7 +138,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/Fibonacci_SendGoal_Response",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct Fibonacci_SendGoal_Response {
         /// Whether the server accepted the goal.
@@ -162,7 +168,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/Fibonacci_SendGoal_Event",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct Fibonacci_SendGoal_Event {
         /// What happened, when, and to which call.
@@ -212,7 +219,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/Fibonacci_GetResult_Request",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     #[repr(C)]
     pub struct Fibonacci_GetResult_Request {
@@ -237,7 +245,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/Fibonacci_GetResult_Response",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct Fibonacci_GetResult_Response {
         /// The goal's final status (`action_msgs/msg/GoalStatus`).
@@ -288,7 +297,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/Fibonacci_GetResult_Event",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct Fibonacci_GetResult_Event {
         /// What happened, when, and to which call.
@@ -365,7 +375,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/Fibonacci_FeedbackMessage",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct Fibonacci_FeedbackMessage {
         /// The goal's unique id.
@@ -519,7 +530,11 @@ pub mod action {
     /// `test_msgs/action/NestedMessage_Goal` (from `action/NestedMessage.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/action/NestedMessage_Goal", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/action/NestedMessage_Goal",
+        crate = "crate",
+        loan
+    )]
     pub struct NestedMessage_Goal {
         /// goal definition
         pub nested_field_no_pkg: super::super::test_msgs::msg::Builtins,
@@ -546,7 +561,11 @@ pub mod action {
     /// `test_msgs/action/NestedMessage_Result` (from `action/NestedMessage.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/action/NestedMessage_Result", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/action/NestedMessage_Result",
+        crate = "crate",
+        loan
+    )]
     pub struct NestedMessage_Result {
         /// result definition
         pub nested_field_no_pkg: super::super::test_msgs::msg::Builtins,
@@ -573,7 +592,11 @@ pub mod action {
     /// `test_msgs/action/NestedMessage_Feedback` (from `action/NestedMessage.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/action/NestedMessage_Feedback", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/action/NestedMessage_Feedback",
+        crate = "crate",
+        loan
+    )]
     pub struct NestedMessage_Feedback {
         /// feedback
         pub nested_field_no_pkg: super::super::test_msgs::msg::Builtins,
@@ -602,7 +625,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/NestedMessage_SendGoal_Request",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct NestedMessage_SendGoal_Request {
         /// The goal's unique id.
@@ -629,7 +653,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/NestedMessage_SendGoal_Response",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct NestedMessage_SendGoal_Response {
         /// Whether the server accepted the goal.
@@ -658,7 +683,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/NestedMessage_SendGoal_Event",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct NestedMessage_SendGoal_Event {
         /// What happened, when, and to which call.
@@ -708,7 +734,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/NestedMessage_GetResult_Request",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     #[repr(C)]
     pub struct NestedMessage_GetResult_Request {
@@ -733,7 +760,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/NestedMessage_GetResult_Response",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct NestedMessage_GetResult_Response {
         /// The goal's final status (`action_msgs/msg/GoalStatus`).
@@ -762,7 +790,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/NestedMessage_GetResult_Event",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct NestedMessage_GetResult_Event {
         /// What happened, when, and to which call.
@@ -812,7 +841,8 @@ pub mod action {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "test_msgs/action/NestedMessage_FeedbackMessage",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct NestedMessage_FeedbackMessage {
         /// The goal's unique id.
@@ -950,7 +980,7 @@ pub mod msg {
     /// `test_msgs/msg/Arrays` (from `msg/Arrays.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Arrays", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/Arrays", crate = "crate", loan)]
     pub struct Arrays {
         /// Arrays of different types
         pub bool_values: [bool; 3],
@@ -1185,7 +1215,7 @@ pub mod msg {
     /// `test_msgs/msg/BasicTypes` (from `msg/BasicTypes.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/BasicTypes", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/BasicTypes", crate = "crate", loan)]
     pub struct BasicTypes {
         /// `bool bool_value`
         pub bool_value: bool,
@@ -1244,7 +1274,11 @@ pub mod msg {
     /// `test_msgs/msg/BoundedPlainSequences` (from `msg/BoundedPlainSequences.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/BoundedPlainSequences", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/msg/BoundedPlainSequences",
+        crate = "crate",
+        loan
+    )]
     pub struct BoundedPlainSequences {
         /// Bounded sequences of different POD types
         pub bool_values: crate::BoundedVec<bool, 3>,
@@ -1368,7 +1402,7 @@ pub mod msg {
     /// `test_msgs/msg/BoundedSequences` (from `msg/BoundedSequences.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/BoundedSequences", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/BoundedSequences", crate = "crate", loan)]
     pub struct BoundedSequences {
         /// Bounded sequences of different types
         pub bool_values: crate::BoundedVec<bool, 3>,
@@ -1631,7 +1665,7 @@ pub mod msg {
     /// `test_msgs/msg/Builtins` (from `msg/Builtins.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Builtins", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/Builtins", crate = "crate", loan)]
     #[repr(C)]
     pub struct Builtins {
         /// `builtin_interfaces/Duration duration_value`
@@ -1656,7 +1690,7 @@ pub mod msg {
     /// `test_msgs/msg/Constants` (from `msg/Constants.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Constants", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/Constants", crate = "crate", loan)]
     pub struct Constants;
 
     impl Constants {
@@ -1701,7 +1735,7 @@ pub mod msg {
     /// `test_msgs/msg/Defaults` (from `msg/Defaults.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Defaults", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/Defaults", crate = "crate", loan)]
     pub struct Defaults {
         /// `bool bool_value`
         pub bool_value: bool,
@@ -1760,7 +1794,7 @@ pub mod msg {
     /// `test_msgs/msg/Empty` (from `msg/Empty.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Empty", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/Empty", crate = "crate", loan)]
     pub struct Empty;
 
     impl ::core::default::Default for Empty {
@@ -1776,7 +1810,7 @@ pub mod msg {
     /// `test_msgs/msg/MultiNested` (from `msg/MultiNested.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/MultiNested", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/MultiNested", crate = "crate", loan)]
     pub struct MultiNested {
         /// Mulitple levels of nested messages
         pub array_of_arrays: [Arrays; 3],
@@ -1870,7 +1904,7 @@ pub mod msg {
     /// `test_msgs/msg/Nested` (from `msg/Nested.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Nested", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/Nested", crate = "crate", loan)]
     pub struct Nested {
         /// `test_msgs/BasicTypes basic_types_value`
         pub basic_types_value: BasicTypes,
@@ -1891,7 +1925,7 @@ pub mod msg {
     /// `test_msgs/msg/Strings` (from `msg/Strings.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Strings", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/Strings", crate = "crate", loan)]
     pub struct Strings {
         /// `string string_value`
         pub string_value: ::std::string::String,
@@ -1999,7 +2033,7 @@ pub mod msg {
     /// `test_msgs/msg/UnboundedSequences` (from `msg/UnboundedSequences.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/UnboundedSequences", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/UnboundedSequences", crate = "crate", loan)]
     pub struct UnboundedSequences {
         /// Unbounded sequences of different types
         pub bool_values: ::std::vec::Vec<bool>,
@@ -2248,7 +2282,7 @@ pub mod msg {
     /// `test_msgs/msg/WStrings` (from `msg/WStrings.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/WStrings", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/WStrings", crate = "crate", loan)]
     pub struct WStrings {
         /// `wstring wstring_value`
         pub wstring_value: crate::WString,
@@ -2293,7 +2327,7 @@ pub mod srv {
     /// `test_msgs/srv/Arrays_Request` (from `srv/Arrays.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Arrays_Request", crate = "crate")]
+    #[ros(type_name = "test_msgs/srv/Arrays_Request", crate = "crate", loan)]
     pub struct Arrays_Request {
         /// `bool[3] bool_values`
         pub bool_values: [bool; 3],
@@ -2522,7 +2556,7 @@ pub mod srv {
     /// `test_msgs/srv/Arrays_Response` (from `srv/Arrays.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Arrays_Response", crate = "crate")]
+    #[ros(type_name = "test_msgs/srv/Arrays_Response", crate = "crate", loan)]
     pub struct Arrays_Response {
         /// `bool[3] bool_values`
         pub bool_values: [bool; 3],
@@ -2753,7 +2787,7 @@ pub mod srv {
     /// `test_msgs/srv/Arrays_Event` (from `srv/Arrays.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Arrays_Event", crate = "crate")]
+    #[ros(type_name = "test_msgs/srv/Arrays_Event", crate = "crate", loan)]
     pub struct Arrays_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -2822,7 +2856,7 @@ pub mod srv {
     /// `test_msgs/srv/BasicTypes_Request` (from `srv/BasicTypes.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/BasicTypes_Request", crate = "crate")]
+    #[ros(type_name = "test_msgs/srv/BasicTypes_Request", crate = "crate", loan)]
     pub struct BasicTypes_Request {
         /// `bool bool_value`
         pub bool_value: bool,
@@ -2941,7 +2975,7 @@ pub mod srv {
     /// `test_msgs/srv/BasicTypes_Response` (from `srv/BasicTypes.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/BasicTypes_Response", crate = "crate")]
+    #[ros(type_name = "test_msgs/srv/BasicTypes_Response", crate = "crate", loan)]
     pub struct BasicTypes_Response {
         /// `bool bool_value`
         pub bool_value: bool,
@@ -3062,7 +3096,7 @@ pub mod srv {
     /// `test_msgs/srv/BasicTypes_Event` (from `srv/BasicTypes.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/BasicTypes_Event", crate = "crate")]
+    #[ros(type_name = "test_msgs/srv/BasicTypes_Event", crate = "crate", loan)]
     pub struct BasicTypes_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -3131,7 +3165,7 @@ pub mod srv {
     /// `test_msgs/srv/Empty_Request` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Empty_Request", crate = "crate")]
+    #[ros(type_name = "test_msgs/srv/Empty_Request", crate = "crate", loan)]
     pub struct Empty_Request;
 
     impl ::core::default::Default for Empty_Request {
@@ -3147,7 +3181,7 @@ pub mod srv {
     /// `test_msgs/srv/Empty_Response` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Empty_Response", crate = "crate")]
+    #[ros(type_name = "test_msgs/srv/Empty_Response", crate = "crate", loan)]
     pub struct Empty_Response;
 
     impl ::core::default::Default for Empty_Response {
@@ -3165,7 +3199,7 @@ pub mod srv {
     /// `test_msgs/srv/Empty_Event` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Empty_Event", crate = "crate")]
+    #[ros(type_name = "test_msgs/srv/Empty_Event", crate = "crate", loan)]
     pub struct Empty_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,

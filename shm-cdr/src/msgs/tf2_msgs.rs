@@ -7,7 +7,7 @@ pub mod msg {
     /// `tf2_msgs/msg/TF2Error` (from `msg/TF2Error.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "tf2_msgs/msg/TF2Error", crate = "crate")]
+    #[ros(type_name = "tf2_msgs/msg/TF2Error", crate = "crate", loan)]
     pub struct TF2Error {
         /// `uint8 error`
         pub error: u8,
@@ -67,7 +67,7 @@ pub mod msg {
     /// `tf2_msgs/msg/TFMessage` (from `msg/TFMessage.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "tf2_msgs/msg/TFMessage", crate = "crate")]
+    #[ros(type_name = "tf2_msgs/msg/TFMessage", crate = "crate", loan)]
     pub struct TFMessage {
         /// tf2_msgs/msg/TFMessage, exported from rosbags' ros2_jazzy type store.
         pub transforms: ::std::vec::Vec<super::super::geometry_msgs::msg::TransformStamped>,

@@ -7,7 +7,11 @@ pub mod msg {
     /// `trajectory_msgs/msg/JointTrajectory` (from `msg/JointTrajectory.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "trajectory_msgs/msg/JointTrajectory", crate = "crate")]
+    #[ros(
+        type_name = "trajectory_msgs/msg/JointTrajectory",
+        crate = "crate",
+        loan
+    )]
     pub struct JointTrajectory {
         /// The header is used to specify the coordinate frame and the reference time for
         /// the trajectory durations
@@ -68,7 +72,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "trajectory_msgs/msg/JointTrajectoryPoint",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct JointTrajectoryPoint {
         /// Single DOF joint positions for each joint relative to their "0" position.
@@ -155,7 +160,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "trajectory_msgs/msg/MultiDOFJointTrajectory",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct MultiDOFJointTrajectory {
         /// The header is used to specify the coordinate frame and the reference time for the trajectory durations
@@ -210,7 +216,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct MultiDOFJointTrajectoryPoint {
         /// Each multi-dof joint can specify a transform (up to 6 DOF).

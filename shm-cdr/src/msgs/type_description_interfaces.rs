@@ -9,7 +9,11 @@ pub mod msg {
     /// `type_description_interfaces/msg/Field` (from `msg/Field.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "type_description_interfaces/msg/Field", crate = "crate")]
+    #[ros(
+        type_name = "type_description_interfaces/msg/Field",
+        crate = "crate",
+        loan
+    )]
     pub struct Field {
         /// Name of the field.
         pub name: ::std::string::String,
@@ -66,7 +70,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "type_description_interfaces/msg/FieldType",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct FieldType {
         /// Identifying number for the type of the field, using one of the above constants.
@@ -295,7 +300,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "type_description_interfaces/msg/IndividualTypeDescription",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct IndividualTypeDescription {
         /// Name of the type.
@@ -358,7 +364,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "type_description_interfaces/msg/KeyValue",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct KeyValue {
         /// `string key`
@@ -411,7 +418,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "type_description_interfaces/msg/TypeDescription",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct TypeDescription {
         /// Description of the type.
@@ -464,7 +472,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "type_description_interfaces/msg/TypeSource",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct TypeSource {
         /// ROS interface type name, in PACKAGE/NAMESPACE/TYPENAME format.
@@ -537,7 +546,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "type_description_interfaces/srv/GetTypeDescription_Request",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetTypeDescription_Request {
         /// ROS interface type name, in PACKAGE/NAMESPACE/TYPENAME format.
@@ -592,7 +602,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "type_description_interfaces/srv/GetTypeDescription_Response",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetTypeDescription_Response {
         /// True if the type description information is available and populated in the response.
@@ -680,7 +691,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "type_description_interfaces/srv/GetTypeDescription_Event",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetTypeDescription_Event {
         /// What happened, when, and to which call.

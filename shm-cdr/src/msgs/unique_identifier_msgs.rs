@@ -12,7 +12,7 @@ pub mod msg {
     /// `unique_identifier_msgs/msg/UUID` (from `msg/UUID.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "unique_identifier_msgs/msg/UUID", crate = "crate")]
+    #[ros(type_name = "unique_identifier_msgs/msg/UUID", crate = "crate", loan)]
     #[repr(C)]
     pub struct UUID {
         /// `uint8[16] uuid`

@@ -7,7 +7,11 @@ pub mod msg {
     /// `visualization_msgs/msg/ImageMarker` (from `msg/ImageMarker.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "visualization_msgs/msg/ImageMarker", crate = "crate")]
+    #[ros(
+        type_name = "visualization_msgs/msg/ImageMarker",
+        crate = "crate",
+        loan
+    )]
     pub struct ImageMarker {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -137,7 +141,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarker",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct InteractiveMarker {
         /// Time/frame info.
@@ -230,7 +235,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarkerControl",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct InteractiveMarkerControl {
         /// Identifying string for this control.
@@ -392,7 +398,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarkerFeedback",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct InteractiveMarkerFeedback {
         /// Time/frame info.
@@ -512,7 +519,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarkerInit",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct InteractiveMarkerInit {
         /// Identifying string. Must be unique in the topic namespace
@@ -579,7 +587,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarkerPose",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct InteractiveMarkerPose {
         /// Time/frame info.
@@ -636,7 +645,8 @@ pub mod msg {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarkerUpdate",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct InteractiveMarkerUpdate {
         /// Identifying string. Must be unique in the topic namespace
@@ -730,7 +740,7 @@ pub mod msg {
     /// `visualization_msgs/msg/Marker` (from `msg/Marker.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "visualization_msgs/msg/Marker", crate = "crate")]
+    #[ros(type_name = "visualization_msgs/msg/Marker", crate = "crate", loan)]
     pub struct Marker {
         /// Header for timestamp and frame id.
         pub header: super::super::std_msgs::msg::Header,
@@ -950,7 +960,11 @@ pub mod msg {
     /// `visualization_msgs/msg/MarkerArray` (from `msg/MarkerArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "visualization_msgs/msg/MarkerArray", crate = "crate")]
+    #[ros(
+        type_name = "visualization_msgs/msg/MarkerArray",
+        crate = "crate",
+        loan
+    )]
     pub struct MarkerArray {
         /// `visualization_msgs/Marker[] markers`
         pub markers: ::std::vec::Vec<Marker>,
@@ -1018,7 +1032,7 @@ pub mod msg {
     /// `visualization_msgs/msg/MenuEntry` (from `msg/MenuEntry.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "visualization_msgs/msg/MenuEntry", crate = "crate")]
+    #[ros(type_name = "visualization_msgs/msg/MenuEntry", crate = "crate", loan)]
     pub struct MenuEntry {
         /// ID is a number for each menu entry.  Must be unique within the
         /// control, and should never be 0.
@@ -1129,7 +1143,7 @@ pub mod msg {
     /// `visualization_msgs/msg/MeshFile` (from `msg/MeshFile.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "visualization_msgs/msg/MeshFile", crate = "crate")]
+    #[ros(type_name = "visualization_msgs/msg/MeshFile", crate = "crate", loan)]
     pub struct MeshFile {
         /// The filename is used for both debug purposes and to provide a file extension
         /// for whatever parser is used.
@@ -1176,7 +1190,11 @@ pub mod msg {
     /// `visualization_msgs/msg/UVCoordinate` (from `msg/UVCoordinate.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "visualization_msgs/msg/UVCoordinate", crate = "crate")]
+    #[ros(
+        type_name = "visualization_msgs/msg/UVCoordinate",
+        crate = "crate",
+        loan
+    )]
     #[repr(C)]
     pub struct UVCoordinate {
         /// Location of the pixel as a ratio of the width of a 2D texture.
@@ -1208,7 +1226,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "visualization_msgs/srv/GetInteractiveMarkers_Request",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetInteractiveMarkers_Request;
 
@@ -1227,7 +1246,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "visualization_msgs/srv/GetInteractiveMarkers_Response",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetInteractiveMarkers_Response {
         /// Sequence number.
@@ -1285,7 +1305,8 @@ pub mod srv {
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
     #[ros(
         type_name = "visualization_msgs/srv/GetInteractiveMarkers_Event",
-        crate = "crate"
+        crate = "crate",
+        loan
     )]
     pub struct GetInteractiveMarkers_Event {
         /// What happened, when, and to which call.

@@ -8,7 +8,11 @@ pub mod msg {
     ///
     /// [`CompressedImage`](::shm_cdr::msgs::sensor_msgs::msg::CompressedImage) with its own byte sequences as [`ShmBytes`](crate::ShmBytes), which a publisher splices into the message without a copy when they sit in shared memory: same type, same bytes, same hash. `From<CompressedImage>` moves the fields over.
     #[derive(::shm_cdr::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/CompressedImage", crate = "::shm_cdr")]
+    #[ros(
+        type_name = "sensor_msgs/msg/CompressedImage",
+        crate = "::shm_cdr",
+        loan
+    )]
     pub struct CompressedImageShm {
         /// Header timestamp should be acquisition time of image
         pub header: ::shm_cdr::msgs::std_msgs::msg::Header,
@@ -45,7 +49,7 @@ pub mod msg {
     ///
     /// [`Image`](::shm_cdr::msgs::sensor_msgs::msg::Image) with its own byte sequences as [`ShmBytes`](crate::ShmBytes), which a publisher splices into the message without a copy when they sit in shared memory: same type, same bytes, same hash. `From<Image>` moves the fields over.
     #[derive(::shm_cdr::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/Image", crate = "::shm_cdr")]
+    #[ros(type_name = "sensor_msgs/msg/Image", crate = "::shm_cdr", loan)]
     pub struct ImageShm {
         /// Header timestamp should be acquisition time of image
         pub header: ::shm_cdr::msgs::std_msgs::msg::Header,
@@ -102,7 +106,7 @@ pub mod msg {
     ///
     /// [`PointCloud2`](::shm_cdr::msgs::sensor_msgs::msg::PointCloud2) with its own byte sequences as [`ShmBytes`](crate::ShmBytes), which a publisher splices into the message without a copy when they sit in shared memory: same type, same bytes, same hash. `From<PointCloud2>` moves the fields over.
     #[derive(::shm_cdr::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/PointCloud2", crate = "::shm_cdr")]
+    #[ros(type_name = "sensor_msgs/msg/PointCloud2", crate = "::shm_cdr", loan)]
     pub struct PointCloud2Shm {
         /// Time of sensor data acquisition, and the coordinate frame ID (for 3d points).
         pub header: ::shm_cdr::msgs::std_msgs::msg::Header,
