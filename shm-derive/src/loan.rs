@@ -101,15 +101,18 @@ pub fn expand(container: &Container, krate: &TokenStream) -> TokenStream {
                 type Lens = #lens_ident;
                 type Mut<#a> = #mut_ident<#a>;
 
+                #[inline]
                 fn lens(&self) -> #lens_ident {
                     #lens_ident { #( #members: #in_place::lens(&self.#members), )* }
                 }
 
+                #[inline]
                 fn end_in_place(lens: &#lens_ident, start: usize) -> ::core::option::Option<usize> {
                     let _ = lens;
                     #end_body
                 }
 
+                #[inline]
                 fn carve<#a>(
                     lens: &#lens_ident,
                     __c: &mut #krate::loan::Carver<#a>,
@@ -118,6 +121,7 @@ pub fn expand(container: &Container, krate: &TokenStream) -> TokenStream {
                     #carve_body
                 }
 
+                #[inline]
                 fn write_in_place(
                     &self,
                     place: #mut_ident<'_>,
@@ -132,18 +136,22 @@ pub fn expand(container: &Container, krate: &TokenStream) -> TokenStream {
                 type ArrayLens = #krate::loan::SeqLens<#lens_ident>;
                 type ArrayMut<#a, const __N: usize> = #krate::loan::Run<#a, Self>;
 
+                #[inline]
                 fn run_lens(items: &[Self]) -> Self::RunLens {
                     #krate::loan::struct_run_lens(items)
                 }
 
+                #[inline]
                 fn run_count(lens: &Self::RunLens) -> usize {
                     #krate::loan::struct_run_count(lens)
                 }
 
+                #[inline]
                 fn run_end(lens: &Self::RunLens, n: usize, start: usize) -> ::core::option::Option<usize> {
                     #krate::loan::struct_run_end::<Self>(lens, n, start)
                 }
 
+                #[inline]
                 fn carve_run<#a>(
                     lens: &Self::RunLens,
                     n: usize,
@@ -152,6 +160,7 @@ pub fn expand(container: &Container, krate: &TokenStream) -> TokenStream {
                     #krate::loan::struct_carve_run(lens, n, c)
                 }
 
+                #[inline]
                 fn write_run(
                     items: &[Self],
                     place: Self::RunMut<'_>,
@@ -159,14 +168,17 @@ pub fn expand(container: &Container, krate: &TokenStream) -> TokenStream {
                     #krate::loan::struct_write_run(items, place)
                 }
 
+                #[inline]
                 fn array_lens<const __N: usize>(items: &[Self; __N]) -> Self::ArrayLens {
                     #krate::loan::struct_run_lens(items)
                 }
 
+                #[inline]
                 fn array_end<const __N: usize>(lens: &Self::ArrayLens, start: usize) -> ::core::option::Option<usize> {
                     #krate::loan::struct_array_end::<Self>(lens, __N, start)
                 }
 
+                #[inline]
                 fn carve_array<#a, const __N: usize>(
                     lens: &Self::ArrayLens,
                     c: &mut #krate::loan::Carver<#a>,
@@ -174,6 +186,7 @@ pub fn expand(container: &Container, krate: &TokenStream) -> TokenStream {
                     #krate::loan::struct_carve_array(lens, __N, c)
                 }
 
+                #[inline]
                 fn write_array<const __N: usize>(
                     items: &[Self; __N],
                     place: Self::ArrayMut<'_, __N>,
