@@ -157,7 +157,11 @@ pub mod fuzzing {
     /// and decode over another.
     fn generated_case<T>(data: &[u8])
     where
-        T: shm_cdr::BorrowedForm + shm_cdr::DecodeOwned + for<'a> Arbitrary<'a> + std::fmt::Debug,
+        T: shm_cdr::BorrowedForm
+            + shm_cdr::DecodeOwned
+            + shm_cdr::loan::InPlace
+            + for<'a> Arbitrary<'a>
+            + std::fmt::Debug,
     {
         decode_as::<T>(data);
         decode_borrowed_as::<T::Ref<'_>>(data);
@@ -165,6 +169,9 @@ pub mod fuzzing {
         if let Ok(msg) = T::arbitrary(&mut u) {
             if let Err(why) = check_roundtrip(&msg) {
                 panic!("{why}");
+            }
+            if let Err(why) = shm_cdr::testing::check_in_place(&msg) {
+                panic!("in place: {why}");
             }
             if let Ok(previous) = T::arbitrary(&mut u) {
                 if let Err(why) = check_decode_into(&previous, &msg) {
@@ -197,7 +204,7 @@ pub mod fuzzing {
 
     /// Time + value; `#[repr(C)]` so sequences of it take the bulk path at phase 0.
     #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-    #[ros(type_name = "fuzz_msgs/msg/Stamped")]
+    #[ros(type_name = "fuzz_msgs/msg/Stamped", loan)]
     #[repr(C)]
     pub struct Stamped {
         pub stamp: Time,
@@ -206,7 +213,7 @@ pub mod fuzzing {
 
     /// Every kind of field, with mixed alignment.
     #[derive(RosMessage, Arbitrary, Debug, Clone, PartialEq)]
-    #[ros(type_name = "fuzz_msgs/msg/Everything")]
+    #[ros(type_name = "fuzz_msgs/msg/Everything", loan)]
     pub struct Everything {
         pub flag: bool,
         pub lead: u8,
@@ -229,7 +236,8 @@ pub mod fuzzing {
 
     /// Target `roundtrip`: an arbitrary message must satisfy every invariant of
     /// `shm_cdr::testing::check_roundtrip` (exact size, garbage-proof padding, one
-    /// byte short fails, decode(encode(x)) == x, both byte orders); decoded over a
+    /// byte short fails, decode(encode(x)) == x, both byte orders) and be built in
+    /// place byte for byte (`check_in_place`); decoded over a
     /// second arbitrary message from the rest of the input, it must come out
     /// unchanged (`check_decode_into`).
     pub fn roundtrip(data: &[u8]) {
@@ -237,6 +245,9 @@ pub mod fuzzing {
         if let Ok(msg) = Everything::arbitrary(&mut u) {
             if let Err(why) = check_roundtrip(&msg) {
                 panic!("{why}");
+            }
+            if let Err(why) = shm_cdr::testing::check_in_place(&msg) {
+                panic!("in place: {why}");
             }
             if let Ok(previous) = Everything::arbitrary(&mut u) {
                 if let Err(why) = check_decode_into(&previous, &msg) {

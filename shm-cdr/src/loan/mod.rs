@@ -367,6 +367,16 @@ pub enum LoanError {
         /// Offset of the run in the message.
         at: usize,
     },
+    /// A run seen as elements of another type is not a whole number of them
+    /// (or not aligned for them).
+    NotWhole {
+        /// Offset of the run in the message.
+        at: usize,
+        /// The run's length in bytes.
+        bytes: usize,
+        /// The size of the element type.
+        element: usize,
+    },
     /// Strings or runs that were laid out but never written.
     Unwritten {
         /// How many.
@@ -385,6 +395,7 @@ impl fmt::Display for LoanError {
             Self::BufferTooSmall { at, needed, left } => write!(f, "at byte {at}: {needed} bytes needed, {left} left"),
             Self::Misaligned { address } => write!(f, "the message body at {address:#x} is not 8-aligned: numbers cannot be placed in it (use loan::AlignedBuffer or a pool chunk)"),
             Self::NotPlain { at } => write!(f, "at byte {at}: the run's elements are not plain (their memory is not their CDR encoding), so they cannot be placed as a slice"),
+            Self::NotWhole { at, bytes, element } => write!(f, "at byte {at}: a run of {bytes} bytes is not a whole number of {element}-byte elements aligned for them"),
             Self::Unwritten { pending } => write!(f, "{pending} string(s) or sequence(s) laid out but never written; write each one (write, write_slice, write_with, fill)"),
         }
     }

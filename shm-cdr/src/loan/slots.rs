@@ -160,10 +160,10 @@ impl<'a, T> Uninit<'a, T> {
         match plain_slice_mut(to, bytes) {
             // The same bytes, so the same pending state: nothing to count again.
             Some(items) => Ok(Uninit { items, at, written }),
-            None => Err(LoanError::LengthMismatch {
+            None => Err(LoanError::NotWhole {
                 at,
-                expected: len,
-                got: std::mem::size_of::<P>(),
+                bytes: len,
+                element: std::mem::size_of::<P>(),
             }),
         }
     }

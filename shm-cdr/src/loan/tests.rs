@@ -327,6 +327,22 @@ fn a_cloud_of_typed_points_is_written_in_place() {
     *cloud.is_dense = true;
     cloud.fields.write_slice(&fields).unwrap();
     let data = cloud.data.cast::<PointXyzi>().unwrap();
+    // 1600 bytes are not a whole number of 24-byte `Pose`s.
+    let mut odd = AlignedBuffer::new(encoded_size::<PointCloud2>(&lens).unwrap());
+    let again = Written::new();
+    let other = carve::<PointCloud2>(&lens, odd.as_mut_slice(), &again).unwrap();
+    let err = other.data.cast::<Point>().unwrap_err();
+    assert!(
+        matches!(
+            err,
+            LoanError::NotWhole {
+                bytes: 1600,
+                element: 24,
+                ..
+            }
+        ),
+        "{err}"
+    );
     assert_eq!(data.len(), 100);
     data.write_slice(&points).unwrap();
     written.check().unwrap();
