@@ -30,16 +30,24 @@ use zenoh::shm::{
 /// The shift: the length of the CDR encapsulation header.
 const SHIFT: usize = 4;
 
-/// What a shifted chunk of `len` bytes takes from the inner backend: 4 more
-/// bytes, rounded up to 8 (Zenoh wants a size that is a multiple of the
-/// alignment).
-fn outer_layout(len: NonZeroUsize) -> Result<MemoryLayout, ZLayoutError> {
-    let outer_len = len
+/// What a chunk of `len` bytes takes from the inner backend: 4 more bytes if it
+/// is shifted, rounded up to 8, at an alignment of at least 8. Every inner chunk
+/// is then 8-aligned, so a chunk id at 4 mod 8 is always a shifted one, and
+/// `free` can tell them apart from the id alone.
+fn inner_layout(
+    len: NonZeroUsize,
+    align: AllocAlignment,
+    shifted: bool,
+) -> Result<MemoryLayout, ZLayoutError> {
+    let extra = if shifted { SHIFT } else { 0 };
+    let inner_len = len
         .get()
-        .checked_add(SHIFT + 7)
+        .checked_add(extra + 7)
         .ok_or(ZLayoutError::IncorrectLayoutArgs)?
         & !7;
-    MemoryLayout::new(outer_len, AllocAlignment::ALIGN_8_BYTES)
+    let align = align.max(AllocAlignment::ALIGN_8_BYTES);
+    // An alignment above 8 already made `len` a multiple of it.
+    MemoryLayout::new(inner_len, align)
 }
 
 /// The POSIX (talc) backend, with message chunks shifted by 4 bytes.
@@ -70,22 +78,22 @@ impl WithProtocolID for CdrBackend {
 
 impl ShmProviderBackend for CdrBackend {
     fn alloc(&self, layout: &MemoryLayout) -> ChunkAllocResult {
-        if !shifted(layout) {
-            return self.inner.alloc(layout);
-        }
+        let shift = shifted(layout);
         let len = layout.size();
-        let outer = outer_layout(len).map_err(|_| zenoh::shm::ZAllocError::Other)?;
-        let chunk = self.inner.alloc(&outer)?;
+        let inner = inner_layout(len, layout.alignment(), shift)
+            .map_err(|_| zenoh::shm::ZAllocError::Other)?;
+        let chunk = self.inner.alloc(&inner)?;
+        let offset = if shift { SHIFT } else { 0 };
         // The chunk id is the byte offset in the segment (the POSIX segment is an
         // array of bytes), so the shifted chunk is the same segment at +4.
-        let Some(id) = chunk.descriptor.chunk.checked_add(SHIFT as u32) else {
+        let Some(id) = chunk.descriptor.chunk.checked_add(offset as u32) else {
             self.inner.free(&chunk.descriptor);
             return Err(zenoh::shm::ZAllocError::Other);
         };
         let base = chunk.data.ptr();
         // `wrapping_add`: no `unsafe` needed to compute the address; it is in
-        // bounds, since the inner chunk is `len + 4` bytes long.
-        let data = PtrInSegment::new(base.wrapping_add(SHIFT).cast_mut(), Arc::new(chunk.data));
+        // bounds, since the inner chunk is at least `len + offset` bytes long.
+        let data = PtrInSegment::new(base.wrapping_add(offset).cast_mut(), Arc::new(chunk.data));
         Ok(AllocatedChunk::new(
             ChunkDescriptor::new(chunk.descriptor.segment, id, len),
             data,
@@ -93,15 +101,14 @@ impl ShmProviderBackend for CdrBackend {
     }
 
     fn free(&self, chunk: &ChunkDescriptor) {
-        // Inner chunks are 8-aligned, so a chunk id at 4 mod 8 is one of ours.
-        if chunk.chunk as usize % 8 != SHIFT {
-            return self.inner.free(chunk);
-        }
-        // `alloc` succeeded with this length, so its outer layout exists.
-        if let Ok(outer) = outer_layout(chunk.len) {
-            let outer =
-                ChunkDescriptor::new(chunk.segment, chunk.chunk - SHIFT as u32, outer.size());
-            self.inner.free(&outer);
+        // Inner chunks are 8-aligned, so a chunk id at 4 mod 8 is a shifted one.
+        let shift = chunk.chunk as usize % 8 == SHIFT;
+        let offset = if shift { SHIFT as u32 } else { 0 };
+        // `alloc` succeeded with this length, so its inner layout exists (an
+        // explicit alignment above 8 only changes where, not how much).
+        if let Ok(inner) = inner_layout(chunk.len, AllocAlignment::ALIGN_1_BYTE, shift) {
+            let inner = ChunkDescriptor::new(chunk.segment, chunk.chunk - offset, inner.size());
+            self.inner.free(&inner);
         }
     }
 
@@ -117,9 +124,7 @@ impl ShmProviderBackend for CdrBackend {
         // Kept as asked: talc honours any alignment in `alloc`, and a shifted
         // chunk's extra bytes are added there. (The inner `layout_for` refuses
         // any alignment above the one the backend was built with, 1.)
-        if shifted(&layout) {
-            outer_layout(layout.size())?;
-        }
+        inner_layout(layout.size(), layout.alignment(), shifted(&layout))?;
         Ok(layout)
     }
 }

@@ -304,17 +304,26 @@ mod tests {
         for round in 0..3 {
             // Odd sizes, shifted and not, until the pool is full.
             let mut held = Vec::new();
-            for len in (1..).map(|i| 1 + (i * 37) % 3000) {
-                // An explicit alignment is honoured as asked, unshifted.
-                let shifted = held.len() % 2 == 0;
-                let chunk = if shifted {
-                    pool.alloc_message(len, Duration::ZERO)
+            for len in (1usize..).map(|i| 1 + (i * 37) % 3000) {
+                // An explicit alignment is honoured, unshifted: every inner chunk
+                // is 8-aligned, so one at 4 mod 8 is always a shifted one (an
+                // ALIGN_4 chunk there would be freed as shifted and corrupt
+                // the allocator).
+                let align = [
+                    AllocAlignment::ALIGN_1_BYTE,
+                    AllocAlignment::ALIGN_4_BYTES,
+                    AllocAlignment::ALIGN_1_BYTE,
+                    AllocAlignment::ALIGN_8_BYTES,
+                ][held.len() % 4];
+                let shifted = align == AllocAlignment::ALIGN_1_BYTE;
+                let len = if shifted {
+                    len
                 } else {
-                    let len = len.next_multiple_of(8);
-                    pool.alloc_bounded(len, AllocAlignment::ALIGN_8_BYTES, Duration::ZERO)
+                    len.next_multiple_of(align.get_alignment_value().get())
                 };
+                let chunk = pool.alloc_bounded(len, align, Duration::ZERO);
                 let Some(mut chunk) = chunk else { break };
-                assert!(chunk.len() == len || !shifted);
+                assert_eq!(chunk.len(), len);
                 let addr = chunk.as_ptr() as usize;
                 assert_eq!(addr % 8, if shifted { 4 } else { 0 }, "round {round}");
                 chunk.fill(round as u8);
