@@ -1,0 +1,545 @@
+//! Cross-process latency of a PointCloud2: the publish call in one process → the
+//! subscriber in another process holding the decoded message, one message in
+//! flight, under several Zenoh configurations.
+//!
+//! `cargo bench -p shm-cdr-examples --bench cross_process --features hiroz`
+//! (without `--features hiroz`, hiroz's rows are left out; `-- --quick` runs a
+//! fifth of the rounds, `-- --setups default,recommended` a subset).
+//!
+//! This process only orchestrates. For each [`common::Setup`] it starts two
+//! children of this same binary, each a fresh process so that `ZENOH_RUNTIME`
+//! applies: the *ping* (publishers, listening) and the *echo* (subscribers,
+//! connecting). For every message the ping takes CLOCK_MONOTONIC right before
+//! the publish call (after the message was built: see each path), the echo takes
+//! it once it holds the decoded message, checks every byte, releases the sample
+//! and answers with a 18-byte pong carrying its time. The ping waits for that
+//! pong before the next message, and the paths take turns message by message so
+//! drift hits them alike. Medians and p90s, printed as Markdown; with the default
+//! and recommended setups in the run, `cross_process.svg` is written next to the
+//! crate's manifest.
+
+mod common;
+#[cfg(feature = "hiroz")]
+mod hiroz;
+mod ours;
+
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use common::{Path, Pong, Setup, DONE_KEY, PONG_KEY, PONG_TIMEOUT, POOL, SETUPS, SIZES};
+use shm_runtime::{ShmConfig, ShmContext};
+use zenoh::handlers::FifoChannelHandler;
+use zenoh::pubsub::Subscriber;
+use zenoh::sample::Sample;
+use zenoh::Wait;
+
+/// One way of publishing, seen from the ping: build message `seq` (before the
+/// clock), then send it (on the clock).
+pub trait Sender {
+    fn path(&self) -> Path;
+    fn prepare(&mut self, bytes: usize, seq: u64) -> zenoh::Result<()>;
+    fn send(&mut self) -> zenoh::Result<()>;
+}
+
+const WARMUP: usize = 20;
+
+fn rounds(bytes: usize, quick: bool) -> usize {
+    let full = match bytes {
+        b if b >= 8 << 20 => 150,
+        b if b >= 1 << 20 => 300,
+        _ => 500,
+    };
+    if quick {
+        full / 5
+    } else {
+        full
+    }
+}
+
+fn main() {
+    let outcome = match std::env::var("XPROC_ROLE").as_deref() {
+        Ok("ping") => ping(),
+        Ok("echo") => echo(),
+        _ => orchestrate(),
+    };
+    if let Err(e) = outcome {
+        eprintln!("cross_process: {e}");
+        std::process::exit(1);
+    }
+}
+
+/// What the orchestrator hands each child.
+fn child_env(key: &str) -> zenoh::Result<String> {
+    std::env::var(key).map_err(|_| format!("{key} is not set").into())
+}
+
+fn ping() -> zenoh::Result<()> {
+    let setup = Setup::by_name(&child_env("XPROC_SETUP")?).ok_or("unknown setup")?;
+    let quick = std::env::var_os("XPROC_QUICK").is_some();
+    let session = zenoh::open(setup.config(&child_env("XPROC_OURS")?, true)?).wait()?;
+    let shm = ShmContext::new(ShmConfig::enabled().pool_size(POOL))?;
+    let pongs = session.declare_subscriber(PONG_KEY).wait()?;
+    let done = session.declare_publisher(DONE_KEY).wait()?;
+    let ours = ours::Publishers::declare(&session, &shm)?;
+    #[cfg(feature = "hiroz")]
+    let theirs = hiroz::Publishers::declare(&setup, &child_env("XPROC_HIROZ")?)?;
+    println!("LISTENING");
+
+    let mut senders = ours.senders(&shm);
+    #[cfg(feature = "hiroz")]
+    senders.extend(theirs.senders());
+
+    let mut seq = 0u64;
+    for sender in senders.iter_mut() {
+        settle(sender.as_mut(), &pongs, &mut seq)?;
+    }
+    let mut samples: BTreeMap<(usize, u8), Vec<u64>> = BTreeMap::new();
+    for (bytes, _) in SIZES {
+        for round in 0..WARMUP + rounds(bytes, quick) {
+            for sender in senders.iter_mut() {
+                seq += 1;
+                sender.prepare(bytes, seq)?;
+                let start = common::now_ns();
+                sender.send()?;
+                let pong =
+                    wait_pong(&pongs, sender.path(), seq, PONG_TIMEOUT)?.ok_or_else(|| {
+                        format!(
+                            "{:?}: no pong for message {seq} in {PONG_TIMEOUT:?}",
+                            sender.path()
+                        )
+                    })?;
+                if round >= WARMUP {
+                    let took = pong
+                        .at_ns
+                        .checked_sub(start)
+                        .ok_or("the echo's clock ran backwards")?;
+                    samples
+                        .entry((bytes, sender.path() as u8))
+                        .or_default()
+                        .push(took);
+                }
+            }
+        }
+    }
+    for ((bytes, path), mut ns) in samples {
+        ns.sort_unstable();
+        let at = |q: f64| ns[((ns.len() - 1) as f64 * q) as usize] as f64 / 1e3;
+        println!(
+            "RESULT\t{path}\t{bytes}\t{:.1}\t{:.1}\t{}",
+            at(0.5),
+            at(0.9),
+            ns.len()
+        );
+    }
+    done.put(vec![1u8]).wait()?;
+    Ok(())
+}
+
+/// Publish small messages on one path until the echo answers one: discovery,
+/// matching and the first SHM mapping are done before anything is timed.
+fn settle(
+    sender: &mut dyn Sender,
+    pongs: &Subscriber<FifoChannelHandler<Sample>>,
+    seq: &mut u64,
+) -> zenoh::Result<()> {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while Instant::now() < deadline {
+        *seq += 1;
+        sender.prepare(64, *seq)?;
+        sender.send()?;
+        if wait_pong(pongs, sender.path(), *seq, Duration::from_millis(250))?.is_some() {
+            return Ok(());
+        }
+    }
+    Err(format!("{:?}: the echo never answered", sender.path()).into())
+}
+
+/// The pong of message `seq` on `path`, skipping late pongs of earlier
+/// messages; an error if the echo found the message wrong.
+fn wait_pong(
+    pongs: &Subscriber<FifoChannelHandler<Sample>>,
+    path: Path,
+    seq: u64,
+    timeout: Duration,
+) -> zenoh::Result<Option<Pong>> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let Some(sample) = pongs.recv_timeout(left)? else {
+            return Ok(None);
+        };
+        let pong = Pong::parse(&sample.payload().to_bytes()).ok_or("malformed pong")?;
+        if pong.path != path as u8 {
+            continue;
+        }
+        if !pong.ok {
+            return Err(format!(
+                "{path:?}: the echo received message {} wrong (expected {seq})",
+                pong.seq
+            )
+            .into());
+        }
+        if pong.seq == seq {
+            return Ok(Some(pong));
+        }
+    }
+}
+
+fn echo() -> zenoh::Result<()> {
+    let setup = Setup::by_name(&child_env("XPROC_SETUP")?).ok_or("unknown setup")?;
+    let session = zenoh::open(setup.config(&child_env("XPROC_OURS")?, false)?).wait()?;
+    let pong = Arc::new(session.declare_publisher(PONG_KEY).wait()?);
+    let done = session.declare_subscriber(DONE_KEY).wait()?;
+    let _ours = ours::spawn_echoes(&session, &pong)?;
+    #[cfg(feature = "hiroz")]
+    let _theirs = hiroz::spawn_echoes(&setup, &child_env("XPROC_HIROZ")?, &pong)?;
+    // The receiving threads block in `recv` until the process ends.
+    done.recv()?;
+    Ok(())
+}
+
+/// One measured cell: median and p90 in µs.
+#[derive(Clone, Copy, Debug)]
+struct Cell {
+    median: f64,
+    p90: f64,
+}
+
+type Results = BTreeMap<(usize, u8), Cell>;
+
+fn orchestrate() -> zenoh::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let chosen: Vec<Setup> = match args.iter().position(|a| a == "--setups") {
+        Some(i) => args
+            .get(i + 1)
+            .ok_or("--setups needs a comma-separated list")?
+            .split(',')
+            .map(|name| Setup::by_name(name).ok_or_else(|| format!("no setup named {name:?}")))
+            .collect::<Result<_, _>>()?,
+        None => SETUPS.to_vec(),
+    };
+    let exe = std::env::current_exe()?;
+    let mut all: Vec<(Setup, Results)> = Vec::new();
+    for (i, setup) in chosen.iter().enumerate() {
+        eprintln!("setup {:?} ...", setup.name);
+        let results = run_setup(&exe, setup, i, quick)?;
+        print_setup(setup, &results);
+        all.push((*setup, results));
+    }
+    print_summary(&all);
+    plot(&all);
+    Ok(())
+}
+
+fn endpoints(setup: &Setup, index: usize) -> (String, String) {
+    if setup.unix_socket {
+        let base =
+            std::env::temp_dir().join(format!("shm-cdr-xproc-{}-{index}", std::process::id()));
+        let ours = format!("{}-ours.sock", base.display());
+        let hiroz = format!("{}-hiroz.sock", base.display());
+        for file in [&ours, &hiroz] {
+            let _ = std::fs::remove_file(file);
+        }
+        (
+            format!("unixsock-stream/{ours}"),
+            format!("unixsock-stream/{hiroz}"),
+        )
+    } else {
+        let port = 27_700 + 2 * index as u16;
+        (
+            format!("tcp/127.0.0.1:{port}"),
+            format!("tcp/127.0.0.1:{}", port + 1),
+        )
+    }
+}
+
+fn child(
+    exe: &std::path::Path,
+    role: &str,
+    setup: &Setup,
+    eps: &(String, String),
+    quick: bool,
+) -> zenoh::Result<Child> {
+    let mut command = Command::new(exe);
+    command
+        .env("XPROC_ROLE", role)
+        .env("XPROC_SETUP", setup.name)
+        .env("XPROC_OURS", &eps.0)
+        .env("XPROC_HIROZ", &eps.1)
+        .stdin(Stdio::null())
+        .stdout(if role == "ping" {
+            Stdio::piped()
+        } else {
+            Stdio::null()
+        });
+    match setup.runtime {
+        Some(runtime) => command.env("ZENOH_RUNTIME", runtime),
+        None => command.env_remove("ZENOH_RUNTIME"),
+    };
+    if quick {
+        command.env("XPROC_QUICK", "1");
+    }
+    Ok(command.spawn()?)
+}
+
+fn run_setup(
+    exe: &std::path::Path,
+    setup: &Setup,
+    index: usize,
+    quick: bool,
+) -> zenoh::Result<Results> {
+    let eps = endpoints(setup, index);
+    let mut ping = child(exe, "ping", setup, &eps, quick)?;
+    let stdout = ping.stdout.take().ok_or("ping without stdout")?;
+    let mut lines = BufReader::new(stdout).lines();
+    let mut echo: Option<Child> = None;
+    let mut results = Results::new();
+    for line in &mut lines {
+        let line = line?;
+        if line == "LISTENING" {
+            echo = Some(child(exe, "echo", setup, &eps, quick)?);
+        } else if let Some(fields) = line.strip_prefix("RESULT\t") {
+            let f: Vec<&str> = fields.split('\t').collect();
+            let [path, bytes, median, p90, _n] = f[..] else {
+                return Err(format!("malformed result line {line:?}").into());
+            };
+            results.insert(
+                (bytes.parse()?, path.parse()?),
+                Cell {
+                    median: median.parse()?,
+                    p90: p90.parse()?,
+                },
+            );
+        }
+    }
+    let status = ping.wait()?;
+    if let Some(mut echo) = echo {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while echo.try_wait()?.is_none() {
+            if Instant::now() > deadline {
+                eprintln!("the echo did not exit; killing it");
+                let _ = echo.kill();
+                let _ = echo.wait();
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+    if !status.success() {
+        return Err(format!("setup {:?}: the ping failed ({status})", setup.name).into());
+    }
+    Ok(results)
+}
+
+fn paths_in(results: &Results) -> Vec<Path> {
+    Path::ALL
+        .into_iter()
+        .filter(|p| results.keys().any(|(_, q)| *q == *p as u8))
+        .collect()
+}
+
+fn print_setup(setup: &Setup, results: &Results) {
+    println!("\n### {} ({})\n", setup.name, describe(setup));
+    print!("| path |");
+    for (_, name) in SIZES {
+        print!(" {name} |");
+    }
+    println!();
+    println!("|---|{}", "---:|".repeat(SIZES.len()));
+    for path in paths_in(results) {
+        print!("| {} |", path.label());
+        for (bytes, _) in SIZES {
+            match results.get(&(bytes, path as u8)) {
+                Some(c) => print!(" {:.0} µs (p90 {:.0}) |", c.median, c.p90),
+                None => print!(" – |"),
+            }
+        }
+        println!();
+    }
+}
+
+fn describe(setup: &Setup) -> String {
+    let mut parts = vec![if setup.unix_socket {
+        "unix socket"
+    } else {
+        "TCP 127.0.0.1"
+    }
+    .to_string()];
+    if !setup.qos {
+        parts.push("qos off".into());
+    }
+    if setup.lowlatency {
+        parts.push("lowlatency".into());
+    }
+    if !setup.batching {
+        parts.push("batching off".into());
+    }
+    if let Some(runtime) = setup.runtime {
+        parts.push(format!("ZENOH_RUNTIME='{runtime}'"));
+    }
+    parts.join(", ")
+}
+
+fn median_of(all: &[(Setup, Results)], setup: &str, bytes: usize, path: Path) -> Option<f64> {
+    let (_, results) = all.iter().find(|(s, _)| s.name == setup)?;
+    results.get(&(bytes, path as u8)).map(|c| c.median)
+}
+
+/// Each knob against the default, on the paths that matter, at 1 MiB and 64 B;
+/// then the goals.
+fn print_summary(all: &[(Setup, Results)]) {
+    println!(
+        "\n### Each setup against the default (median ratio default / setup; > 1 is faster)\n"
+    );
+    let probes = [
+        (64usize, Path::Loan),
+        (64, Path::Floor),
+        (1 << 20, Path::Loan),
+        (1 << 20, Path::Floor),
+        (1 << 20, Path::Automatic),
+    ];
+    print!("| setup |");
+    for (bytes, path) in probes {
+        print!(" {} {} |", path.label(), size_name(bytes));
+    }
+    println!();
+    println!("|---|{}", "---:|".repeat(probes.len()));
+    for (setup, _) in all {
+        print!("| {} |", setup.name);
+        for (bytes, path) in probes {
+            match (
+                median_of(all, "default", bytes, path),
+                median_of(all, setup.name, bytes, path),
+            ) {
+                (Some(base), Some(this)) => print!(" {:.2}× |", base / this),
+                _ => print!(" – |"),
+            }
+        }
+        println!();
+    }
+    let mib = 1 << 20;
+    let loan_best = median_of(all, "recommended", mib, Path::Loan);
+    let loan_default = median_of(all, "default", mib, Path::Loan);
+    if let (Some(best), Some(default)) = (loan_best, loan_default) {
+        println!(
+            "\n1 MiB loan: default {default:.0} µs → recommended {best:.0} µs = {:.2}× faster",
+            default / best
+        );
+    }
+    for hiroz in [Path::HirozAutomatic, Path::HirozShm] {
+        for setup in ["default", "recommended"] {
+            if let (Some(best), Some(theirs)) = (loan_best, median_of(all, setup, mib, hiroz)) {
+                println!("1 MiB: {} under {setup} {theirs:.0} µs / our recommended loan {best:.0} µs = {:.2}×", hiroz.label(), theirs / best);
+            }
+        }
+    }
+    for setup in ["default", "recommended"] {
+        for bytes in [mib, 8 * mib] {
+            if let (Some(splice), Some(floor), Some(loan)) = (
+                median_of(all, setup, bytes, Path::Splice),
+                median_of(all, setup, bytes, Path::Floor),
+                median_of(all, setup, bytes, Path::Loan),
+            ) {
+                println!(
+                    "{setup}, {}: splice/floor {:.2}×, loan/floor {:.2}×",
+                    size_name(bytes),
+                    splice / floor,
+                    loan / floor
+                );
+            }
+        }
+    }
+}
+
+fn size_name(bytes: usize) -> &'static str {
+    SIZES
+        .iter()
+        .find(|(b, _)| *b == bytes)
+        .map_or("?", |(_, n)| n)
+}
+
+/// Median vs size, log-log: the default setup dashed, the recommended one solid.
+fn plot(all: &[(Setup, Results)]) {
+    use plotters::prelude::*;
+    let (Some((_, default)), Some((_, best))) = (
+        all.iter().find(|(s, _)| s.name == "default"),
+        all.iter().find(|(s, _)| s.name == "recommended"),
+    ) else {
+        return;
+    };
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/cross_process.svg");
+    let root = SVGBackend::new(path, (820, 480)).into_drawing_area();
+    let _ = root.fill(&WHITE);
+    let max = default
+        .values()
+        .chain(best.values())
+        .map(|c| c.median)
+        .fold(1.0, f64::max);
+    let min = default
+        .values()
+        .chain(best.values())
+        .map(|c| c.median)
+        .fold(f64::MAX, f64::min);
+    let Ok(mut chart) = ChartBuilder::on(&root)
+        .caption(
+            "PointCloud2 across processes: publish → decoded, median µs (dashed: Zenoh default, solid: recommended)",
+            ("sans-serif", 15),
+        )
+        .margin(12)
+        .x_label_area_size(36)
+        .y_label_area_size(56)
+        .build_cartesian_2d((0.04..12_000.0).log_scale(), ((min * 0.7)..max * 1.5).log_scale())
+    else {
+        return;
+    };
+    let _ = chart
+        .configure_mesh()
+        .x_desc("data size (KiB)")
+        .y_desc("latency (µs)")
+        .draw();
+    let colors = [
+        RED,
+        BLUE,
+        GREEN,
+        MAGENTA,
+        BLACK,
+        RGBColor(230, 140, 0),
+        RGBColor(120, 60, 0),
+    ];
+    for (path, color) in Path::ALL.into_iter().zip(colors) {
+        let series = |results: &Results| -> Vec<(f64, f64)> {
+            SIZES
+                .iter()
+                .filter_map(|(b, _)| {
+                    results
+                        .get(&(*b, path as u8))
+                        .map(|c| (*b as f64 / 1024.0, c.median))
+                })
+                .collect()
+        };
+        let (dashed, solid) = (series(default), series(best));
+        if solid.is_empty() {
+            continue;
+        }
+        let _ = chart.draw_series(DashedLineSeries::new(dashed, 6, 4, color.stroke_width(1)));
+        if let Ok(drawn) = chart.draw_series(LineSeries::new(solid.clone(), color.stroke_width(2)))
+        {
+            drawn
+                .label(path.label())
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], color));
+        }
+        let _ = chart.draw_series(solid.iter().map(|p| Circle::new(*p, 3, color.filled())));
+    }
+    let _ = chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw();
+    let _ = root.present();
+    println!("\nplot written to {path}");
+}

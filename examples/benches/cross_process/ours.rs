@@ -1,0 +1,334 @@
+//! The publishing and receiving sides of our paths, the hand-written `to_vec` +
+//! `put`, and the raw Zenoh floor.
+
+use std::sync::Arc;
+
+use shm_cdr::loan::InPlace;
+use shm_cdr::msgs::builtin_interfaces::Time;
+use shm_cdr::msgs::sensor_msgs::{PointCloud2, PointCloud2Lens, PointCloud2Ref};
+use shm_cdr::msgs::std_msgs::Header;
+use shm_runtime::msgs::sensor_msgs::PointCloud2Shm;
+use shm_runtime::{Loan, RosPublisher, SessionExt, ShmBytes, ShmContext};
+use zenoh::pubsub::Publisher;
+use zenoh::shm::ZShmMut;
+use zenoh::{Session, Wait};
+
+use crate::common::{cloud_ok, fill_byte, floor_ok, now_ns, stamp_sec, Path, Pong};
+use crate::Sender;
+
+fn header(seq: u64) -> Header {
+    Header {
+        stamp: Time {
+            sec: stamp_sec(seq),
+            nanosec: 0,
+        },
+        frame_id: "xproc".into(),
+    }
+}
+
+/// The cloud of `bytes` data bytes, every one [`fill_byte`]`(seq)`.
+fn vec_cloud(bytes: usize, seq: u64) -> PointCloud2 {
+    PointCloud2 {
+        header: header(seq),
+        height: 1,
+        width: (bytes / 16) as u32,
+        fields: shm_cdr_examples::xyzi_fields(),
+        is_bigendian: false,
+        point_step: 16,
+        row_step: bytes as u32,
+        data: vec![fill_byte(seq); bytes],
+        is_dense: true,
+    }
+}
+
+/// The publishers of the ping process: one per path, declared once.
+pub struct Publishers {
+    loan: RosPublisher<PointCloud2>,
+    splice: RosPublisher<PointCloud2Shm>,
+    automatic: RosPublisher<PointCloud2>,
+    to_vec: Publisher<'static>,
+    floor: Publisher<'static>,
+}
+
+impl Publishers {
+    pub fn declare(session: &Session, shm: &ShmContext) -> zenoh::Result<Publishers> {
+        Ok(Publishers {
+            loan: session
+                .declare_ros_publisher(Path::Loan.key())
+                .shm(shm)
+                .wait()?,
+            splice: session
+                .declare_ros_publisher(Path::Splice.key())
+                .shm(shm)
+                .wait()?,
+            automatic: session
+                .declare_ros_publisher(Path::Automatic.key())
+                .shm(shm)
+                .wait()?,
+            // Zenoh's defaults: what a user who serializes by hand gets.
+            to_vec: session.declare_publisher(Path::ToVecPut.key()).wait()?,
+            floor: session.declare_publisher(Path::Floor.key()).wait()?,
+        })
+    }
+
+    pub fn senders<'p>(&'p self, shm: &'p ShmContext) -> Vec<Box<dyn Sender + 'p>> {
+        vec![
+            Box::new(LoanSender {
+                publisher: &self.loan,
+                ready: None,
+            }),
+            Box::new(SpliceSender {
+                publisher: &self.splice,
+                shm,
+                ready: None,
+            }),
+            Box::new(VecSender {
+                path: Path::Automatic,
+                automatic: &self.automatic,
+                to_vec: &self.to_vec,
+                cloud: vec_cloud(0, 0),
+            }),
+            Box::new(VecSender {
+                path: Path::ToVecPut,
+                automatic: &self.automatic,
+                to_vec: &self.to_vec,
+                cloud: vec_cloud(0, 0),
+            }),
+            Box::new(FloorSender {
+                publisher: &self.floor,
+                shm,
+                ready: None,
+            }),
+        ]
+    }
+}
+
+/// The loan: taken and written field by field before the clock; the clock
+/// covers `publish()` of the chunk as it lies.
+struct LoanSender<'p> {
+    publisher: &'p RosPublisher<PointCloud2>,
+    ready: Option<Loan<'p, PointCloud2>>,
+}
+
+impl Sender for LoanSender<'_> {
+    fn path(&self) -> Path {
+        Path::Loan
+    }
+
+    fn prepare(&mut self, bytes: usize, seq: u64) -> zenoh::Result<()> {
+        let template = vec_cloud(0, seq);
+        let lens = PointCloud2Lens {
+            data: bytes,
+            ..InPlace::lens(&template)
+        };
+        let mut loan = self.publisher.loan(lens)?;
+        let cloud = loan.fields()?;
+        *cloud.header.stamp.sec = stamp_sec(seq);
+        cloud.header.frame_id.write(&template.header.frame_id)?;
+        *cloud.height = 1;
+        *cloud.width = (bytes / 16) as u32;
+        cloud.fields.write_slice(&template.fields)?;
+        *cloud.point_step = 16;
+        *cloud.row_step = bytes as u32;
+        cloud.data.fill(fill_byte(seq));
+        *cloud.is_dense = true;
+        self.ready = Some(loan);
+        Ok(())
+    }
+
+    fn send(&mut self) -> zenoh::Result<()> {
+        let loan = self.ready.take().ok_or("loan not prepared")?;
+        loan.publish().wait()?;
+        Ok(())
+    }
+}
+
+/// The splice: a fresh SHM data buffer per message, allocated and filled before
+/// the clock (as an application producing data into SHM does).
+struct SpliceSender<'p> {
+    publisher: &'p RosPublisher<PointCloud2Shm>,
+    shm: &'p ShmContext,
+    ready: Option<PointCloud2Shm>,
+}
+
+impl Sender for SpliceSender<'_> {
+    fn path(&self) -> Path {
+        Path::Splice
+    }
+
+    fn prepare(&mut self, bytes: usize, seq: u64) -> zenoh::Result<()> {
+        let mut data = self.shm.alloc(bytes).ok_or("SHM pool exhausted")?;
+        data.fill(fill_byte(seq));
+        let cloud = vec_cloud(0, seq);
+        self.ready = Some(PointCloud2Shm {
+            header: cloud.header,
+            height: 1,
+            width: (bytes / 16) as u32,
+            fields: cloud.fields,
+            is_bigendian: false,
+            point_step: 16,
+            row_step: bytes as u32,
+            data: ShmBytes::from(data),
+            is_dense: true,
+        });
+        Ok(())
+    }
+
+    fn send(&mut self) -> zenoh::Result<()> {
+        let cloud = self.ready.take().ok_or("splice not prepared")?;
+        self.publisher.publish(&cloud).wait()?;
+        Ok(())
+    }
+}
+
+/// An owned cloud with `Vec` data, updated in place before the clock; the clock
+/// covers serializing it: into SHM by our publisher, or `to_vec` + `put`.
+struct VecSender<'p> {
+    path: Path,
+    automatic: &'p RosPublisher<PointCloud2>,
+    to_vec: &'p Publisher<'static>,
+    cloud: PointCloud2,
+}
+
+impl Sender for VecSender<'_> {
+    fn path(&self) -> Path {
+        self.path
+    }
+
+    fn prepare(&mut self, bytes: usize, seq: u64) -> zenoh::Result<()> {
+        if self.cloud.data.len() != bytes {
+            self.cloud = vec_cloud(bytes, seq);
+        }
+        self.cloud.header.stamp.sec = stamp_sec(seq);
+        self.cloud.data.fill(fill_byte(seq));
+        Ok(())
+    }
+
+    fn send(&mut self) -> zenoh::Result<()> {
+        if self.path == Path::Automatic {
+            self.automatic.publish(&self.cloud).wait()?;
+        } else {
+            self.to_vec.put(shm_cdr::to_vec(&self.cloud)?).wait()?;
+        }
+        Ok(())
+    }
+}
+
+/// The floor: Zenoh moving a pre-filled SHM buffer of the same size.
+struct FloorSender<'p> {
+    publisher: &'p Publisher<'static>,
+    shm: &'p ShmContext,
+    ready: Option<ZShmMut>,
+}
+
+impl Sender for FloorSender<'_> {
+    fn path(&self) -> Path {
+        Path::Floor
+    }
+
+    fn prepare(&mut self, bytes: usize, seq: u64) -> zenoh::Result<()> {
+        let mut block = self.shm.alloc(bytes.max(8)).ok_or("SHM pool exhausted")?;
+        block.fill(fill_byte(seq));
+        block[..8].copy_from_slice(&seq.to_le_bytes());
+        self.ready = Some(block);
+        Ok(())
+    }
+
+    fn send(&mut self) -> zenoh::Result<()> {
+        let block = self.ready.take().ok_or("floor not prepared")?;
+        self.publisher.put(block).wait()?;
+        Ok(())
+    }
+}
+
+/// The echo side: one thread per path, each holding its subscriber, answering
+/// every message with a [`Pong`]. The time is taken once the message is decoded
+/// (borrowed for ours, owned for `to_vec`, contiguous bytes for the floor); the
+/// check of every byte comes after it, and the sample is released before the
+/// pong so the ping's next chunk can reuse the memory.
+pub fn spawn_echoes(
+    session: &Session,
+    pong: &Arc<Publisher<'static>>,
+) -> zenoh::Result<Vec<std::thread::JoinHandle<()>>> {
+    let mut threads = Vec::new();
+    for path in [Path::Loan, Path::Splice, Path::Automatic] {
+        let subscriber = session
+            .declare_ros_subscriber::<PointCloud2>(path.key())
+            .wait()?;
+        let pong = Arc::clone(pong);
+        threads.push(std::thread::spawn(move || {
+            while let Ok(sample) = subscriber.recv() {
+                let reply = match sample.decode::<PointCloud2Ref>() {
+                    Ok(cloud) => {
+                        let at_ns = now_ns();
+                        let seq = cloud.header.stamp.sec as u64;
+                        let ok =
+                            cloud_ok(&cloud.header.frame_id, cloud.row_step, &[&cloud.data], seq);
+                        Pong {
+                            path: path as u8,
+                            ok,
+                            seq,
+                            at_ns,
+                        }
+                    }
+                    Err(_) => failed(path),
+                };
+                drop(sample);
+                let _ = pong.put(reply.to_bytes().to_vec()).wait();
+            }
+        }));
+    }
+    let to_vec = session.declare_subscriber(Path::ToVecPut.key()).wait()?;
+    let pong_to_vec = Arc::clone(pong);
+    threads.push(std::thread::spawn(move || {
+        while let Ok(sample) = to_vec.recv() {
+            let reply = match shm_cdr::from_bytes::<PointCloud2>(&sample.payload().to_bytes()) {
+                Ok(cloud) => {
+                    let at_ns = now_ns();
+                    let seq = cloud.header.stamp.sec as u64;
+                    let ok = cloud_ok(&cloud.header.frame_id, cloud.row_step, &[&cloud.data], seq);
+                    Pong {
+                        path: Path::ToVecPut as u8,
+                        ok,
+                        seq,
+                        at_ns,
+                    }
+                }
+                Err(_) => failed(Path::ToVecPut),
+            };
+            drop(sample);
+            let _ = pong_to_vec.put(reply.to_bytes().to_vec()).wait();
+        }
+    }));
+    let floor = session.declare_subscriber(Path::Floor.key()).wait()?;
+    let pong_floor = Arc::clone(pong);
+    threads.push(std::thread::spawn(move || {
+        while let Ok(sample) = floor.recv() {
+            let bytes = sample.payload().to_bytes();
+            let at_ns = now_ns();
+            let reply = match floor_ok(&bytes) {
+                Some(seq) => Pong {
+                    path: Path::Floor as u8,
+                    ok: true,
+                    seq,
+                    at_ns,
+                },
+                None => failed(Path::Floor),
+            };
+            drop(bytes);
+            drop(sample);
+            let _ = pong_floor.put(reply.to_bytes().to_vec()).wait();
+        }
+    }));
+    Ok(threads)
+}
+
+/// The pong of a message that could not be read at all.
+pub fn failed(path: Path) -> Pong {
+    Pong {
+        path: path as u8,
+        ok: false,
+        seq: u64::MAX,
+        at_ns: 0,
+    }
+}
