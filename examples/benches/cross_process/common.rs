@@ -18,8 +18,8 @@ pub const PONG_KEY: &str = "xproc/pong";
 /// Key expression the ping puts on when it is done, so the echo exits cleanly
 /// (and its shared memory is unlinked).
 pub const DONE_KEY: &str = "xproc/done";
-/// How long a pong may take before the run is declared broken.
-pub const PONG_TIMEOUT: Duration = Duration::from_secs(10);
+/// How long a pong may take before its message counts as lost.
+pub const PONG_TIMEOUT: Duration = Duration::from_secs(2);
 /// SHM pool of each publishing side: room for every path's 8 MiB chunk at once.
 pub const POOL: usize = 96 << 20;
 
@@ -98,6 +98,9 @@ pub struct Setup {
     pub batching: bool,
     /// `ZENOH_RUNTIME` for both processes (RON, Zenoh's thread pools).
     pub runtime: Option<&'static str>,
+    /// Subscribers decode in a callback on Zenoh's receiving thread, instead of
+    /// a thread of the application's blocking in `recv` (one thread hand-off less).
+    pub callback: bool,
 }
 
 /// Zenoh's defaults (TCP on loopback).
@@ -108,10 +111,16 @@ pub const DEFAULT: Setup = Setup {
     lowlatency: false,
     batching: true,
     runtime: None,
+    callback: false,
 };
 
-/// Every knob alone, then what the measurements recommend (see the README).
-pub const SETUPS: [Setup; 7] = [
+/// All of Zenoh's thread pools handed over to one receiving thread: fewer
+/// threads to wake per message (Zenoh's default is 6 workers in 5 pools).
+pub const ONE_THREAD_POOL: &str =
+    "(rx: (worker_threads: 1), tx: (handover: rx), net: (handover: rx), acc: (handover: rx), app: (handover: rx))";
+
+/// Every knob alone, then the combinations (see the README).
+pub const SETUPS: [Setup; 9] = [
     DEFAULT,
     Setup {
         name: "unix socket",
@@ -135,21 +144,34 @@ pub const SETUPS: [Setup; 7] = [
         ..DEFAULT
     },
     Setup {
-        name: "1 rx thread",
-        runtime: Some("(rx: (worker_threads: 1))"),
+        name: "one thread pool",
+        runtime: Some(ONE_THREAD_POOL),
+        ..DEFAULT
+    },
+    Setup {
+        name: "callback subscribers",
+        callback: true,
         ..DEFAULT
     },
     RECOMMENDED,
+    Setup {
+        name: "recommended + lowlatency",
+        lowlatency: true,
+        ..RECOMMENDED
+    },
 ];
 
-/// The combination the measurements recommend.
+/// The combination the measurements recommend: every knob that helped and
+/// loses nothing (lowlatency helps too, but drops any message that is not in
+/// shared memory and larger than a batch, 64 KiB).
 pub const RECOMMENDED: Setup = Setup {
     name: "recommended",
     unix_socket: true,
     qos: false,
     lowlatency: false,
     batching: true,
-    runtime: None,
+    runtime: Some(ONE_THREAD_POOL),
+    callback: true,
 };
 
 impl Setup {

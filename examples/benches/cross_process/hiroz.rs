@@ -2,10 +2,11 @@
 //! (its own Zenoh session, same setup as ours), `create_pub` / `create_sub` of
 //! its PointCloud2, `publish(&msg)` and `recv()`.
 
+use std::any::Any;
 use std::sync::Arc;
 
 use hiroz::context::{ZContext, ZContextBuilder};
-use hiroz::pubsub::{ZPub, ZSub};
+use hiroz::pubsub::ZPub;
 use hiroz::shm::{ShmConfig, ShmProviderBuilder};
 use hiroz::{Builder, ZBuf};
 use hiroz_msgs::builtin_interfaces::Time;
@@ -16,6 +17,7 @@ use zenoh::shm::{BlockOn, GarbageCollect, PosixShmProviderBackend, ShmProvider};
 use zenoh::Wait;
 
 use crate::common::{cloud_ok, fill_byte, now_ns, stamp_sec, Path, Pong, Setup, POOL};
+use crate::ours::answer;
 use crate::Sender;
 
 /// Our SHM threshold's default, so both automatic paths switch at the same size.
@@ -148,37 +150,47 @@ impl Sender for HirozSender<'_> {
     }
 }
 
-/// The echo side: hiroz's subscribers, one thread each, answering through our
-/// pong publisher. The time is taken when `recv()` returns the decoded message.
-pub fn spawn_echoes(
+/// The echo side: hiroz's subscribers answering through our pong publisher, in
+/// a callback (`build_with_callback`) or a thread each blocking in `recv()`. The
+/// time is taken when hiroz hands over the decoded message.
+pub fn echo(
     setup: &Setup,
     endpoint: &str,
     pong: &Arc<Publisher<'static>>,
-) -> zenoh::Result<(ZContext, Vec<std::thread::JoinHandle<()>>)> {
+) -> zenoh::Result<Vec<Box<dyn Any + Send>>> {
     let (context, _provider) = context(setup, endpoint, false)?;
     let node = context.create_node("xproc_echo").build()?;
-    let mut threads = Vec::new();
+    let mut alive: Vec<Box<dyn Any + Send>> = Vec::new();
     for path in [Path::HirozAutomatic, Path::HirozShm] {
-        let subscriber: ZSub<PointCloud2, _, _> =
-            node.create_sub::<PointCloud2>(path.key()).build()?;
+        let builder = node.create_sub::<PointCloud2>(path.key());
         let pong = Arc::clone(pong);
-        threads.push(std::thread::spawn(move || {
-            while let Ok(cloud) = subscriber.recv() {
-                let at_ns = now_ns();
-                let seq = cloud.header.stamp.sec as u64;
-                let parts: Vec<&[u8]> = cloud.data.0.zslices().map(|s| s.as_slice()).collect();
-                let ok = cloud_ok(&cloud.header.frame_id, cloud.row_step, &parts, seq);
-                drop(parts);
-                drop(cloud);
-                let reply = Pong {
-                    path: path as u8,
-                    ok,
-                    seq,
-                    at_ns,
-                };
-                let _ = pong.put(reply.to_bytes().to_vec()).wait();
-            }
-        }));
+        if setup.callback {
+            alive.push(Box::new(builder.build_with_callback(move |cloud| {
+                answer(&pong, reply(path, cloud))
+            })?));
+        } else {
+            let subscriber = builder.build()?;
+            alive.push(Box::new(std::thread::spawn(move || {
+                while let Ok(cloud) = subscriber.recv() {
+                    answer(&pong, reply(path, cloud));
+                }
+            })));
+        }
     }
-    Ok((context, threads))
+    alive.push(Box::new(node));
+    alive.push(Box::new(context));
+    Ok(alive)
+}
+
+fn reply(path: Path, cloud: PointCloud2) -> Pong {
+    let at_ns = now_ns();
+    let seq = cloud.header.stamp.sec as u64;
+    let parts: Vec<&[u8]> = cloud.data.0.zslices().map(|s| s.as_slice()).collect();
+    let ok = cloud_ok(&cloud.header.frame_id, cloud.row_step, &parts, seq);
+    Pong {
+        path: path as u8,
+        ok,
+        seq,
+        at_ns,
+    }
 }

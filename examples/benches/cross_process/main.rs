@@ -23,7 +23,7 @@ mod common;
 mod hiroz;
 mod ours;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
@@ -97,29 +97,31 @@ fn ping() -> zenoh::Result<()> {
         settle(sender.as_mut(), &pongs, &mut seq)?;
     }
     let mut samples: BTreeMap<(usize, u8), Vec<u64>> = BTreeMap::new();
+    let mut lost = BTreeSet::new();
     for (bytes, _) in SIZES {
         for round in 0..WARMUP + rounds(bytes, quick) {
             for sender in senders.iter_mut() {
+                let path = sender.path();
+                if lost.contains(&(bytes, path as u8)) {
+                    continue;
+                }
                 seq += 1;
                 sender.prepare(bytes, seq)?;
                 let start = common::now_ns();
                 sender.send()?;
-                let pong =
-                    wait_pong(&pongs, sender.path(), seq, PONG_TIMEOUT)?.ok_or_else(|| {
-                        format!(
-                            "{:?}: no pong for message {seq} in {PONG_TIMEOUT:?}",
-                            sender.path()
-                        )
-                    })?;
+                let Some(pong) = wait_pong(&pongs, path, seq, PONG_TIMEOUT)? else {
+                    // A setup that cannot carry this message (lowlatency does not
+                    // fragment) loses it: say so and go on with the other paths.
+                    println!("LOST\t{}\t{bytes}", path as u8);
+                    lost.insert((bytes, path as u8));
+                    continue;
+                };
                 if round >= WARMUP {
                     let took = pong
                         .at_ns
                         .checked_sub(start)
                         .ok_or("the echo's clock ran backwards")?;
-                    samples
-                        .entry((bytes, sender.path() as u8))
-                        .or_default()
-                        .push(took);
+                    samples.entry((bytes, path as u8)).or_default().push(took);
                 }
             }
         }
@@ -193,10 +195,10 @@ fn echo() -> zenoh::Result<()> {
     let session = zenoh::open(setup.config(&child_env("XPROC_OURS")?, false)?).wait()?;
     let pong = Arc::new(session.declare_publisher(PONG_KEY).wait()?);
     let done = session.declare_subscriber(DONE_KEY).wait()?;
-    let _ours = ours::spawn_echoes(&session, &pong)?;
+    let _ours = ours::echo(&session, &pong, setup.callback)?;
     #[cfg(feature = "hiroz")]
-    let _theirs = hiroz::spawn_echoes(&setup, &child_env("XPROC_HIROZ")?, &pong)?;
-    // The receiving threads block in `recv` until the process ends.
+    let _theirs = hiroz::echo(&setup, &child_env("XPROC_HIROZ")?, &pong)?;
+    // Receiving threads block in `recv` until the process ends.
     done.recv()?;
     Ok(())
 }
@@ -206,6 +208,8 @@ fn echo() -> zenoh::Result<()> {
 struct Cell {
     median: f64,
     p90: f64,
+    /// The setup did not deliver this message at all.
+    lost: bool,
 }
 
 type Results = BTreeMap<(usize, u8), Cell>;
@@ -276,7 +280,11 @@ fn child(
         } else {
             Stdio::null()
         });
-    match setup.runtime {
+    // XPROC_ZENOH_RUNTIME, for experiments: one ZENOH_RUNTIME for every setup.
+    match std::env::var("XPROC_ZENOH_RUNTIME")
+        .ok()
+        .or(setup.runtime.map(String::from))
+    {
         Some(runtime) => command.env("ZENOH_RUNTIME", runtime),
         None => command.env_remove("ZENOH_RUNTIME"),
     };
@@ -312,8 +320,17 @@ fn run_setup(
                 Cell {
                     median: median.parse()?,
                     p90: p90.parse()?,
+                    lost: false,
                 },
             );
+        } else if let Some(fields) = line.strip_prefix("LOST\t") {
+            let (path, bytes) = fields.split_once('\t').ok_or("malformed LOST line")?;
+            let lost = Cell {
+                median: f64::NAN,
+                p90: f64::NAN,
+                lost: true,
+            };
+            results.insert((bytes.parse()?, path.parse()?), lost);
         }
     }
     let status = ping.wait()?;
@@ -354,6 +371,7 @@ fn print_setup(setup: &Setup, results: &Results) {
         print!("| {} |", path.label());
         for (bytes, _) in SIZES {
             match results.get(&(bytes, path as u8)) {
+                Some(c) if c.lost => print!(" **lost** |"),
                 Some(c) => print!(" {:.0} µs (p90 {:.0}) |", c.median, c.p90),
                 None => print!(" – |"),
             }
@@ -378,6 +396,9 @@ fn describe(setup: &Setup) -> String {
     if !setup.batching {
         parts.push("batching off".into());
     }
+    if setup.callback {
+        parts.push("callback subscribers".into());
+    }
     if let Some(runtime) = setup.runtime {
         parts.push(format!("ZENOH_RUNTIME='{runtime}'"));
     }
@@ -386,7 +407,10 @@ fn describe(setup: &Setup) -> String {
 
 fn median_of(all: &[(Setup, Results)], setup: &str, bytes: usize, path: Path) -> Option<f64> {
     let (_, results) = all.iter().find(|(s, _)| s.name == setup)?;
-    results.get(&(bytes, path as u8)).map(|c| c.median)
+    results
+        .get(&(bytes, path as u8))
+        .filter(|c| !c.lost)
+        .map(|c| c.median)
 }
 
 /// Each knob against the default, on the paths that matter, at 1 MiB and 64 B;
@@ -517,6 +541,7 @@ fn plot(all: &[(Setup, Results)]) {
                 .filter_map(|(b, _)| {
                     results
                         .get(&(*b, path as u8))
+                        .filter(|c| !c.lost)
                         .map(|c| (*b as f64 / 1024.0, c.median))
                 })
                 .collect()

@@ -1,6 +1,7 @@
 //! The publishing and receiving sides of our paths, the hand-written `to_vec` +
 //! `put`, and the raw Zenoh floor.
 
+use std::any::Any;
 use std::sync::Arc;
 
 use shm_cdr::loan::InPlace;
@@ -8,8 +9,9 @@ use shm_cdr::msgs::builtin_interfaces::Time;
 use shm_cdr::msgs::sensor_msgs::{PointCloud2, PointCloud2Lens, PointCloud2Ref};
 use shm_cdr::msgs::std_msgs::Header;
 use shm_runtime::msgs::sensor_msgs::PointCloud2Shm;
-use shm_runtime::{Loan, RosPublisher, SessionExt, ShmBytes, ShmContext};
+use shm_runtime::{Loan, RosPublisher, RosSample, SessionExt, ShmBytes, ShmContext};
 use zenoh::pubsub::Publisher;
+use zenoh::sample::Sample;
 use zenoh::shm::ZShmMut;
 use zenoh::{Session, Wait};
 
@@ -241,86 +243,109 @@ impl Sender for FloorSender<'_> {
     }
 }
 
-/// The echo side: one thread per path, each holding its subscriber, answering
-/// every message with a [`Pong`]. The time is taken once the message is decoded
-/// (borrowed for ours, owned for `to_vec`, contiguous bytes for the floor); the
-/// check of every byte comes after it, and the sample is released before the
-/// pong so the ping's next chunk can reuse the memory.
-pub fn spawn_echoes(
+/// The echo side of our paths, the `to_vec` path and the floor, answering every
+/// message with a [`Pong`]: in Zenoh's thread (`callback`) or in a thread of its
+/// own per path blocking in `recv`. Returns what must stay alive.
+pub fn echo(
     session: &Session,
     pong: &Arc<Publisher<'static>>,
-) -> zenoh::Result<Vec<std::thread::JoinHandle<()>>> {
-    let mut threads = Vec::new();
+    callback: bool,
+) -> zenoh::Result<Vec<Box<dyn Any + Send>>> {
+    let mut alive: Vec<Box<dyn Any + Send>> = Vec::new();
     for path in [Path::Loan, Path::Splice, Path::Automatic] {
-        let subscriber = session
-            .declare_ros_subscriber::<PointCloud2>(path.key())
-            .wait()?;
+        let builder = session.declare_ros_subscriber::<PointCloud2>(path.key());
         let pong = Arc::clone(pong);
-        threads.push(std::thread::spawn(move || {
-            while let Ok(sample) = subscriber.recv() {
-                let reply = match sample.decode::<PointCloud2Ref>() {
-                    Ok(cloud) => {
-                        let at_ns = now_ns();
-                        let seq = cloud.header.stamp.sec as u64;
-                        let ok =
-                            cloud_ok(&cloud.header.frame_id, cloud.row_step, &[&cloud.data], seq);
-                        Pong {
-                            path: path as u8,
-                            ok,
-                            seq,
-                            at_ns,
-                        }
-                    }
-                    Err(_) => failed(path),
-                };
-                drop(sample);
-                let _ = pong.put(reply.to_bytes().to_vec()).wait();
-            }
-        }));
-    }
-    let to_vec = session.declare_subscriber(Path::ToVecPut.key()).wait()?;
-    let pong_to_vec = Arc::clone(pong);
-    threads.push(std::thread::spawn(move || {
-        while let Ok(sample) = to_vec.recv() {
-            let reply = match shm_cdr::from_bytes::<PointCloud2>(&sample.payload().to_bytes()) {
-                Ok(cloud) => {
-                    let at_ns = now_ns();
-                    let seq = cloud.header.stamp.sec as u64;
-                    let ok = cloud_ok(&cloud.header.frame_id, cloud.row_step, &[&cloud.data], seq);
-                    Pong {
-                        path: Path::ToVecPut as u8,
-                        ok,
-                        seq,
-                        at_ns,
-                    }
+        if callback {
+            alive.push(Box::new(
+                builder
+                    .callback(move |sample| answer(&pong, ros_reply(path, sample)))
+                    .wait()?,
+            ));
+        } else {
+            let subscriber = builder.wait()?;
+            alive.push(Box::new(std::thread::spawn(move || {
+                while let Ok(sample) = subscriber.recv() {
+                    answer(&pong, ros_reply(path, sample));
                 }
-                Err(_) => failed(Path::ToVecPut),
-            };
-            drop(sample);
-            let _ = pong_to_vec.put(reply.to_bytes().to_vec()).wait();
+            })));
         }
-    }));
-    let floor = session.declare_subscriber(Path::Floor.key()).wait()?;
-    let pong_floor = Arc::clone(pong);
-    threads.push(std::thread::spawn(move || {
-        while let Ok(sample) = floor.recv() {
-            let bytes = sample.payload().to_bytes();
-            let at_ns = now_ns();
-            let reply = match floor_ok(&bytes) {
-                Some(seq) => Pong {
-                    path: Path::Floor as u8,
-                    ok: true,
-                    seq,
-                    at_ns,
-                },
-                None => failed(Path::Floor),
-            };
-            drop(bytes);
-            drop(sample);
-            let _ = pong_floor.put(reply.to_bytes().to_vec()).wait();
+    }
+    for (path, reply) in [
+        (Path::ToVecPut, to_vec_reply as fn(Sample) -> Pong),
+        (Path::Floor, floor_reply),
+    ] {
+        let builder = session.declare_subscriber(path.key());
+        let pong = Arc::clone(pong);
+        if callback {
+            alive.push(Box::new(
+                builder
+                    .callback(move |sample| answer(&pong, reply(sample)))
+                    .wait()?,
+            ));
+        } else {
+            let subscriber = builder.wait()?;
+            alive.push(Box::new(std::thread::spawn(move || {
+                while let Ok(sample) = subscriber.recv() {
+                    answer(&pong, reply(sample));
+                }
+            })));
         }
-    }));
-    Ok(threads)
+    }
+    Ok(alive)
+}
+
+/// Send the pong (the sample is already released).
+pub fn answer(pong: &Publisher<'static>, reply: Pong) {
+    let _ = pong.put(reply.to_bytes().to_vec()).wait();
+}
+
+/// Ours: borrowed decode, the time, then the check of every byte. The sample is
+/// consumed, so it is released before the pong: the ping's next chunk can
+/// reuse its memory.
+fn ros_reply(path: Path, sample: RosSample) -> Pong {
+    let Ok(cloud) = sample.decode::<PointCloud2Ref>() else {
+        return failed(path);
+    };
+    let at_ns = now_ns();
+    let seq = cloud.header.stamp.sec as u64;
+    let ok = cloud_ok(&cloud.header.frame_id, cloud.row_step, &[&cloud.data], seq);
+    Pong {
+        path: path as u8,
+        ok,
+        seq,
+        at_ns,
+    }
+}
+
+/// `to_vec` + `put`: what a user would write by hand, an owned decode.
+fn to_vec_reply(sample: Sample) -> Pong {
+    let Ok(cloud) = shm_cdr::from_bytes::<PointCloud2>(&sample.payload().to_bytes()) else {
+        return failed(Path::ToVecPut);
+    };
+    let at_ns = now_ns();
+    let seq = cloud.header.stamp.sec as u64;
+    let ok = cloud_ok(&cloud.header.frame_id, cloud.row_step, &[&cloud.data], seq);
+    Pong {
+        path: Path::ToVecPut as u8,
+        ok,
+        seq,
+        at_ns,
+    }
+}
+
+/// The floor: the payload as contiguous bytes (borrowed from the SHM chunk).
+fn floor_reply(sample: Sample) -> Pong {
+    let bytes = sample.payload().to_bytes();
+    let at_ns = now_ns();
+    match floor_ok(&bytes) {
+        Some(seq) => Pong {
+            path: Path::Floor as u8,
+            ok: true,
+            seq,
+            at_ns,
+        },
+        None => failed(Path::Floor),
+    }
 }
 
 /// The pong of a message that could not be read at all.
