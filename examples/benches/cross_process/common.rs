@@ -120,7 +120,7 @@ pub const ONE_THREAD_POOL: &str =
     "(rx: (worker_threads: 1), tx: (handover: rx), net: (handover: rx), acc: (handover: rx), app: (handover: rx))";
 
 /// Every knob alone, then the combinations (see the README).
-pub const SETUPS: [Setup; 9] = [
+pub const SETUPS: [Setup; 10] = [
     DEFAULT,
     Setup {
         name: "unix socket",
@@ -154,6 +154,11 @@ pub const SETUPS: [Setup; 9] = [
         ..DEFAULT
     },
     RECOMMENDED,
+    Setup {
+        name: "recommended over TCP",
+        unix_socket: false,
+        ..RECOMMENDED
+    },
     Setup {
         name: "recommended + lowlatency",
         lowlatency: true,

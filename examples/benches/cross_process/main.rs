@@ -77,6 +77,7 @@ fn child_env(key: &str) -> zenoh::Result<String> {
 }
 
 fn ping() -> zenoh::Result<()> {
+    zenoh::try_init_log_from_env();
     let setup = Setup::by_name(&child_env("XPROC_SETUP")?).ok_or("unknown setup")?;
     let quick = std::env::var_os("XPROC_QUICK").is_some();
     let session = zenoh::open(setup.config(&child_env("XPROC_OURS")?, true)?).wait()?;
@@ -191,6 +192,7 @@ fn wait_pong(
 }
 
 fn echo() -> zenoh::Result<()> {
+    zenoh::try_init_log_from_env();
     let setup = Setup::by_name(&child_env("XPROC_SETUP")?).ok_or("unknown setup")?;
     let session = zenoh::open(setup.config(&child_env("XPROC_OURS")?, false)?).wait()?;
     let pong = Arc::new(session.declare_publisher(PONG_KEY).wait()?);
