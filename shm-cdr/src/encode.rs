@@ -1,10 +1,13 @@
 //! Writing: the [`CdrEncode`] trait and the bounds-checked [`Writer`].
 
 use std::marker::PhantomData;
+use std::mem::MaybeUninit;
 
 use crate::endian::ByteOrder;
 use crate::error::{EncodeError, EncodeErrorKind};
-use crate::layout::{align_up, plain_bytes, FixedLayout, PlainLayout};
+use crate::layout::{
+    align_up, plain_bytes, uninit_view, write_bytes_into, zeroed_bytes, FixedLayout, PlainLayout,
+};
 
 /// A value with a CDR encoding and an exact encoded size.
 ///
@@ -68,10 +71,7 @@ pub trait CdrEncode {
                     return Ok(());
                 };
                 if plain.bulk_at(w.position()) {
-                    let bytes = plain_bytes(plain, rest);
-                    w.aligned_slot(plain.first_align(), bytes.len())?
-                        .copy_from_slice(bytes);
-                    return Ok(());
+                    return w.write_aligned(plain.first_align(), plain_bytes(plain, rest));
                 }
                 first.encode(w)?;
                 rest = others;
@@ -84,15 +84,18 @@ pub trait CdrEncode {
 /// Zero alignment padding (0 to 7 bytes) with fixed-size stores: a plain loop or
 /// `fill` becomes a call into `memset` for every padded field.
 #[inline(always)]
-pub(crate) fn zero_padding(padding: &mut [u8]) {
+pub(crate) fn zero_padding(padding: &mut [MaybeUninit<u8>]) {
+    const ZERO: MaybeUninit<u8> = MaybeUninit::new(0);
     let n = padding.len();
-    if n >= 4 {
-        padding[..4].copy_from_slice(&[0; 4]);
-        padding[n - 4..].copy_from_slice(&[0; 4]);
+    if n > 8 {
+        padding.fill(ZERO);
+    } else if n >= 4 {
+        padding[..4].copy_from_slice(&[ZERO; 4]);
+        padding[n - 4..].copy_from_slice(&[ZERO; 4]);
     } else if n > 0 {
-        padding[0] = 0;
-        padding[n / 2] = 0;
-        padding[n - 1] = 0;
+        padding[0] = ZERO;
+        padding[n / 2] = ZERO;
+        padding[n - 1] = ZERO;
     }
 }
 
@@ -102,7 +105,11 @@ pub(crate) fn zero_padding(padding: &mut [u8]) {
 /// Positions are counted from the byte after the encapsulation header, which is
 /// where CDR alignment is measured from.
 pub struct Writer<'a, B: ByteOrder> {
-    buf: &'a mut [u8],
+    /// Invariant: `buf[..pos]` is initialized, and the writer never stores an
+    /// uninitialized byte anywhere. Every method that moves `pos` initializes
+    /// (copies in or zeroes) all the bytes it moves over before it returns, and
+    /// only `reserve_uninit`, private and used right below, moves it first.
+    buf: &'a mut [MaybeUninit<u8>],
     pos: usize,
     order: PhantomData<B>,
 }
@@ -110,6 +117,16 @@ pub struct Writer<'a, B: ByteOrder> {
 impl<'a, B: ByteOrder> Writer<'a, B> {
     /// A writer over the message body (the bytes after the encapsulation header).
     pub fn new(body: &'a mut [u8]) -> Self {
+        // SAFETY: the writer stores only initialized bytes (its invariant), so
+        // `body` is still initialized when the borrow ends.
+        #[allow(unsafe_code)]
+        let body = unsafe { uninit_view(body) };
+        Self::over_uninit(body)
+    }
+
+    /// A writer over memory that need not be initialized (a `Vec`'s spare
+    /// capacity): after encoding, the first [`position`](Self::position) bytes are.
+    pub(crate) fn over_uninit(body: &'a mut [MaybeUninit<u8>]) -> Self {
         Self {
             buf: body,
             pos: 0,
@@ -133,10 +150,14 @@ impl<'a, B: ByteOrder> Writer<'a, B> {
         })
     }
 
-    /// Reserve `pad` zeroed padding bytes followed by `len` bytes, returning the
-    /// latter.
+    /// Zero `pad` padding bytes and step over `len` more, returning those `len`
+    /// bytes, which the caller must initialize before returning (the invariant).
     #[inline(always)]
-    pub(crate) fn reserve(&mut self, pad: usize, len: usize) -> Result<&mut [u8], EncodeError> {
+    fn reserve_uninit(
+        &mut self,
+        pad: usize,
+        len: usize,
+    ) -> Result<&mut [MaybeUninit<u8>], EncodeError> {
         let start = self.pos;
         let end = start
             .checked_add(pad + len)
@@ -152,23 +173,41 @@ impl<'a, B: ByteOrder> Writer<'a, B> {
         Ok(slot)
     }
 
+    /// Reserve `pad` zeroed padding bytes followed by `len` zeroed bytes, returning
+    /// the latter.
+    #[inline(always)]
+    pub(crate) fn reserve(&mut self, pad: usize, len: usize) -> Result<&mut [u8], EncodeError> {
+        Ok(zeroed_bytes(self.reserve_uninit(pad, len)?))
+    }
+
     /// Write one primitive of `N` bytes (already in wire byte order), aligned to `N`.
     #[inline(always)]
     pub fn write_primitive<const N: usize>(&mut self, bytes: [u8; N]) -> Result<(), EncodeError> {
         let pad = align_up(self.pos, N) - self.pos;
-        self.reserve(pad, N)?.copy_from_slice(&bytes);
+        self.reserve_uninit(pad, N)?
+            .copy_from_slice(&bytes.map(MaybeUninit::new));
         Ok(())
     }
 
     /// Write raw bytes with no alignment (string contents, `u8` sequences).
     #[inline(always)]
     pub fn write_bytes(&mut self, bytes: &[u8]) -> Result<(), EncodeError> {
-        self.reserve(0, bytes.len())?.copy_from_slice(bytes);
+        write_bytes_into(self.reserve_uninit(0, bytes.len())?, bytes);
+        Ok(())
+    }
+
+    /// Align to `align` (a power of two), zeroing the padding, and copy `bytes`
+    /// there: a run of plain values in one copy.
+    #[inline(always)]
+    pub fn write_aligned(&mut self, align: usize, bytes: &[u8]) -> Result<(), EncodeError> {
+        let pad = align_up(self.pos, align) - self.pos;
+        write_bytes_into(self.reserve_uninit(pad, bytes.len())?, bytes);
         Ok(())
     }
 
     /// Align to `align` (a power of two), zeroing the padding, and return a slot of
-    /// `len` bytes to fill completely.
+    /// `len` bytes to fill completely. The slot comes zeroed; to copy bytes that
+    /// are already laid out, [`write_aligned`](Self::write_aligned) writes once.
     #[inline(always)]
     pub fn aligned_slot(&mut self, align: usize, len: usize) -> Result<&mut [u8], EncodeError> {
         let pad = align_up(self.pos, align) - self.pos;

@@ -6,6 +6,8 @@
 //! depends on its value is described by the 8 end positions for the 8 possible
 //! start phases.
 
+use std::mem::MaybeUninit;
+
 /// Round `pos` up to a multiple of `align` (a power of two).
 #[inline(always)]
 pub const fn align_up(pos: usize, align: usize) -> usize {
@@ -232,6 +234,62 @@ mod tests {
     }
 }
 
+/// `to_vec` writes into uninitialized capacity through the views above: these
+/// run under Miri (see `.ci/run`), which reports any read of a byte the writer
+/// left uninitialized.
+#[cfg(all(test, feature = "test_msgs"))]
+mod uninit_tests {
+    use crate::msgs::test_msgs::msg::{BasicTypes, Strings, UnboundedSequences, WStrings};
+    use crate::{encode_into_with, to_vec_with, CdrEncode, Endianness, WString};
+
+    /// `to_vec` (fresh memory) against `encode_into` over a buffer full of 0xA5
+    /// and one full of 0x00, in both byte orders: the same bytes, every one.
+    fn same_as_encode_into<T: CdrEncode>(msg: &T) {
+        for order in [Endianness::Little, Endianness::Big] {
+            let fresh = to_vec_with(msg, order).unwrap();
+            for fill in [0xA5u8, 0x00] {
+                let mut buf = vec![fill; fresh.len()];
+                let n = encode_into_with(msg, &mut buf, order).unwrap();
+                assert_eq!(n, fresh.len());
+                assert_eq!(buf, fresh, "{order:?}, buffer of {fill:#x}");
+            }
+        }
+    }
+
+    #[test]
+    fn to_vec_writes_every_byte_padding_included() {
+        let mut seqs = UnboundedSequences {
+            bool_values: vec![true, false, true],
+            byte_values: vec![1, 2, 3],
+            float64_values: vec![1.5, -2.25],
+            int16_values: vec![-7],
+            uint64_values: vec![u64::MAX],
+            string_values: vec!["a".into(), "".into(), "four".into()],
+            basic_types_values: vec![BasicTypes {
+                bool_value: true,
+                int64_value: -3,
+                float32_value: 0.5,
+                ..BasicTypes::default()
+            }],
+            ..UnboundedSequences::default()
+        };
+        same_as_encode_into(&seqs);
+        // A bulk run (plain numbers) behind an odd phase.
+        seqs.byte_values = vec![9; 13];
+        seqs.float64_values = (0..9).map(f64::from).collect();
+        same_as_encode_into(&seqs);
+        same_as_encode_into(&UnboundedSequences::default());
+        same_as_encode_into(&Strings {
+            string_value: "seven".into(),
+            ..Strings::default()
+        });
+        same_as_encode_into(&WStrings {
+            wstring_value: WString::from("wide"),
+            ..WStrings::default()
+        });
+    }
+}
+
 /// Proof that a `T` in memory is byte for byte its CDR encoding in host byte order,
 /// whenever the value starts at a stream position that is a multiple of
 /// [`align`](Self::align). Lets sequences and arrays of `T` be copied in bulk.
@@ -369,6 +427,44 @@ impl<T: ?Sized> PlainLayout<T> {
         // fields are all of `T`'s fields with their real offsets and sizes.
         Some(unsafe { Self::new_unchecked(align, first_align) })
     }
+}
+
+/// `bytes` as possibly uninitialized bytes, for a writer that may also be given
+/// fresh memory (`to_vec` writes into a `Vec`'s spare capacity).
+///
+/// # Safety
+/// Nothing uninitialized may be stored through the result (no
+/// `MaybeUninit::uninit()`, no copy from uninitialized memory): `bytes` must
+/// still be entirely initialized when the borrow ends.
+#[allow(unsafe_code)]
+pub(crate) unsafe fn uninit_view(bytes: &mut [u8]) -> &mut [MaybeUninit<u8>] {
+    // SAFETY: `MaybeUninit<u8>` has the size, alignment and layout of `u8`, so the
+    // cast keeps the length and every element in place; the unique borrow passes
+    // to the result; the caller stores only initialized bytes, so `bytes` is valid
+    // `[u8]` again when the borrow ends.
+    unsafe { &mut *(bytes as *mut [u8] as *mut [MaybeUninit<u8>]) }
+}
+
+/// Copy `src` into `slot` (same length), returning the slot as initialized bytes.
+#[allow(unsafe_code)]
+pub(crate) fn write_bytes_into<'a>(slot: &'a mut [MaybeUninit<u8>], src: &[u8]) -> &'a mut [u8] {
+    // SAFETY: same layout as above; through a shared borrow nothing can be stored,
+    // so viewing initialized bytes as `MaybeUninit` cannot de-initialize them.
+    let src = unsafe { &*(src as *const [u8] as *const [MaybeUninit<u8>]) };
+    slot.copy_from_slice(src);
+    // SAFETY: `copy_from_slice` (which panics on a length mismatch before writing)
+    // initialized every byte of `slot` from initialized bytes; the unique borrow
+    // passes to the result.
+    unsafe { &mut *(slot as *mut [MaybeUninit<u8>] as *mut [u8]) }
+}
+
+/// Zero `slot`, returning it as initialized bytes.
+#[allow(unsafe_code)]
+pub(crate) fn zeroed_bytes(slot: &mut [MaybeUninit<u8>]) -> &mut [u8] {
+    slot.fill(MaybeUninit::new(0));
+    // SAFETY: every byte of `slot` was just set to 0; same layout as above; the
+    // unique borrow passes to the result.
+    unsafe { &mut *(slot as *mut [MaybeUninit<u8>] as *mut [u8]) }
 }
 
 /// The bytes of `items`, which are their CDR encoding (see [`PlainLayout`]).

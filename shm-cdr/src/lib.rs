@@ -136,15 +136,43 @@ fn encode_body<T: CdrEncode + ?Sized, B: ByteOrder>(
     Ok(HEADER_LEN + w.position())
 }
 
+/// `to_vec` without zero-filling first: the message is written once, straight
+/// into the `Vec`'s uninitialized capacity.
+#[inline(always)]
+fn encode_to_vec<T: CdrEncode + ?Sized, B: ByteOrder>(msg: &T) -> Result<Vec<u8>, EncodeError> {
+    let size = encoded_size(msg);
+    let mut out = Vec::with_capacity(size);
+    out.extend_from_slice(&B::ENDIANNESS.header());
+    let written = {
+        let body = out
+            .spare_capacity_mut()
+            .get_mut(..size - HEADER_LEN)
+            .unwrap_or_default();
+        let mut w = encode::Writer::<B>::over_uninit(body);
+        msg.encode(&mut w).map_err(|e| with_needed(e, msg, size))?;
+        w.position()
+    };
+    debug_assert_eq!(
+        HEADER_LEN + written,
+        size,
+        "encoded_end disagrees with encode"
+    );
+    // SAFETY: the writer initialized the first `written` bytes of the spare
+    // capacity (its invariant: everything before its position), which starts
+    // right after the header's `HEADER_LEN` initialized bytes, and `written` is at
+    // most the `size - HEADER_LEN` bytes it was given, within the capacity.
+    #[allow(unsafe_code)]
+    unsafe {
+        out.set_len(HEADER_LEN + written);
+    }
+    Ok(out)
+}
+
 /// Encode `msg` as little-endian CDR into a new `Vec` of exactly
 /// [`encoded_size`] bytes.
 #[inline]
 pub fn to_vec<T: CdrEncode + ?Sized>(msg: &T) -> Result<Vec<u8>, EncodeError> {
-    let mut out = vec![0u8; encoded_size(msg)];
-    let written = encode_into(msg, &mut out)?;
-    debug_assert_eq!(written, out.len(), "encoded_end disagrees with encode");
-    out.truncate(written);
-    Ok(out)
+    encode_to_vec::<T, LittleEndian>(msg)
 }
 
 /// [`to_vec`] in the given byte order.
@@ -152,11 +180,10 @@ pub fn to_vec_with<T: CdrEncode + ?Sized>(
     msg: &T,
     endianness: Endianness,
 ) -> Result<Vec<u8>, EncodeError> {
-    let mut out = vec![0u8; encoded_size(msg)];
-    let written = encode_into_with(msg, &mut out, endianness)?;
-    debug_assert_eq!(written, out.len(), "encoded_end disagrees with encode");
-    out.truncate(written);
-    Ok(out)
+    match endianness {
+        Endianness::Little => encode_to_vec::<T, LittleEndian>(msg),
+        Endianness::Big => encode_to_vec::<T, BigEndian>(msg),
+    }
 }
 
 /// Read the encapsulation header: the byte order of the message that follows.

@@ -5,7 +5,7 @@ use std::borrow::Cow;
 use crate::bounded::BoundedString;
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::{FieldType, RosElement, RosType, TypeId};
-use crate::encode::{zero_padding, CdrEncode, Writer};
+use crate::encode::{CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
 use crate::layout::align_up;
@@ -108,9 +108,8 @@ fn write_strings<B: ByteOrder, S: AsRef<str>>(
                 len: s.len(),
             }));
         };
-        let (padding, out) = slot.split_at_mut(pad);
-        zero_padding(padding);
-        put_string::<B>(out, s)?;
+        // The region comes zeroed, padding included.
+        put_string::<B>(&mut slot[pad..], s)?;
         at += total;
     }
     Ok(())
