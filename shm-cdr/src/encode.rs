@@ -105,10 +105,12 @@ pub(crate) fn zero_padding(padding: &mut [MaybeUninit<u8>]) {
 /// Positions are counted from the byte after the encapsulation header, which is
 /// where CDR alignment is measured from.
 pub struct Writer<'a, B: ByteOrder> {
-    /// Invariant: `buf[..pos]` is initialized, and the writer never stores an
-    /// uninitialized byte anywhere. Every method that moves `pos` initializes
-    /// (copies in or zeroes) all the bytes it moves over before it returns, and
-    /// only `reserve_uninit`, private and used right below, moves it first.
+    /// Invariant: when an encode returns `Ok`, `buf[..pos]` is initialized; and
+    /// the writer never stores an uninitialized byte anywhere. Every public method
+    /// that moves `pos` initializes (copies in or zeroes) all the bytes it moves
+    /// over before it returns; the crate's string encoders, through
+    /// [`aligned_slot_uninit`](Self::aligned_slot_uninit), write their slots in
+    /// full or fail.
     buf: &'a mut [MaybeUninit<u8>],
     pos: usize,
     order: PhantomData<B>,
@@ -203,6 +205,20 @@ impl<'a, B: ByteOrder> Writer<'a, B> {
         let pad = align_up(self.pos, align) - self.pos;
         write_bytes_into(self.reserve_uninit(pad, bytes.len())?, bytes);
         Ok(())
+    }
+
+    /// [`aligned_slot`](Self::aligned_slot) without zeroing the slot first, for
+    /// strings (prefix, contents and NUL written once). The caller must write
+    /// every byte of the slot, or make the encode fail (the invariant): `to_vec`
+    /// hands out the bytes before the position as initialized.
+    #[inline(always)]
+    pub(crate) fn aligned_slot_uninit(
+        &mut self,
+        align: usize,
+        len: usize,
+    ) -> Result<&mut [MaybeUninit<u8>], EncodeError> {
+        let pad = align_up(self.pos, align) - self.pos;
+        self.reserve_uninit(pad, len)
     }
 
     /// Align to `align` (a power of two), zeroing the padding, and return a slot of

@@ -445,13 +445,18 @@ pub(crate) unsafe fn uninit_view(bytes: &mut [u8]) -> &mut [MaybeUninit<u8>] {
     unsafe { &mut *(bytes as *mut [u8] as *mut [MaybeUninit<u8>]) }
 }
 
+/// Initialized bytes as `MaybeUninit` ones, to copy from.
+#[allow(unsafe_code)]
+pub(crate) fn as_uninit(bytes: &[u8]) -> &[MaybeUninit<u8>] {
+    // SAFETY: same layout as above; through a shared borrow nothing can be stored,
+    // so viewing initialized bytes as `MaybeUninit` cannot de-initialize them.
+    unsafe { &*(bytes as *const [u8] as *const [MaybeUninit<u8>]) }
+}
+
 /// Copy `src` into `slot` (same length), returning the slot as initialized bytes.
 #[allow(unsafe_code)]
 pub(crate) fn write_bytes_into<'a>(slot: &'a mut [MaybeUninit<u8>], src: &[u8]) -> &'a mut [u8] {
-    // SAFETY: same layout as above; through a shared borrow nothing can be stored,
-    // so viewing initialized bytes as `MaybeUninit` cannot de-initialize them.
-    let src = unsafe { &*(src as *const [u8] as *const [MaybeUninit<u8>]) };
-    slot.copy_from_slice(src);
+    slot.copy_from_slice(as_uninit(src));
     // SAFETY: `copy_from_slice` (which panics on a length mismatch before writing)
     // initialized every byte of `slot` from initialized bytes; the unique borrow
     // passes to the result.

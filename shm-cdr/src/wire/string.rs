@@ -1,14 +1,15 @@
 //! `string`: a `u32` length that counts the terminating NUL, the UTF-8 bytes, NUL.
 
 use std::borrow::Cow;
+use std::mem::MaybeUninit;
 
 use crate::bounded::BoundedString;
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::{FieldType, RosElement, RosType, TypeId};
-use crate::encode::{CdrEncode, Writer};
+use crate::encode::{zero_padding, CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
-use crate::layout::align_up;
+use crate::layout::{align_up, as_uninit};
 use crate::loan::{Carver, InPlace, InPlaceElement, LoanError, StrSlot};
 
 #[inline(always)]
@@ -39,7 +40,8 @@ fn strings_end<S: AsRef<str>>(start: usize, items: &[S]) -> usize {
 /// (frame ids, joint names): up to 16 bytes this is two overlapping fixed-size
 /// moves instead of a call into `memcpy`.
 #[inline(always)]
-fn copy_short(dst: &mut [u8], src: &[u8]) {
+fn copy_short(dst: &mut [MaybeUninit<u8>], src: &[u8]) {
+    let src = as_uninit(src);
     let n = src.len();
     match n {
         0 => {}
@@ -61,30 +63,33 @@ fn copy_short(dst: &mut [u8], src: &[u8]) {
 }
 
 /// Write one string (prefix, contents, NUL) into `out`, which is exactly
-/// `4 + len + 1` bytes.
+/// `4 + len + 1` bytes: every byte of it, or an error (the writer's invariant).
 #[inline(always)]
-fn put_string<B: ByteOrder>(out: &mut [u8], s: &str) -> Result<(), EncodeError> {
+fn put_string<B: ByteOrder>(out: &mut [MaybeUninit<u8>], s: &str) -> Result<(), EncodeError> {
     let len = s.len();
     let with_nul = u32::try_from(len + 1)
         .map_err(|_| EncodeError::new(EncodeErrorKind::LengthOverflow { len }))?;
+    if out.len() != 4 + len + 1 {
+        // Unreachable: every caller sized `out` from `s`. Fail, don't leave bytes unwritten.
+        return Err(EncodeError::new(EncodeErrorKind::LengthOverflow { len }));
+    }
     let (prefix, rest) = out.split_at_mut(4);
-    prefix.copy_from_slice(&if B::LITTLE {
+    let prefix_bytes = if B::LITTLE {
         with_nul.to_le_bytes()
     } else {
         with_nul.to_be_bytes()
-    });
+    };
+    prefix.copy_from_slice(&prefix_bytes.map(MaybeUninit::new));
     let (contents, nul) = rest.split_at_mut(len);
     copy_short(contents, s.as_bytes());
-    if let Some(nul) = nul.first_mut() {
-        *nul = 0;
-    }
+    nul[0] = MaybeUninit::new(0);
     Ok(())
 }
 
 #[inline]
 fn write_string<B: ByteOrder>(w: &mut Writer<'_, B>, s: &str) -> Result<(), EncodeError> {
     // One bounds check for prefix, contents and NUL together.
-    put_string::<B>(w.aligned_slot(4, 4 + s.len() + 1)?, s)
+    put_string::<B>(w.aligned_slot_uninit(4, 4 + s.len() + 1)?, s)
 }
 
 /// A sequence of strings: one bounds check for the whole run, then each string
@@ -96,7 +101,7 @@ fn write_strings<B: ByteOrder, S: AsRef<str>>(
 ) -> Result<(), EncodeError> {
     let start = w.position();
     let end = strings_end(start, items);
-    let region = w.reserve(0, end - start)?;
+    let region = w.aligned_slot_uninit(1, end - start)?;
     let mut at = 0;
     for s in items {
         let s = s.as_ref();
@@ -108,9 +113,16 @@ fn write_strings<B: ByteOrder, S: AsRef<str>>(
                 len: s.len(),
             }));
         };
-        // The region comes zeroed, padding included.
-        put_string::<B>(&mut slot[pad..], s)?;
+        let (padding, out) = slot.split_at_mut(pad);
+        zero_padding(padding);
+        put_string::<B>(out, s)?;
         at += total;
+    }
+    if at != region.len() {
+        // Unreachable, as above; the writer's invariant needs every byte written.
+        return Err(EncodeError::new(EncodeErrorKind::LengthOverflow {
+            len: at,
+        }));
     }
     Ok(())
 }
