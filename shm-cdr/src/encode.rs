@@ -88,7 +88,7 @@ pub(crate) fn zero_padding(padding: &mut [MaybeUninit<u8>]) {
     const ZERO: MaybeUninit<u8> = MaybeUninit::new(0);
     let n = padding.len();
     if n > 8 {
-        padding.fill(ZERO);
+        zero_long_padding(padding);
     } else if n >= 4 {
         padding[..4].copy_from_slice(&[ZERO; 4]);
         padding[n - 4..].copy_from_slice(&[ZERO; 4]);
@@ -97,6 +97,14 @@ pub(crate) fn zero_padding(padding: &mut [MaybeUninit<u8>]) {
         padding[n / 2] = ZERO;
         padding[n - 1] = ZERO;
     }
+}
+
+/// Padding to an alignment above 8, which CDR never asks for (a caller of
+/// [`Writer::aligned_slot`] may): kept out of line so the common case stays small.
+#[cold]
+#[inline(never)]
+fn zero_long_padding(padding: &mut [MaybeUninit<u8>]) {
+    padding.fill(MaybeUninit::new(0));
 }
 
 /// Writes CDR into a caller-provided buffer. Never writes outside it: a write that
