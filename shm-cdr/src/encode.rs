@@ -116,9 +116,10 @@ pub struct Writer<'a, B: ByteOrder> {
     /// Invariant: when an encode returns `Ok`, `buf[..pos]` is initialized; and
     /// the writer never stores an uninitialized byte anywhere. Every public method
     /// that moves `pos` initializes (copies in or zeroes) all the bytes it moves
-    /// over before it returns; the crate's string encoders, through
+    /// over before it returns, and a method that fails does not move it; the
+    /// crate's string encoders, through
     /// [`aligned_slot_uninit`](Self::aligned_slot_uninit), write their slots in
-    /// full or fail.
+    /// full even when they fail (a caller's own `encode` may swallow an error).
     buf: &'a mut [MaybeUninit<u8>],
     pos: usize,
     order: PhantomData<B>,
@@ -217,8 +218,9 @@ impl<'a, B: ByteOrder> Writer<'a, B> {
 
     /// [`aligned_slot`](Self::aligned_slot) without zeroing the slot first, for
     /// strings (prefix, contents and NUL written once). The caller must write
-    /// every byte of the slot, or make the encode fail (the invariant): `to_vec`
-    /// hands out the bytes before the position as initialized.
+    /// every byte of the slot before it returns, even when it returns an error
+    /// (which a user's `encode` may swallow): `to_vec` hands out the bytes before
+    /// the position as initialized.
     #[inline(always)]
     pub(crate) fn aligned_slot_uninit(
         &mut self,

@@ -63,16 +63,20 @@ fn copy_short(dst: &mut [MaybeUninit<u8>], src: &[u8]) {
 }
 
 /// Write one string (prefix, contents, NUL) into `out`, which is exactly
-/// `4 + len + 1` bytes: every byte of it, or an error (the writer's invariant).
+/// `4 + len + 1` bytes. Every byte of `out` is written, on error too (zeroed):
+/// a caller's own `encode` may swallow the error, and the writer's invariant
+/// must hold regardless.
 #[inline(always)]
 fn put_string<B: ByteOrder>(out: &mut [MaybeUninit<u8>], s: &str) -> Result<(), EncodeError> {
     let len = s.len();
-    let with_nul = u32::try_from(len + 1)
-        .map_err(|_| EncodeError::new(EncodeErrorKind::LengthOverflow { len }))?;
-    if out.len() != 4 + len + 1 {
-        // Unreachable: every caller sized `out` from `s`. Fail, don't leave bytes unwritten.
-        return Err(EncodeError::new(EncodeErrorKind::LengthOverflow { len }));
-    }
+    let with_nul = match u32::try_from(len + 1) {
+        // The length check covers `out` too: every caller sized it from `s`.
+        Ok(with_nul) if out.len() == 4 + len + 1 => with_nul,
+        _ => {
+            out.fill(MaybeUninit::new(0));
+            return Err(EncodeError::new(EncodeErrorKind::LengthOverflow { len }));
+        }
+    };
     let (prefix, rest) = out.split_at_mut(4);
     let prefix_bytes = if B::LITTLE {
         with_nul.to_le_bytes()
@@ -103,28 +107,40 @@ fn write_strings<B: ByteOrder, S: AsRef<str>>(
     let end = strings_end(start, items);
     let region = w.aligned_slot_uninit(1, end - start)?;
     let mut at = 0;
-    for s in items {
-        let s = s.as_ref();
-        let pad = (start + at).wrapping_neg() % 4;
-        let total = pad + 4 + s.len() + 1;
-        let Some(slot) = region.get_mut(at..at + total) else {
-            // Unreachable: `end` summed exactly these lengths. Report, don't panic.
-            return Err(EncodeError::new(EncodeErrorKind::LengthOverflow {
-                len: s.len(),
+    let outcome = 'write: {
+        for s in items {
+            let s = s.as_ref();
+            let pad = (start + at).wrapping_neg() % 4;
+            let total = pad + 4 + s.len() + 1;
+            let Some(slot) = region.get_mut(at..at + total) else {
+                // Unreachable: `end` summed exactly these lengths. Report, don't panic.
+                break 'write Err(EncodeError::new(EncodeErrorKind::LengthOverflow {
+                    len: s.len(),
+                }));
+            };
+            let (padding, out) = slot.split_at_mut(pad);
+            zero_padding(padding);
+            if let Err(e) = put_string::<B>(out, s) {
+                break 'write Err(e);
+            }
+            at += total;
+        }
+        if at != region.len() {
+            // Unreachable, as above.
+            break 'write Err(EncodeError::new(EncodeErrorKind::LengthOverflow {
+                len: at,
             }));
-        };
-        let (padding, out) = slot.split_at_mut(pad);
-        zero_padding(padding);
-        put_string::<B>(out, s)?;
-        at += total;
+        }
+        Ok(())
+    };
+    if outcome.is_err() {
+        // The position is already past the region, and a caller's own `encode`
+        // may swallow the error: the writer's invariant needs every byte written.
+        if let Some(rest) = region.get_mut(at..) {
+            rest.fill(MaybeUninit::new(0));
+        }
     }
-    if at != region.len() {
-        // Unreachable, as above; the writer's invariant needs every byte written.
-        return Err(EncodeError::new(EncodeErrorKind::LengthOverflow {
-            len: at,
-        }));
-    }
-    Ok(())
+    outcome
 }
 
 /// Read a string borrowed from the input. A length of 0 (no NUL at all) is read as
