@@ -29,6 +29,7 @@
 pub mod action;
 mod config;
 pub mod graph;
+mod inline_limit;
 mod loan;
 mod matching;
 pub mod msgs;
@@ -44,6 +45,7 @@ mod shm_bytes;
 mod subscriber;
 
 pub use config::{ConfigError, ShmConfig};
+pub use inline_limit::Unfragmentable;
 pub use loan::{Loan, LoanPublish};
 pub use node::{RosNode, RosNodeBuilder};
 pub use payload::{EncodedPayload, PayloadKind};

@@ -174,8 +174,13 @@ impl<'p, T: RosMessage + InPlace> Loan<'p, T> {
             bytes: self.buffer.into_zbytes(),
             kind: self.kind,
             size: self.size,
+            inline: if self.kind == PayloadKind::Shm {
+                0
+            } else {
+                self.size
+            },
         };
-        Ok((publisher.prepare_encoded(encoded), publisher))
+        Ok((publisher.prepare_encoded(encoded)?, publisher))
     }
 }
 

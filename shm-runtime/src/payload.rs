@@ -38,6 +38,10 @@ pub struct EncodedPayload {
     pub kind: PayloadKind,
     /// The encoded size in bytes, header included.
     pub size: usize,
+    /// Of those, the bytes that travel inline, not as a shared-memory
+    /// descriptor: 0 for [`PayloadKind::Shm`], the metadata around the blocks
+    /// for [`PayloadKind::Spliced`], all of them on the heap.
+    pub inline: usize,
 }
 
 /// How a publisher encodes: with a pool and threshold, or heap only.
@@ -80,6 +84,7 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
                     bytes: ZBytes::from(buffer),
                     kind: PayloadKind::Shm,
                     size,
+                    inline: 0,
                 });
             }
             None => {
@@ -97,6 +102,7 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
         bytes: ZBytes::from(buffer),
         kind,
         size,
+        inline: size,
     })
 }
 

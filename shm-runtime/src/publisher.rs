@@ -16,6 +16,7 @@ use zenoh::sample::SourceInfo;
 use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, MissDetectionConfig};
 
+use crate::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
 use crate::pool::ShmContext;
 use crate::rmw::{Attachment, Durability, Gid, History, Qos, Reliability};
@@ -30,6 +31,9 @@ pub enum PublishError {
     Zenoh(zenoh::Error),
     /// A loaned message still had strings or sequences to write.
     Loan(shm_cdr::loan::LoanError),
+    /// The session's transport cannot fragment (Zenoh's lowlatency) and the
+    /// message's inline part is larger than one frame: it was not sent.
+    Unfragmentable(Unfragmentable),
 }
 
 impl fmt::Display for PublishError {
@@ -38,11 +42,18 @@ impl fmt::Display for PublishError {
             Self::Encode(e) => write!(f, "publish: {e}"),
             Self::Zenoh(e) => write!(f, "publish: zenoh: {e}"),
             Self::Loan(e) => write!(f, "publish: loan: {e}"),
+            Self::Unfragmentable(e) => write!(f, "publish: {e}"),
         }
     }
 }
 
 impl std::error::Error for PublishError {}
+
+impl From<Unfragmentable> for PublishError {
+    fn from(e: Unfragmentable) -> Self {
+        Self::Unfragmentable(e)
+    }
+}
 
 impl From<EncodeError> for PublishError {
     fn from(e: EncodeError) -> Self {
@@ -211,6 +222,9 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             return Err(invalid.into());
         }
         let policy = self.shm.resolve(self.session, &self.key_expr);
+        let encoding = crate::queue::type_encoding::<T>();
+        let inline_limit =
+            InlineLimit::of(self.session, &self.key_expr, encoding.to_string().len());
         let (reliability, congestion_control) = match self.qos.reliability {
             Reliability::Reliable => (ZenohReliability::Reliable, CongestionControl::Block),
             Reliability::BestEffort => (ZenohReliability::BestEffort, CongestionControl::Drop),
@@ -220,7 +234,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             .declare_publisher(self.key_expr)
             .reliability(reliability)
             .congestion_control(self.congestion_control.unwrap_or(congestion_control))
-            .encoding(crate::queue::type_encoding::<T>());
+            .encoding(encoding);
         let publisher = match (self.qos.durability, self.qos.history) {
             (Durability::Volatile, _) => ZenohPublisher::Plain(builder.wait()?),
             (Durability::TransientLocal, history) => {
@@ -262,6 +276,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
         Ok(RosPublisher {
             publisher,
             policy,
+            inline_limit,
             rmw,
             sequence: AtomicI64::new(0),
             source_sn: AtomicU32::new(0),
@@ -342,6 +357,8 @@ impl ZenohPublisher {
 pub struct RosPublisher<T> {
     publisher: ZenohPublisher,
     policy: Option<ShmPolicy>,
+    /// Set when the session cannot fragment (lowlatency).
+    inline_limit: Option<InlineLimit>,
     rmw: Option<RmwPublisher>,
     sequence: AtomicI64,
     /// Zenoh `SourceInfo` sequence number of the next put, from 0 (as zenoh-ext
@@ -423,11 +440,17 @@ impl<T: RosMessage> RosPublisher<T> {
 
     /// Encode `msg` and build its attachment: everything a put needs.
     fn prepare(&self, msg: &T) -> Result<Prepared, PublishError> {
-        Ok(self.prepare_encoded(self.encode(msg)?))
+        self.prepare_encoded(self.encode(msg)?)
     }
 
-    /// The attachment and source info for an encoded message.
-    pub(crate) fn prepare_encoded(&self, encoded: EncodedPayload) -> Prepared {
+    /// The attachment and source info for an encoded message; refused if the
+    /// session cannot carry it (see [`Unfragmentable`]). Numbers are taken only
+    /// for messages that go out.
+    pub(crate) fn prepare_encoded(
+        &self,
+        encoded: EncodedPayload,
+    ) -> Result<Prepared, PublishError> {
+        inline_limit::check(self.inline_limit, encoded.inline)?;
         let mut outcome = PublishOutcome {
             kind: encoded.kind,
             size: encoded.size,
@@ -445,7 +468,7 @@ impl<T: RosMessage> RosPublisher<T> {
                 .to_bytes(),
             )
         });
-        Prepared {
+        Ok(Prepared {
             outcome,
             payload: encoded.bytes,
             attachment,
@@ -453,7 +476,7 @@ impl<T: RosMessage> RosPublisher<T> {
                 self.publisher.id(),
                 self.source_sn.fetch_add(1, Ordering::Relaxed),
             ),
-        }
+        })
     }
 
     /// The pool and threshold, if any.

@@ -226,6 +226,7 @@ pub(crate) fn encode_spliced<T: CdrEncode + ?Sized>(msg: &T) -> Result<Splice, E
         bytes: payload.finish(),
         kind: PayloadKind::Spliced,
         size: reduced + sizing.skipped,
+        inline: written,
     }))
 }
 

@@ -797,3 +797,127 @@ fn callback_subscriber_decodes_borrowed_inside_the_callback() {
     assert_eq!(len, msg.data.len());
     assert!(borrowed && shm_seen);
 }
+
+/// Zenoh's lowlatency transport cannot fragment. What would travel inline above
+/// one batch is refused with `Unfragmentable` (nothing sent, no sequence number
+/// taken), by `publish` and by a loan's `publish`; shared memory goes through at
+/// any size, and so do small heap messages. Last, the failure the guard
+/// prevents: a plain Zenoh put of the same size returns `Ok` and never arrives.
+#[test]
+fn lowlatency_refuses_inline_messages_it_cannot_carry() {
+    use shm_cdr::loan::InPlace;
+    use shm_runtime::{PublishError, Unfragmentable};
+    let (a, b) = session_pair_with(|config| {
+        let mut config = without_implicit_shm_copy(config);
+        config
+            .insert_json5("transport/unicast/qos/enabled", "false")
+            .unwrap();
+        config
+            .insert_json5("transport/unicast/lowlatency", "true")
+            .unwrap();
+        config
+    });
+    let shm = ShmContext::new(ShmConfig::enabled().pool_size(4 << 20)).unwrap();
+    let node = RosNode::builder(&a, "lowlatency")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let heap = node
+        .declare_publisher::<Image>("heap")
+        .without_shm()
+        .wait()
+        .unwrap();
+    let in_shm = a
+        .declare_ros_publisher::<Image>("lowlatency/shm")
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    let heap_sub = RosNode::builder(&b, "reader")
+        .domain_id(0)
+        .wait()
+        .unwrap()
+        .declare_subscriber::<Image>("heap")
+        .wait()
+        .unwrap();
+    let shm_sub = b
+        .declare_ros_subscriber::<Image>("lowlatency/shm")
+        .wait()
+        .unwrap();
+    assert!(heap.wait_for_subscribers(TIMEOUT) && in_shm.wait_for_subscribers(TIMEOUT));
+
+    let big = image(100 * 1024);
+    let size = shm_cdr::encoded_size(&big);
+    match heap.publish(&big).wait() {
+        Err(PublishError::Unfragmentable(Unfragmentable { inline, limit })) => {
+            assert_eq!(inline, size);
+            assert!((60_000..65_535).contains(&limit), "limit {limit}");
+            let text = PublishError::Unfragmentable(Unfragmentable { inline, limit }).to_string();
+            assert!(
+                text.contains("lowlatency") && text.contains(&size.to_string()),
+                "{text}"
+            );
+        }
+        other => panic!("a 100 KiB heap message under lowlatency: {other:?}"),
+    }
+    let mut loan = heap.loan(big.lens()).unwrap();
+    assert_eq!(loan.kind(), PayloadKind::Heap);
+    big.write_in_place(loan.fields().unwrap()).unwrap();
+    assert!(matches!(
+        loan.publish().wait(),
+        Err(PublishError::Unfragmentable(_))
+    ));
+
+    // The refused messages took no sequence number: the first one sent is 1.
+    let small = image(1024);
+    assert_eq!(
+        heap.publish(&small).wait().unwrap().sequence_number,
+        Some(1)
+    );
+    let sample = heap_sub
+        .recv_timeout(TIMEOUT)
+        .unwrap()
+        .expect("small message lost");
+    assert_eq!(sample.decode::<Image>().unwrap(), small);
+    assert_eq!(
+        sample
+            .attachment()
+            .and_then(Result::ok)
+            .map(|a| a.sequence_number),
+        Some(1)
+    );
+
+    let huge = image(1 << 20);
+    assert_eq!(in_shm.publish(&huge).wait().unwrap().kind, PayloadKind::Shm);
+    let sample = shm_sub
+        .recv_timeout(TIMEOUT)
+        .unwrap()
+        .expect("SHM message lost");
+    assert!(sample.is_shm());
+    assert_eq!(sample.decode::<Image>().unwrap(), huge);
+
+    // Without the guard: Zenoh accepts the put and the message never arrives.
+    let raw = b.declare_subscriber("lowlatency/raw").wait().unwrap();
+    let put = a.declare_publisher("lowlatency/raw").wait().unwrap();
+    assert!(raw_publisher_matched(&put));
+    put.put(vec![7u8; size]).wait().unwrap();
+    assert!(
+        raw.recv_timeout(Duration::from_secs(2)).unwrap().is_none(),
+        "Zenoh's lowlatency transport carried a {size}-byte inline message: the guard may be relaxed"
+    );
+}
+
+/// Whether a raw Zenoh publisher matched a subscriber within [`TIMEOUT`].
+fn raw_publisher_matched(publisher: &zenoh::pubsub::Publisher<'_>) -> bool {
+    let deadline = std::time::Instant::now() + TIMEOUT;
+    while std::time::Instant::now() < deadline {
+        if publisher
+            .matching_status()
+            .wait()
+            .is_ok_and(|s| s.matching())
+        {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    false
+}

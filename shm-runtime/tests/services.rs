@@ -555,3 +555,72 @@ fn the_graph_lists_nodes_topics_services_and_endpoints_with_qos_and_gids() {
         std::thread::sleep(Duration::from_millis(20));
     }
 }
+
+/// Over Zenoh's lowlatency transport (which cannot fragment), a request or a
+/// response too large to travel inline is refused, not lost: the client's call
+/// fails with `Unfragmentable` before anything is sent, and a server that cannot
+/// send its response tells the client why. Small calls go through.
+#[test]
+fn lowlatency_refuses_requests_and_responses_it_cannot_carry() {
+    use common::without_implicit_shm_copy;
+    let port = common::free_port();
+    let open = |listen| {
+        let mut config = without_implicit_shm_copy(peer_config(port, listen));
+        config
+            .insert_json5("transport/unicast/qos/enabled", "false")
+            .unwrap();
+        config
+            .insert_json5("transport/unicast/lowlatency", "true")
+            .unwrap();
+        zenoh::open(config).wait().unwrap()
+    };
+    let (a, b) = (open(true), open(false));
+    let _server = node(&a, "parameters")
+        .declare_service::<SetParameters>("set_parameters")
+        .callback(|request| {
+            let view: SetParameters_RequestRef = request.decode().unwrap();
+            let reason_len = view.parameters[0].value.integer_value as usize;
+            let response = SetParameters_Response {
+                results: vec![SetParametersResult {
+                    successful: true,
+                    reason: "x".repeat(reason_len),
+                }],
+            };
+            let sent = request.reply(&response).wait();
+            assert_eq!(sent.is_err(), reason_len > 64 * 1024, "{sent:?}");
+        })
+        .wait()
+        .unwrap();
+    let client = node(&b, "client")
+        .declare_client::<SetParameters>("set_parameters")
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+    let request = |blob: usize, reason: i64| SetParameters_Request {
+        parameters: vec![Parameter {
+            name: "blob".into(),
+            value: ParameterValue {
+                r#type: 5,
+                integer_value: reason,
+                byte_array_value: vec![1; blob],
+                ..Default::default()
+            },
+        }],
+    };
+
+    let response = client.call(&request(1000, 1000)).wait().unwrap();
+    assert_eq!(response.results[0].reason.len(), 1000);
+    match client.call(&request(100 * 1024, 10)).wait() {
+        Err(CallError::Unfragmentable(e)) => assert!(e.inline > 100 * 1024, "{e}"),
+        other => panic!("a 100 KiB request under lowlatency: {other:?}"),
+    }
+    match client.call(&request(10, 100 * 1024)).wait() {
+        Err(CallError::Remote(why)) => {
+            assert!(why.contains("lowlatency"), "{why}")
+        }
+        other => panic!("a 100 KiB response under lowlatency: {other:?}"),
+    }
+    // The link is intact: calls still work.
+    let response = client.call(&request(10, 10)).wait().unwrap();
+    assert_eq!(response.results[0].reason.len(), 10);
+}

@@ -19,6 +19,7 @@ use zenoh::query::{ConsolidationMode, QueryTarget, Reply};
 use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
 
+use crate::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::payload::{encode_payload, ShmPolicy};
 use crate::pool::ShmContext;
 use crate::publisher::{now_ns, ShmSettings};
@@ -51,6 +52,9 @@ pub enum CallError {
     Decode(DecodeError),
     /// The reply's attachment is not rmw_zenoh's.
     Attachment(AttachmentError),
+    /// The session's transport cannot fragment (Zenoh's lowlatency) and the
+    /// request's inline part is larger than one frame: it was not sent.
+    Unfragmentable(Unfragmentable),
 }
 
 impl fmt::Display for CallError {
@@ -66,6 +70,7 @@ impl fmt::Display for CallError {
             Self::Remote(why) => write!(f, "service call: the server replied with an error: {why}"),
             Self::Decode(e) => write!(f, "service call: the response is not valid: {e}"),
             Self::Attachment(e) => write!(f, "service call: reply {e}"),
+            Self::Unfragmentable(e) => write!(f, "service call: {e}"),
         }
     }
 }
@@ -76,6 +81,7 @@ impl std::error::Error for CallError {
             Self::Encode(e) => Some(e),
             Self::Decode(e) => Some(e),
             Self::Attachment(e) => Some(e),
+            Self::Unfragmentable(e) => Some(e),
             _ => None,
         }
     }
@@ -140,6 +146,12 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
             return Err(invalid.into());
         }
         let policy = self.shm.resolve(self.session, &self.key_expr);
+        let request_encoding = type_encoding::<S::Request>();
+        let inline_limit = InlineLimit::of(
+            self.session,
+            &self.key_expr,
+            request_encoding.to_string().len(),
+        );
         let key_expr = KeyExpr::try_from(self.key_expr)?;
         // Calls are session gets (each with its own timeout); the querier is
         // declared for its matching status: whether a server is there.
@@ -154,10 +166,11 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
             key_expr,
             querier,
             policy,
+            inline_limit,
             gid: self.gid,
             sequence: AtomicI64::new(0),
             timeout: self.timeout,
-            request_encoding: type_encoding::<S::Request>(),
+            request_encoding,
             _token: token,
             service: PhantomData,
         })
@@ -190,6 +203,8 @@ pub struct ServiceClient<S> {
     key_expr: KeyExpr<'static>,
     querier: zenoh::query::Querier<'static>,
     policy: Option<ShmPolicy>,
+    /// Set when the session cannot fragment (lowlatency).
+    inline_limit: Option<InlineLimit>,
     gid: Gid,
     sequence: AtomicI64,
     timeout: Duration,
@@ -288,6 +303,8 @@ impl<S: RosService> ServiceClient<S> {
     /// Encode `request` and number the call.
     fn prepare(&self, request: &S::Request) -> Result<Prepared, CallError> {
         let encoded = encode_payload(request, self.policy.as_ref()).map_err(CallError::Encode)?;
+        inline_limit::check(self.inline_limit, encoded.inline)
+            .map_err(CallError::Unfragmentable)?;
         let sequence_number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;
         Ok(Prepared {
             payload: encoded.bytes,

@@ -19,6 +19,7 @@ use zenoh::query::Query;
 use zenoh::{Resolvable, Session, Wait};
 
 use super::error_reply_text;
+use crate::inline_limit::{self, InlineLimit};
 use crate::payload::{encode_payload, PayloadKind, ShmPolicy};
 use crate::pool::ShmContext;
 use crate::publisher::{now_ns, PublishError, ShmSettings};
@@ -125,6 +126,12 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
             return Err(invalid.clone().into());
         }
         let policy = self.shm.resolve(self.session, &self.key_expr);
+        let response_encoding = type_encoding::<S::Response>();
+        let inline_limit = InlineLimit::of(
+            self.session,
+            &self.key_expr,
+            response_encoding.to_string().len(),
+        );
         let key_expr = KeyExpr::try_from(self.key_expr.clone())?;
         let token = match &self.token {
             Some(token) => Some(
@@ -138,7 +145,8 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
         let shared = Shared {
             key_expr,
             policy,
-            response_encoding: type_encoding::<S::Response>(),
+            inline_limit,
+            response_encoding,
             malformed: AtomicU64::new(0),
             dropped: AtomicU64::new(0),
         };
@@ -209,6 +217,8 @@ struct Shared {
     /// wildcard).
     key_expr: KeyExpr<'static>,
     policy: Option<ShmPolicy>,
+    /// Set when the session cannot fragment (lowlatency).
+    inline_limit: Option<InlineLimit>,
     response_encoding: Encoding,
     malformed: AtomicU64,
     dropped: AtomicU64,
@@ -545,6 +555,10 @@ impl<S: RosService> ReplyBuilder<S> {
                 return Err(e.into());
             }
         };
+        if let Err(e) = inline_limit::check(request.shared.inline_limit, encoded.inline) {
+            request.reply_err(format_args!("the server could not send its response: {e}"));
+            return Err(e.into());
+        }
         let reply = request
             .query
             .reply(request.shared.key_expr.clone(), encoded.bytes)
