@@ -101,6 +101,11 @@ pub struct Setup {
     /// Subscribers decode in a callback on Zenoh's receiving thread, instead of
     /// a thread of the application's blocking in `recv` (one thread hand-off less).
     pub callback: bool,
+    /// Whether idle CPUs may halt (the host's default). `false`: the orchestrator
+    /// holds `/dev/cpu_dma_latency` at 0 for the setup, so an idle CPU polls
+    /// instead of halting and a wake-up costs no exit to the hypervisor (or no
+    /// deep C-state on bare metal). Needs write access to that file (root).
+    pub idle_halts: bool,
 }
 
 /// Zenoh's defaults (TCP on loopback).
@@ -112,6 +117,7 @@ pub const DEFAULT: Setup = Setup {
     batching: true,
     runtime: None,
     callback: false,
+    idle_halts: true,
 };
 
 /// All of Zenoh's thread pools handed over to one receiving thread: fewer
@@ -120,7 +126,7 @@ pub const ONE_THREAD_POOL: &str =
     "(rx: (worker_threads: 1), tx: (handover: rx), net: (handover: rx), acc: (handover: rx), app: (handover: rx))";
 
 /// Every knob alone, then the combinations (see the README).
-pub const SETUPS: [Setup; 10] = [
+pub const SETUPS: [Setup; 13] = [
     DEFAULT,
     Setup {
         name: "unix socket",
@@ -164,6 +170,22 @@ pub const SETUPS: [Setup; 10] = [
         lowlatency: true,
         ..RECOMMENDED
     },
+    Setup {
+        name: "default, no idle halts",
+        idle_halts: false,
+        ..DEFAULT
+    },
+    Setup {
+        name: "recommended, no idle halts",
+        idle_halts: false,
+        ..RECOMMENDED
+    },
+    Setup {
+        name: "recommended + lowlatency, no idle halts",
+        lowlatency: true,
+        idle_halts: false,
+        ..RECOMMENDED
+    },
 ];
 
 /// The combination the measurements recommend: every knob that helped and
@@ -177,6 +199,7 @@ pub const RECOMMENDED: Setup = Setup {
     batching: true,
     runtime: Some(ONE_THREAD_POOL),
     callback: true,
+    idle_halts: true,
 };
 
 impl Setup {

@@ -4,7 +4,10 @@
 //!
 //! `cargo bench -p shm-cdr-examples --bench cross_process --features hiroz`
 //! (without `--features hiroz`, hiroz's rows are left out; `-- --quick` runs a
-//! fifth of the rounds, `-- --setups default,recommended` a subset).
+//! fifth of the rounds, `-- --setups default,recommended` a subset, and
+//! `-- --idle-us N` makes the ping wait N µs, spinning, after building each
+//! message and before the clock starts, so the echo has been idle that long when
+//! the message comes: what a topic at a few hundred Hz or less sees).
 //!
 //! This process only orchestrates. For each [`common::Setup`] it starts two
 //! children of this same binary, each a fresh process so that `ZENOH_RUNTIME`
@@ -82,6 +85,10 @@ fn ping() -> zenoh::Result<()> {
     zenoh::try_init_log_from_env();
     let setup = Setup::by_name(&child_env("XPROC_SETUP")?).ok_or("unknown setup")?;
     let quick = std::env::var_os("XPROC_QUICK").is_some();
+    let idle_ns = match std::env::var("XPROC_IDLE_US") {
+        Ok(us) => us.parse::<u64>()? * 1000,
+        Err(_) => 0,
+    };
     let session = zenoh::open(setup.config(&child_env("XPROC_OURS")?, true)?).wait()?;
     let shm = ShmContext::new(ShmConfig::enabled().pool_size(POOL))?;
     let pongs = session.declare_subscriber(PONG_KEY).wait()?;
@@ -113,6 +120,11 @@ fn ping() -> zenoh::Result<()> {
                 }
                 seq += 1;
                 sender.prepare(bytes, seq)?;
+                // Spin rather than sleep: only the echo's side goes idle.
+                let idle_until = common::now_ns() + idle_ns;
+                while common::now_ns() < idle_until {
+                    std::hint::spin_loop();
+                }
                 let start = common::now_ns();
                 sender.send()?;
                 let Some(pong) = wait_pong(&pongs, path, seq, PONG_TIMEOUT)? else {
@@ -224,6 +236,10 @@ type Results = BTreeMap<(usize, u8), Cell>;
 fn orchestrate() -> zenoh::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let quick = args.iter().any(|a| a == "--quick");
+    let idle_us: Option<u64> = match args.iter().position(|a| a == "--idle-us") {
+        Some(i) => Some(args.get(i + 1).ok_or("--idle-us needs a number")?.parse()?),
+        None => None,
+    };
     let chosen: Vec<Setup> = match args.iter().position(|a| a == "--setups") {
         Some(i) => args
             .get(i + 1)
@@ -237,7 +253,9 @@ fn orchestrate() -> zenoh::Result<()> {
     let mut all: Vec<(Setup, Results)> = Vec::new();
     for (i, setup) in chosen.iter().enumerate() {
         eprintln!("setup {:?} ...", setup.name);
-        let results = run_setup(&exe, setup, i, quick)?;
+        let Some(results) = run_setup(&exe, setup, i, quick, idle_us)? else {
+            continue;
+        };
         print_setup(setup, &results);
         all.push((*setup, results));
     }
@@ -274,6 +292,7 @@ fn child(
     setup: &Setup,
     eps: &(String, String),
     quick: bool,
+    idle_us: Option<u64>,
 ) -> zenoh::Result<Child> {
     let mut command = Command::new(exe);
     command
@@ -298,6 +317,9 @@ fn child(
     if quick {
         command.env("XPROC_QUICK", "1");
     }
+    if let Some(us) = idle_us {
+        command.env("XPROC_IDLE_US", us.to_string());
+    }
     Ok(command.spawn()?)
 }
 
@@ -306,9 +328,26 @@ fn run_setup(
     setup: &Setup,
     index: usize,
     quick: bool,
-) -> zenoh::Result<Results> {
+    idle_us: Option<u64>,
+) -> zenoh::Result<Option<Results>> {
+    // Held open for the whole setup: the kernel keeps the request while the file
+    // is open (see the kernel's PM QoS documentation).
+    let _no_idle_halts = if setup.idle_halts {
+        None
+    } else {
+        match hold_cpu_wakeup_latency_zero() {
+            Ok(file) => Some(file),
+            Err(e) => {
+                println!(
+                    "\n### {}: skipped, /dev/cpu_dma_latency is not writable here ({e}; it needs root)",
+                    setup.name
+                );
+                return Ok(None);
+            }
+        }
+    };
     let eps = endpoints(setup, index);
-    let mut ping = child(exe, "ping", setup, &eps, quick)?;
+    let mut ping = child(exe, "ping", setup, &eps, quick, idle_us)?;
     let stdout = ping.stdout.take().ok_or("ping without stdout")?;
     let mut lines = BufReader::new(stdout).lines();
     let mut echo: Option<Child> = None;
@@ -316,7 +355,7 @@ fn run_setup(
     for line in &mut lines {
         let line = line?;
         if line == "LISTENING" {
-            echo = Some(child(exe, "echo", setup, &eps, quick)?);
+            echo = Some(child(exe, "echo", setup, &eps, quick, idle_us)?);
         } else if let Some(fields) = line.strip_prefix("RESULT\t") {
             let f: Vec<&str> = fields.split('\t').collect();
             let [path, bytes, median, p90, _n] = f[..] else {
@@ -366,7 +405,18 @@ fn run_setup(
             );
         }
     }
-    Ok(results)
+    Ok(Some(results))
+}
+
+/// Ask the kernel for a CPU wake-up latency of 0 µs while the returned file is
+/// open: idle CPUs then poll instead of halting.
+fn hold_cpu_wakeup_latency_zero() -> std::io::Result<std::fs::File> {
+    use std::io::Write;
+    let mut file = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/cpu_dma_latency")?;
+    file.write_all(&0i32.to_ne_bytes())?;
+    Ok(file)
 }
 
 fn paths_in(results: &Results) -> Vec<Path> {
@@ -419,6 +469,9 @@ fn describe(setup: &Setup) -> String {
     if let Some(runtime) = setup.runtime {
         parts.push(format!("ZENOH_RUNTIME='{runtime}'"));
     }
+    if !setup.idle_halts {
+        parts.push("no idle halts: /dev/cpu_dma_latency held at 0".into());
+    }
     parts.join(", ")
 }
 
@@ -465,11 +518,20 @@ fn print_summary(all: &[(Setup, Results)]) {
     let mib = 1 << 20;
     let loan_best = median_of(all, "recommended", mib, Path::Loan);
     let loan_default = median_of(all, "default", mib, Path::Loan);
-    if let (Some(best), Some(default)) = (loan_best, loan_default) {
-        println!(
-            "\n1 MiB loan: default {default:.0} µs → recommended {best:.0} µs = {:.2}× faster",
-            default / best
-        );
+    println!();
+    for setup in [
+        "recommended",
+        "recommended + lowlatency",
+        "recommended, no idle halts",
+        "recommended + lowlatency, no idle halts",
+    ] {
+        if let (Some(this), Some(default)) = (median_of(all, setup, mib, Path::Loan), loan_default)
+        {
+            println!(
+                "1 MiB loan: default {default:.0} µs → {setup} {this:.0} µs = {:.2}× faster",
+                default / this
+            );
+        }
     }
     for hiroz in [Path::HirozAutomatic, Path::HirozShm] {
         for setup in ["default", "recommended"] {
