@@ -171,26 +171,27 @@ pub const SETUPS: [Setup; 13] = [
         ..RECOMMENDED
     },
     Setup {
-        name: "default, no idle halts",
+        name: "default + no idle halts",
         idle_halts: false,
         ..DEFAULT
     },
     Setup {
-        name: "recommended, no idle halts",
+        name: "recommended + no idle halts",
         idle_halts: false,
         ..RECOMMENDED
     },
     Setup {
-        name: "recommended + lowlatency, no idle halts",
+        name: "recommended + lowlatency + no idle halts",
         lowlatency: true,
         idle_halts: false,
         ..RECOMMENDED
     },
 ];
 
-/// The combination the measurements recommend: every knob that helped and
-/// loses nothing (lowlatency helps too, but drops any message that is not in
-/// shared memory and larger than a batch, 64 KiB).
+/// The combination the measurements recommend for any traffic: every Zenoh knob
+/// that helped and loses nothing. lowlatency helps too, but Zenoh drops any
+/// message that is not in shared memory and larger than a batch (64 KiB); our
+/// publishers refuse those with an error, plain puts lose them.
 pub const RECOMMENDED: Setup = Setup {
     name: "recommended",
     unix_socket: true,

@@ -522,8 +522,8 @@ fn print_summary(all: &[(Setup, Results)]) {
     for setup in [
         "recommended",
         "recommended + lowlatency",
-        "recommended, no idle halts",
-        "recommended + lowlatency, no idle halts",
+        "recommended + no idle halts",
+        "recommended + lowlatency + no idle halts",
     ] {
         if let (Some(this), Some(default)) = (median_of(all, setup, mib, Path::Loan), loan_default)
         {
