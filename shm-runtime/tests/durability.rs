@@ -29,18 +29,10 @@ fn session_pair() -> (Session, Session) {
 fn settle(a: &Session, b: &Session) {
     let _probe = b.declare_subscriber("durability/probe").wait().unwrap();
     let publisher = a.declare_publisher("durability/probe").wait().unwrap();
-    let deadline = std::time::Instant::now() + TIMEOUT;
-    while !publisher
-        .matching_status()
-        .wait()
-        .is_ok_and(|s| s.matching())
-    {
-        assert!(
-            std::time::Instant::now() < deadline,
-            "the sessions never matched"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    assert!(
+        common::raw_publisher_matched(&publisher, TIMEOUT),
+        "the sessions never matched"
+    );
 }
 
 fn text(s: &str) -> std_msgs::String {

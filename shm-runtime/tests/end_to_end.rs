@@ -807,16 +807,7 @@ fn callback_subscriber_decodes_borrowed_inside_the_callback() {
 fn lowlatency_refuses_inline_messages_it_cannot_carry() {
     use shm_cdr::loan::InPlace;
     use shm_runtime::{PublishError, Unfragmentable};
-    let (a, b) = session_pair_with(|config| {
-        let mut config = without_implicit_shm_copy(config);
-        config
-            .insert_json5("transport/unicast/qos/enabled", "false")
-            .unwrap();
-        config
-            .insert_json5("transport/unicast/lowlatency", "true")
-            .unwrap();
-        config
-    });
+    let (a, b) = session_pair_with(common::lowlatency);
     let shm = ShmContext::new(ShmConfig::enabled().pool_size(4 << 20)).unwrap();
     let node = RosNode::builder(&a, "lowlatency")
         .domain_id(0)
@@ -898,26 +889,10 @@ fn lowlatency_refuses_inline_messages_it_cannot_carry() {
     // Without the guard: Zenoh accepts the put and the message never arrives.
     let raw = b.declare_subscriber("lowlatency/raw").wait().unwrap();
     let put = a.declare_publisher("lowlatency/raw").wait().unwrap();
-    assert!(raw_publisher_matched(&put));
+    assert!(common::raw_publisher_matched(&put, TIMEOUT));
     put.put(vec![7u8; size]).wait().unwrap();
     assert!(
         raw.recv_timeout(Duration::from_secs(2)).unwrap().is_none(),
         "Zenoh's lowlatency transport carried a {size}-byte inline message: the guard may be relaxed"
     );
-}
-
-/// Whether a raw Zenoh publisher matched a subscriber within [`TIMEOUT`].
-fn raw_publisher_matched(publisher: &zenoh::pubsub::Publisher<'_>) -> bool {
-    let deadline = std::time::Instant::now() + TIMEOUT;
-    while std::time::Instant::now() < deadline {
-        if publisher
-            .matching_status()
-            .wait()
-            .is_ok_and(|s| s.matching())
-        {
-            return true;
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    false
 }

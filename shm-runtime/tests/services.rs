@@ -562,17 +562,11 @@ fn the_graph_lists_nodes_topics_services_and_endpoints_with_qos_and_gids() {
 /// send its response tells the client why. Small calls go through.
 #[test]
 fn lowlatency_refuses_requests_and_responses_it_cannot_carry() {
-    use common::without_implicit_shm_copy;
     let port = common::free_port();
     let open = |listen| {
-        let mut config = without_implicit_shm_copy(peer_config(port, listen));
-        config
-            .insert_json5("transport/unicast/qos/enabled", "false")
-            .unwrap();
-        config
-            .insert_json5("transport/unicast/lowlatency", "true")
-            .unwrap();
-        zenoh::open(config).wait().unwrap()
+        zenoh::open(common::lowlatency(peer_config(port, listen)))
+            .wait()
+            .unwrap()
     };
     let (a, b) = (open(true), open(false));
     let _server = node(&a, "parameters")

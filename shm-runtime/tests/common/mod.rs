@@ -70,3 +70,38 @@ pub fn node(session: &zenoh::Session, name: &str) -> shm_runtime::RosNode {
         .wait()
         .unwrap()
 }
+
+/// `config` with Zenoh's lowlatency transport on (it needs QoS off), and its
+/// implicit SHM copy off: what goes outside shared memory is exactly ours.
+#[allow(dead_code)] // not every test binary uses it
+pub fn lowlatency(config: Config) -> Config {
+    let mut config = without_implicit_shm_copy(config);
+    config
+        .insert_json5("transport/unicast/qos/enabled", "false")
+        .unwrap();
+    config
+        .insert_json5("transport/unicast/lowlatency", "true")
+        .unwrap();
+    config
+}
+
+/// Whether a plain Zenoh publisher matched a subscriber within `timeout`.
+#[allow(dead_code)] // not every test binary uses it
+pub fn raw_publisher_matched(
+    publisher: &zenoh::pubsub::Publisher<'_>,
+    timeout: std::time::Duration,
+) -> bool {
+    use zenoh::Wait;
+    let deadline = std::time::Instant::now() + timeout;
+    while !publisher
+        .matching_status()
+        .wait()
+        .is_ok_and(|s| s.matching())
+    {
+        if std::time::Instant::now() >= deadline {
+            return false;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    true
+}
