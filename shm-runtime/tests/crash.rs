@@ -295,9 +295,10 @@ fn stop_child(port: u16) -> ! {
         let i = msg.header.stamp.nanosec;
         assert!(i >= next, "out of order: {i} after {next}");
         if let Some(at) = msg.data.iter().position(|&b| b != i as u8) {
-            // Zenoh 1.10.2 under this stop: the tail of a message that went out
-            // just before Zenoh closed the transport is replaced by the start of
-            // the next network message (its header and encoding string).
+            // Zenoh 1.10.2 under this stop: the close cuts the write of one
+            // batch short, then writes the next batches to the same stream, so
+            // the last message of the cut batch ends with the next batch's
+            // first bytes (`examples/examples/zenoh_close_corruption.rs`).
             corrupted += 1;
             eprintln!(
                 "message {i}: wrong bytes from data[{at}] of {}",
@@ -327,9 +328,11 @@ fn stop_child(port: u16) -> ! {
 /// had in flight, every `publish` having returned `Ok`; the subscriber's
 /// `missed()` must count exactly the messages that never arrived (found from
 /// the gaps in the publisher's sequence numbers), and what arrives is in order.
-/// Messages that arrive with wrong bytes (a Zenoh 1.10.2 defect around the
-/// transport close, which no layer above Zenoh can see) are counted and reported,
-/// not failed on: see the README's "Delivery" section.
+/// Messages that arrive with wrong bytes (a Zenoh 1.10.2 defect in the
+/// transport close, reproduced without our code by
+/// `examples/examples/zenoh_close_corruption.rs`; no layer above Zenoh can see
+/// it) are counted and reported, not failed on: see the README's "Shared memory
+/// over Zenoh" section.
 #[test]
 fn stopped_subscriber_process_is_told_of_every_lost_message() {
     if let Ok(port) = std::env::var(STOP_ENV) {
