@@ -1,8 +1,8 @@
 //! What zenoh-ext's recovery costs per message: a plain reliable Zenoh
 //! publisher and subscriber against an `AdvancedPublisher` with a sample cache
 //! and sample-miss detection (heartbeats) and an `AdvancedSubscriber` with
-//! recovery, which is how rmw_zenoh_cpp builds reliable transient-local topics
-//! and what issue 11 asks about for every reliable publisher.
+//! recovery: how rmw_zenoh_cpp builds reliable transient-local topics, and what
+//! recovering lost messages for every reliable publisher would cost.
 //!
 //! Two peer sessions in this process over TCP loopback, one message in flight,
 //! the two pairs interleaved round by round so both see the same machine. Each
