@@ -85,6 +85,20 @@ struct Pair {
 }
 
 impl Pair {
+    fn new(
+        put: Box<dyn Fn(ZBytes)>,
+        received: mpsc::Receiver<Sample>,
+        subscriber: Box<dyn std::any::Any>,
+    ) -> Pair {
+        Pair {
+            put,
+            received,
+            _subscriber: subscriber,
+            round: Vec::new(),
+            put_only: Vec::new(),
+        }
+    }
+
     fn measure(&mut self, payload: ZBytes) {
         let t = Instant::now();
         (self.put)(payload);
@@ -143,20 +157,16 @@ fn main() {
     }
     std::thread::sleep(Duration::from_millis(300));
 
-    let mut plain = Pair {
-        put: Box::new(move |p| plain_pub.put(p).wait().expect("put")),
-        received: plain_rx,
-        _subscriber: Box::new(plain_sub),
-        round: Vec::new(),
-        put_only: Vec::new(),
-    };
-    let mut advanced = Pair {
-        put: Box::new(move |p| adv_pub.put(p).wait().expect("put")),
-        received: adv_rx,
-        _subscriber: Box::new(adv_sub),
-        round: Vec::new(),
-        put_only: Vec::new(),
-    };
+    let mut plain = Pair::new(
+        Box::new(move |p| plain_pub.put(p).wait().expect("put")),
+        plain_rx,
+        Box::new(plain_sub),
+    );
+    let mut advanced = Pair::new(
+        Box::new(move |p| adv_pub.put(p).wait().expect("put")),
+        adv_rx,
+        Box::new(adv_sub),
+    );
 
     println!(
         "plain reliable publisher/subscriber against zenoh-ext's (cache {CACHE}, \
@@ -169,10 +179,6 @@ fn main() {
     println!("|---|---|---|---|---|---|");
     for (bytes, label) in SIZES {
         let data = vec![0x5au8; bytes];
-        for pair in [&mut plain, &mut advanced] {
-            pair.round.clear();
-            pair.put_only.clear();
-        }
         // Warm-up rounds, not kept.
         for _ in 0..50 {
             plain.measure(ZBytes::from(data.clone()));
