@@ -154,6 +154,8 @@ pub struct PublisherBuilder<'a, T> {
     pub(crate) rmw: Option<RmwPublisher>,
     pub(crate) congestion_control: Option<CongestionControl>,
     pub(crate) qos: Qos,
+    /// How many published messages to keep for subscribers that missed them.
+    pub(crate) recovery: Option<usize>,
     /// A name that failed to resolve (node publishers): reported by `build`.
     pub(crate) invalid: Option<crate::names::NameError>,
     pub(crate) message: PhantomData<fn(&T)>,
@@ -168,6 +170,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             rmw: None,
             congestion_control: None,
             qos: Qos::default(),
+            recovery: None,
             invalid: None,
             message: PhantomData,
         }
@@ -178,8 +181,8 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
     /// queue stays full for Zenoh's `wait_before_close`, 5 s, Zenoh closes that
     /// transport and what it held is lost, which subscribers count in
     /// [`RosSubscriber::missed`](crate::RosSubscriber::missed)) or `Drop`
-    /// (Zenoh's own default and best-effort publishers', for data where only the
-    /// latest matters).
+    /// (Zenoh's own default, and that of best-effort publishers and of those
+    /// with [`recovery`](Self::recovery), which repair drops from their cache).
     pub fn congestion_control(mut self, congestion_control: CongestionControl) -> Self {
         self.congestion_control = Some(congestion_control);
         self
@@ -195,6 +198,34 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
     /// [`RosNode::declare_publisher_with_qos`](crate::RosNode::declare_publisher_with_qos).
     pub fn qos(mut self, qos: Qos) -> Self {
         self.qos = qos;
+        self
+    }
+
+    /// Keep the last `depth` published messages, so that subscribers declared
+    /// with [`SubscriberBuilder::recovery`](crate::SubscriberBuilder::recovery)
+    /// get back, in order, those that never reached them: a stalled reader, a
+    /// connection Zenoh closed and re-opened. Subscribers learn of a miss from
+    /// the next message's sequence number, or from the heartbeat this
+    /// publisher then sends every 500 ms, and ask this cache for it; only what
+    /// has left the cache (more than `depth` newer messages) is lost, and
+    /// counted in [`RosSubscriber::missed`](crate::RosSubscriber::missed).
+    ///
+    /// With recovery, a reliable publisher *drops* when Zenoh's transmit queue
+    /// is full (congestion control `Drop`, unless
+    /// [`congestion_control`](Self::congestion_control) says otherwise), as a
+    /// DDS keep-last writer does: a dropped message is repaired from the cache
+    /// once the reader reads again, whereas `Block` waiting past Zenoh's
+    /// `wait_before_close` (5 s) closes the whole transport, and Zenoh 1.10.2
+    /// can corrupt a message in that close (see the README). `publish` never
+    /// waits on a stalled reader.
+    ///
+    /// The cost is memory: the cache holds `depth` payloads, and for shared
+    /// memory their chunks, out of the pool (publishes fall back to the heap
+    /// when the pool runs short); size the pool for `depth` messages more. In
+    /// time, about 1–6% on put → received (`recovery_cost` bench). A `depth`
+    /// of 0 is refused when the builder resolves.
+    pub fn recovery(mut self, depth: usize) -> Self {
+        self.recovery = Some(depth);
         self
     }
 
@@ -225,7 +256,18 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
         let encoding = crate::queue::type_encoding::<T>();
         let inline_limit =
             InlineLimit::of(self.session, &self.key_expr, encoding.to_string().len());
+        if self.recovery == Some(0) {
+            return Err(format!(
+                "publisher on {}: recovery depth 0 keeps nothing; give at least 1",
+                self.key_expr
+            )
+            .into());
+        }
         let (reliability, congestion_control) = match self.qos.reliability {
+            // Keep-last with a cache to repair from: drop rather than block.
+            Reliability::Reliable if self.recovery.is_some() => {
+                (ZenohReliability::Reliable, CongestionControl::Drop)
+            }
             Reliability::Reliable => (ZenohReliability::Reliable, CongestionControl::Block),
             Reliability::BestEffort => (ZenohReliability::BestEffort, CongestionControl::Drop),
         };
@@ -235,30 +277,38 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             .reliability(reliability)
             .congestion_control(self.congestion_control.unwrap_or(congestion_control))
             .encoding(encoding);
-        let publisher = match (self.qos.durability, self.qos.history) {
-            (Durability::Volatile, _) => ZenohPublisher::Plain(builder.wait()?),
-            (Durability::TransientLocal, history) => {
-                let depth = match history {
-                    History::KeepLast(depth) => depth.max(1),
-                    // rmw_zenoh_cpp passes the profile's depth, whatever the kind.
-                    History::KeepAll => usize::MAX,
-                };
+        let transient_local = match (self.qos.durability, self.qos.history) {
+            (Durability::Volatile, _) => None,
+            (Durability::TransientLocal, History::KeepLast(depth)) => Some(depth.max(1)),
+            // rmw_zenoh_cpp passes the profile's depth, whatever the kind.
+            (Durability::TransientLocal, History::KeepAll) => Some(usize::MAX),
+        };
+        let publisher = match transient_local.max(self.recovery) {
+            None => ZenohPublisher::Plain(builder.wait()?),
+            Some(depth) => {
                 // Sequence numbers always (zenoh-ext would otherwise need
-                // timestamping on the session for a cache); heartbeats when
-                // reliable, so subscribers recover what they missed.
-                let miss_detection = match self.qos.reliability {
-                    Reliability::Reliable => {
-                        MissDetectionConfig::default().sporadic_heartbeat(HEARTBEAT_PERIOD)
-                    }
-                    Reliability::BestEffort => MissDetectionConfig::default(),
+                // timestamping on the session for a cache). Heartbeats tell
+                // subscribers what they missed: rmw_zenoh_cpp's sporadic ones
+                // (only after a publish) for reliable transient local, but
+                // zenoh-ext sends those with `Block`, which on a stalled
+                // connection would close the transport that recovery keeps
+                // open; periodic ones go with `Drop`.
+                let miss_detection = if self.recovery.is_some() {
+                    MissDetectionConfig::default().heartbeat(HEARTBEAT_PERIOD)
+                } else if self.qos.reliability == Reliability::Reliable {
+                    MissDetectionConfig::default().sporadic_heartbeat(HEARTBEAT_PERIOD)
+                } else {
+                    MissDetectionConfig::default()
                 };
-                ZenohPublisher::Advanced(
+                let builder = builder
+                    .cache(CacheConfig::default().max_samples(depth))
+                    .sample_miss_detection(miss_detection);
+                let builder = if transient_local.is_some() {
+                    builder.publisher_detection()
+                } else {
                     builder
-                        .cache(CacheConfig::default().max_samples(depth))
-                        .sample_miss_detection(miss_detection)
-                        .publisher_detection()
-                        .wait()?,
-                )
+                };
+                ZenohPublisher::Advanced(builder.wait()?)
             }
         };
         let rmw = match self.rmw {
@@ -314,10 +364,12 @@ fn session_has_shm(session: &Session) -> bool {
         .unwrap_or(true)
 }
 
-/// Heartbeat period of reliable transient-local publishers (rmw_zenoh_cpp's).
+/// Heartbeat period of reliable transient-local publishers (rmw_zenoh_cpp's)
+/// and of publishers with recovery.
 const HEARTBEAT_PERIOD: std::time::Duration = std::time::Duration::from_millis(500);
 
-/// A plain Zenoh publisher, or zenoh-ext's advanced one (transient local).
+/// A plain Zenoh publisher, or zenoh-ext's advanced one (transient local,
+/// recovery).
 pub(crate) enum ZenohPublisher {
     Plain(zenoh::pubsub::Publisher<'static>),
     Advanced(AdvancedPublisher<'static>),

@@ -36,6 +36,8 @@ pub struct SubscriberBuilder<'a, T> {
     pub(crate) liveliness: Option<String>,
     pub(crate) history: History,
     pub(crate) qos: Qos,
+    /// Ask publishers declared with recovery for what never arrived.
+    pub(crate) recovery: bool,
     /// A name that failed to resolve (node subscribers): reported by `build`.
     pub(crate) invalid: Option<crate::names::NameError>,
     pub(crate) message: PhantomData<fn() -> T>,
@@ -49,6 +51,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
             liveliness: None,
             history: History::KeepAll,
             qos: Qos::default(),
+            recovery: false,
             invalid: None,
             message: PhantomData,
         }
@@ -74,38 +77,63 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         self
     }
 
-    /// Declare the Zenoh subscriber `qos` asks for, calling `callback`.
+    /// Get back, in order, the messages that never arrived from publishers
+    /// declared with [`PublisherBuilder::recovery`](crate::PublisherBuilder::recovery):
+    /// a gap in a publisher's sequence numbers, or its heartbeat (every
+    /// 500 ms) naming a message this subscriber has not seen, makes it ask that
+    /// publisher's cache for the missing ones, and the messages after a gap
+    /// wait until they are back. What the cache no longer holds (or what does
+    /// not come back within 10 s) is given up and counted in
+    /// [`RosSubscriber::missed`]. Samples of other publishers (without
+    /// recovery, rmw_zenoh_cpp's, plain Zenoh) are taken as they come.
+    ///
+    /// This is a zenoh-ext `AdvancedSubscriber` with heartbeat recovery, as
+    /// transient-local reliable subscribers already are.
+    pub fn recovery(mut self) -> Self {
+        self.recovery = true;
+        self
+    }
+
+    /// Declare the Zenoh subscriber `qos` and `recovery` ask for, calling
+    /// `callback`.
     fn declare(
-        session: &Session,
-        key_expr: String,
-        qos: Qos,
+        &self,
         callback: impl Fn(Sample) + Send + Sync + 'static,
     ) -> zenoh::Result<ZenohSubscriber> {
-        let builder = session.declare_subscriber(key_expr).callback(callback);
-        Ok(match qos.durability {
-            Durability::Volatile => ZenohSubscriber::Plain(builder.wait()?),
-            Durability::TransientLocal => {
-                let depth = match qos.history {
-                    RmwHistory::KeepLast(depth) => depth.max(1),
-                    RmwHistory::KeepAll => usize::MAX,
-                };
-                let builder = builder
-                    .history(
-                        HistoryConfig::default()
-                            .detect_late_publishers()
-                            .max_samples(depth),
-                    )
-                    .subscriber_detection()
-                    .query_timeout(crate::service::NO_TIMEOUT);
-                let builder = match qos.reliability {
-                    Reliability::Reliable => {
-                        builder.recovery(RecoveryConfig::default().heartbeat())
-                    }
-                    Reliability::BestEffort => builder,
-                };
-                ZenohSubscriber::Advanced(builder.wait()?)
-            }
-        })
+        let qos = self.qos;
+        let builder = self
+            .session
+            .declare_subscriber(self.key_expr.clone())
+            .callback(callback);
+        let transient_local = qos.durability == Durability::TransientLocal;
+        let recovery =
+            self.recovery || (transient_local && qos.reliability == Reliability::Reliable);
+        if !transient_local && !recovery {
+            return Ok(ZenohSubscriber::Plain(builder.wait()?));
+        }
+        let builder = builder.advanced();
+        let builder = if transient_local {
+            let depth = match qos.history {
+                RmwHistory::KeepLast(depth) => depth.max(1),
+                RmwHistory::KeepAll => usize::MAX,
+            };
+            builder
+                .history(
+                    HistoryConfig::default()
+                        .detect_late_publishers()
+                        .max_samples(depth),
+                )
+                .subscriber_detection()
+                .query_timeout(crate::service::NO_TIMEOUT)
+        } else {
+            builder.query_timeout(RECOVERY_QUERY_TIMEOUT)
+        };
+        let builder = if recovery {
+            builder.recovery(RecoveryConfig::default().heartbeat())
+        } else {
+            builder
+        };
+        Ok(ZenohSubscriber::Advanced(builder.wait()?))
     }
 
     fn declare_token(&self) -> zenoh::Result<Option<LivelinessToken>> {
@@ -146,9 +174,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         let lost = queue.lost.clone();
         let missed = queue.missed.clone();
         let wrong_type = queue.type_check.rejected.clone();
-        let subscriber = Self::declare(self.session, self.key_expr, self.qos, move |sample| {
-            queue.push(sample)
-        })?;
+        let subscriber = self.declare(move |sample| queue.push(sample))?;
         let publishers = self.liveliness.as_deref().and_then(|token| {
             let key = counterpart_tokens_key_expr(token, EntityKind::Publisher)?;
             Some((self.session.clone(), key))
@@ -184,7 +210,13 @@ impl<T: RosMessage> IntoFuture for SubscriberBuilder<'_, T> {
     }
 }
 
-/// A plain Zenoh subscriber, or zenoh-ext's advanced one (transient local).
+/// How long a recovering subscriber waits for a publisher's cache to answer
+/// before it gives the missing messages up (zenoh-ext's default, stated here
+/// because [`SubscriberBuilder::recovery`] documents it).
+const RECOVERY_QUERY_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// A plain Zenoh subscriber, or zenoh-ext's advanced one (transient local,
+/// recovery).
 enum ZenohSubscriber {
     Plain(zenoh::pubsub::Subscriber<()>),
     Advanced(AdvancedSubscriber<()>),
@@ -218,16 +250,11 @@ impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> CallbackSubscriber
         let token = self.inner.declare_token()?;
         let callback = self.callback;
         let type_check = TypeCheck::new::<T>(&self.inner.key_expr);
-        let subscriber = SubscriberBuilder::<T>::declare(
-            self.inner.session,
-            self.inner.key_expr,
-            self.inner.qos,
-            move |sample| {
-                if type_check.accepts(&sample) {
-                    callback(RosSample::new(sample))
-                }
-            },
-        )?;
+        let subscriber = self.inner.declare(move |sample| {
+            if type_check.accepts(&sample) {
+                callback(RosSample::new(sample))
+            }
+        })?;
         Ok(CallbackSubscriber {
             _subscriber: subscriber,
             _token: token,

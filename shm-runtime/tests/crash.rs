@@ -8,13 +8,14 @@
 //! (or `STOP_CHILD_PORT`) set: it connects, receives, and reports on stdout.
 
 use std::io::{BufRead, BufReader, Write};
+use std::num::NonZeroUsize;
 use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use shm_cdr::msgs::sensor_msgs::Image;
 use shm_cdr::msgs::std_msgs::Header;
-use shm_runtime::{PayloadKind, SessionExt, ShmConfig, ShmContext};
+use shm_runtime::{History, PayloadKind, SessionExt, ShmConfig, ShmContext};
 use zenoh::Wait;
 
 mod common;
@@ -237,11 +238,15 @@ fn killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed() {
 
 const STOP_ENV: &str = "STOP_CHILD_PORT";
 const STOP_TEST: &str = "stopped_subscriber_process_is_told_of_every_lost_message";
+const RECOVERY_ENV: &str = "RECOVERY_CHILD_PORT";
+const RECOVERY_TEST: &str = "stopped_subscriber_process_with_recovery_gets_every_message";
 /// Published while the subscriber process is stopped.
 const DURING_STOP: u32 = 1000;
 /// The child is done once it has this message (or a later one): well past the
 /// stop, over the re-established connection.
 const DONE_AT: u32 = DURING_STOP + 300;
+/// The publisher's cache under recovery: everything up to `DONE_AT` and more.
+const RECOVERY_DEPTH: usize = 2000;
 
 /// 32 KiB on the heap: the stopped reader's connection fills (shared-memory
 /// messages are small descriptors, and 1000 of them fit in the socket buffers),
@@ -255,17 +260,91 @@ fn stop_image(i: u32) -> Image {
     msg
 }
 
+/// What the stopped subscriber process saw.
+#[derive(Debug)]
+struct StopReport {
+    received: u64,
+    skipped: u64,
+    missed: u64,
+    last: u64,
+    /// Arrived with wrong bytes.
+    corrupted: u64,
+    /// Of those, how many did not even decode (their number unknown: counted
+    /// as skipped by the gap they leave).
+    undecodable: u64,
+    /// `missed()` of a plain subscriber beside the tested one in the same
+    /// session: what the connection itself lost.
+    witness_missed: u64,
+}
+
+impl StopReport {
+    const FIELDS: [&'static str; 7] = [
+        "received",
+        "skipped",
+        "missed",
+        "last",
+        "corrupted",
+        "undecodable",
+        "witness_missed",
+    ];
+
+    fn line(&self) -> String {
+        let values = [
+            self.received,
+            self.skipped,
+            self.missed,
+            self.last,
+            self.corrupted,
+            self.undecodable,
+            self.witness_missed,
+        ];
+        let fields: Vec<String> = Self::FIELDS
+            .iter()
+            .zip(values)
+            .map(|(name, value)| format!("{name} {value}"))
+            .collect();
+        format!("done {}", fields.join(" "))
+    }
+
+    fn parse(line: &str) -> Self {
+        let numbers: Vec<u64> = line
+            .split_whitespace()
+            .filter_map(|w| w.parse().ok())
+            .collect();
+        let [received, skipped, missed, last, corrupted, undecodable, witness_missed] =
+            numbers[..]
+        else {
+            panic!("bad report {line}");
+        };
+        Self {
+            received,
+            skipped,
+            missed,
+            last,
+            corrupted,
+            undecodable,
+            witness_missed,
+        }
+    }
+}
+
 /// The stopped subscriber: checks order and bytes, and reports how many it got,
 /// how many it saw skipped, and how many `missed()` counted. Both sides turn off
 /// Zenoh's implicit SHM copy: with it on, Zenoh moves these 32 KiB heap messages
 /// into its own pool, whose unsafe garbage collection reclaims chunks the stopped
 /// process still holds (2 of 8 runs under load delivered wrong bytes).
-fn stop_child(port: u16) -> ! {
+fn stop_child(port: u16, recovery: bool) -> ! {
     let session = zenoh::open(without_implicit_shm_copy(peer_config(port, false)))
         .wait()
         .unwrap();
-    let subscriber = session
+    let builder = session.declare_ros_subscriber::<Image>("crash/stopped");
+    let subscriber = if recovery { builder.recovery() } else { builder }
+        .wait()
+        .unwrap();
+    // Sees only what the connection delivers (no recovery), keeps nothing.
+    let witness = session
         .declare_ros_subscriber::<Image>("crash/stopped")
+        .history(History::KeepLast(NonZeroUsize::MIN))
         .wait()
         .unwrap();
     std::thread::spawn(|| {
@@ -275,10 +354,16 @@ fn stop_child(port: u16) -> ! {
     let mut out = std::io::stdout();
     writeln!(out, "\n{TAG}ready").unwrap();
     out.flush().unwrap();
-    let (mut received, mut next, mut skipped) = (0u32, 0u32, 0u32);
-    // Arrived with wrong bytes; of those, how many did not even decode (their
-    // number unknown: counted as skipped by the gap they leave).
-    let (mut corrupted, mut undecodable) = (0u32, 0u32);
+    let mut report = StopReport {
+        received: 0,
+        skipped: 0,
+        missed: 0,
+        last: 0,
+        corrupted: 0,
+        undecodable: 0,
+        witness_missed: 0,
+    };
+    let mut next = 0u32;
     while next <= DONE_AT {
         let Some(sample) = subscriber.recv_timeout(TIMEOUT).unwrap() else {
             break;
@@ -286,8 +371,8 @@ fn stop_child(port: u16) -> ! {
         let msg: Image = match sample.decode() {
             Ok(msg) => msg,
             Err(e) => {
-                corrupted += 1;
-                undecodable += 1;
+                report.corrupted += 1;
+                report.undecodable += 1;
                 eprintln!("a message after {next} does not decode: {e}");
                 continue;
             }
@@ -295,59 +380,48 @@ fn stop_child(port: u16) -> ! {
         let i = msg.header.stamp.nanosec;
         assert!(i >= next, "out of order: {i} after {next}");
         if let Some(at) = msg.data.iter().position(|&b| b != i as u8) {
-            // Zenoh 1.10.2 under this stop: the close cuts the write of one
-            // batch short, then writes the next batches to the same stream, so
-            // the last message of the cut batch ends with the next batch's
-            // first bytes (`examples/examples/zenoh_close_corruption.rs`).
-            corrupted += 1;
+            // Zenoh 1.10.2 when it closes this stopped connection: the close
+            // cuts the write of one batch short, then writes the next batches
+            // to the same stream, so the last message of the cut batch ends
+            // with the next batch's first bytes
+            // (`examples/examples/zenoh_close_corruption.rs`).
+            report.corrupted += 1;
             eprintln!(
                 "message {i}: wrong bytes from data[{at}] of {}",
                 msg.data.len()
             );
         }
-        skipped += i - next;
-        received += 1;
+        report.skipped += u64::from(i - next);
+        report.received += 1;
         next = i + 1;
     }
-    writeln!(
-        out,
-        "{TAG}done received {received} skipped {skipped} missed {} last {} corrupted {corrupted} undecodable {undecodable}",
-        subscriber.missed(),
-        next.saturating_sub(1)
-    )
-    .unwrap();
+    report.missed = subscriber.missed();
+    report.last = u64::from(next.saturating_sub(1));
+    report.witness_missed = witness.missed();
+    writeln!(out, "{TAG}{}", report.line()).unwrap();
     out.flush().unwrap();
     loop {
         std::thread::sleep(Duration::from_secs(60));
     }
 }
 
-/// A subscriber *process* frozen with SIGSTOP for 7 s (past Zenoh's 5 s
-/// `wait_before_close`) while 1000 × 32 KiB are published, then SIGCONTed while
-/// publishing goes on. Zenoh closes the congested transport and drops what it
-/// had in flight, every `publish` having returned `Ok`; the subscriber's
-/// `missed()` must count exactly the messages that never arrived (found from
-/// the gaps in the publisher's sequence numbers), and what arrives is in order.
-/// Messages that arrive with wrong bytes (a Zenoh 1.10.2 defect in the
-/// transport close, reproduced without our code by
-/// `examples/examples/zenoh_close_corruption.rs`; no layer above Zenoh can see
-/// it) are counted and reported, not failed on: see the README's "Shared memory
-/// over Zenoh" section.
-#[test]
-fn stopped_subscriber_process_is_told_of_every_lost_message() {
-    if let Ok(port) = std::env::var(STOP_ENV) {
-        stop_child(port.parse().unwrap());
-    }
+/// Publish 100 × 32 KiB, SIGSTOP the subscriber process (this binary
+/// re-executed as `test` through `env`), publish up to `DURING_STOP`, SIGCONT
+/// it after `stopped`, and keep publishing until it reports.
+fn stop_subscriber_process(test: &str, env: &str, recovery: Option<usize>) -> StopReport {
     let stopped = Duration::from_secs(7);
     let port = free_port();
     let session = zenoh::open(without_implicit_shm_copy(peer_config(port, true)))
         .wait()
         .unwrap();
-    let publisher = session
-        .declare_ros_publisher::<Image>("crash/stopped")
-        .wait()
-        .unwrap();
-    let (process, lines) = spawn_child(STOP_TEST, STOP_ENV, port);
+    let builder = session.declare_ros_publisher::<Image>("crash/stopped");
+    let publisher = match recovery {
+        Some(depth) => builder.recovery(depth),
+        None => builder,
+    }
+    .wait()
+    .unwrap();
+    let (process, lines) = spawn_child(test, env, port);
     assert_eq!(lines.recv_timeout(TIMEOUT).as_deref(), Ok("ready"));
     assert!(publisher.wait_for_subscribers(TIMEOUT));
     std::thread::sleep(Duration::from_millis(500));
@@ -373,12 +447,13 @@ fn stopped_subscriber_process_is_told_of_every_lost_message() {
     }
     std::thread::sleep(stopped.saturating_sub(stopped_at.elapsed()));
     signal("-CONT");
-    // Keep publishing until the child has what it waits for (it reconnects
-    // meanwhile; what goes out before it has is missed too, and counted).
+    // Keep publishing until the child has what it waits for (without
+    // recovery, what goes out before it has reconnected is missed too, and
+    // counted).
     let mut i = DURING_STOP;
-    let report = loop {
-        if let Ok(report) = lines.try_recv() {
-            break report;
+    let line = loop {
+        if let Ok(line) = lines.try_recv() {
+            break line;
         }
         assert!(
             i < DURING_STOP + 20_000,
@@ -388,27 +463,69 @@ fn stopped_subscriber_process_is_told_of_every_lost_message() {
         i += 1;
         std::thread::sleep(Duration::from_millis(2));
     };
-    let numbers: Vec<u64> = report
-        .split_whitespace()
-        .filter_map(|w| w.parse().ok())
-        .collect();
-    let [received, skipped, missed, last, corrupted, undecodable] = numbers[..] else {
-        panic!("bad report {report}");
-    };
-    assert!(last >= u64::from(DONE_AT), "{report}");
-    assert_eq!(received + skipped, last + 1, "{report}");
+    let report = StopReport::parse(&line);
+    assert!(report.last >= u64::from(DONE_AT), "{report:?}");
+    assert_eq!(report.received + report.skipped, report.last + 1, "{report:?}");
+    report
+}
+
+/// A subscriber *process* frozen with SIGSTOP for 7 s (past Zenoh's 5 s
+/// `wait_before_close`) while 1000 × 32 KiB are published, then SIGCONTed while
+/// publishing goes on. Zenoh closes the congested transport and drops what it
+/// had in flight, every `publish` having returned `Ok`; the subscriber's
+/// `missed()` must count exactly the messages that never arrived (found from
+/// the gaps in the publisher's sequence numbers), and what arrives is in order.
+/// Messages that arrive with wrong bytes (a Zenoh 1.10.2 defect in the
+/// transport close, reproduced without our code by
+/// `examples/examples/zenoh_close_corruption.rs`; no layer above Zenoh can see
+/// it) are counted and reported, not failed on: see the README's "Shared memory
+/// over Zenoh" section.
+#[test]
+fn stopped_subscriber_process_is_told_of_every_lost_message() {
+    if let Ok(port) = std::env::var(STOP_ENV) {
+        stop_child(port.parse().unwrap(), false);
+    }
+    let report = stop_subscriber_process(STOP_TEST, STOP_ENV, None);
     assert!(
-        skipped > 0,
-        "nothing was lost: the stop did not congest ({report})"
+        report.skipped > 0,
+        "nothing was lost: the stop did not congest ({report:?})"
     );
     assert_eq!(
-        missed + undecodable,
-        skipped,
-        "every lost message is counted ({report})"
+        report.missed + report.undecodable,
+        report.skipped,
+        "every lost message is counted ({report:?})"
     );
     println!(
-        "stop: subscriber process SIGSTOPped {stopped:?} while 1000 × 32 KiB were published, \
-         then SIGCONTed: {received} received in order ({corrupted} with wrong bytes from Zenoh), \
-         {skipped} never arrived, missed() = {missed}"
+        "stop: subscriber process SIGSTOPped 7s while 1000 × 32 KiB were published, \
+         then SIGCONTed: {} received in order ({} with wrong bytes from Zenoh), \
+         {} never arrived, missed() = {}",
+        report.received, report.corrupted, report.skipped, report.missed
+    );
+}
+
+/// The same stop with recovery on both sides (`PublisherBuilder::recovery`,
+/// `SubscriberBuilder::recovery`): every message arrives, in order and intact,
+/// and nothing is counted missed, while a plain subscriber in the same
+/// process proves the connection did drop messages.
+#[test]
+fn stopped_subscriber_process_with_recovery_gets_every_message() {
+    if let Ok(port) = std::env::var(RECOVERY_ENV) {
+        stop_child(port.parse().unwrap(), true);
+    }
+    let report = stop_subscriber_process(RECOVERY_TEST, RECOVERY_ENV, Some(RECOVERY_DEPTH));
+    assert!(
+        report.witness_missed > 0,
+        "the connection lost nothing: the stop did not congest ({report:?})"
+    );
+    assert_eq!(report.skipped, 0, "{report:?}");
+    assert_eq!(report.missed, 0, "{report:?}");
+    assert_eq!(report.corrupted, 0, "{report:?}");
+    println!(
+        "recovery: subscriber process SIGSTOPped 7s while 1000 × 32 KiB were published, \
+         then SIGCONTed: {} of {} received in order and intact, missed() = 0; the connection \
+         dropped {} (a plain subscriber beside it counted them)",
+        report.received,
+        report.last + 1,
+        report.witness_missed
     );
 }
