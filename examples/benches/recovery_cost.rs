@@ -1,8 +1,8 @@
-//! What zenoh-ext's recovery costs per message: a plain reliable Zenoh
-//! publisher and subscriber against an `AdvancedPublisher` with a sample cache
-//! and sample-miss detection (heartbeats) and an `AdvancedSubscriber` with
-//! recovery: how rmw_zenoh_cpp builds reliable transient-local topics, and what
-//! recovering lost messages for every reliable publisher would cost.
+//! What recovery costs per message: a plain reliable Zenoh publisher
+//! (`Block`) and subscriber against the zenoh-ext pair that shm-runtime's
+//! `PublisherBuilder::recovery` / `SubscriberBuilder::recovery` declare: an
+//! `AdvancedPublisher` with a sample cache, periodic heartbeats and congestion
+//! control `Drop`, and an `AdvancedSubscriber` with heartbeat recovery.
 //!
 //! Two peer sessions in this process over TCP loopback, one message in flight,
 //! the two pairs interleaved round by round so both see the same machine. Each
@@ -31,7 +31,7 @@ const SIZES: [(usize, &str); 4] = [
     (1 << 20, "1 MiB"),
 ];
 const TIMEOUT: Duration = Duration::from_secs(10);
-/// The depth of rmw_zenoh's default profile (keep last 10).
+/// The depth of ROS 2's default profile (keep last 10).
 const CACHE: usize = 10;
 const HEARTBEAT: Duration = Duration::from_millis(500);
 
@@ -139,9 +139,9 @@ fn main() {
     let adv_pub = a
         .declare_publisher("bench/advanced")
         .reliability(Reliability::Reliable)
-        .congestion_control(CongestionControl::Block)
+        .congestion_control(CongestionControl::Drop)
         .cache(CacheConfig::default().max_samples(CACHE))
-        .sample_miss_detection(MissDetectionConfig::default().sporadic_heartbeat(HEARTBEAT))
+        .sample_miss_detection(MissDetectionConfig::default().heartbeat(HEARTBEAT))
         .wait()
         .expect("advanced publisher");
     // Both publishers see their subscriber before the first round.
@@ -169,8 +169,9 @@ fn main() {
     );
 
     println!(
-        "plain reliable publisher/subscriber against zenoh-ext's (cache {CACHE}, \
-         heartbeat {HEARTBEAT:?}, subscriber recovery), TCP loopback, heap payloads; µs"
+        "plain reliable publisher/subscriber (Block) against recovery's zenoh-ext pair \
+         (cache {CACHE}, heartbeat every {HEARTBEAT:?}, Drop, subscriber recovery), \
+         TCP loopback, heap payloads; µs"
     );
     println!();
     println!(
