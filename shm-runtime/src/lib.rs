@@ -5,7 +5,10 @@
 //! shared-memory buffer of exactly that size (at or above the threshold; heap
 //! below it) and encodes straight into it; a [`ShmBytes`] field the application
 //! already wrote into shared memory is spliced in without a copy. Subscribers decode
-//! borrowing from the received buffers.
+//! borrowing from the received buffers. A subscriber counts what never reached
+//! it ([`RosSubscriber::missed`]); with [`PublisherBuilder::recovery`] and
+//! [`SubscriberBuilder::recovery`] it gets those messages back from the
+//! publisher's cache, in order.
 //!
 //! On a [`RosNode`] the same runs with rmw_zenoh_cpp's conventions, so the
 //! program is a ROS 2 participant: topics with QoS (latched topics included),

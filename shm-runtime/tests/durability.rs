@@ -1,6 +1,7 @@
 //! QoS durability between peer sessions over TCP loopback: transient-local
 //! (latched) topics deliver their last `depth` messages to subscribers that join
-//! later, volatile ones do not, with shared-memory payloads kept as they were.
+//! later, volatile ones do not, with shared-memory payloads kept as they were;
+//! recovery (a cache without durability) passes live messages through.
 
 use std::time::Duration;
 
@@ -186,4 +187,42 @@ fn latched_shared_memory_messages_arrive_in_shared_memory() {
         .recv_timeout(Duration::from_millis(500))
         .unwrap()
         .is_none());
+}
+
+/// Recovery on a volatile node topic (`recovery(depth)` / `recovery()`): live
+/// messages pass through zenoh-ext's advanced pair in order, with rmw_zenoh
+/// attachments, nothing counted missed; a depth of 0 is refused with a
+/// sentence that says what to give.
+#[test]
+fn recovery_delivers_live_messages_and_refuses_depth_zero() {
+    let (a, b) = session_pair();
+    settle(&a, &b);
+    let talker = node(&a, "recovering_talker");
+    let refused = talker
+        .declare_publisher::<std_msgs::String>("/recovered")
+        .recovery(0)
+        .wait()
+        .err()
+        .expect("depth 0 refused")
+        .to_string();
+    assert!(refused.contains("recovery depth 0"), "{refused}");
+    let publisher = talker
+        .declare_publisher::<std_msgs::String>("/recovered")
+        .recovery(5)
+        .wait()
+        .unwrap();
+    let listener = node(&b, "recovering_listener");
+    let subscriber = listener
+        .declare_subscriber::<std_msgs::String>("/recovered")
+        .recovery()
+        .wait()
+        .unwrap();
+    assert!(publisher.wait_for_subscribers(TIMEOUT));
+    for i in 1..=10 {
+        publisher.publish(&text(&format!("m{i}"))).wait().unwrap();
+    }
+    let got = drain(&subscriber, Duration::from_secs(2));
+    let expected: Vec<(String, i64)> = (1..=10).map(|i| (format!("m{i}"), i)).collect();
+    assert_eq!(got, expected);
+    assert_eq!(subscriber.missed(), 0);
 }
