@@ -222,7 +222,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
     /// The cost is memory: the cache holds `depth` payloads, and for shared
     /// memory their chunks, out of the pool (publishes fall back to the heap
     /// when the pool runs short); size the pool for `depth` messages more. In
-    /// time, about 1–6% on put → received (`recovery_cost` bench). A `depth`
+    /// time, 0–4% on put → received (`recovery_cost` bench). A `depth`
     /// of 0 is refused when the builder resolves.
     pub fn recovery(mut self, depth: usize) -> Self {
         self.recovery = Some(depth);

@@ -552,7 +552,7 @@ fn stopped_subscriber_process_with_recovery_gets_every_message() {
 /// Stopped for 14 s, past Zenoh's 10 s lease, with recovery: both sides close
 /// the connection and the subscriber process reconnects. Messages come back
 /// from the cache after the reconnect; what does not (a recovery query sent on
-/// the dying connection is given up by zenoh-ext: 4 messages in 1 of 7 runs
+/// the dying connection is given up by zenoh-ext: 4 messages in 1 of 10 runs
 /// while this was written) is counted in `missed()`, and what arrives is in
 /// order. A message with wrong bytes is reported, not failed on, as in the
 /// test without recovery: the lease's close is Zenoh's same close.
