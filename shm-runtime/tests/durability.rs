@@ -198,13 +198,14 @@ fn recovery_delivers_live_messages_and_refuses_depth_zero() {
     let (a, b) = session_pair();
     settle(&a, &b);
     let talker = node(&a, "recovering_talker");
-    let refused = talker
+    let Err(refused) = talker
         .declare_publisher::<std_msgs::String>("/recovered")
         .recovery(0)
         .wait()
-        .err()
-        .expect("depth 0 refused")
-        .to_string();
+    else {
+        panic!("recovery depth 0 was accepted");
+    };
+    let refused = refused.to_string();
     assert!(refused.contains("recovery depth 0"), "{refused}");
     let publisher = talker
         .declare_publisher::<std_msgs::String>("/recovered")
