@@ -206,7 +206,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
     /// get back, in order, those that never reached them: a stalled reader, a
     /// connection Zenoh closed and re-opened. Subscribers learn of a miss from
     /// the next message's sequence number, or from the heartbeat this
-    /// publisher then sends every 500 ms, and ask this cache for it; only what
+    /// publisher sends every 500 ms, and ask this cache for it; only what
     /// has left the cache (more than `depth` newer messages) is lost, and
     /// counted in [`RosSubscriber::missed`](crate::RosSubscriber::missed).
     ///

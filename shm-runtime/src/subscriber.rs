@@ -82,9 +82,9 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
     /// a gap in a publisher's sequence numbers, or its heartbeat (every
     /// 500 ms) naming a message this subscriber has not seen, makes it ask that
     /// publisher's cache for the missing ones, and the messages after a gap
-    /// wait until they are back. What the cache no longer holds (or what does
-    /// not come back within 10 s) is given up and counted in
-    /// [`RosSubscriber::missed`]. Samples of other publishers (without
+    /// wait until they are back. What the cache no longer holds (or, on a
+    /// volatile topic, what does not come back within 10 s) is given up and
+    /// counted in [`RosSubscriber::missed`]. Samples of other publishers (without
     /// recovery, rmw_zenoh_cpp's, plain Zenoh) are taken as they come.
     ///
     /// This is a zenoh-ext `AdvancedSubscriber` with heartbeat recovery, as
