@@ -262,7 +262,7 @@ fn stop_image(i: u32) -> Image {
 }
 
 /// What the stopped subscriber process saw.
-#[derive(Debug)]
+#[derive(Debug, Default)]
 struct StopReport {
     received: u64,
     skipped: u64,
@@ -358,15 +358,7 @@ fn stop_child(port: u16, recovery: bool) -> ! {
     let mut out = std::io::stdout();
     writeln!(out, "\n{TAG}ready").unwrap();
     out.flush().unwrap();
-    let mut report = StopReport {
-        received: 0,
-        skipped: 0,
-        missed: 0,
-        last: 0,
-        corrupted: 0,
-        undecodable: 0,
-        witness_missed: 0,
-    };
+    let mut report = StopReport::default();
     let mut next = 0u32;
     while next <= DONE_AT {
         let Some(sample) = subscriber.recv_timeout(TIMEOUT).unwrap() else {
