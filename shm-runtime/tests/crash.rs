@@ -507,6 +507,17 @@ fn stopped_subscriber_process_is_told_of_every_lost_message() {
     );
 }
 
+/// `stop_subscriber_process` with recovery on both sides; the witness must
+/// have seen the connection drop messages, or the stop proved nothing.
+fn stop_with_recovery(test: &str, stopped: Duration) -> StopReport {
+    let report = stop_subscriber_process(test, RECOVERY_ENV, stopped, Some(RECOVERY_DEPTH));
+    assert!(
+        report.witness_missed > 0,
+        "the connection lost nothing: the stop did not congest ({report:?})"
+    );
+    report
+}
+
 /// The same stop with recovery on both sides (`PublisherBuilder::recovery`,
 /// `SubscriberBuilder::recovery`): every message arrives, in order and intact,
 /// and nothing is counted missed, while a plain subscriber in the same
@@ -518,16 +529,7 @@ fn stopped_subscriber_process_with_recovery_gets_every_message() {
     if let Ok(port) = std::env::var(RECOVERY_ENV) {
         stop_child(port.parse().unwrap(), true);
     }
-    let report = stop_subscriber_process(
-        RECOVERY_TEST,
-        RECOVERY_ENV,
-        Duration::from_secs(7),
-        Some(RECOVERY_DEPTH),
-    );
-    assert!(
-        report.witness_missed > 0,
-        "the connection lost nothing: the stop did not congest ({report:?})"
-    );
+    let report = stop_with_recovery(RECOVERY_TEST, Duration::from_secs(7));
     assert_eq!(report.skipped, 0, "{report:?}");
     assert_eq!(report.missed, 0, "{report:?}");
     assert_eq!(report.corrupted, 0, "{report:?}");
@@ -553,16 +555,7 @@ fn subscriber_process_stopped_past_the_lease_with_recovery() {
     if let Ok(port) = std::env::var(RECOVERY_ENV) {
         stop_child(port.parse().unwrap(), true);
     }
-    let report = stop_subscriber_process(
-        PAST_LEASE_TEST,
-        RECOVERY_ENV,
-        Duration::from_secs(14),
-        Some(RECOVERY_DEPTH),
-    );
-    assert!(
-        report.witness_missed > 0,
-        "the connection lost nothing: the stop did not congest ({report:?})"
-    );
+    let report = stop_with_recovery(PAST_LEASE_TEST, Duration::from_secs(14));
     assert_eq!(
         report.missed + report.undecodable,
         report.skipped,
