@@ -17,38 +17,54 @@ use shm_cdr::describe::{FieldType, OctetType, TypeId};
 use shm_cdr::loan::{Carver, InPlace, LoanError, Uninit};
 use shm_cdr::{ByteOrder, CdrDecode, CdrEncode, DecodeError, EncodeError, Reader, RosType, Writer};
 use zenoh::bytes::ZBytes;
-use zenoh::shm::{ZShm, ZShmMut};
+use zenoh::shm::{zshm, ZShm, ZShmMut};
 
 use crate::payload::{EncodedPayload, PayloadKind};
 
 /// Bytes of a `uint8[]` field, in shared memory (published without a copy) or on
-/// the heap (e.g. after decoding).
+/// the heap (e.g. after decoding). Build it with `From`: a [`ZShmMut`] or [`ZShm`]
+/// the application wrote, or a `Vec<u8>` / [`bytes::Bytes`].
+#[derive(Clone, Debug, Default)]
+pub struct ShmBytes(Repr);
+
 #[derive(Clone, Debug)]
-pub enum ShmBytes {
-    /// A shared-memory block written by the application.
-    Shm(ZShm),
+enum Repr {
+    /// A shared-memory block written by the application, held as a one-slice
+    /// [`ZBytes`]: splicing it into a payload clones an `Arc`, where cloning the
+    /// `ZShm` itself would take a reference in the shared segment and go through
+    /// Zenoh's watchdog confirmator (twice per publish, clone and drop).
+    Shm(ZBytes),
     /// Ordinary bytes.
     Heap(bytes::Bytes),
+}
+
+impl Default for Repr {
+    fn default() -> Self {
+        Self::Heap(bytes::Bytes::new())
+    }
 }
 
 impl ShmBytes {
     /// The bytes.
     pub fn as_slice(&self) -> &[u8] {
-        match self {
-            Self::Shm(shm) => shm,
-            Self::Heap(bytes) => bytes,
+        match &self.0 {
+            // One slice by construction (`From<ZShm>`); an empty block has none.
+            Repr::Shm(block) => block.slices().next().unwrap_or_default(),
+            Repr::Heap(bytes) => bytes,
         }
     }
 
     /// Whether the bytes are in shared memory.
     pub fn is_shm(&self) -> bool {
-        matches!(self, Self::Shm(_))
+        matches!(self.0, Repr::Shm(_))
     }
-}
 
-impl Default for ShmBytes {
-    fn default() -> Self {
-        Self::Heap(bytes::Bytes::new())
+    /// The shared-memory block, if the bytes are in one.
+    pub fn as_shm(&self) -> Option<&zshm> {
+        match &self.0 {
+            Repr::Shm(block) => block.as_shm(),
+            Repr::Heap(_) => None,
+        }
     }
 }
 
@@ -67,25 +83,25 @@ impl PartialEq for ShmBytes {
 
 impl From<ZShmMut> for ShmBytes {
     fn from(buffer: ZShmMut) -> Self {
-        Self::Shm(buffer.into())
+        Self(Repr::Shm(ZBytes::from(buffer)))
     }
 }
 
 impl From<ZShm> for ShmBytes {
     fn from(buffer: ZShm) -> Self {
-        Self::Shm(buffer)
+        Self(Repr::Shm(ZBytes::from(buffer)))
     }
 }
 
 impl From<Vec<u8>> for ShmBytes {
     fn from(bytes: Vec<u8>) -> Self {
-        Self::Heap(bytes.into())
+        Self(Repr::Heap(bytes.into()))
     }
 }
 
 impl From<bytes::Bytes> for ShmBytes {
     fn from(bytes: bytes::Bytes) -> Self {
-        Self::Heap(bytes)
+        Self(Repr::Heap(bytes))
     }
 }
 
@@ -97,7 +113,7 @@ struct SpliceScope {
     /// Bytes those fields will not write (`len - len % 8` each).
     skipped: usize,
     /// `(body position of the data, block)`, in stream order, while writing.
-    splices: Vec<(usize, ZShm)>,
+    splices: Vec<(usize, ZBytes)>,
 }
 
 thread_local! {
@@ -130,7 +146,7 @@ impl CdrEncode for ShmBytes {
     fn encoded_end(&self, start: usize) -> usize {
         let data_start = shm_cdr::layout::align_up(start, 4) + 4;
         let len = self.len();
-        if let Self::Shm(_) = self {
+        if self.is_shm() {
             let spliced = in_scope(|scope| {
                 scope.fields += 1;
                 scope.skipped += len - len % 8;
@@ -144,7 +160,7 @@ impl CdrEncode for ShmBytes {
 
     fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
         w.write_len(self.len())?;
-        if let Self::Shm(block) = self {
+        if let Repr::Shm(block) = &self.0 {
             let at = w.position();
             if in_scope(|scope| scope.splices.push((at, block.clone()))).is_some() {
                 // Filler with the data's length modulo 8 keeps later alignment.
@@ -184,7 +200,7 @@ impl<'de> CdrDecode<'de> for ShmBytes {
     const MIN_WIRE_SIZE: usize = 4;
 
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
-        <&[u8]>::decode(r).map(|bytes| Self::Heap(bytes::Bytes::copy_from_slice(bytes)))
+        <&[u8]>::decode(r).map(|bytes| Self(Repr::Heap(bytes::Bytes::copy_from_slice(bytes))))
     }
 }
 
@@ -219,7 +235,7 @@ pub(crate) fn encode_spliced<T: CdrEncode + ?Sized>(msg: &T) -> Result<Splice, E
         let at = shm_cdr::HEADER_LEN + body_pos;
         payload.append(ZBytes::from(metadata.slice(cursor..at)));
         cursor = at + block.len() % 8;
-        payload.append(ZBytes::from(block));
+        payload.append(block);
     }
     payload.append(ZBytes::from(metadata.slice(cursor..written)));
     Ok(Splice::Done(EncodedPayload {
@@ -235,6 +251,7 @@ mod tests {
     use arbitrary::{Arbitrary, Unstructured};
     use shm_cdr::{msgs, RosMessage};
 
+    use super::{encode_spliced, Splice};
     use crate::msgs::{sensor_msgs, std_msgs};
 
     /// Deterministic pseudo-random input for `Arbitrary`.
@@ -283,5 +300,44 @@ mod tests {
         same_as_owned::<msgs::sensor_msgs::PointCloud2, sensor_msgs::PointCloud2Shm>();
         same_as_owned::<msgs::std_msgs::ByteMultiArray, std_msgs::ByteMultiArrayShm>();
         same_as_owned::<msgs::std_msgs::UInt8MultiArray, std_msgs::UInt8MultiArrayShm>();
+    }
+
+    /// A block held by `ShmBytes` is the application's chunk itself: reading,
+    /// cloning and splicing it never copy, and the spliced payload is byte for
+    /// byte the message's CDR.
+    #[test]
+    fn shared_memory_block_is_read_cloned_and_spliced_in_place() {
+        use crate::{ShmConfig, ShmContext};
+
+        let shm = ShmContext::new(ShmConfig::enabled()).expect("pool");
+        let mut block = shm.alloc(1001).expect("chunk");
+        for (i, b) in block.iter_mut().enumerate() {
+            *b = i as u8;
+        }
+        let chunk = block.as_ptr_range();
+        let data = crate::ShmBytes::from(block);
+        assert!(data.is_shm());
+        assert_eq!(data.as_slice().as_ptr_range(), chunk);
+        assert_eq!(data.as_shm().map(|b| b.as_ptr()), Some(chunk.start));
+        assert_eq!(data.clone().as_slice().as_ptr_range(), chunk);
+        assert!(crate::ShmBytes::from(vec![1, 2]).as_shm().is_none());
+
+        let msg = std_msgs::UInt8MultiArrayShm {
+            data: data.clone(),
+            ..Default::default()
+        };
+        let Splice::Done(payload) = encode_spliced(&msg).expect("encodes") else {
+            panic!("a shared-memory field must be spliced");
+        };
+        let slices: Vec<&[u8]> = payload.bytes.slices().collect();
+        // Metadata, then the block (the data is the last field: no tail).
+        assert_eq!(slices.len(), 2);
+        assert_eq!(slices[1].as_ptr_range(), chunk);
+        let owned = msgs::std_msgs::UInt8MultiArray {
+            data: data.to_vec(),
+            ..Default::default()
+        };
+        assert_eq!(slices.concat(), shm_cdr::to_vec(&owned).expect("encodes"));
+        assert_eq!(payload.size, slices.concat().len());
     }
 }

@@ -468,7 +468,7 @@ fn user_managed_shared_memory_field_is_spliced_without_a_copy() {
     }
     let block: zenoh::shm::ZShm = block.into();
     let mut writer_view = block.clone(); // the publisher keeps a handle on the block
-    let msg = cloud_with(ShmBytes::Shm(block), points);
+    let msg = cloud_with(ShmBytes::from(block), points);
 
     // A plain Vec encoding copies the bytes, and is what the wire must carry.
     let expected = shm_cdr::to_vec(&msg).unwrap();

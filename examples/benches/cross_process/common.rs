@@ -41,10 +41,13 @@ pub enum Path {
     HirozAutomatic,
     /// hiroz 0.2.1: data in a `ZShmMut` allocated and filled before the clock; its `recv()`.
     HirozShm,
+    /// The floor in a splice's shape: a raw put of [heap head, pre-filled `ZShmMut`
+    /// data, heap tail]; borrowed slices, no decode.
+    FloorFragments,
 }
 
 impl Path {
-    pub const ALL: [Path; 7] = [
+    pub const ALL: [Path; 8] = [
         Path::Loan,
         Path::Splice,
         Path::Automatic,
@@ -52,6 +55,7 @@ impl Path {
         Path::Floor,
         Path::HirozAutomatic,
         Path::HirozShm,
+        Path::FloorFragments,
     ];
 
     pub fn label(self) -> &'static str {
@@ -63,6 +67,7 @@ impl Path {
             Path::Floor => "floor: pre-filled ZShmMut",
             Path::HirozAutomatic => "hiroz 0.2.1: automatic SHM",
             Path::HirozShm => "hiroz 0.2.1: ZShmMut data",
+            Path::FloorFragments => "floor: 3 fragments (heap, ZShmMut, heap)",
         }
     }
 
@@ -76,6 +81,7 @@ impl Path {
             Path::Floor => "xproc/floor",
             Path::HirozAutomatic => "xproc_hiroz_automatic",
             Path::HirozShm => "xproc_hiroz_shm",
+            Path::FloorFragments => "xproc/floor_fragments",
         }
     }
 

@@ -542,15 +542,19 @@ fn print_summary(all: &[(Setup, Results)]) {
     }
     for setup in ["default", "recommended"] {
         for bytes in [mib, 8 * mib] {
-            if let (Some(splice), Some(floor), Some(loan)) = (
+            if let (Some(splice), Some(floor), Some(fragments), Some(loan)) = (
                 median_of(all, setup, bytes, Path::Splice),
                 median_of(all, setup, bytes, Path::Floor),
+                median_of(all, setup, bytes, Path::FloorFragments),
                 median_of(all, setup, bytes, Path::Loan),
             ) {
                 println!(
-                    "{setup}, {}: splice/floor {:.2}×, loan/floor {:.2}×",
+                    "{setup}, {}: splice/floor {:.2}×, splice/3-fragment floor {:.2}×, \
+                     3-fragment floor/floor {:.2}×, loan/floor {:.2}×",
                     size_name(bytes),
                     splice / floor,
+                    splice / fragments,
+                    fragments / floor,
                     loan / floor
                 );
             }
@@ -612,6 +616,7 @@ fn plot(all: &[(Setup, Results)]) {
         BLACK,
         RGBColor(230, 140, 0),
         RGBColor(120, 60, 0),
+        RGBColor(128, 128, 128),
     ];
     for (path, color) in Path::ALL.into_iter().zip(colors) {
         let series = |results: &Results| -> Vec<(f64, f64)> {

@@ -1,5 +1,5 @@
 //! The publishing and receiving sides of our paths, the hand-written `to_vec` +
-//! `put`, and the raw Zenoh floor.
+//! `put`, and the raw Zenoh floors (one slice, and three fragments).
 
 use std::any::Any;
 use std::sync::Arc;
@@ -10,6 +10,7 @@ use shm_cdr::msgs::sensor_msgs::{PointCloud2, PointCloud2Lens, PointCloud2Ref};
 use shm_cdr::msgs::std_msgs::Header;
 use shm_runtime::msgs::sensor_msgs::PointCloud2Shm;
 use shm_runtime::{Loan, RosPublisher, RosSample, SessionExt, ShmBytes, ShmContext};
+use zenoh::bytes::ZBytes;
 use zenoh::pubsub::Publisher;
 use zenoh::sample::Sample;
 use zenoh::shm::ZShmMut;
@@ -50,6 +51,7 @@ pub struct Publishers {
     automatic: RosPublisher<PointCloud2>,
     to_vec: Publisher<'static>,
     floor: Publisher<'static>,
+    fragments_floor: Publisher<'static>,
 }
 
 impl Publishers {
@@ -70,6 +72,9 @@ impl Publishers {
             // Zenoh's defaults: what a user who serializes by hand gets.
             to_vec: session.declare_publisher(Path::ToVecPut.key()).wait()?,
             floor: session.declare_publisher(Path::Floor.key()).wait()?,
+            fragments_floor: session
+                .declare_publisher(Path::FloorFragments.key())
+                .wait()?,
         })
     }
 
@@ -98,6 +103,11 @@ impl Publishers {
             }),
             Box::new(FloorSender {
                 publisher: &self.floor,
+                shm,
+                ready: None,
+            }),
+            Box::new(FragmentsFloorSender {
+                publisher: &self.fragments_floor,
                 shm,
                 ready: None,
             }),
@@ -243,6 +253,46 @@ impl Sender for FloorSender<'_> {
     }
 }
 
+/// Zenoh's own cost of a spliced payload's shape: a raw put of a heap head as
+/// long as a small cloud's metadata, a pre-filled `ZShmMut` of the data, and a
+/// heap tail, read back as borrowed slices. Against [`FloorSender`] it shows
+/// what three fragments cost in Zenoh; against the splice, what ours adds.
+struct FragmentsFloorSender<'p> {
+    publisher: &'p Publisher<'static>,
+    shm: &'p ShmContext,
+    ready: Option<(Vec<u8>, ZShmMut)>,
+}
+
+/// The fragments floor's head: the sequence number, then [`fill_byte`].
+const FRAGMENTS_HEAD: usize = 160;
+/// The fragments floor's tail (what follows `data` in a PointCloud2).
+const FRAGMENTS_TAIL: usize = 4;
+
+impl Sender for FragmentsFloorSender<'_> {
+    fn path(&self) -> Path {
+        Path::FloorFragments
+    }
+
+    fn prepare(&mut self, bytes: usize, seq: u64) -> zenoh::Result<()> {
+        let mut block = self.shm.alloc(bytes).ok_or("SHM pool exhausted")?;
+        block.fill(fill_byte(seq));
+        let mut head = vec![fill_byte(seq); FRAGMENTS_HEAD];
+        head[..8].copy_from_slice(&seq.to_le_bytes());
+        self.ready = Some((head, block));
+        Ok(())
+    }
+
+    fn send(&mut self) -> zenoh::Result<()> {
+        let (head, block) = self.ready.take().ok_or("fragments floor not prepared")?;
+        let mut payload = ZBytes::writer();
+        payload.append(ZBytes::from(head));
+        payload.append(ZBytes::from(block));
+        payload.append(ZBytes::from(vec![0u8; FRAGMENTS_TAIL]));
+        self.publisher.put(payload.finish()).wait()?;
+        Ok(())
+    }
+}
+
 /// The echo side of our paths, the `to_vec` path and the floor, answering every
 /// message with a [`Pong`]: in Zenoh's thread (`callback`) or in a thread of its
 /// own per path blocking in `recv`. Returns what must stay alive.
@@ -273,6 +323,7 @@ pub fn echo(
     for (path, reply) in [
         (Path::ToVecPut, to_vec_reply as fn(Sample) -> Pong),
         (Path::Floor, floor_reply),
+        (Path::FloorFragments, fragments_floor_reply),
     ] {
         let builder = session.declare_subscriber(path.key());
         let pong = Arc::clone(pong);
@@ -345,6 +396,29 @@ fn floor_reply(sample: Sample) -> Pong {
             at_ns,
         },
         None => failed(Path::Floor),
+    }
+}
+
+/// The fragments floor: its three slices borrowed (the data from the SHM chunk).
+fn fragments_floor_reply(sample: Sample) -> Pong {
+    let payload = sample.payload();
+    let mut slices = payload.slices();
+    let parts = (slices.next(), slices.next(), slices.next(), slices.next());
+    let at_ns = now_ns();
+    let checked = match parts {
+        (Some(head), Some(data), Some(tail), None) if tail.len() == FRAGMENTS_TAIL => {
+            floor_ok(head).filter(|&seq| data.iter().all(|&b| b == fill_byte(seq)))
+        }
+        _ => None,
+    };
+    match checked {
+        Some(seq) => Pong {
+            path: Path::FloorFragments as u8,
+            ok: true,
+            seq,
+            at_ns,
+        },
+        None => failed(Path::FloorFragments),
     }
 }
 
