@@ -108,12 +108,24 @@ fn ping() -> zenoh::Result<()> {
     }
     let mut samples: BTreeMap<(usize, u8), Vec<u64>> = BTreeMap::new();
     let mut lost = BTreeSet::new();
+    let mut resettle = false;
     for (bytes, _) in SIZES {
         for round in 0..WARMUP + rounds(bytes, quick) {
             // Each round starts one path later, so every path follows every
             // other equally often (what ran before leaves caches behind).
             senders.rotate_left(1);
+            if std::mem::take(&mut resettle) {
+                // The receiver closes the whole transport on a frame it refuses,
+                // so every path waits for the peers to reconnect before going on.
+                for sender in senders.iter_mut() {
+                    settle(sender.as_mut(), &pongs, &mut seq)?;
+                }
+            }
             for sender in senders.iter_mut() {
+                if resettle {
+                    // An earlier path this round was lost: the rest would be too.
+                    break;
+                }
                 let path = sender.path();
                 if lost.contains(&(bytes, path as u8)) {
                     continue;
@@ -129,9 +141,11 @@ fn ping() -> zenoh::Result<()> {
                 sender.send()?;
                 let Some(pong) = wait_pong(&pongs, path, seq, PONG_TIMEOUT)? else {
                     // A setup that cannot carry this message (lowlatency does not
-                    // fragment) loses it: say so and go on with the other paths.
+                    // fragment) loses it: say so, and go on with the other paths
+                    // once the peers have reconnected (next round).
                     println!("LOST\t{}\t{bytes}", path as u8);
                     lost.insert((bytes, path as u8));
+                    resettle = true;
                     continue;
                 };
                 if round >= WARMUP {
