@@ -71,6 +71,20 @@ impl Path {
         }
     }
 
+    /// A word or two for the summary's ratios.
+    pub fn short(self) -> &'static str {
+        match self {
+            Path::Loan => "loan",
+            Path::Splice => "splice",
+            Path::Automatic => "automatic",
+            Path::ToVecPut => "to_vec",
+            Path::Floor => "floor",
+            Path::HirozAutomatic => "hiroz automatic",
+            Path::HirozShm => "hiroz ZShmMut",
+            Path::FloorFragments => "3-fragment floor",
+        }
+    }
+
     /// Key expression (or hiroz topic name) of this path's messages.
     pub fn key(self) -> &'static str {
         match self {

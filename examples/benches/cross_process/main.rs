@@ -106,7 +106,10 @@ fn ping() -> zenoh::Result<()> {
     for sender in senders.iter_mut() {
         settle(sender.as_mut(), &pongs, &mut seq)?;
     }
-    let mut samples: BTreeMap<(usize, u8), Vec<u64>> = BTreeMap::new();
+    // (size, path) → (round, latency ns) of every measured message.
+    let mut samples: BTreeMap<(usize, u8), Vec<(usize, u64)>> = BTreeMap::new();
+    // (size, path) → measured messages our pool could not take (heap fallbacks).
+    let mut spilled: BTreeMap<(usize, u8), usize> = BTreeMap::new();
     let mut lost = BTreeSet::new();
     let mut resettle = false;
     for (bytes, _) in SIZES {
@@ -131,6 +134,7 @@ fn ping() -> zenoh::Result<()> {
                     continue;
                 }
                 seq += 1;
+                let spilled_before = spilled_count(&shm);
                 sender.prepare(bytes, seq)?;
                 // Spin rather than sleep: only the echo's side goes idle.
                 let idle_until = common::now_ns() + idle_ns;
@@ -153,23 +157,77 @@ fn ping() -> zenoh::Result<()> {
                         .at_ns
                         .checked_sub(start)
                         .ok_or("the echo's clock ran backwards")?;
-                    samples.entry((bytes, path as u8)).or_default().push(took);
+                    samples
+                        .entry((bytes, path as u8))
+                        .or_default()
+                        .push((round, took));
+                    if spilled_count(&shm) > spilled_before {
+                        *spilled.entry((bytes, path as u8)).or_default() += 1;
+                    }
                 }
             }
         }
     }
-    for ((bytes, path), mut ns) in samples {
+    for (&(bytes, path), timed) in &samples {
+        let mut ns: Vec<u64> = timed.iter().map(|&(_, ns)| ns).collect();
         ns.sort_unstable();
         let at = |q: f64| ns[((ns.len() - 1) as f64 * q) as usize] as f64 / 1e3;
         println!(
-            "RESULT\t{path}\t{bytes}\t{:.1}\t{:.1}\t{}",
+            "RESULT\t{path}\t{bytes}\t{:.1}\t{:.1}\t{}\t{}",
             at(0.5),
             at(0.9),
-            ns.len()
+            ns.len(),
+            spilled.get(&(bytes, path)).copied().unwrap_or(0)
         );
+    }
+    for (num, den) in PAIRS {
+        for (bytes, _) in SIZES {
+            let (Some(a), Some(b)) = (
+                samples.get(&(bytes, num as u8)),
+                samples.get(&(bytes, den as u8)),
+            ) else {
+                continue;
+            };
+            if let Some(ratio) = paired_median_ratio(a, b) {
+                println!("PAIRED\t{}\t{}\t{bytes}\t{ratio:.4}", num as u8, den as u8);
+            }
+        }
     }
     done.put(vec![1u8]).wait()?;
     Ok(())
+}
+
+/// Messages our pool sent to the heap so far (full pool, or larger than it).
+fn spilled_count(shm: &ShmContext) -> u64 {
+    let stats = shm.stats();
+    stats.fallbacks + stats.too_large
+}
+
+/// The pairs compared round by round (numerator, denominator).
+const PAIRS: [(Path, Path); 4] = [
+    (Path::Splice, Path::Floor),
+    (Path::Splice, Path::FloorFragments),
+    (Path::FloorFragments, Path::Floor),
+    (Path::Loan, Path::Floor),
+];
+
+/// The median over rounds of `a`'s latency over `b`'s in the same round. Both
+/// ran within one round, a few hundred µs apart, so host drift slower than that
+/// cancels out; the ratio of the two medians does not have that property.
+fn paired_median_ratio(a: &[(usize, u64)], b: &[(usize, u64)]) -> Option<f64> {
+    let by_round: BTreeMap<usize, u64> = b.iter().copied().collect();
+    let mut ratios: Vec<f64> = a
+        .iter()
+        .filter_map(|(round, ns)| {
+            let other = *by_round.get(round)?;
+            (other > 0).then(|| *ns as f64 / other as f64)
+        })
+        .collect();
+    if ratios.is_empty() {
+        return None;
+    }
+    ratios.sort_unstable_by(f64::total_cmp);
+    Some(ratios[ratios.len() / 2])
 }
 
 /// Publish small messages on one path until the echo answers one: discovery,
@@ -241,11 +299,22 @@ fn echo() -> zenoh::Result<()> {
 struct Cell {
     median: f64,
     p90: f64,
+    /// Messages measured.
+    count: usize,
+    /// Of those, how many our pool could not take (published from the heap).
+    spilled: usize,
     /// The setup did not deliver this message at all.
     lost: bool,
 }
 
-type Results = BTreeMap<(usize, u8), Cell>;
+/// What one setup measured.
+#[derive(Default)]
+struct Results {
+    /// (size, path) → its cell.
+    cells: BTreeMap<(usize, u8), Cell>,
+    /// (size, numerator path, denominator path) → median of per-round ratios.
+    paired: BTreeMap<(usize, u8, u8), f64>,
+}
 
 fn orchestrate() -> zenoh::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -365,32 +434,44 @@ fn run_setup(
     let stdout = ping.stdout.take().ok_or("ping without stdout")?;
     let mut lines = BufReader::new(stdout).lines();
     let mut echo: Option<Child> = None;
-    let mut results = Results::new();
+    let mut results = Results::default();
     for line in &mut lines {
         let line = line?;
         if line == "LISTENING" {
             echo = Some(child(exe, "echo", setup, &eps, quick, idle_us)?);
         } else if let Some(fields) = line.strip_prefix("RESULT\t") {
             let f: Vec<&str> = fields.split('\t').collect();
-            let [path, bytes, median, p90, _n] = f[..] else {
+            let [path, bytes, median, p90, count, spilled] = f[..] else {
                 return Err(format!("malformed result line {line:?}").into());
             };
-            results.insert(
+            results.cells.insert(
                 (bytes.parse()?, path.parse()?),
                 Cell {
                     median: median.parse()?,
                     p90: p90.parse()?,
+                    count: count.parse()?,
+                    spilled: spilled.parse()?,
                     lost: false,
                 },
             );
+        } else if let Some(fields) = line.strip_prefix("PAIRED\t") {
+            let f: Vec<&str> = fields.split('\t').collect();
+            let [num, den, bytes, ratio] = f[..] else {
+                return Err(format!("malformed paired line {line:?}").into());
+            };
+            results
+                .paired
+                .insert((bytes.parse()?, num.parse()?, den.parse()?), ratio.parse()?);
         } else if let Some(fields) = line.strip_prefix("LOST\t") {
             let (path, bytes) = fields.split_once('\t').ok_or("malformed LOST line")?;
             let lost = Cell {
                 median: f64::NAN,
                 p90: f64::NAN,
+                count: 0,
+                spilled: 0,
                 lost: true,
             };
-            results.insert((bytes.parse()?, path.parse()?), lost);
+            results.cells.insert((bytes.parse()?, path.parse()?), lost);
         }
     }
     let status = ping.wait()?;
@@ -412,7 +493,7 @@ fn run_setup(
     // Only lowlatency is allowed to lose messages (it cannot fragment): anywhere
     // else a lost message is a failure, not a table cell.
     if !setup.lowlatency {
-        if let Some(((bytes, path), _)) = results.iter().find(|(_, c)| c.lost) {
+        if let Some(((bytes, path), _)) = results.cells.iter().find(|(_, c)| c.lost) {
             let path = Path::from_u8(*path).map_or("?", Path::label);
             return Err(
                 format!("setup {:?}: {path} lost a {bytes}-byte message", setup.name).into(),
@@ -436,7 +517,7 @@ fn hold_cpu_wakeup_latency_zero() -> std::io::Result<std::fs::File> {
 fn paths_in(results: &Results) -> Vec<Path> {
     Path::ALL
         .into_iter()
-        .filter(|p| results.keys().any(|(_, q)| *q == *p as u8))
+        .filter(|p| results.cells.keys().any(|(_, q)| *q == *p as u8))
         .collect()
 }
 
@@ -451,8 +532,12 @@ fn print_setup(setup: &Setup, results: &Results) {
     for path in paths_in(results) {
         print!("| {} |", path.label());
         for (bytes, _) in SIZES {
-            match results.get(&(bytes, path as u8)) {
+            match results.cells.get(&(bytes, path as u8)) {
                 Some(c) if c.lost => print!(" **lost** |"),
+                Some(c) if c.spilled > 0 => print!(
+                    " {:.0} µs (p90 {:.0}), **{} of {} from the heap** |",
+                    c.median, c.p90, c.spilled, c.count
+                ),
                 Some(c) => print!(" {:.0} µs (p90 {:.0}) |", c.median, c.p90),
                 None => print!(" – |"),
             }
@@ -492,6 +577,7 @@ fn describe(setup: &Setup) -> String {
 fn median_of(all: &[(Setup, Results)], setup: &str, bytes: usize, path: Path) -> Option<f64> {
     let (_, results) = all.iter().find(|(s, _)| s.name == setup)?;
     results
+        .cells
         .get(&(bytes, path as u8))
         .filter(|c| !c.lost)
         .map(|c| c.median)
@@ -554,23 +640,25 @@ fn print_summary(all: &[(Setup, Results)]) {
             }
         }
     }
-    for setup in ["default", "recommended"] {
+    println!("\nRatios of medians, and in brackets the median of per-round ratios:");
+    for (setup, results) in all {
         for bytes in [mib, 8 * mib] {
-            if let (Some(splice), Some(floor), Some(fragments), Some(loan)) = (
-                median_of(all, setup, bytes, Path::Splice),
-                median_of(all, setup, bytes, Path::Floor),
-                median_of(all, setup, bytes, Path::FloorFragments),
-                median_of(all, setup, bytes, Path::Loan),
-            ) {
-                println!(
-                    "{setup}, {}: splice/floor {:.2}×, splice/3-fragment floor {:.2}×, \
-                     3-fragment floor/floor {:.2}×, loan/floor {:.2}×",
-                    size_name(bytes),
-                    splice / floor,
-                    splice / fragments,
-                    fragments / floor,
-                    loan / floor
-                );
+            let parts: Vec<String> = PAIRS
+                .iter()
+                .filter_map(|&(num, den)| {
+                    let a = median_of(all, setup.name, bytes, num)?;
+                    let b = median_of(all, setup.name, bytes, den)?;
+                    let paired = results.paired.get(&(bytes, num as u8, den as u8))?;
+                    Some(format!(
+                        "{}/{} {:.2}× ({paired:.2}×)",
+                        num.short(),
+                        den.short(),
+                        a / b
+                    ))
+                })
+                .collect();
+            if !parts.is_empty() {
+                println!("{}, {}: {}", setup.name, size_name(bytes), parts.join(", "));
             }
         }
     }
@@ -596,13 +684,15 @@ fn plot(all: &[(Setup, Results)]) {
     let root = SVGBackend::new(path, (820, 480)).into_drawing_area();
     let _ = root.fill(&WHITE);
     let max = default
+        .cells
         .values()
-        .chain(best.values())
+        .chain(best.cells.values())
         .map(|c| c.median)
         .fold(1.0, f64::max);
     let min = default
+        .cells
         .values()
-        .chain(best.values())
+        .chain(best.cells.values())
         .map(|c| c.median)
         .fold(f64::MAX, f64::min);
     let Ok(mut chart) = ChartBuilder::on(&root)
@@ -638,6 +728,7 @@ fn plot(all: &[(Setup, Results)]) {
                 .iter()
                 .filter_map(|(b, _)| {
                     results
+                        .cells
                         .get(&(*b, path as u8))
                         .filter(|c| !c.lost)
                         .map(|c| (*b as f64 / 1024.0, c.median))
