@@ -20,6 +20,10 @@ pub const PONG_KEY: &str = "xproc/pong";
 pub const DONE_KEY: &str = "xproc/done";
 /// How long a pong may take before its message counts as lost.
 pub const PONG_TIMEOUT: Duration = Duration::from_secs(2);
+/// From this data size a heap payload no longer fits one lowlatency frame (the
+/// batch is at most 64 KiB), so lowlatency setups do not send it on the paths
+/// that put heap payloads ([`Path::puts_heap`]).
+pub const UNFRAGMENTABLE_FROM: usize = 64 << 10;
 /// SHM pool of each publishing side: room for every path's 8 MiB chunk at once.
 pub const POOL: usize = 96 << 20;
 
@@ -69,6 +73,12 @@ impl Path {
             Path::HirozShm => "hiroz 0.2.1: ZShmMut data",
             Path::FloorFragments => "floor: 3 fragments (heap, ZShmMut, heap)",
         }
+    }
+
+    /// Whether this path puts a heap payload through plain Zenoh (so under
+    /// lowlatency, where Zenoh cannot fragment, a large one is lost).
+    pub fn puts_heap(self) -> bool {
+        matches!(self, Path::ToVecPut | Path::HirozAutomatic)
     }
 
     /// A word or two for the summary's ratios.
