@@ -328,14 +328,30 @@ struct Cell {
 }
 
 impl Cell {
-    fn not_measured(lost: bool) -> Cell {
+    /// A message the setup did not deliver.
+    fn lost() -> Cell {
+        Cell {
+            lost: true,
+            ..Cell::unmeasured()
+        }
+    }
+
+    /// A message not sent, because the setup cannot carry it.
+    fn unsent() -> Cell {
+        Cell {
+            unsent: true,
+            ..Cell::unmeasured()
+        }
+    }
+
+    fn unmeasured() -> Cell {
         Cell {
             median: f64::NAN,
             p90: f64::NAN,
             count: 0,
             spilled: 0,
-            lost,
-            unsent: !lost,
+            lost: false,
+            unsent: false,
         }
     }
 
@@ -504,12 +520,12 @@ fn run_setup(
             let (path, bytes) = fields.split_once('\t').ok_or("malformed LOST line")?;
             results
                 .cells
-                .insert((bytes.parse()?, path.parse()?), Cell::not_measured(true));
+                .insert((bytes.parse()?, path.parse()?), Cell::lost());
         } else if let Some(fields) = line.strip_prefix("UNSENT\t") {
             let (path, bytes) = fields.split_once('\t').ok_or("malformed UNSENT line")?;
             results
                 .cells
-                .insert((bytes.parse()?, path.parse()?), Cell::not_measured(false));
+                .insert((bytes.parse()?, path.parse()?), Cell::unsent());
         }
     }
     let status = ping.wait()?;
