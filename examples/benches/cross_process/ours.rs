@@ -44,6 +44,13 @@ fn vec_cloud(bytes: usize, seq: u64) -> PointCloud2 {
     }
 }
 
+/// A fresh chunk of `len` bytes from the pool, every one [`fill_byte`]`(seq)`.
+fn filled_chunk(shm: &ShmContext, len: usize, seq: u64) -> zenoh::Result<ZShmMut> {
+    let mut chunk = shm.alloc(len).ok_or("SHM pool exhausted")?;
+    chunk.fill(fill_byte(seq));
+    Ok(chunk)
+}
+
 /// The publishers of the ping process: one per path, declared once.
 pub struct Publishers {
     loan: RosPublisher<PointCloud2>,
@@ -169,8 +176,7 @@ impl Sender for SpliceSender<'_> {
     }
 
     fn prepare(&mut self, bytes: usize, seq: u64) -> zenoh::Result<()> {
-        let mut data = self.shm.alloc(bytes).ok_or("SHM pool exhausted")?;
-        data.fill(fill_byte(seq));
+        let data = filled_chunk(self.shm, bytes, seq)?;
         let cloud = vec_cloud(0, seq);
         self.ready = Some(PointCloud2Shm {
             header: cloud.header,
@@ -239,8 +245,7 @@ impl Sender for FloorSender<'_> {
     }
 
     fn prepare(&mut self, bytes: usize, seq: u64) -> zenoh::Result<()> {
-        let mut block = self.shm.alloc(bytes.max(8)).ok_or("SHM pool exhausted")?;
-        block.fill(fill_byte(seq));
+        let mut block = filled_chunk(self.shm, bytes.max(8), seq)?;
         block[..8].copy_from_slice(&seq.to_le_bytes());
         self.ready = Some(block);
         Ok(())
@@ -274,8 +279,7 @@ impl Sender for FragmentsFloorSender<'_> {
     }
 
     fn prepare(&mut self, bytes: usize, seq: u64) -> zenoh::Result<()> {
-        let mut block = self.shm.alloc(bytes).ok_or("SHM pool exhausted")?;
-        block.fill(fill_byte(seq));
+        let block = filled_chunk(self.shm, bytes, seq)?;
         let mut head = vec![fill_byte(seq); FRAGMENTS_HEAD];
         head[..8].copy_from_slice(&seq.to_le_bytes());
         self.ready = Some((head, block));
