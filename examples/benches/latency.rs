@@ -124,9 +124,9 @@ fn stats(mut samples: Vec<Duration>) -> (f64, f64) {
     (at(0.5), at(0.9))
 }
 
-/// One size: (a), (b), (c) and (e) share one session pair and are interleaved
-/// round by round, so that drift in Zenoh's delivery latency hits them alike; (d)
-/// needs sessions with SHM disabled and runs interleaved on its own pair.
+/// One size: all patterns are interleaved round by round, in a fresh order each
+/// round, so that drift in Zenoh's delivery latency hits them alike; (d) needs
+/// sessions with SHM disabled, so it runs on its own pair.
 fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 8] {
     let (a, b) = sessions(port, true);
     let (a_noshm, b_noshm) = sessions(port + 1, false);
@@ -174,70 +174,91 @@ fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 8] {
     let msg = vec_cloud(bytes);
 
     let mut scratch = vec![0u8; bytes];
-    let mut samples: [Vec<Duration>; 8] = Default::default();
     let (header, width, fields) = cloud_fields(bytes);
     let mut lens = shm_cdr::loan::InPlace::lens(&vec_cloud(0));
     lens.header = shm_cdr::loan::InPlace::lens(&header);
     lens.fields = shm_cdr::loan::InPlace::lens(&fields);
     lens.data = bytes;
-    for round in 0..rounds(bytes) + 10 {
-        let keep = round >= 10; // the first rounds warm up
-        let da = ros_round(&pub_a, &sub_a, &msg_a); // (a)
-        let db = ros_round(&pub_b, &sub_b, &msg); // (b)
-                                                  // (c)
-        let t = Instant::now();
-        pub_c.put(shm_cdr::to_vec(&msg).unwrap()).wait().unwrap();
-        let sample = sub_c.recv_timeout(TIMEOUT).unwrap().unwrap();
-        let cloud: PointCloud2 = shm_cdr::from_bytes(&sample.payload().to_bytes()).unwrap();
-        std::hint::black_box(cloud.data.len());
-        let dc = t.elapsed();
-        drop(cloud);
-        drop(sample);
-        let dd = ros_round(&pub_d, &sub_d, &msg); // (d)
-                                                  // (e): the buffer is allocated and filled before the clock starts.
-        let mut block = shm.alloc(bytes).unwrap();
-        block.fill(5);
-        let t = Instant::now();
-        pub_e.put(block).wait().unwrap();
-        let sample = sub_e.recv_timeout(TIMEOUT).unwrap().unwrap();
-        std::hint::black_box(sample.payload().len());
-        let de = t.elapsed();
-        drop(sample);
+    // One closure per measurement, in the order of the table's rows (the memcpy
+    // reference at index 5); each returns the time of one message.
+    let mut measurements: [Box<dyn FnMut() -> Duration + '_>; 8] = [
+        // (a)
+        Box::new(|| ros_round(&pub_a, &sub_a, &msg_a)),
+        // (b)
+        Box::new(|| ros_round(&pub_b, &sub_b, &msg)),
+        // (c)
+        Box::new(|| {
+            let t = Instant::now();
+            pub_c.put(shm_cdr::to_vec(&msg).unwrap()).wait().unwrap();
+            let sample = sub_c.recv_timeout(TIMEOUT).unwrap().unwrap();
+            let cloud: PointCloud2 = shm_cdr::from_bytes(&sample.payload().to_bytes()).unwrap();
+            std::hint::black_box(cloud.data.len());
+            t.elapsed()
+        }),
+        // (d)
+        Box::new(|| ros_round(&pub_d, &sub_d, &msg)),
+        // (e): the buffer is allocated and filled before the clock starts.
+        Box::new(|| {
+            let mut block = shm.alloc(bytes).unwrap();
+            block.fill(5);
+            let t = Instant::now();
+            pub_e.put(block).wait().unwrap();
+            let sample = sub_e.recv_timeout(TIMEOUT).unwrap().unwrap();
+            std::hint::black_box(sample.payload().len());
+            t.elapsed()
+        }),
         // The memcpy reference, in this loop's cache conditions: the application
         // has just touched its data, as it would right before publishing it.
-        let t = Instant::now();
-        scratch.copy_from_slice(std::hint::black_box(&msg.data));
-        std::hint::black_box(&scratch);
-        let dm = t.elapsed();
+        Box::new(|| {
+            let t = Instant::now();
+            scratch.copy_from_slice(std::hint::black_box(&msg.data));
+            std::hint::black_box(&scratch);
+            t.elapsed()
+        }),
         // (f): the loan is taken and written before the clock starts.
-        let mut loan = pub_b.loan(lens.clone()).unwrap();
-        let cloud = loan.fields().unwrap();
-        cloud.header.frame_id.write(&header.frame_id).unwrap();
-        *cloud.height = 1;
-        *cloud.width = width;
-        *cloud.point_step = 16;
-        *cloud.row_step = width * 16;
-        *cloud.is_dense = true;
-        cloud.fields.write_slice(&fields).unwrap();
-        let points = cloud.data.cast::<[f32; 4]>().unwrap();
-        points.write_with(|i| [i as f32, 0.5, -1.0, 7.0]);
-        let t = Instant::now();
-        loan.publish().wait().unwrap();
-        let sample = sub_b.recv_timeout(TIMEOUT).unwrap().unwrap();
-        let cloud: PointCloud2Ref = sample.decode().unwrap();
-        std::hint::black_box(cloud.data.len());
-        let df = t.elapsed();
-        drop(cloud);
-        drop(sample);
+        Box::new(|| {
+            let mut loan = pub_b.loan(lens.clone()).unwrap();
+            let cloud = loan.fields().unwrap();
+            cloud.header.frame_id.write(&header.frame_id).unwrap();
+            *cloud.height = 1;
+            *cloud.width = width;
+            *cloud.point_step = 16;
+            *cloud.row_step = width * 16;
+            *cloud.is_dense = true;
+            cloud.fields.write_slice(&fields).unwrap();
+            let points = cloud.data.cast::<[f32; 4]>().unwrap();
+            points.write_with(|i| [i as f32, 0.5, -1.0, 7.0]);
+            let t = Instant::now();
+            loan.publish().wait().unwrap();
+            let sample = sub_b.recv_timeout(TIMEOUT).unwrap().unwrap();
+            let cloud: PointCloud2Ref = sample.decode().unwrap();
+            std::hint::black_box(cloud.data.len());
+            t.elapsed()
+        }),
         // (g): a fresh SHM data buffer per message, filled before the clock.
-        let mut block = shm.alloc(bytes).unwrap();
-        block.fill(7);
-        let fresh = shm_cloud(bytes, ShmBytes::from(block));
-        let dg = ros_round(&pub_a, &sub_a, &fresh);
-        drop(fresh);
-        if keep {
-            for (store, d) in samples.iter_mut().zip([da, db, dc, dd, de, dm, df, dg]) {
-                store.push(d);
+        Box::new(|| {
+            let mut block = shm.alloc(bytes).unwrap();
+            block.fill(7);
+            let fresh = shm_cloud(bytes, ShmBytes::from(block));
+            ros_round(&pub_a, &sub_a, &fresh)
+        }),
+    ];
+    let mut samples: [Vec<Duration>; 8] = Default::default();
+    let mut order: Vec<usize> = (0..measurements.len()).collect();
+    // Seeded: a rerun measures in the same orders.
+    let mut rng = fastrand::Rng::with_seed(0x5eed);
+    for round in 0..rounds(bytes) + 10 {
+        let keep = round >= 10; // the first rounds warm up
+                                // A fresh order every round, so drift hits every pattern alike; and an
+                                // untimed lead-in before each timed message, so that it follows one of
+                                // its own kind (what another pattern leaves in the caches and the pool is
+                                // not this one's cost).
+        rng.shuffle(&mut order);
+        for &i in &order {
+            measurements[i]();
+            let took = measurements[i]();
+            if keep {
+                samples[i].push(took);
             }
         }
     }
