@@ -16,6 +16,9 @@
 //! (e), (f) and (g) allocate and fill before the clock, so they compare what
 //! publishing a ready message costs.
 //!
+//! The patterns take turns in a fresh random order every round, each timing one
+//! message right after an untimed one of its own (see [`measure_size`]).
+//!
 //! `cargo bench -p shm-cdr-examples --bench latency` prints a table of medians and
 //! p90s, and writes `latency.svg` (latency vs size) next to this file's crate.
 
@@ -207,8 +210,9 @@ fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 8] {
             std::hint::black_box(sample.payload().len());
             t.elapsed()
         }),
-        // The memcpy reference, in this loop's cache conditions: the application
-        // has just touched its data, as it would right before publishing it.
+        // The memcpy reference for (b)'s copy, in the same cache conditions: after
+        // its lead-in, the source was just read and the destination just written,
+        // as (b)'s source and pool chunk were by the (b) before it.
         Box::new(|| {
             let t = Instant::now();
             scratch.copy_from_slice(std::hint::black_box(&msg.data));
@@ -248,11 +252,12 @@ fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 8] {
     // Seeded: a rerun measures in the same orders.
     let mut rng = fastrand::Rng::with_seed(0x5eed);
     for round in 0..rounds(bytes) + 10 {
-        let keep = round >= 10; // the first rounds warm up
-                                // A fresh order every round, so drift hits every pattern alike; and an
-                                // untimed lead-in before each timed message, so that it follows one of
-                                // its own kind (what another pattern leaves in the caches and the pool is
-                                // not this one's cost).
+        // The first rounds warm up.
+        let keep = round >= 10;
+        // A fresh order every round, so drift hits every pattern alike; and an
+        // untimed lead-in before each timed message, so that it follows one of
+        // its own kind (what another pattern leaves in the caches and the pool
+        // is not this one's cost).
         rng.shuffle(&mut order);
         for &i in &order {
             measurements[i]();
