@@ -16,7 +16,9 @@ use shm_cdr::msgs::sensor_msgs::{PointCloud2, PointCloud2Ref};
 use shm_cdr::msgs::std_msgs::Header;
 use shm_cdr_examples::loopback_pair;
 use shm_runtime::msgs::sensor_msgs::PointCloud2Shm;
-use shm_runtime::{RosSample, RosSubscriber, SessionExt, ShmBytes, ShmConfig, ShmContext};
+use shm_runtime::{
+    RosSample, RosSubscriber, SessionExt, ShmBytes, ShmConfig, ShmContext,
+};
 use zenoh::Wait;
 
 const POINTS: u32 = 65_536; // 16-byte points: 1 MiB of point data
@@ -93,8 +95,16 @@ fn median_us(samples: &mut [Duration]) -> f64 {
 
 fn main() -> zenoh::Result<()> {
     let (a, b) = loopback_pair(7448)?;
-    // The shared default: SHM on, 32 MiB pool, rmw_zenoh's 512-byte threshold.
-    let shm = ShmContext::new(ShmConfig::enabled().pool_size(32 << 20))?;
+    // The default: a pool of up to 10 MiB that fits the process's memory-lock
+    // limit (`ulimit -l`), rmw_zenoh's 512-byte threshold.
+    let shm = ShmContext::new(ShmConfig::enabled())?;
+    match shm.pool_size() {
+        Some(bytes) => println!("shared-memory pool: {bytes} bytes ({})", shm.memlock()),
+        None => println!(
+            "no shared-memory pool, publishing from the heap ({})",
+            shm.memlock()
+        ),
+    }
     let subscriber = b
         .declare_ros_subscriber::<PointCloud2>("demo/points")
         .wait()?;
@@ -109,22 +119,24 @@ fn main() -> zenoh::Result<()> {
         .declare_ros_publisher::<PointCloud2Shm>("demo/points")
         .shm(&shm)
         .wait()?;
-    let mut block = shm
-        .alloc((POINTS * POINT_STEP) as usize)
-        .ok_or("pool full")?;
-    fill_points(&mut block);
-    let cloud = PointCloud2Shm {
-        header: header(),
-        height: 1,
-        width: POINTS,
-        fields: shm_cdr_examples::xyzi_fields(),
-        is_bigendian: false,
-        point_step: POINT_STEP,
-        row_step: POINTS * POINT_STEP,
-        data: ShmBytes::from(block),
-        is_dense: true,
-    };
-    run("1. user-managed SHM field", &spliced, &subscriber, &cloud)?;
+    match shm.alloc((POINTS * POINT_STEP) as usize) {
+        Some(mut block) => {
+            fill_points(&mut block);
+            let cloud = PointCloud2Shm {
+                header: header(),
+                height: 1,
+                width: POINTS,
+                fields: shm_cdr_examples::xyzi_fields(),
+                is_bigendian: false,
+                point_step: POINT_STEP,
+                row_step: POINTS * POINT_STEP,
+                data: ShmBytes::from(block),
+                is_dense: true,
+            };
+            run("1. user-managed SHM field", &spliced, &subscriber, &cloud)?;
+        }
+        None => println!("1. user-managed SHM field  skipped: no shared memory to write into"),
+    }
     drop(spliced);
 
     // 2. Automatic threshold: a Vec cloud serialized straight into SHM.
@@ -156,6 +168,12 @@ fn main() -> zenoh::Result<()> {
         .wait()?;
     run("3. publisher without_shm()", &heap, &subscriber, &cloud)?;
 
-    println!("pool: {:?}", shm.stats());
+    let stats = shm.stats();
+    println!("pool: {stats:?}");
+    let above_threshold = stats.shm + stats.fallbacks + stats.too_large + stats.unavailable;
+    println!(
+        "{} of {above_threshold} messages above the threshold went through shared memory",
+        stats.shm
+    );
     Ok(())
 }

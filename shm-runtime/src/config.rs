@@ -1,5 +1,6 @@
-//! Shared-memory settings: off unless enabled; when enabled a 10 MiB pool and a
-//! 512-byte threshold, as in rmw_zenoh_cpp and the ROS-Z SHM design.
+//! Shared-memory settings: off unless enabled; when enabled a pool of up to
+//! 10 MiB (rmw_zenoh_cpp's size) that fits the process's memory-lock limit, and
+//! a 512-byte threshold.
 
 use std::fmt;
 use std::time::Duration;
@@ -7,8 +8,9 @@ use std::time::Duration;
 /// How a publisher uses shared memory.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ShmConfig {
-    /// Size of the shared-memory pool in bytes.
-    pub pool_size: usize,
+    /// Size of the shared-memory pool: as large as the memory-lock limit
+    /// allows up to a maximum (the default), or exactly a number of bytes.
+    pub pool_size: PoolSize,
     /// Messages of at least this many encoded bytes go through shared memory;
     /// smaller ones are encoded on the heap.
     pub threshold: usize,
@@ -24,8 +26,39 @@ pub struct ShmConfig {
     pub prefault: bool,
 }
 
+/// How large a shared-memory pool to create.
+///
+/// Zenoh locks every shared-memory segment in RAM (`mlock`), both the pools a
+/// process creates and those it maps to read other processes' messages, so
+/// the process's memory-lock limit (`ulimit -l`; 8 MiB for an ordinary user on
+/// most Linux systems) bounds them all; see [`MemlockBudget`](crate::MemlockBudget).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PoolSize {
+    /// As large as the memory-lock limit allows, at most this many bytes: half
+    /// of what the limit leaves after Zenoh's metadata segments (the
+    /// process's own and one it maps from a peer), so that a peer's pool of
+    /// the same size can be mapped too; 2.75 MiB under an 8 MiB limit. Where
+    /// that is under [`ShmConfig::MIN_FIT_POOL_SIZE`] there is no pool and
+    /// messages go from the heap, counted in
+    /// [`ShmStats::unavailable`](crate::ShmStats). Without a limit (root,
+    /// `CAP_IPC_LOCK`, `ulimit -l unlimited`) the pool is this size.
+    AtMost(usize),
+    /// Exactly this many bytes. A pool the memory-lock limit cannot hold is
+    /// an error naming the limit, the sizes and how to raise it.
+    Exact(usize),
+}
+
+impl PoolSize {
+    /// The size asked for: the maximum, or the exact size.
+    pub const fn requested(self) -> usize {
+        match self {
+            Self::AtMost(bytes) | Self::Exact(bytes) => bytes,
+        }
+    }
+}
+
 impl ShmConfig {
-    /// rmw_zenoh_cpp's default pool size: 10 MiB.
+    /// rmw_zenoh_cpp's default pool size, 10 MiB: the default maximum.
     pub const DEFAULT_POOL_SIZE: usize = 10 * 1024 * 1024;
     /// rmw_zenoh_cpp's default threshold: 512 bytes.
     pub const DEFAULT_THRESHOLD: usize = 512;
@@ -40,11 +73,15 @@ impl ShmConfig {
     pub const MIN_POOL_SIZE: usize = 4096;
     /// The largest pool Zenoh 1.10 accepts: its chunk index is 32 bits.
     pub const MAX_POOL_SIZE: usize = 1 << 32;
+    /// Below this, a [`PoolSize::AtMost`] pool is not created at all: it could
+    /// hold no more than a few small messages.
+    pub const MIN_FIT_POOL_SIZE: usize = 64 * 1024;
 
-    /// SHM enabled with the defaults.
+    /// SHM enabled with the defaults: a pool of up to 10 MiB that fits the
+    /// memory-lock limit, a 512-byte threshold.
     pub const fn enabled() -> Self {
         Self {
-            pool_size: Self::DEFAULT_POOL_SIZE,
+            pool_size: PoolSize::AtMost(Self::DEFAULT_POOL_SIZE),
             threshold: Self::DEFAULT_THRESHOLD,
             alloc_timeout: Self::DEFAULT_ALLOC_TIMEOUT,
             prefault: true,
@@ -62,10 +99,11 @@ impl ShmConfig {
     /// refused with its name and the valid range rather than by Zenoh's
     /// allocator. [`ShmContext::new`](crate::ShmContext::new) calls it.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        if !(Self::MIN_POOL_SIZE..=Self::MAX_POOL_SIZE).contains(&self.pool_size) {
+        let size = self.pool_size.requested();
+        if !(Self::MIN_POOL_SIZE..=Self::MAX_POOL_SIZE).contains(&size) {
             return Err(ConfigError {
                 setting: "ShmConfig::pool_size",
-                value: self.pool_size.to_string(),
+                value: size.to_string(),
                 reason: format!(
                     "the pool size must be between {} bytes and {} bytes (4 GiB), Zenoh 1.10's limits",
                     Self::MIN_POOL_SIZE,
@@ -76,9 +114,16 @@ impl ShmConfig {
         Ok(())
     }
 
-    /// Set the pool size.
+    /// A pool of exactly `bytes` ([`PoolSize::Exact`]).
     pub const fn pool_size(mut self, bytes: usize) -> Self {
-        self.pool_size = bytes;
+        self.pool_size = PoolSize::Exact(bytes);
+        self
+    }
+
+    /// A pool as large as the memory-lock limit allows, at most `bytes`
+    /// ([`PoolSize::AtMost`]).
+    pub const fn pool_size_at_most(mut self, bytes: usize) -> Self {
+        self.pool_size = PoolSize::AtMost(bytes);
         self
     }
 
@@ -96,8 +141,9 @@ impl ShmConfig {
 
     /// Read `ZENOH_SHM_ALLOC_SIZE` and `ZENOH_SHM_MESSAGE_SIZE_THRESHOLD` as
     /// rmw_zenoh_cpp does: `Ok(None)` if neither is set (SHM off); setting either
-    /// enables SHM, the other taking its default. A value that is not a positive
-    /// integer is an error, never silently ignored.
+    /// enables SHM, the other taking its default. A pool size set this way is
+    /// exact ([`PoolSize::Exact`]). A value that is not a positive integer is an
+    /// error, never silently ignored.
     pub fn from_env() -> Result<Option<Self>, ConfigError> {
         Self::from_lookup(|name| std::env::var(name).ok())
     }
@@ -132,7 +178,7 @@ impl ShmConfig {
         }
         let mut config = Self::enabled();
         if let Some(pool) = pool {
-            config.pool_size = pool;
+            config.pool_size = PoolSize::Exact(pool);
         }
         if let Some(threshold) = threshold {
             config.threshold = threshold;
@@ -197,11 +243,14 @@ mod tests {
         let c = ShmConfig::from_lookup(env(&[("ZENOH_SHM_ALLOC_SIZE", "1048576")]))
             .unwrap()
             .unwrap();
-        assert_eq!((c.pool_size, c.threshold), (1 << 20, 512));
+        assert_eq!((c.pool_size, c.threshold), (PoolSize::Exact(1 << 20), 512));
         let c = ShmConfig::from_lookup(env(&[("ZENOH_SHM_MESSAGE_SIZE_THRESHOLD", "4096")]))
             .unwrap()
             .unwrap();
-        assert_eq!((c.pool_size, c.threshold), (10 << 20, 4096));
+        assert_eq!(
+            (c.pool_size, c.threshold),
+            (PoolSize::AtMost(10 << 20), 4096)
+        );
     }
 
     #[test]
@@ -241,6 +290,15 @@ mod tests {
         }
         for good in [4096, 10 << 20, 1 << 32] {
             ShmConfig::enabled().pool_size(good).validate().unwrap();
+            ShmConfig::enabled()
+                .pool_size_at_most(good)
+                .validate()
+                .unwrap();
         }
+        let err = ShmConfig::enabled()
+            .pool_size_at_most(1024)
+            .validate()
+            .unwrap_err();
+        assert_eq!(err.setting, "ShmConfig::pool_size");
     }
 }

@@ -79,8 +79,9 @@ impl<T: RosMessage + InPlace> RosPublisher<T> {
     /// above the threshold (the body 8-aligned, so every number can be referenced
     /// where it lies), else from the heap, laid out the same way. When the pool
     /// stays full for the configured wait, or the message is larger than the whole
-    /// pool, the loan is on the heap and [`Loan::kind`] says so
-    /// ([`PayloadKind::HeapFallback`], [`PayloadKind::TooLargeForPool`]).
+    /// pool, or there is no pool, the loan is on the heap and [`Loan::kind`]
+    /// says so ([`PayloadKind::HeapFallback`], [`PayloadKind::TooLargeForPool`],
+    /// [`PayloadKind::PoolUnavailable`]).
     ///
     /// Fails if the lengths break a bound or cannot be laid out.
     pub fn loan(&self, lens: T::Lens) -> Result<Loan<'_, T>, LoanError> {
@@ -106,21 +107,9 @@ fn allocate(policy: Option<&ShmPolicy>, size: usize) -> (Buffer, PayloadKind) {
     let Some(policy) = policy.filter(|p| size >= p.threshold) else {
         return (Buffer::Heap(AlignedBuffer::new(size)), PayloadKind::Heap);
     };
-    if size > policy.context.config().pool_size {
-        return (
-            Buffer::Heap(AlignedBuffer::new(size)),
-            PayloadKind::TooLargeForPool,
-        );
-    }
-    match policy
-        .context
-        .alloc_message(size, policy.context.config().alloc_timeout)
-    {
-        Some(chunk) => (Buffer::Shm(chunk), PayloadKind::Shm),
-        None => (
-            Buffer::Heap(AlignedBuffer::new(size)),
-            PayloadKind::HeapFallback,
-        ),
+    match policy.context.place(size) {
+        Ok(chunk) => (Buffer::Shm(chunk), PayloadKind::Shm),
+        Err(heap) => (Buffer::Heap(AlignedBuffer::new(size)), heap),
     }
 }
 
@@ -161,13 +150,7 @@ impl<'p, T: RosMessage + InPlace> Loan<'p, T> {
     fn prepare(self) -> Result<(crate::publisher::Prepared, &'p RosPublisher<T>), PublishError> {
         self.written.check().map_err(PublishError::Loan)?;
         if let Some(policy) = self.publisher.policy() {
-            let context = &policy.context;
-            match self.kind {
-                PayloadKind::Shm | PayloadKind::Spliced => context.count_shm(),
-                PayloadKind::Heap => context.count_heap(),
-                PayloadKind::HeapFallback => context.count_fallback(self.size),
-                PayloadKind::TooLargeForPool => context.count_too_large(self.size),
-            }
+            policy.context.count(self.kind, self.size);
         }
         let publisher = self.publisher;
         let encoded = EncodedPayload {

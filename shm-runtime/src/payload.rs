@@ -27,6 +27,11 @@ pub enum PayloadKind {
     /// encoded on the heap (counted in [`ShmStats::too_large`](crate::ShmStats),
     /// warned about once).
     TooLargeForPool,
+    /// Above the threshold, but the memory-lock limit left no room for a pool
+    /// (see [`PoolSize::AtMost`](crate::PoolSize::AtMost)): encoded on the
+    /// heap (counted in [`ShmStats::unavailable`](crate::ShmStats), warned
+    /// about once).
+    PoolUnavailable,
 }
 
 /// An encoded message, ready to put.
@@ -59,41 +64,32 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
     let size = match shm_bytes::encode_spliced(msg)? {
         Splice::Done(spliced) => {
             if let Some(policy) = policy {
-                policy.context.count_shm();
+                policy.context.count(PayloadKind::Spliced, spliced.size);
             }
             return Ok(spliced);
         }
         Splice::NotNeeded(size) => size,
     };
     let mut kind = PayloadKind::Heap;
-    let too_large = |p: &ShmPolicy| size > p.context.config().pool_size;
-    if let Some(policy) = policy.filter(|p| size >= p.threshold && too_large(p)) {
-        policy.context.count_too_large(size);
-        kind = PayloadKind::TooLargeForPool;
-    } else if let Some(policy) = policy.filter(|p| size >= p.threshold) {
-        match policy
-            .context
-            .alloc_message(size, policy.context.config().alloc_timeout)
-        {
-            Some(mut buffer) => {
-                // The provider hands out exactly `size` bytes, so the payload is the
-                // encoding and nothing else.
-                shm_cdr::encode_into(msg, &mut buffer)?;
-                policy.context.count_shm();
-                return Ok(EncodedPayload {
-                    bytes: ZBytes::from(buffer),
-                    kind: PayloadKind::Shm,
-                    size,
-                    inline: 0,
-                });
-            }
-            None => {
-                policy.context.count_fallback(size);
-                kind = PayloadKind::HeapFallback;
+    if let Some(policy) = policy {
+        if size >= policy.threshold {
+            match policy.context.place(size) {
+                Ok(mut buffer) => {
+                    // The provider hands out exactly `size` bytes, so the payload
+                    // is the encoding and nothing else.
+                    shm_cdr::encode_into(msg, &mut buffer)?;
+                    policy.context.count(PayloadKind::Shm, size);
+                    return Ok(EncodedPayload {
+                        bytes: ZBytes::from(buffer),
+                        kind: PayloadKind::Shm,
+                        size,
+                        inline: 0,
+                    });
+                }
+                Err(heap) => kind = heap,
             }
         }
-    } else if let Some(policy) = policy {
-        policy.context.count_heap();
+        policy.context.count(kind, size);
     }
     // Heap path: a buffer of exactly `size` bytes, written once.
     let mut buffer = vec![0u8; size];

@@ -1,7 +1,7 @@
 //! The shared-memory pool: one Zenoh POSIX provider shared by the publishers of a
 //! context, with bounded waiting and counted heap fallbacks.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -11,7 +11,9 @@ use zenoh::shm::{
 };
 use zenoh::Wait;
 
-use crate::config::{ConfigError, ShmConfig};
+use crate::config::{ConfigError, PoolSize, ShmConfig};
+use crate::memlock::{Bytes, MemlockBudget, RAISE_THE_LIMIT, ZENOH_METADATA_SEGMENT};
+use crate::payload::PayloadKind;
 
 mod backend;
 
@@ -27,14 +29,34 @@ const EAGER_RECLAIM_MIN_LEN: usize = 64 * 1024;
 
 /// A shared-memory pool and the settings publishers use with it. Cheap to clone;
 /// clones share the pool and the counters.
+///
+/// The pool is sized to the process's memory-lock limit unless a size is
+/// given exactly (see [`PoolSize`]); where the limit leaves no room for one,
+/// the context has no pool ([`ShmContext::pool_size`] is `None`) and its
+/// publishers send from the heap, counted in [`ShmStats::unavailable`].
+///
+/// ```no_run
+/// use shm_runtime::{ShmConfig, ShmContext};
+///
+/// let shm = ShmContext::new(ShmConfig::enabled())?;
+/// match shm.pool_size() {
+///     Some(bytes) => println!("pool of {bytes} bytes ({})", shm.memlock()),
+///     None => println!("no pool: {}", shm.memlock()),
+/// }
+/// # Ok::<(), shm_runtime::ConfigError>(())
+/// ```
 #[derive(Clone)]
 pub struct ShmContext {
     inner: Arc<Inner>,
 }
 
 struct Inner {
-    provider: ShmProvider<CdrBackend>,
+    /// `None` where the memory-lock limit left no room for a pool.
+    provider: Option<ShmProvider<CdrBackend>>,
+    /// The pool's size in bytes (0 without one).
+    size: usize,
     config: ShmConfig,
+    memlock: MemlockBudget,
     stats: Counters,
 }
 
@@ -44,6 +66,7 @@ struct Counters {
     heap: AtomicU64,
     fallbacks: AtomicU64,
     too_large: AtomicU64,
+    unavailable: AtomicU64,
 }
 
 /// How many messages went where (see [`ShmContext::stats`]).
@@ -59,57 +82,180 @@ pub struct ShmStats {
     /// Messages larger than the whole pool, which can never fit and were
     /// published from the heap.
     pub too_large: u64,
+    /// Messages above the threshold published from the heap because the
+    /// memory-lock limit left no room for a pool (see [`PoolSize::AtMost`]).
+    pub unavailable: u64,
 }
 
 impl std::fmt::Debug for ShmContext {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ShmContext")
             .field("config", &self.inner.config)
+            .field("pool_size", &self.pool_size())
             .field("stats", &self.stats())
             .finish()
     }
 }
 
+/// Whether a pool of this process has allocated, which makes Zenoh lock its
+/// metadata segment (once per process, for every pool).
+static OWN_METADATA_LOCKED: AtomicBool = AtomicBool::new(false);
+
+/// Pools are sized in whole multiples of this.
+const FIT_GRANULE: u64 = 64 * 1024;
+
+/// The size of pool `requested` gets under `memlock`: `Ok(None)` for no pool
+/// (an [`PoolSize::AtMost`] pool the limit has no room for), an error for an
+/// exact size the limit cannot hold.
+fn size_pool(
+    requested: PoolSize,
+    memlock: &MemlockBudget,
+    own_metadata_locked: bool,
+) -> Result<Option<usize>, ConfigError> {
+    let Some(available) = memlock.available() else {
+        return Ok(Some(requested.requested()));
+    };
+    let own_metadata = if own_metadata_locked {
+        0
+    } else {
+        ZENOH_METADATA_SEGMENT
+    };
+    // Half of what is left after the two metadata segments: the other half
+    // maps a peer's pool of the same size.
+    let fit = available.saturating_sub(own_metadata + ZENOH_METADATA_SEGMENT) / 2 / FIT_GRANULE
+        * FIT_GRANULE;
+    match requested {
+        PoolSize::AtMost(max) => Ok(usize::try_from(fit)
+            .ok()
+            .map(|fit| fit.min(max))
+            .filter(|&size| size >= ShmConfig::MIN_FIT_POOL_SIZE)),
+        PoolSize::Exact(bytes) => {
+            let need = (bytes as u64).next_multiple_of(4096) + own_metadata;
+            if need > available {
+                let instead = if fit >= ShmConfig::MIN_FIT_POOL_SIZE as u64 {
+                    format!(
+                        "ask for at most {} (ShmConfig::pool_size_at_most sizes the pool to the limit)",
+                        Bytes(fit)
+                    )
+                } else {
+                    "let ShmConfig::pool_size_at_most do without a pool (messages then go from the heap)".to_string()
+                };
+                return Err(ConfigError {
+                    setting: "ShmConfig::pool_size",
+                    value: bytes.to_string(),
+                    reason: format!(
+                        "Zenoh locks shared memory in RAM, and this pool needs {} locked ({} with Zenoh's {} metadata segment) while the process's {memlock} leaves {}: {instead}, or {RAISE_THE_LIMIT}",
+                        Bytes(bytes as u64),
+                        Bytes(need),
+                        Bytes(ZENOH_METADATA_SEGMENT),
+                        Bytes(available),
+                    ),
+                });
+            }
+            if available - need < ZENOH_METADATA_SEGMENT + FIT_GRANULE {
+                tracing::warn!(
+                    pool_size = bytes,
+                    %memlock,
+                    "the shared-memory pool leaves almost no room under the memory-lock limit to map other processes' segments: their messages cannot be read from shared memory by this process"
+                );
+            }
+            Ok(Some(bytes))
+        }
+    }
+}
+
 impl ShmContext {
-    /// Create a pool of `config.pool_size` bytes. Settings Zenoh would refuse
-    /// are refused first ([`ShmConfig::validate`]); a pool the system cannot
-    /// provide (e.g. larger than `/dev/shm`) is an error that says so.
+    /// Create a pool. Its size follows [`ShmConfig::pool_size`]: by default as
+    /// large as the memory-lock limit allows, up to 10 MiB (no pool at all,
+    /// and publishing from the heap, if the limit has no room for one; a log
+    /// line says what was chosen and why); an exact size the limit cannot hold
+    /// is an error naming the limit and how to raise it. Settings Zenoh would
+    /// refuse are refused first ([`ShmConfig::validate`]); a pool the system
+    /// cannot provide (e.g. larger than `/dev/shm`) is an error that says so.
     pub fn new(config: ShmConfig) -> Result<Self, ConfigError> {
         config.validate()?;
-        let provider = PosixShmProviderBackend::builder(config.pool_size)
+        let memlock = MemlockBudget::read();
+        let size = size_pool(
+            config.pool_size,
+            &memlock,
+            OWN_METADATA_LOCKED.load(Ordering::Relaxed),
+        )?;
+        let Some(size) = size else {
+            tracing::warn!(
+                %memlock,
+                "no shared-memory pool: the memory-lock limit leaves no room for one, so messages are published from the heap (ShmStats::unavailable counts them); {RAISE_THE_LIMIT}"
+            );
+            return Ok(Self::with(None, 0, config, memlock));
+        };
+        if matches!(config.pool_size, PoolSize::AtMost(max) if size < max) {
+            tracing::info!(
+                pool_size = size,
+                %memlock,
+                "shared-memory pool sized to the memory-lock limit, leaving as much again to map a peer's pool; ShmConfig::pool_size sets a size, `ulimit -l` raises the limit"
+            );
+        }
+        let provider = PosixShmProviderBackend::builder(size)
             .wait()
             .map(|posix| ShmProviderBuilder::backend(CdrBackend::new(posix)).wait())
-            .map_err(|e| ConfigError {
-                setting: "ShmConfig::pool_size",
-                value: config.pool_size.to_string(),
-                reason: format!(
-                    "Zenoh could not create a shared-memory pool of that size ({e}); check the room in /dev/shm (`df -h /dev/shm`; in Docker, `--shm-size`)"
-                ),
+            .map_err(|e| {
+                let cause = if memlock.available().is_some() && e.to_string().contains("OS error 12") {
+                    format!("; the process's {memlock}: {RAISE_THE_LIMIT}")
+                } else {
+                    "; check the room in /dev/shm (`df -h /dev/shm`; in Docker, `--shm-size`)".to_string()
+                };
+                ConfigError {
+                    setting: "ShmConfig::pool_size",
+                    value: size.to_string(),
+                    reason: format!(
+                        "Zenoh could not create a shared-memory pool of that size ({e}){cause}"
+                    ),
+                }
             })?;
-        if config.threshold > config.pool_size {
+        if config.threshold > size {
             tracing::warn!(
                 threshold = config.threshold,
-                pool_size = config.pool_size,
+                pool_size = size,
                 "SHM threshold above the pool size: no message will ever use shared memory"
             );
         }
         if config.prefault {
-            prefault(&provider, config.pool_size);
+            prefault(&provider, size);
         }
-        Ok(Self {
+        Ok(Self::with(Some(provider), size, config, memlock))
+    }
+
+    fn with(
+        provider: Option<ShmProvider<CdrBackend>>,
+        size: usize,
+        config: ShmConfig,
+        memlock: MemlockBudget,
+    ) -> Self {
+        Self {
             inner: Arc::new(Inner {
                 provider,
+                size,
                 config,
+                memlock,
                 stats: Counters::default(),
             }),
-        })
+        }
     }
 
     /// A pool configured from `ZENOH_SHM_ALLOC_SIZE` /
     /// `ZENOH_SHM_MESSAGE_SIZE_THRESHOLD`, or `None` if neither is set.
     pub fn from_env() -> Result<Option<Self>, ConfigError> {
         match ShmConfig::from_env()? {
-            Some(config) => Ok(Some(Self::new(config)?)),
+            Some(config) => Self::new(config)
+                .map(Some)
+                .map_err(|error| ConfigError {
+                    // The size came from the environment: name what to change.
+                    setting: if error.setting == "ShmConfig::pool_size" {
+                        ShmConfig::ENV_ALLOC_SIZE
+                    } else {
+                        error.setting
+                    },
+                    ..error
+                }),
             None => Ok(None),
         }
     }
@@ -119,12 +265,25 @@ impl ShmContext {
         self.inner.config
     }
 
+    /// The size of the pool in bytes, or `None` if the memory-lock limit left
+    /// no room for one (see [`PoolSize::AtMost`]).
+    pub fn pool_size(&self) -> Option<usize> {
+        self.inner.provider.as_ref().map(|_| self.inner.size)
+    }
+
+    /// The memory-lock budget the pool was sized under, as read when it was
+    /// created.
+    pub fn memlock(&self) -> MemlockBudget {
+        self.inner.memlock
+    }
+
     /// The underlying Zenoh provider, to allocate buffers for user-managed fields
-    /// (see [`ShmBytes`](crate::ShmBytes)). Its chunks requested with an alignment
-    /// of at most 4 bytes (the default) start at 4 mod 8, where a CDR message's body
-    /// is 8-aligned; see [`CdrBackend`].
-    pub fn provider(&self) -> &ShmProvider<CdrBackend> {
-        &self.inner.provider
+    /// (see [`ShmBytes`](crate::ShmBytes)); `None` if there is no pool. Its
+    /// chunks requested with an alignment of at most 4 bytes (the default)
+    /// start at 4 mod 8, where a CDR message's body is 8-aligned; see
+    /// [`CdrBackend`].
+    pub fn provider(&self) -> Option<&ShmProvider<CdrBackend>> {
+        self.inner.provider.as_ref()
     }
 
     /// Allocate exactly `len` bytes of shared memory for the application to fill
@@ -149,6 +308,7 @@ impl ShmContext {
             heap: c.heap.load(Ordering::Relaxed),
             fallbacks: c.fallbacks.load(Ordering::Relaxed),
             too_large: c.too_large.load(Ordering::Relaxed),
+            unavailable: c.unavailable.load(Ordering::Relaxed),
         }
     }
 
@@ -161,7 +321,8 @@ impl ShmContext {
         align: AllocAlignment,
         timeout: Duration,
     ) -> Option<ZShmMut> {
-        if len == 0 || len > self.inner.config.pool_size {
+        let provider = self.inner.provider.as_ref()?;
+        if len == 0 || len > self.inner.size {
             return None;
         }
         let deadline = Instant::now() + timeout;
@@ -175,17 +336,22 @@ impl ShmContext {
         // never at zero: Zenoh takes a reference for the receiver when it
         // serializes the message, inside `put`, before our own is dropped.
         if len >= EAGER_RECLAIM_MIN_LEN {
-            self.inner.provider.garbage_collect();
+            provider.garbage_collect();
         }
         loop {
-            match self
-                .inner
-                .provider
+            match provider
                 .alloc((len, align))
                 .with_policy::<Defragment<GarbageCollect>>()
                 .wait()
             {
-                Ok(buffer) => return Some(buffer),
+                Ok(buffer) => {
+                    // Loaded first: a store on every publish would bounce the
+                    // cache line between publishing threads.
+                    if !OWN_METADATA_LOCKED.load(Ordering::Relaxed) {
+                        OWN_METADATA_LOCKED.store(true, Ordering::Relaxed);
+                    }
+                    return Some(buffer);
+                }
                 Err(error) => {
                     let now = Instant::now();
                     if now >= deadline {
@@ -213,43 +379,72 @@ impl ShmContext {
     /// overwritten, under it. Call it when a subscriber process is known to have
     /// died (e.g. after its supervisor reports the exit), not on a timer.
     pub unsafe fn reclaim_abandoned(&self) -> usize {
+        let Some(provider) = self.inner.provider.as_ref() else {
+            return 0;
+        };
         // SAFETY: forwarded to the caller (see above); this is exactly Zenoh's
         // contract for `garbage_collect_unsafe`, which frees refcounted chunks
         // only when their watchdog is invalidated.
-        let largest = unsafe { self.inner.provider.garbage_collect_unsafe() };
-        self.inner.provider.defragment();
+        let largest = unsafe { provider.garbage_collect_unsafe() };
+        provider.defragment();
         tracing::info!(largest, "reclaimed shared memory abandoned by dead readers");
         largest
     }
 
-    pub(crate) fn count_shm(&self) {
-        self.inner.stats.shm.fetch_add(1, Ordering::Relaxed);
-    }
-
-    pub(crate) fn count_heap(&self) {
-        self.inner.stats.heap.fetch_add(1, Ordering::Relaxed);
-    }
-
-    pub(crate) fn count_fallback(&self, size: usize) {
-        let n = self.inner.stats.fallbacks.fetch_add(1, Ordering::Relaxed) + 1;
-        // The 1st, 2nd, 4th, 8th… time: visible, without a line per message.
-        if n.is_power_of_two() {
-            tracing::warn!(
-                size,
-                fallbacks = n,
-                pool_size = self.inner.config.pool_size,
-                "shared-memory pool exhausted: message published from the heap (ShmContext::stats() counts them)"
-            );
+    /// Shared memory for a message of `size` bytes at or above the threshold,
+    /// or the reason it goes from the heap instead.
+    pub(crate) fn place(&self, size: usize) -> Result<ZShmMut, PayloadKind> {
+        if self.inner.provider.is_none() {
+            return Err(PayloadKind::PoolUnavailable);
         }
+        if size > self.inner.size {
+            return Err(PayloadKind::TooLargeForPool);
+        }
+        self.alloc_message(size, self.inner.config.alloc_timeout)
+            .ok_or(PayloadKind::HeapFallback)
     }
 
-    pub(crate) fn count_too_large(&self, size: usize) {
-        if self.inner.stats.too_large.fetch_add(1, Ordering::Relaxed) == 0 {
-            tracing::warn!(
-                size,
-                pool_size = self.inner.config.pool_size,
-                "message larger than the whole shared-memory pool: it can never fit, so it is published from the heap; enlarge the pool (ShmConfig::pool_size / ZENOH_SHM_ALLOC_SIZE) to send it through shared memory"
-            );
+    /// Count a published message of `size` bytes that went as `kind`, warning
+    /// where it went from the heap against the settings' intent.
+    pub(crate) fn count(&self, kind: PayloadKind, size: usize) {
+        let c = &self.inner.stats;
+        match kind {
+            PayloadKind::Shm | PayloadKind::Spliced => {
+                c.shm.fetch_add(1, Ordering::Relaxed);
+            }
+            PayloadKind::Heap => {
+                c.heap.fetch_add(1, Ordering::Relaxed);
+            }
+            PayloadKind::HeapFallback => {
+                let n = c.fallbacks.fetch_add(1, Ordering::Relaxed) + 1;
+                // The 1st, 2nd, 4th, 8th… time: visible, without a line per message.
+                if n.is_power_of_two() {
+                    tracing::warn!(
+                        size,
+                        fallbacks = n,
+                        pool_size = self.inner.size,
+                        "shared-memory pool exhausted: message published from the heap (ShmContext::stats() counts them)"
+                    );
+                }
+            }
+            PayloadKind::TooLargeForPool => {
+                if c.too_large.fetch_add(1, Ordering::Relaxed) == 0 {
+                    tracing::warn!(
+                        size,
+                        pool_size = self.inner.size,
+                        "message larger than the whole shared-memory pool: it can never fit, so it is published from the heap; enlarge the pool (ShmConfig::pool_size / ZENOH_SHM_ALLOC_SIZE) to send it through shared memory"
+                    );
+                }
+            }
+            PayloadKind::PoolUnavailable => {
+                if c.unavailable.fetch_add(1, Ordering::Relaxed) == 0 {
+                    tracing::warn!(
+                        size,
+                        memlock = %self.inner.memlock,
+                        "message above the threshold published from the heap: the memory-lock limit left no room for a shared-memory pool (ShmStats::unavailable counts them); {RAISE_THE_LIMIT}"
+                    );
+                }
+            }
         }
     }
 }
@@ -272,6 +467,9 @@ fn prefault(provider: &ShmProvider<CdrBackend>, pool_size: usize) {
             Err(_) => break,
         }
     }
+    if !held.is_empty() {
+        OWN_METADATA_LOCKED.store(true, Ordering::Relaxed);
+    }
     drop(held);
     provider.garbage_collect();
     provider.defragment();
@@ -280,6 +478,91 @@ fn prefault(provider: &ShmProvider<CdrBackend>, pool_size: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const MIB: u64 = 1 << 20;
+
+    fn limited(limit: u64, locked: u64) -> MemlockBudget {
+        MemlockBudget {
+            limit: Some(limit),
+            exempt: false,
+            locked,
+        }
+    }
+
+    #[test]
+    fn a_default_pool_takes_half_of_what_the_limit_leaves_after_two_metadata_segments() {
+        let default = PoolSize::AtMost(ShmConfig::DEFAULT_POOL_SIZE);
+        // An ordinary user's 8 MiB: (8 - 2 × 1.25) / 2 = 2.75 MiB, so two
+        // processes that map each other's pools fit.
+        let size = size_pool(default, &limited(8 * MIB, 0), false).unwrap();
+        assert_eq!(size, Some(2816 * 1024));
+        let pair = 2 * (size.unwrap() as u64 + ZENOH_METADATA_SEGMENT);
+        assert!(pair <= 8 * MIB, "{pair}");
+        // What is locked already is not available; the own metadata segment
+        // is counted once.
+        let later = size_pool(default, &limited(8 * MIB, 4 * MIB), true).unwrap();
+        assert_eq!(later, Some(1408 * 1024));
+        // 64 KiB, as in many containers: no pool at all.
+        assert_eq!(size_pool(default, &limited(64 * 1024, 0), false), Ok(None));
+        // Never more than asked for, and all of it when nothing limits.
+        assert_eq!(
+            size_pool(default, &limited(1 << 40, 0), false),
+            Ok(Some(ShmConfig::DEFAULT_POOL_SIZE))
+        );
+        for unlimited in [
+            MemlockBudget {
+                limit: None,
+                exempt: false,
+                locked: 0,
+            },
+            MemlockBudget {
+                limit: Some(64 * 1024),
+                exempt: true,
+                locked: 0,
+            },
+        ] {
+            assert_eq!(
+                size_pool(PoolSize::AtMost(1 << 30), &unlimited, false),
+                Ok(Some(1 << 30))
+            );
+        }
+    }
+
+    #[test]
+    fn an_exact_pool_the_limit_cannot_hold_is_an_error_naming_the_limit_and_the_fix() {
+        let budget = limited(8 * MIB, 0);
+        // 6 MiB fits beside the process's own metadata segment (1.25 MiB)...
+        assert_eq!(
+            size_pool(PoolSize::Exact(6 << 20), &budget, false),
+            Ok(Some(6 << 20))
+        );
+        // ...7 MiB does not, unless that segment is locked already.
+        let err = size_pool(PoolSize::Exact(7 << 20), &budget, false).unwrap_err();
+        assert_eq!(err.setting, "ShmConfig::pool_size");
+        for needed in [
+            "7 MiB",
+            "8.25 MiB",
+            "8 MiB (`ulimit -l` 8192)",
+            "at most 2.75 MiB",
+            "ulimit -l",
+            "limits.conf",
+            "LimitMEMLOCK=",
+            "--ulimit memlock=",
+            "--cap-add IPC_LOCK",
+        ] {
+            assert!(err.reason.contains(needed), "{needed:?} in {err}");
+        }
+        assert_eq!(
+            size_pool(PoolSize::Exact(6 << 20), &limited(8 * MIB, 3 * MIB), true)
+                .unwrap_err()
+                .setting,
+            "ShmConfig::pool_size"
+        );
+        assert!(size_pool(PoolSize::Exact(7 << 20), &budget, true).is_ok());
+        // Where no pool fits, the error says that the default does without.
+        let err = size_pool(PoolSize::Exact(1 << 20), &limited(64 * 1024, 0), false).unwrap_err();
+        assert!(err.reason.contains("pool_size_at_most"), "{err}");
+    }
 
     #[test]
     fn message_chunks_put_the_body_on_8_and_free_back_to_a_full_pool() {
@@ -295,7 +578,7 @@ mod tests {
                     Some(_) => lo = mid,
                     None => hi = mid - 1,
                 }
-                pool.provider().garbage_collect();
+                pool.provider().unwrap().garbage_collect();
             }
             lo
         };
@@ -331,8 +614,8 @@ mod tests {
             }
             assert!(held.len() > 20, "round {round}: {} chunks", held.len());
             drop(held);
-            pool.provider().garbage_collect();
-            pool.provider().defragment();
+            pool.provider().unwrap().garbage_collect();
+            pool.provider().unwrap().defragment();
             // Everything came back.
             assert_eq!(largest(&pool), fresh, "round {round}");
         }
