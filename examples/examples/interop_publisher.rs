@@ -48,7 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     config.insert_json5("scouting/multicast/enabled", "false")?;
     config.insert_json5("connect/endpoints", &format!("[\"{endpoint}\"]"))?;
     let session = zenoh::open(config).wait()?;
-    let shm = ShmContext::new(ShmConfig::enabled().pool_size(16 << 20))?;
+    let shm = ShmContext::new(ShmConfig::enabled().pool_size_at_most(16 << 20))?;
     let node = RosNode::builder(&session, "interop_talker").wait()?;
 
     let clouds = node.declare_publisher("/points").shm(&shm).wait()?;

@@ -56,7 +56,7 @@ fn cloud(i: u32) -> PointCloud2 {
 fn publish(endpoint: &str, count: u32, subscribers: usize) -> Result<(), Error> {
     let session = peer_session(endpoint, true)?;
     let hellos = session.declare_subscriber(HELLO).wait()?;
-    let shm = ShmContext::new(ShmConfig::enabled().pool_size(8 << 20))?;
+    let shm = ShmContext::new(ShmConfig::enabled().pool_size_at_most(8 << 20))?;
     let publisher = session
         .declare_ros_publisher::<PointCloud2>(TOPIC)
         .shm(&shm)

@@ -36,8 +36,9 @@ pub struct ShmConfig {
 pub enum PoolSize {
     /// As large as the memory-lock limit allows, at most this many bytes: half
     /// of what the limit leaves after Zenoh's metadata segments (the
-    /// process's own and one it maps from a peer), so that a peer's pool of
-    /// the same size can be mapped too; 2.75 MiB under an 8 MiB limit. Where
+    /// process's own and one it maps from a peer) and 256 KiB for the rest
+    /// it locks, so that a peer's pool of the same size can be mapped too;
+    /// 2.625 MiB under an 8 MiB limit. Where
     /// that is under [`ShmConfig::MIN_FIT_POOL_SIZE`] there is no pool and
     /// messages go from the heap, counted in
     /// [`ShmStats::unavailable`](crate::ShmStats). Without a limit (root,

@@ -149,7 +149,9 @@ mod tests {
     fn status_fields_are_read() {
         assert!(has_ipc_lock(STATUS));
         assert!(!has_ipc_lock("CapEff:\t0000000000000000\n"));
-        assert!(!has_ipc_lock("CapEff:\t0000000000000000\n".replace('0', "z").as_str()));
+        assert!(!has_ipc_lock(
+            "CapEff:\t0000000000000000\n".replace('0', "z").as_str()
+        ));
         assert!(!has_ipc_lock(""));
         assert_eq!(locked_bytes(STATUS), 1280 * 1024);
         assert_eq!(locked_bytes("VmLck: lots\n"), 0);
@@ -164,7 +166,10 @@ mod tests {
             locked: 1 << 20,
         };
         assert_eq!(budget.available(), Some(7 << 20));
-        assert!(budget.to_string().contains("8 MiB (`ulimit -l` 8192)"), "{budget}");
+        assert!(
+            budget.to_string().contains("8 MiB (`ulimit -l` 8192)"),
+            "{budget}"
+        );
         let over = MemlockBudget {
             locked: 9 << 20,
             ..budget

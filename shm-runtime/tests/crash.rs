@@ -67,7 +67,7 @@ fn spawn_child(test: &str, env: &str, port: u16) -> (KillOnDrop, mpsc::Receiver<
 /// The subscriber process: hold every sample (so its shared memory stays
 /// borrowed) until killed.
 fn child(port: u16) -> ! {
-    let session = zenoh::open(peer_config(port, false)).wait().unwrap();
+    let session = common::open(peer_config(port, false)).wait().unwrap();
     let subscriber = session
         .declare_ros_subscriber::<Image>("crash/images")
         .wait()
@@ -109,12 +109,13 @@ fn image(i: u32) -> Image {
 
 #[test]
 fn killed_subscriber_process_loses_nothing_and_its_memory_is_reclaimed() {
+    let _shm = common::shm_serial();
     if let Ok(port) = std::env::var(CHILD_ENV) {
         child(port.parse().unwrap());
     }
     let port = free_port();
-    let publisher_side = zenoh::open(peer_config(port, true)).wait().unwrap();
-    let local_side = zenoh::open(peer_config(port, false)).wait().unwrap();
+    let publisher_side = common::open(peer_config(port, true)).wait().unwrap();
+    let local_side = common::open(peer_config(port, false)).wait().unwrap();
     // Eight 120 KiB images fill the 1 MiB pool.
     let shm = ShmContext::new(
         ShmConfig::enabled()
@@ -334,7 +335,7 @@ impl StopReport {
 /// into its own pool, whose unsafe garbage collection reclaims chunks the stopped
 /// process still holds (2 of 8 runs under load delivered wrong bytes).
 fn stop_child(port: u16, recovery: bool) -> ! {
-    let session = zenoh::open(without_implicit_shm_copy(peer_config(port, false)))
+    let session = common::open(without_implicit_shm_copy(peer_config(port, false)))
         .wait()
         .unwrap();
     let builder = session.declare_ros_subscriber::<Image>("crash/stopped");
@@ -411,7 +412,7 @@ fn stop_subscriber_process(
     recovery: Option<usize>,
 ) -> StopReport {
     let port = free_port();
-    let session = zenoh::open(without_implicit_shm_copy(peer_config(port, true)))
+    let session = common::open(without_implicit_shm_copy(peer_config(port, true)))
         .wait()
         .unwrap();
     let builder = session.declare_ros_publisher::<Image>("crash/stopped");

@@ -148,6 +148,7 @@ fn a_publisher_that_appears_later_is_asked_for_its_history() {
 
 #[test]
 fn latched_shared_memory_messages_arrive_in_shared_memory() {
+    let _shm = common::shm_serial();
     let (a, b) = session_pair();
     let shm = ShmContext::new(ShmConfig::enabled().threshold(4096)).unwrap();
     let talker = RosNode::builder(&a, "map_server")

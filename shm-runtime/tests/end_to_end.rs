@@ -26,8 +26,11 @@ fn session_pair() -> (Session, Session) {
 /// [`session_pair`] with `adjust` applied to both configurations.
 fn session_pair_with(adjust: impl Fn(zenoh::Config) -> zenoh::Config) -> (Session, Session) {
     let port = free_port();
-    let a = zenoh::open(adjust(peer_config(port, true))).wait().unwrap();
-    let b = zenoh::open(adjust(peer_config(port, false)))
+    let clients = common::shm_clients();
+    let a = common::open_with(adjust(peer_config(port, true)), &clients)
+        .wait()
+        .unwrap();
+    let b = common::open_with(adjust(peer_config(port, false)), &clients)
         .wait()
         .unwrap();
     (a, b)
@@ -54,6 +57,7 @@ fn image(bytes: usize) -> Image {
 
 #[test]
 fn above_threshold_is_shared_memory_below_is_heap_and_bytes_are_exact() {
+    let _shm = common::shm_serial();
     let (a, b) = session_pair();
     let shm = ShmContext::new(ShmConfig::enabled().threshold(4096)).unwrap();
     let publisher = a
@@ -116,6 +120,7 @@ fn above_threshold_is_shared_memory_below_is_heap_and_bytes_are_exact() {
 
 #[test]
 fn without_shm_and_threshold_override() {
+    let _shm = common::shm_serial();
     // Zenoh's implicit copy would move our heap payloads into its own SHM once
     // its lazily created pool is ready (seen under load); this test is about
     // what *our* publisher sends.
@@ -154,6 +159,7 @@ fn without_shm_and_threshold_override() {
 /// than the whole pool is `TooLargeForPool`, counted apart from fallbacks.
 #[test]
 fn outcomes_report_what_actually_went_out() {
+    let _shm = common::shm_serial();
     let (a, b) = session_pair_with(|config| {
         let mut config = without_implicit_shm_copy(config);
         config
@@ -447,6 +453,7 @@ fn cloud_with(data: ShmBytes, points: u32) -> shm_runtime::msgs::sensor_msgs::Po
 
 #[test]
 fn user_managed_shared_memory_field_is_spliced_without_a_copy() {
+    let _shm = common::shm_serial();
     let (a, b) = session_pair();
     let shm = ShmContext::new(ShmConfig::enabled()).unwrap();
     let publisher = a
@@ -527,6 +534,7 @@ fn user_managed_shared_memory_field_is_spliced_without_a_copy() {
 
 #[test]
 fn tiny_pool_under_a_burst_loses_nothing_and_counts_fallbacks() {
+    let _shm = common::shm_serial();
     let (a, b) = session_pair();
     // 256 KiB pool, 64 KiB messages, 4 publishing threads × 25 messages.
     let shm = ShmContext::new(
@@ -678,6 +686,7 @@ fn rmw_zenoh_key_expression_attachment_and_liveliness() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn async_publish_and_receive() {
+    let _shm = common::shm_serial();
     let (a, b) = session_pair();
     let shm = ShmContext::new(ShmConfig::enabled()).unwrap();
     let publisher = a
@@ -711,6 +720,7 @@ async fn next<S: futures_core::Stream + Unpin>(stream: &mut S) -> Option<S::Item
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn streams_of_samples_and_messages_with_async_matching() {
+    let _shm = common::shm_serial();
     let (a, b) = session_pair();
     let shm = ShmContext::new(ShmConfig::enabled()).unwrap();
     let publisher = a
@@ -768,6 +778,7 @@ async fn streams_of_samples_and_messages_with_async_matching() {
 
 #[test]
 fn callback_subscriber_decodes_borrowed_inside_the_callback() {
+    let _shm = common::shm_serial();
     let (a, b) = session_pair();
     let shm = ShmContext::new(ShmConfig::enabled()).unwrap();
     let publisher = a
@@ -805,10 +816,11 @@ fn callback_subscriber_decodes_borrowed_inside_the_callback() {
 /// prevents: a plain Zenoh put of the same size returns `Ok` and never arrives.
 #[test]
 fn lowlatency_refuses_inline_messages_it_cannot_carry() {
+    let _shm = common::shm_serial();
     use shm_cdr::loan::InPlace;
     use shm_runtime::{PublishError, Unfragmentable};
     let (a, b) = session_pair_with(common::lowlatency);
-    let shm = ShmContext::new(ShmConfig::enabled().pool_size(4 << 20)).unwrap();
+    let shm = ShmContext::new(ShmConfig::enabled().pool_size(2 << 20)).unwrap();
     let node = RosNode::builder(&a, "lowlatency")
         .domain_id(0)
         .wait()

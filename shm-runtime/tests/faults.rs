@@ -15,14 +15,13 @@ use common::{free_port, peer_config, without_implicit_shm_copy};
 
 const TIMEOUT: Duration = Duration::from_secs(20);
 
-/// The tests here load both cores; run them one at a time. On oversubscribed
-/// cores a receiver thread can stall past Zenoh's 100 ms SHM watchdog, and Zenoh
-/// 1.10.2 then drops the sample (upstream eclipse-zenoh/zenoh#2628): seen once in
-/// 34 runs of this file with two copies competing for 2 cores.
-static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-fn serial() -> std::sync::MutexGuard<'static, ()> {
-    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+/// The tests here load both cores, and share the memory-lock limit; run them
+/// one at a time. On oversubscribed cores a receiver thread can stall past
+/// Zenoh's 100 ms SHM watchdog, and Zenoh 1.10.2 then drops the sample
+/// (upstream eclipse-zenoh/zenoh#2628): seen once in 34 runs of this file with
+/// two copies competing for 2 cores.
+fn serial() -> common::ShmSerial {
+    common::shm_serial()
 }
 
 /// A loopback peer without Zenoh's implicit SHM copy (see
@@ -36,8 +35,13 @@ fn pair() -> (Session, Session, u16) {
     // SHM watchdog) instead of the test only seeing a gap.
     zenoh::try_init_log_from_env();
     let port = free_port();
-    let a = zenoh::open(config(port, true)).wait().unwrap();
-    let b = zenoh::open(config(port, false)).wait().unwrap();
+    let clients = common::shm_clients();
+    let a = common::open_with(config(port, true), &clients)
+        .wait()
+        .unwrap();
+    let b = common::open_with(config(port, false), &clients)
+        .wait()
+        .unwrap();
     (a, b, port)
 }
 
@@ -255,7 +259,7 @@ fn four_publishers_under_load(
 fn a_restarted_publisher_is_picked_up_by_the_same_subscriber() {
     let _serial = serial();
     let port = free_port();
-    let listener = zenoh::open(config(port, true)).wait().unwrap();
+    let listener = common::open(config(port, true)).wait().unwrap();
     let subscriber = listener
         .declare_ros_subscriber::<Image>("faults/restart")
         .wait()
@@ -263,7 +267,7 @@ fn a_restarted_publisher_is_picked_up_by_the_same_subscriber() {
     let mut received = 0;
     for generation in 0..3u32 {
         // A new session each time, as a restarted process would open.
-        let session = zenoh::open(config(port, false)).wait().unwrap();
+        let session = common::open(config(port, false)).wait().unwrap();
         let shm = ShmContext::new(ShmConfig::enabled()).unwrap();
         let publisher = session
             .declare_ros_publisher::<Image>("faults/restart")

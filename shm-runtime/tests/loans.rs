@@ -56,6 +56,7 @@ fn fill(loan: &mut shm_runtime::Loan<'_, LaserScan>, msg: &LaserScan) {
 
 #[test]
 fn a_loaned_scan_is_one_shm_chunk_equal_to_to_vec_and_read_as_borrowed_floats() {
+    let _shm = common::shm_serial();
     let (a, b, _) = loopback_sessions();
     let shm = ShmContext::new(ShmConfig::enabled().threshold(4096)).unwrap();
     let publisher = a
@@ -109,6 +110,7 @@ fn a_loaned_scan_is_one_shm_chunk_equal_to_to_vec_and_read_as_borrowed_floats() 
 
 #[test]
 fn an_unwritten_loan_is_refused_and_nothing_is_sent() {
+    let _shm = common::shm_serial();
     let (a, b, _) = loopback_sessions();
     let shm = ShmContext::new(ShmConfig::enabled().threshold(0)).unwrap();
     let publisher = a
@@ -157,6 +159,7 @@ fn an_unwritten_loan_is_refused_and_nothing_is_sent() {
 
 #[test]
 fn a_dropped_loan_gives_its_chunk_back() {
+    let _shm = common::shm_serial();
     let (a, _b, _) = loopback_sessions();
     let pool_size = 4 << 20;
     let shm = ShmContext::new(
@@ -189,6 +192,7 @@ fn a_dropped_loan_gives_its_chunk_back() {
 
 #[test]
 fn loans_from_many_threads_on_a_small_pool_end_in_fallbacks_not_a_block() {
+    let _shm = common::shm_serial();
     let (a, b, _) = loopback_sessions();
     let shm = ShmContext::new(
         ShmConfig::enabled()
@@ -254,6 +258,7 @@ fn loans_from_many_threads_on_a_small_pool_end_in_fallbacks_not_a_block() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_loan_publishes_with_await() {
+    let _shm = common::shm_serial();
     let (a, b, _) = loopback_sessions();
     let shm = ShmContext::new(ShmConfig::enabled().threshold(0)).unwrap();
     let publisher = a

@@ -63,7 +63,7 @@ fn role() {
     };
     match role.as_str() {
         "router" => {
-            let _router = zenoh::open(router_config(&endpoint)).wait().unwrap();
+            let _router = common::open(router_config(&endpoint)).wait().unwrap();
             println!("ready");
             wait_for_stdin_lines(|_| {});
         }
@@ -82,7 +82,7 @@ fn wait_for_stdin_lines(mut on_line: impl FnMut(&str)) {
 /// (5 messages published before anyone listens, depth 3) and a publisher of
 /// 1 MiB images that sends one per `blob` line on stdin.
 fn serve(endpoint: &str) {
-    let session = zenoh::open(client_config(endpoint)).wait().unwrap();
+    let session = common::open(client_config(endpoint)).wait().unwrap();
     let shm = ShmContext::new(ShmConfig::enabled().threshold(64 * 1024)).unwrap();
     let node = RosNode::builder(&session, "router_server")
         .namespace("/behind_router")
@@ -239,11 +239,12 @@ impl Drop for ChildRole {
 
 #[test]
 fn services_actions_latched_topics_graph_and_shared_memory_through_a_router() {
+    let _shm = common::shm_serial();
     let endpoint = format!("tcp/127.0.0.1:{}", common::free_port());
     let _router = ChildRole::spawn("router", &endpoint);
     let mut server = ChildRole::spawn("server", &endpoint);
 
-    let session = zenoh::open(client_config(&endpoint)).wait().unwrap();
+    let session = common::open(client_config(&endpoint)).wait().unwrap();
     let shm = ShmContext::new(ShmConfig::enabled().threshold(64 * 1024)).unwrap();
     let node = RosNode::builder(&session, "router_client")
         .domain_id(0)

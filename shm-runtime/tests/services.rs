@@ -211,7 +211,7 @@ fn a_server_gone_mid_call_ends_the_call_and_a_restarted_one_serves() {
         .unwrap();
 
     for round in 0..2 {
-        let server_session = zenoh::open(peer_config(port, false)).wait().unwrap();
+        let server_session = common::open(peer_config(port, false)).wait().unwrap();
         let server_node = node(&server_session, "server");
         let server = server_node
             .declare_service::<Trigger>("restart")
@@ -249,7 +249,7 @@ fn a_server_gone_mid_call_ends_the_call_and_a_restarted_one_serves() {
     assert!(started.elapsed() < Duration::from_secs(10));
 
     // A restarted server serves the same client.
-    let server_session = zenoh::open(peer_config(port, false)).wait().unwrap();
+    let server_session = common::open(peer_config(port, false)).wait().unwrap();
     let server_node = node(&server_session, "server");
     let _server = server_node
         .declare_service::<Trigger>("restart")
@@ -404,6 +404,7 @@ fn timeouts_and_a_full_queue_are_told_to_the_client() {
 
 #[test]
 fn large_requests_and_responses_travel_in_shared_memory() {
+    let _shm = common::shm_serial();
     let (a, b, _) = session_pair();
     let shm = ShmContext::new(ShmConfig::enabled().threshold(64 * 1024)).unwrap();
     let server_node = RosNode::builder(&a, "parameters")
@@ -564,7 +565,7 @@ fn the_graph_lists_nodes_topics_services_and_endpoints_with_qos_and_gids() {
 fn lowlatency_refuses_requests_and_responses_it_cannot_carry() {
     let port = common::free_port();
     let open = |listen| {
-        zenoh::open(common::lowlatency(peer_config(port, listen)))
+        common::open(common::lowlatency(peer_config(port, listen)))
             .wait()
             .unwrap()
     };

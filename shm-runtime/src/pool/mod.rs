@@ -2,7 +2,7 @@
 //! context, with bounded waiting and counted heap fallbacks.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use zenoh::shm::{
@@ -104,6 +104,10 @@ static OWN_METADATA_LOCKED: AtomicBool = AtomicBool::new(false);
 /// Pools are sized in whole multiples of this.
 const FIT_GRANULE: u64 = 64 * 1024;
 
+/// What a sized pool leaves beside the metadata segments for the rest a
+/// process locks: a Zenoh session locks 48 KiB of its own when it starts.
+const FIT_SLACK: u64 = 256 * 1024;
+
 /// The size of pool `requested` gets under `memlock`: `Ok(None)` for no pool
 /// (an [`PoolSize::AtMost`] pool the limit has no room for), an error for an
 /// exact size the limit cannot hold.
@@ -120,9 +124,11 @@ fn size_pool(
     } else {
         ZENOH_METADATA_SEGMENT
     };
-    // Half of what is left after the two metadata segments: the other half
-    // maps a peer's pool of the same size.
-    let fit = available.saturating_sub(own_metadata + ZENOH_METADATA_SEGMENT) / 2 / FIT_GRANULE
+    // Half of what is left after the two metadata segments and some slack:
+    // the other half maps a peer's pool of the same size.
+    let fit = available.saturating_sub(own_metadata + ZENOH_METADATA_SEGMENT + FIT_SLACK)
+        / 2
+        / FIT_GRANULE
         * FIT_GRANULE;
     match requested {
         PoolSize::AtMost(max) => Ok(usize::try_from(fit)
@@ -144,10 +150,13 @@ fn size_pool(
                     setting: "ShmConfig::pool_size",
                     value: bytes.to_string(),
                     reason: format!(
-                        "Zenoh locks shared memory in RAM, and this pool needs {} locked ({} with Zenoh's {} metadata segment) while the process's {memlock} leaves {}: {instead}, or {RAISE_THE_LIMIT}",
+                        "Zenoh locks shared memory in RAM, and this pool needs {}{} while the process's {memlock} leaves {}: {instead}, or {RAISE_THE_LIMIT}",
                         Bytes(bytes as u64),
-                        Bytes(need),
-                        Bytes(ZENOH_METADATA_SEGMENT),
+                        if own_metadata > 0 {
+                            format!(" ({} with Zenoh's {} metadata segment)", Bytes(need), Bytes(own_metadata))
+                        } else {
+                            String::new()
+                        },
                         Bytes(available),
                     ),
                 });
@@ -174,6 +183,9 @@ impl ShmContext {
     /// cannot provide (e.g. larger than `/dev/shm`) is an error that says so.
     pub fn new(config: ShmConfig) -> Result<Self, ConfigError> {
         config.validate()?;
+        // One pool at a time: each is sized from what the others left.
+        static CREATING: Mutex<()> = Mutex::new(());
+        let _creating = CREATING.lock().unwrap_or_else(|e| e.into_inner());
         let memlock = MemlockBudget::read();
         let size = size_pool(
             config.pool_size,
@@ -198,11 +210,13 @@ impl ShmContext {
             .wait()
             .map(|posix| ShmProviderBuilder::backend(CdrBackend::new(posix)).wait())
             .map_err(|e| {
-                let cause = if memlock.available().is_some() && e.to_string().contains("OS error 12") {
-                    format!("; the process's {memlock}: {RAISE_THE_LIMIT}")
-                } else {
-                    "; check the room in /dev/shm (`df -h /dev/shm`; in Docker, `--shm-size`)".to_string()
-                };
+                let cause =
+                    if memlock.available().is_some() && e.to_string().contains("OS error 12") {
+                        format!("; the process's {memlock}: {RAISE_THE_LIMIT}")
+                    } else {
+                        "; check the room in /dev/shm (`df -h /dev/shm`; in Docker, `--shm-size`)"
+                            .to_string()
+                    };
                 ConfigError {
                     setting: "ShmConfig::pool_size",
                     value: size.to_string(),
@@ -218,6 +232,7 @@ impl ShmContext {
                 "SHM threshold above the pool size: no message will ever use shared memory"
             );
         }
+        lock_own_metadata(&provider, size, &memlock)?;
         if config.prefault {
             prefault(&provider, size);
         }
@@ -245,17 +260,15 @@ impl ShmContext {
     /// `ZENOH_SHM_MESSAGE_SIZE_THRESHOLD`, or `None` if neither is set.
     pub fn from_env() -> Result<Option<Self>, ConfigError> {
         match ShmConfig::from_env()? {
-            Some(config) => Self::new(config)
-                .map(Some)
-                .map_err(|error| ConfigError {
-                    // The size came from the environment: name what to change.
-                    setting: if error.setting == "ShmConfig::pool_size" {
-                        ShmConfig::ENV_ALLOC_SIZE
-                    } else {
-                        error.setting
-                    },
-                    ..error
-                }),
+            Some(config) => Self::new(config).map(Some).map_err(|error| ConfigError {
+                // The size came from the environment: name what to change.
+                setting: if error.setting == "ShmConfig::pool_size" {
+                    ShmConfig::ENV_ALLOC_SIZE
+                } else {
+                    error.setting
+                },
+                ..error
+            }),
             None => Ok(None),
         }
     }
@@ -449,6 +462,43 @@ impl ShmContext {
     }
 }
 
+/// Make Zenoh create (and lock) this process's metadata segment now, while
+/// the budget says there is room for it, rather than in the middle of a later
+/// publish: Zenoh creates it on a process's first allocation and panics if it
+/// cannot (`zenoh-shm` 1.10 unwraps the error), so a failure here is turned
+/// into an error instead.
+fn lock_own_metadata(
+    provider: &ShmProvider<CdrBackend>,
+    size: usize,
+    memlock: &MemlockBudget,
+) -> Result<(), ConfigError> {
+    if OWN_METADATA_LOCKED.load(Ordering::Relaxed) {
+        return Ok(());
+    }
+    let first = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        provider.alloc(8).wait().map(drop)
+    }));
+    match first {
+        Ok(Ok(())) => {
+            OWN_METADATA_LOCKED.store(true, Ordering::Relaxed);
+            Ok(())
+        }
+        Ok(Err(error)) => Err(ConfigError {
+            setting: "ShmConfig::pool_size",
+            value: size.to_string(),
+            reason: format!("Zenoh could not allocate from the new pool ({error:?})"),
+        }),
+        Err(_) => Err(ConfigError {
+            setting: "ShmConfig::pool_size",
+            value: size.to_string(),
+            reason: format!(
+                "Zenoh could not create its {} shared-memory metadata segment (the process's {memlock}; free space in /dev/shm: `df -h /dev/shm`): {RAISE_THE_LIMIT}",
+                Bytes(ZENOH_METADATA_SEGMENT)
+            ),
+        }),
+    }
+}
+
 /// Touch every page of the pool once, so that publishing never pays first-touch
 /// page faults (about 0.25 µs per 4 KiB page, i.e. ~60 µs for each fresh MiB the
 /// allocator moves on to). Best effort: whatever cannot be allocated is skipped.
@@ -492,16 +542,16 @@ mod tests {
     #[test]
     fn a_default_pool_takes_half_of_what_the_limit_leaves_after_two_metadata_segments() {
         let default = PoolSize::AtMost(ShmConfig::DEFAULT_POOL_SIZE);
-        // An ordinary user's 8 MiB: (8 - 2 × 1.25) / 2 = 2.75 MiB, so two
-        // processes that map each other's pools fit.
+        // An ordinary user's 8 MiB: (8 - 2 × 1.25 - 0.25) / 2 = 2.625 MiB, so
+        // two processes that map each other's pools fit.
         let size = size_pool(default, &limited(8 * MIB, 0), false).unwrap();
-        assert_eq!(size, Some(2816 * 1024));
+        assert_eq!(size, Some(2688 * 1024));
         let pair = 2 * (size.unwrap() as u64 + ZENOH_METADATA_SEGMENT);
         assert!(pair <= 8 * MIB, "{pair}");
         // What is locked already is not available; the own metadata segment
         // is counted once.
         let later = size_pool(default, &limited(8 * MIB, 4 * MIB), true).unwrap();
-        assert_eq!(later, Some(1408 * 1024));
+        assert_eq!(later, Some(1280 * 1024));
         // 64 KiB, as in many containers: no pool at all.
         assert_eq!(size_pool(default, &limited(64 * 1024, 0), false), Ok(None));
         // Never more than asked for, and all of it when nothing limits.
@@ -543,7 +593,7 @@ mod tests {
             "7 MiB",
             "8.25 MiB",
             "8 MiB (`ulimit -l` 8192)",
-            "at most 2.75 MiB",
+            "at most 2.625 MiB",
             "ulimit -l",
             "limits.conf",
             "LimitMEMLOCK=",

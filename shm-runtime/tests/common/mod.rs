@@ -1,6 +1,71 @@
 //! Session helpers shared by the integration tests.
 
+use std::sync::{Arc, Condvar, Mutex};
+
+use zenoh::shm::ShmClientStorage;
 use zenoh::Config;
+
+/// A client storage of its own for the sessions of one test, so that the
+/// shared-memory segments they mapped are unmapped once they have all closed.
+/// With Zenoh's process-wide storage (the default) every segment a session
+/// ever mapped stays mapped, and locked in RAM, until the process exits: the
+/// pools of a few earlier tests would use up an ordinary user's 8 MiB
+/// memory-lock limit. Sessions that exchange shared memory with each other
+/// share one, which maps each pool once.
+#[allow(dead_code)] // not every test binary uses it
+pub fn shm_clients() -> Arc<ShmClientStorage> {
+    Arc::new(
+        ShmClientStorage::builder()
+            .with_default_client_set()
+            .build(),
+    )
+}
+
+/// Open a session with a client storage of its own (see [`shm_clients`]).
+#[allow(dead_code)] // not every test binary uses it
+pub fn open(config: Config) -> zenoh::session::OpenBuilder<Config> {
+    zenoh::open(config).with_shm_clients(shm_clients())
+}
+
+/// Open a session with the client storage `clients` (see [`shm_clients`]).
+#[allow(dead_code)] // not every test binary uses it
+pub fn open_with(
+    config: Config,
+    clients: &Arc<ShmClientStorage>,
+) -> zenoh::session::OpenBuilder<Config> {
+    zenoh::open(config).with_shm_clients(clients.clone())
+}
+
+/// Held by each test that uses shared memory, for its whole length (take it
+/// first, so that it is released last). The tests of a binary run as threads
+/// of one process, which has one memory-lock limit (`ulimit -l`); one at a
+/// time, each has all of it. (A plain `MutexGuard` held across `.await` is
+/// what clippy warns about; this one is meant to be.)
+#[allow(dead_code)] // not every test binary uses it
+pub struct ShmSerial(());
+
+#[allow(dead_code)] // not every test binary uses it
+static SHM_IN_USE: (Mutex<bool>, Condvar) = (Mutex::new(false), Condvar::new());
+
+/// Wait until no other test of this binary uses shared memory.
+#[allow(dead_code)] // not every test binary uses it
+pub fn shm_serial() -> ShmSerial {
+    let (lock, freed) = &SHM_IN_USE;
+    let mut in_use = lock.lock().unwrap_or_else(|e| e.into_inner());
+    while *in_use {
+        in_use = freed.wait(in_use).unwrap_or_else(|e| e.into_inner());
+    }
+    *in_use = true;
+    ShmSerial(())
+}
+
+impl Drop for ShmSerial {
+    fn drop(&mut self) {
+        let (lock, freed) = &SHM_IN_USE;
+        *lock.lock().unwrap_or_else(|e| e.into_inner()) = false;
+        freed.notify_one();
+    }
+}
 
 /// A TCP port on loopback that nothing is bound to right now, chosen by the
 /// kernel. Fixed ranges derived from the process id collided with the kernel's
@@ -53,10 +118,14 @@ pub fn without_implicit_shm_copy(mut config: Config) -> Config {
 pub fn loopback_sessions() -> (zenoh::Session, zenoh::Session, u16) {
     use zenoh::Wait;
     let port = free_port();
+    let clients = shm_clients();
     let open = |listen| {
-        zenoh::open(without_implicit_shm_copy(peer_config(port, listen)))
-            .wait()
-            .unwrap()
+        open_with(
+            without_implicit_shm_copy(peer_config(port, listen)),
+            &clients,
+        )
+        .wait()
+        .unwrap()
     };
     (open(true), open(false), port)
 }
