@@ -33,6 +33,9 @@ const BEAMS: usize = 1080;
 const POINTS: usize = 65_536; // 16-byte points: 1 MiB of point data
 
 fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    // Warnings (a pool that fell back to the heap, a message missed) reach
+    // stderr only through a logger: `RUST_LOG=info` shows more.
+    zenoh::init_log_from_env_or("warn");
     let (a, b) = loopback_pair(27_610)?;
     let shm = ShmContext::new(ShmConfig::enabled().threshold(4096))?;
 

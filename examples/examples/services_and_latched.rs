@@ -19,6 +19,9 @@ use shm_runtime::{RosNode, ShmConfig, ShmContext};
 use zenoh::Wait;
 
 fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    // Warnings (a pool that fell back to the heap, a message missed) reach
+    // stderr only through a logger: `RUST_LOG=info` shows more.
+    zenoh::init_log_from_env_or("warn");
     let (a, b) = loopback_pair(7451)?;
     let shm = ShmContext::new(ShmConfig::enabled())?;
     let server = RosNode::builder(&a, "server").shm(&shm).wait()?;

@@ -16,11 +16,17 @@ use shm_cdr::msgs::sensor_msgs::PointField;
 use zenoh::{Config, Session, Wait};
 
 /// A peer session on `endpoint` with multicast scouting off: listening on it,
-/// or connecting to it.
+/// or connecting to it. Zenoh's implicit copy of large heap payloads into a
+/// shared-memory pool of its own is off, as the guide recommends beside
+/// shm-runtime: what travels in shared memory is what a publisher put there.
 pub fn peer_session(endpoint: &str, listen: bool) -> zenoh::Result<Session> {
     let mut config = Config::default();
     config.insert_json5("mode", "\"peer\"")?;
     config.insert_json5("scouting/multicast/enabled", "false")?;
+    config.insert_json5(
+        "transport/shared_memory/transport_optimization/enabled",
+        "false",
+    )?;
     let key = if listen {
         "listen/endpoints"
     } else {

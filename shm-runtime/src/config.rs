@@ -149,24 +149,65 @@ impl ShmConfig {
         Self::from_lookup(|name| std::env::var(name).ok())
     }
 
+    /// These settings with `ZENOH_SHM_ALLOC_SIZE` and
+    /// `ZENOH_SHM_MESSAGE_SIZE_THRESHOLD` applied where they are set: the one
+    /// way to build a configuration that the environment can adjust. A value
+    /// that is not a positive integer is an error.
+    ///
+    /// ```no_run
+    /// use shm_runtime::{ShmConfig, ShmContext};
+    ///
+    /// let shm = ShmContext::new(ShmConfig::enabled().with_env()?)?;
+    /// # Ok::<(), shm_runtime::ConfigError>(())
+    /// ```
+    pub fn with_env(self) -> Result<Self, ConfigError> {
+        self.with_lookup(|name| std::env::var(name).ok())
+    }
+
+    /// [`Self::with_env`] over any variable lookup (for tests and embedding).
+    pub fn with_lookup(
+        mut self,
+        lookup: impl Fn(&str) -> Option<String>,
+    ) -> Result<Self, ConfigError> {
+        let (pool, threshold) = Self::variables(lookup)?;
+        if let Some(pool) = pool {
+            self.pool_size = PoolSize::Exact(pool);
+        }
+        if let Some(threshold) = threshold {
+            self.threshold = threshold;
+        }
+        Ok(self)
+    }
+
     /// [`Self::from_env`] over any variable lookup (for tests and embedding).
     pub fn from_lookup(
         lookup: impl Fn(&str) -> Option<String>,
     ) -> Result<Option<Self>, ConfigError> {
+        let (pool, threshold) = Self::variables(&lookup)?;
+        if pool.is_none() && threshold.is_none() {
+            return Ok(None);
+        }
+        Self::enabled().with_lookup(lookup).map(Some)
+    }
+
+    /// The pool size and threshold the variables set, each checked.
+    fn variables(
+        lookup: impl Fn(&str) -> Option<String>,
+    ) -> Result<(Option<usize>, Option<usize>), ConfigError> {
         let parse = |name: &'static str, min: usize, max: usize| {
             match lookup(name) {
-                None => Ok(None),
-                Some(raw) => match raw.trim().parse::<usize>() {
-                    Ok(value) if (min..=max).contains(&value) => Ok(Some(value)),
-                    _ => Err(ConfigError {
-                        setting: name,
-                        value: raw,
-                        reason: format!(
-                            "expected a number of bytes from {min} to {max} (unset it to use the default)"
-                        ),
-                    }),
-                },
-            }
+            None => Ok(None),
+            Some(raw) => match raw.trim().parse::<usize>() {
+                Ok(value) if (min..=max).contains(&value) => Ok(Some(value)),
+                _ => Err(ConfigError {
+                    setting: name,
+                    value: raw,
+                    reason: format!(
+                        "expected a number of bytes from {min} to {max} (unset it to use the default)"
+                    ),
+                }),
+            },
+        }
         };
         let pool = parse(
             Self::ENV_ALLOC_SIZE,
@@ -174,17 +215,7 @@ impl ShmConfig {
             Self::MAX_POOL_SIZE,
         )?;
         let threshold = parse(Self::ENV_THRESHOLD, 1, Self::MAX_POOL_SIZE)?;
-        if pool.is_none() && threshold.is_none() {
-            return Ok(None);
-        }
-        let mut config = Self::enabled();
-        if let Some(pool) = pool {
-            config.pool_size = PoolSize::Exact(pool);
-        }
-        if let Some(threshold) = threshold {
-            config.threshold = threshold;
-        }
-        Ok(Some(config))
+        Ok((pool, threshold))
     }
 }
 
@@ -252,6 +283,26 @@ mod tests {
             (c.pool_size, c.threshold),
             (PoolSize::AtMost(10 << 20), 4096)
         );
+    }
+
+    #[test]
+    fn the_environment_adjusts_a_configuration_where_set() {
+        let base = ShmConfig::enabled()
+            .threshold(4096)
+            .pool_size_at_most(1 << 20);
+        assert_eq!(base.with_lookup(env(&[])).unwrap(), base);
+        let c = base
+            .with_lookup(env(&[("ZENOH_SHM_ALLOC_SIZE", "2097152")]))
+            .unwrap();
+        assert_eq!((c.pool_size, c.threshold), (PoolSize::Exact(2 << 20), 4096));
+        let c = base
+            .with_lookup(env(&[("ZENOH_SHM_MESSAGE_SIZE_THRESHOLD", "100")]))
+            .unwrap();
+        assert_eq!((c.pool_size, c.threshold), (PoolSize::AtMost(1 << 20), 100));
+        let err = base
+            .with_lookup(env(&[("ZENOH_SHM_MESSAGE_SIZE_THRESHOLD", "lots")]))
+            .unwrap_err();
+        assert_eq!(err.setting, "ZENOH_SHM_MESSAGE_SIZE_THRESHOLD");
     }
 
     #[test]
