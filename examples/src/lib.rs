@@ -82,3 +82,33 @@ mod tests {
         assert_eq!(BatteryRef::type_hash(), Battery::type_hash());
     }
 }
+
+/// The README and every chapter of the guide (`docs/src`), compiled and run as
+/// doctests by `cargo test`, so that no snippet in them goes stale. A chapter
+/// added to `docs/src/SUMMARY.md` must be listed here (`tests/docs.rs` checks
+/// it).
+#[cfg(doctest)]
+pub mod docs {
+    macro_rules! documents {
+        ($($name:ident = $path:literal),* $(,)?) => {
+            $(
+                #[doc = include_str!($path)]
+                pub struct $name;
+            )*
+        };
+    }
+    documents! {
+        Readme = "../../README.md",
+        Introduction = "../../docs/src/introduction.md",
+        Messages = "../../docs/src/messages.md",
+        Interfaces = "../../docs/src/interfaces.md",
+        SharedMemory = "../../docs/src/shared-memory.md",
+        Nodes = "../../docs/src/nodes.md",
+        ZenohConfig = "../../docs/src/zenoh-config.md",
+        Performance = "../../docs/src/performance.md",
+        Interop = "../../docs/src/interop.md",
+        Reliability = "../../docs/src/reliability.md",
+        Troubleshooting = "../../docs/src/troubleshooting.md",
+        ComingFrom = "../../docs/src/coming-from.md",
+    }
+}
