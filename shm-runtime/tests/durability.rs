@@ -118,8 +118,7 @@ fn a_late_subscriber_gets_the_last_depth_messages_then_live_ones() {
 /// published before the subscriber's declaration reached the publisher, and
 /// zenoh-ext 1.10.2 then loses them when later ones arrive live before the
 /// late publisher is detected: its history reply holds them, but they are older
-/// than what was delivered (seen as `[early 3, early 4]`, about 1 run in 10 on
-/// this machine, before this session's changes too).
+/// than what was delivered (seen as `[early 3, early 4]`, about 1 run in 10).
 #[test]
 fn a_publisher_that_appears_later_is_asked_for_its_history() {
     let (a, b) = session_pair();
