@@ -93,3 +93,24 @@ fn an_exact_pool_beyond_the_limit_is_an_error_naming_the_limit_and_the_fix() {
     }
     println!("{text}");
 }
+
+/// A pool larger than the room in `/dev/shm` (Docker gives a container
+/// 64 MiB) is an error naming the room, never Zenoh's panic, even when the
+/// pool alone would fit and only Zenoh's metadata segment would not.
+#[test]
+fn a_pool_beyond_the_room_in_dev_shm_is_an_error_naming_it() {
+    let _shm = shm_serial();
+    let stats = nix::sys::statvfs::statvfs("/dev/shm").unwrap();
+    #[allow(clippy::useless_conversion)] // the field types differ between targets
+    let free = u64::from(stats.blocks_available()) * u64::from(stats.fragment_size());
+    let pool = (free as usize).saturating_sub(512 * 1024) & !4095;
+    if pool > ShmConfig::MAX_POOL_SIZE {
+        println!("/dev/shm has {free} bytes free, more than a pool can be: nothing to refuse");
+        return;
+    }
+    let err = ShmContext::new(ShmConfig::enabled().pool_size(pool).prefault(false)).unwrap_err();
+    assert_eq!(err.setting, "ShmConfig::pool_size");
+    assert!(err.reason.contains("/dev/shm has"), "{err}");
+    assert!(err.reason.contains("--shm-size"), "{err}");
+    println!("{err}");
+}

@@ -115,15 +115,40 @@ fn size_pool(
     requested: PoolSize,
     memlock: &MemlockBudget,
     own_metadata_locked: bool,
+    shm_free: Option<u64>,
 ) -> Result<Option<usize>, ConfigError> {
-    let Some(available) = memlock.available() else {
-        return Ok(Some(requested.requested()));
-    };
     let own_metadata = if own_metadata_locked {
         0
     } else {
         ZENOH_METADATA_SEGMENT
     };
+    // /dev/shm is shared by every process of the host: a default pool takes
+    // at most half of the room left there, an exact one must fit.
+    let requested = match (requested, shm_free) {
+        (PoolSize::AtMost(max), Some(free)) => {
+            let room = free.saturating_sub(own_metadata) / 2 / FIT_GRANULE * FIT_GRANULE;
+            PoolSize::AtMost(usize::try_from(room).map_or(max, |room| room.min(max)))
+        }
+        (PoolSize::Exact(bytes), Some(free)) if bytes as u64 + own_metadata > free => {
+            return Err(ConfigError {
+                setting: "ShmConfig::pool_size",
+                value: bytes.to_string(),
+                reason: format!(
+                    "/dev/shm has {} free, and this pool needs {} there{}: give /dev/shm more room (Docker: `--shm-size`; compose: `shm_size:`) or ask for a smaller pool",
+                    Bytes(free),
+                    Bytes(bytes as u64),
+                    if own_metadata > 0 {
+                        format!(" and Zenoh's metadata segment {} more", Bytes(own_metadata))
+                    } else {
+                        String::new()
+                    },
+                ),
+            });
+        }
+        (requested, _) => requested,
+    };
+    // Unlimited (root, CAP_IPC_LOCK, `ulimit -l unlimited`): as asked.
+    let available = memlock.available().unwrap_or(u64::MAX);
     // Half of what is left after the two metadata segments and some slack:
     // the other half maps a peer's pool of the same size.
     let fit = available.saturating_sub(own_metadata + ZENOH_METADATA_SEGMENT + FIT_SLACK)
@@ -161,7 +186,9 @@ fn size_pool(
                     ),
                 });
             }
-            if available - need < ZENOH_METADATA_SEGMENT + FIT_GRANULE {
+            if memlock.available().is_some()
+                && available - need < ZENOH_METADATA_SEGMENT + FIT_GRANULE
+            {
                 tracing::warn!(
                     pool_size = bytes,
                     %memlock,
@@ -191,6 +218,7 @@ impl ShmContext {
             config.pool_size,
             &memlock,
             OWN_METADATA_LOCKED.load(Ordering::Relaxed),
+            dev_shm_free(),
         )?;
         let Some(size) = size else {
             tracing::warn!(
@@ -462,6 +490,15 @@ impl ShmContext {
     }
 }
 
+/// Bytes free in `/dev/shm`, where POSIX shared memory lives (`None` if it
+/// cannot be read).
+fn dev_shm_free() -> Option<u64> {
+    let stats = nix::sys::statvfs::statvfs("/dev/shm").ok()?;
+    #[allow(clippy::useless_conversion)] // the field types differ between targets
+    let (blocks, size) = (u64::from(stats.blocks_available()), u64::from(stats.fragment_size()));
+    Some(blocks.saturating_mul(size))
+}
+
 /// Make Zenoh create (and lock) this process's metadata segment now, while
 /// the budget says there is room for it, rather than in the middle of a later
 /// publish: Zenoh creates it on a process's first allocation and panics if it
@@ -544,19 +581,19 @@ mod tests {
         let default = PoolSize::AtMost(ShmConfig::DEFAULT_POOL_SIZE);
         // An ordinary user's 8 MiB: (8 - 2 × 1.25 - 0.25) / 2 = 2.625 MiB, so
         // two processes that map each other's pools fit.
-        let size = size_pool(default, &limited(8 * MIB, 0), false).unwrap();
+        let size = size_pool(default, &limited(8 * MIB, 0), false, None).unwrap();
         assert_eq!(size, Some(2688 * 1024));
         let pair = 2 * (size.unwrap() as u64 + ZENOH_METADATA_SEGMENT);
         assert!(pair <= 8 * MIB, "{pair}");
         // What is locked already is not available; the own metadata segment
         // is counted once.
-        let later = size_pool(default, &limited(8 * MIB, 4 * MIB), true).unwrap();
+        let later = size_pool(default, &limited(8 * MIB, 4 * MIB), true, None).unwrap();
         assert_eq!(later, Some(1280 * 1024));
         // 64 KiB, as in many containers: no pool at all.
-        assert_eq!(size_pool(default, &limited(64 * 1024, 0), false), Ok(None));
+        assert_eq!(size_pool(default, &limited(64 * 1024, 0), false, None), Ok(None));
         // Never more than asked for, and all of it when nothing limits.
         assert_eq!(
-            size_pool(default, &limited(1 << 40, 0), false),
+            size_pool(default, &limited(1 << 40, 0), false, None),
             Ok(Some(ShmConfig::DEFAULT_POOL_SIZE))
         );
         for unlimited in [
@@ -572,10 +609,42 @@ mod tests {
             },
         ] {
             assert_eq!(
-                size_pool(PoolSize::AtMost(1 << 30), &unlimited, false),
+                size_pool(PoolSize::AtMost(1 << 30), &unlimited, false, None),
                 Ok(Some(1 << 30))
             );
         }
+    }
+
+    #[test]
+    fn a_pool_fits_the_room_left_in_dev_shm() {
+        let root = MemlockBudget {
+            limit: None,
+            exempt: true,
+            locked: 0,
+        };
+        // Docker's 64 MiB, half of it taken: a default pool takes half of the
+        // rest after the metadata segment.
+        let free = Some(32 * MIB);
+        let size = size_pool(PoolSize::AtMost(1 << 30), &root, false, free).unwrap();
+        assert_eq!(size, Some(15 * MIB as usize + 384 * 1024));
+        assert_eq!(
+            size_pool(PoolSize::AtMost(4 << 20), &root, false, free),
+            Ok(Some(4 << 20))
+        );
+        assert_eq!(
+            size_pool(PoolSize::AtMost(4 << 20), &root, false, Some(64 * 1024)),
+            Ok(None)
+        );
+        // 63 MiB exactly in a 64 MiB /dev/shm: no room for Zenoh's metadata.
+        let err = size_pool(PoolSize::Exact(63 << 20), &root, false, Some(64 * MIB)).unwrap_err();
+        assert_eq!(err.setting, "ShmConfig::pool_size");
+        for needed in ["/dev/shm has 64 MiB free", "63 MiB", "1.25 MiB", "--shm-size"] {
+            assert!(err.reason.contains(needed), "{needed:?} in {err}");
+        }
+        assert_eq!(
+            size_pool(PoolSize::Exact(62 << 20), &root, false, Some(64 * MIB)),
+            Ok(Some(62 << 20))
+        );
     }
 
     #[test]
@@ -583,11 +652,11 @@ mod tests {
         let budget = limited(8 * MIB, 0);
         // 6 MiB fits beside the process's own metadata segment (1.25 MiB)...
         assert_eq!(
-            size_pool(PoolSize::Exact(6 << 20), &budget, false),
+            size_pool(PoolSize::Exact(6 << 20), &budget, false, None),
             Ok(Some(6 << 20))
         );
         // ...7 MiB does not, unless that segment is locked already.
-        let err = size_pool(PoolSize::Exact(7 << 20), &budget, false).unwrap_err();
+        let err = size_pool(PoolSize::Exact(7 << 20), &budget, false, None).unwrap_err();
         assert_eq!(err.setting, "ShmConfig::pool_size");
         for needed in [
             "7 MiB",
@@ -603,14 +672,14 @@ mod tests {
             assert!(err.reason.contains(needed), "{needed:?} in {err}");
         }
         assert_eq!(
-            size_pool(PoolSize::Exact(6 << 20), &limited(8 * MIB, 3 * MIB), true)
+            size_pool(PoolSize::Exact(6 << 20), &limited(8 * MIB, 3 * MIB), true, None)
                 .unwrap_err()
                 .setting,
             "ShmConfig::pool_size"
         );
-        assert!(size_pool(PoolSize::Exact(7 << 20), &budget, true).is_ok());
+        assert!(size_pool(PoolSize::Exact(7 << 20), &budget, true, None).is_ok());
         // Where no pool fits, the error says that the default does without.
-        let err = size_pool(PoolSize::Exact(1 << 20), &limited(64 * 1024, 0), false).unwrap_err();
+        let err = size_pool(PoolSize::Exact(1 << 20), &limited(64 * 1024, 0), false, None).unwrap_err();
         assert!(err.reason.contains("pool_size_at_most"), "{err}");
     }
 
