@@ -25,7 +25,7 @@ struct Battery {
 fn main() -> zenoh::Result<()> {
     // Warnings (a pool that fell back to the heap, a message missed) reach
     // stderr only through a logger: `RUST_LOG=info` shows more.
-    zenoh::init_log_from_env_or("warn");
+    shm_runtime::init_logging();
     let (a, b) = loopback_pair(7449)?;
     let msg = Battery {
         stamp: Time {

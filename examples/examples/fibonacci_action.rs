@@ -35,7 +35,7 @@ fn execute(goal: ServerGoalHandle<Fibonacci>) {
 fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     // Warnings (a pool that fell back to the heap, a message missed) reach
     // stderr only through a logger: `RUST_LOG=info` shows more.
-    zenoh::init_log_from_env_or("warn");
+    shm_runtime::init_logging();
     let (a, b) = loopback_pair(7455)?;
     let server_node = RosNode::builder(&a, "fibonacci_server").wait()?;
     let client_node = RosNode::builder(&b, "fibonacci_client").wait()?;

@@ -35,7 +35,7 @@ const POINTS: usize = 65_536; // 16-byte points: 1 MiB of point data
 fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     // Warnings (a pool that fell back to the heap, a message missed) reach
     // stderr only through a logger: `RUST_LOG=info` shows more.
-    zenoh::init_log_from_env_or("warn");
+    shm_runtime::init_logging();
     let (a, b) = loopback_pair(27_610)?;
     let shm = ShmContext::new(ShmConfig::enabled().threshold(4096))?;
 

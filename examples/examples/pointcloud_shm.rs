@@ -94,7 +94,7 @@ fn median_us(samples: &mut [Duration]) -> f64 {
 fn main() -> zenoh::Result<()> {
     // Warnings (a pool that fell back to the heap, a message missed) reach
     // stderr only through a logger: `RUST_LOG=info` shows more.
-    zenoh::init_log_from_env_or("warn");
+    shm_runtime::init_logging();
     let (a, b) = loopback_pair(7448)?;
     // The default: a pool of up to 10 MiB that fits the process's memory-lock
     // limit (`ulimit -l`), rmw_zenoh's 512-byte threshold.

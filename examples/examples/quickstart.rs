@@ -21,7 +21,7 @@ struct Scan {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-    zenoh::init_log_from_env_or("warn"); // the runtime's warnings reach stderr
+    shm_runtime::init_logging(); // the runtime's warnings, on stderr
     let role = std::env::args().nth(1).unwrap_or_default();
     let count = match std::env::args().nth(2) {
         Some(n) => n.parse()?,

@@ -20,7 +20,7 @@ use zenoh::{Config, Wait};
 fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     // Warnings (a pool that fell back to the heap, a message missed) reach
     // stderr only through a logger: `RUST_LOG=info` shows more.
-    zenoh::init_log_from_env_or("warn");
+    shm_runtime::init_logging();
     let args: Vec<String> = std::env::args().collect();
     match args.get(1) {
         Some(endpoint) => {

@@ -21,7 +21,7 @@ use zenoh::Wait;
 fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     // Warnings (a pool that fell back to the heap, a message missed) reach
     // stderr only through a logger: `RUST_LOG=info` shows more.
-    zenoh::init_log_from_env_or("warn");
+    shm_runtime::init_logging();
     let (a, b) = loopback_pair(7451)?;
     let shm = ShmContext::new(ShmConfig::enabled())?;
     let server = RosNode::builder(&a, "server").shm(&shm).wait()?;

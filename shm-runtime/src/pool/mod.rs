@@ -495,7 +495,10 @@ impl ShmContext {
 fn dev_shm_free() -> Option<u64> {
     let stats = nix::sys::statvfs::statvfs("/dev/shm").ok()?;
     #[allow(clippy::useless_conversion)] // the field types differ between targets
-    let (blocks, size) = (u64::from(stats.blocks_available()), u64::from(stats.fragment_size()));
+    let (blocks, size) = (
+        u64::from(stats.blocks_available()),
+        u64::from(stats.fragment_size()),
+    );
     Some(blocks.saturating_mul(size))
 }
 
@@ -590,7 +593,10 @@ mod tests {
         let later = size_pool(default, &limited(8 * MIB, 4 * MIB), true, None).unwrap();
         assert_eq!(later, Some(1280 * 1024));
         // 64 KiB, as in many containers: no pool at all.
-        assert_eq!(size_pool(default, &limited(64 * 1024, 0), false, None), Ok(None));
+        assert_eq!(
+            size_pool(default, &limited(64 * 1024, 0), false, None),
+            Ok(None)
+        );
         // Never more than asked for, and all of it when nothing limits.
         assert_eq!(
             size_pool(default, &limited(1 << 40, 0), false, None),
@@ -638,7 +644,12 @@ mod tests {
         // 63 MiB exactly in a 64 MiB /dev/shm: no room for Zenoh's metadata.
         let err = size_pool(PoolSize::Exact(63 << 20), &root, false, Some(64 * MIB)).unwrap_err();
         assert_eq!(err.setting, "ShmConfig::pool_size");
-        for needed in ["/dev/shm has 64 MiB free", "63 MiB", "1.25 MiB", "--shm-size"] {
+        for needed in [
+            "/dev/shm has 64 MiB free",
+            "63 MiB",
+            "1.25 MiB",
+            "--shm-size",
+        ] {
             assert!(err.reason.contains(needed), "{needed:?} in {err}");
         }
         assert_eq!(
@@ -672,14 +683,25 @@ mod tests {
             assert!(err.reason.contains(needed), "{needed:?} in {err}");
         }
         assert_eq!(
-            size_pool(PoolSize::Exact(6 << 20), &limited(8 * MIB, 3 * MIB), true, None)
-                .unwrap_err()
-                .setting,
+            size_pool(
+                PoolSize::Exact(6 << 20),
+                &limited(8 * MIB, 3 * MIB),
+                true,
+                None
+            )
+            .unwrap_err()
+            .setting,
             "ShmConfig::pool_size"
         );
         assert!(size_pool(PoolSize::Exact(7 << 20), &budget, true, None).is_ok());
         // Where no pool fits, the error says that the default does without.
-        let err = size_pool(PoolSize::Exact(1 << 20), &limited(64 * 1024, 0), false, None).unwrap_err();
+        let err = size_pool(
+            PoolSize::Exact(1 << 20),
+            &limited(64 * 1024, 0),
+            false,
+            None,
+        )
+        .unwrap_err();
         assert!(err.reason.contains("pool_size_at_most"), "{err}");
     }
 
