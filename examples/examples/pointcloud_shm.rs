@@ -79,10 +79,10 @@ fn run<T: shm_cdr::RosMessage>(
 }
 
 fn describe(sample: &RosSample) -> String {
-    match (sample.is_shm(), sample.fragments()) {
-        (true, _) => "one shared-memory buffer".into(),
-        (false, 3) => "3 fragments (metadata|SHM block|metadata)".into(),
-        (false, n) => format!("{n} heap fragments"),
+    match (sample.shm_len(), sample.fragments()) {
+        (0, n) => format!("{n} heap fragments"),
+        (_, 1) => "one shared-memory buffer".into(),
+        (shm, n) => format!("{n} fragments, {shm} B in shared memory"),
     }
 }
 

@@ -102,6 +102,28 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
     })
 }
 
+/// How many bytes of a received `payload` lie in shared memory: all of them
+/// for a message encoded into a pool (or loaned), the block of each spliced
+/// `ShmBytes` field, 0 for a payload that travelled as bytes.
+pub(crate) fn shm_len(payload: &ZBytes) -> usize {
+    if let Some(shm) = payload.as_shm() {
+        return shm.len();
+    }
+    // Several slices: Zenoh tells shared memory apart only for a one-slice
+    // ZBytes, so ask about each slice on its own (clones of reference-counted
+    // handles, no copy of the bytes).
+    let buffer: zenoh_buffers::ZBuf = payload.clone().into();
+    buffer
+        .zslices()
+        .filter(|slice| {
+            ZBytes::from(zenoh_buffers::ZBuf::from((*slice).clone()))
+                .as_shm()
+                .is_some()
+        })
+        .map(|slice| slice.len())
+        .sum()
+}
+
 /// Decode a received `payload` as `M`, borrowing from it: from its single slice,
 /// else from its fragments (a spliced shared-memory field stays where it is),
 /// else (a value straddles two fragments, or there are too many) from one

@@ -582,9 +582,19 @@ impl RosSample {
         sample_type(&self.sample)
     }
 
-    /// Whether the whole payload is one shared-memory buffer.
+    /// Whether the message lies in shared memory, wholly (encoded into a pool,
+    /// or loaned) or in part (the block of a spliced `ShmBytes` field, which
+    /// arrives as its own fragment between the metadata around it): what a
+    /// decode borrows from it is read where the publisher wrote it.
     pub fn is_shm(&self) -> bool {
-        self.sample.payload().as_shm().is_some()
+        self.shm_len() > 0
+    }
+
+    /// How many bytes of the payload lie in shared memory: all of them for a
+    /// message encoded into a pool, a spliced block's for a `ShmBytes` field,
+    /// 0 for a payload that travelled as bytes.
+    pub fn shm_len(&self) -> usize {
+        crate::payload::shm_len(self.sample.payload())
     }
 
     /// How many fragments the payload arrived in (1 for a single buffer; 3 for a

@@ -492,6 +492,9 @@ fn user_managed_shared_memory_field_is_spliced_without_a_copy() {
         3,
         "metadata, the shared block, metadata"
     );
+    // In shared memory: the block, not the metadata around it.
+    assert!(sample.is_shm());
+    assert_eq!(sample.shm_len(), points as usize * 16);
     assert_eq!(&*sample.payload().to_bytes(), expected.as_slice());
     let view: PointCloud2Ref = sample.decode().unwrap();
     assert_eq!(view.width, points);

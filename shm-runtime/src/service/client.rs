@@ -460,7 +460,7 @@ impl<S> fmt::Debug for ServiceReply<S> {
         f.debug_struct("ServiceReply")
             .field("key_expr", &self.sample.key_expr().as_str())
             .field("len", &self.sample.payload().len())
-            .field("shm", &self.sample.payload().as_shm().is_some())
+            .field("shm", &(crate::payload::shm_len(self.sample.payload()) > 0))
             .finish()
     }
 }
@@ -486,7 +486,7 @@ impl<S: RosService> ServiceReply<S> {
 
     /// Whether the response arrived in shared memory.
     pub fn is_shm(&self) -> bool {
-        self.sample.payload().as_shm().is_some()
+        crate::payload::shm_len(self.sample.payload()) > 0
     }
 
     /// The Zenoh sample of the reply.

@@ -501,7 +501,7 @@ impl<S: RosService> ServiceRequest<S> {
 
     /// Whether the request arrived in shared memory.
     pub fn is_shm(&self) -> bool {
-        self.payload().as_shm().is_some()
+        crate::payload::shm_len(self.payload()) > 0
     }
 
     /// Answer with `response`; resolve with `.wait()` or `.await`. It goes out
