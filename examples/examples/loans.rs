@@ -8,15 +8,13 @@
 use std::borrow::Cow;
 use std::time::Duration;
 
-use shm_cdr::loan::InPlace;
 use shm_cdr::msgs::sensor_msgs::{
     LaserScan, LaserScanLens, LaserScanRef, PointCloud2, PointCloud2Lens, PointCloud2Ref,
 };
 use shm_cdr::msgs::std_msgs::HeaderLens;
-use shm_cdr::RosMessage;
 use shm_cdr_examples::{loopback_pair, xyzi_fields};
-use shm_runtime::{SessionExt, ShmConfig, ShmContext};
-use zenoh::Wait;
+// The derive, the loan traits (`lens()`), `.wait()` and the runtime's types.
+use shm_runtime::prelude::*;
 
 /// A point as the cloud's fields describe it: x, y, z, intensity.
 #[derive(RosMessage, Debug, Clone, Copy, PartialEq)]

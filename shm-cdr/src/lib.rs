@@ -39,6 +39,7 @@ pub mod layout;
 pub mod loan;
 mod message;
 pub mod msgs;
+pub mod prelude;
 #[cfg(any(feature = "proptest", feature = "arbitrary"))]
 mod strategies;
 pub mod testing;

@@ -21,6 +21,12 @@ pub fn expand(container: &Container, krate: &TokenStream) -> TokenStream {
     let lens_ident = format_ident!("{}Lens", ident);
     let mut_ident = format_ident!("{}Mut", ident);
     let members: Vec<_> = container.fields.iter().map(|f| f.member).collect();
+    // The Rust names, for errors that name the field a wrong length went to.
+    let member_names: Vec<_> = container
+        .fields
+        .iter()
+        .map(|f| syn::ext::IdentExt::unraw(f.member).to_string())
+        .collect();
     let types: Vec<_> = container.fields.iter().map(|f| f.ty).collect();
     let field_vis: Vec<_> = container.fields.iter().map(|f| f.vis).collect();
     let lens_docs = container
@@ -68,7 +74,10 @@ pub fn expand(container: &Container, krate: &TokenStream) -> TokenStream {
             },
             quote! {
                 ::core::result::Result::Ok(#mut_ident {
-                    #( #members: <#types as #in_place>::carve(&lens.#members, __c)?, )*
+                    #( #members: {
+                        __c.field(#member_names);
+                        <#types as #in_place>::carve(&lens.#members, __c)?
+                    }, )*
                 })
             },
             quote! {

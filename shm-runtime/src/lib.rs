@@ -42,6 +42,7 @@ pub mod names;
 mod node;
 mod payload;
 mod pool;
+pub mod prelude;
 mod publisher;
 mod queue;
 pub mod rmw;

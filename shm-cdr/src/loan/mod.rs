@@ -203,6 +203,8 @@ pub struct Carver<'a> {
     rest: &'a mut [u8],
     pos: usize,
     written: &'a Written,
+    /// The field being laid out, for errors that name it.
+    field: &'static str,
 }
 
 impl fmt::Debug for Carver<'_> {
@@ -215,6 +217,19 @@ impl fmt::Debug for Carver<'_> {
 }
 
 impl<'a> Carver<'a> {
+    /// Name the field laid out next (the derive calls it before each field),
+    /// so that a value of the wrong length written there is an error naming
+    /// it.
+    #[doc(hidden)]
+    pub fn field(&mut self, name: &'static str) {
+        self.field = name;
+    }
+
+    /// The field being laid out (`""` before the first).
+    pub(crate) fn current_field(&self) -> &'static str {
+        self.field
+    }
+
     /// The current position, counted from the start of the body.
     pub fn position(&self) -> usize {
         self.pos
@@ -304,6 +319,7 @@ pub fn carve<'a, M: InPlace>(
         rest: body,
         pos: 0,
         written,
+        field: "",
     };
     let place = M::carve(lens, &mut c)?;
     debug_assert!(c.rest.is_empty(), "end_in_place disagrees with carve");
@@ -333,6 +349,8 @@ pub enum LoanError {
     },
     /// A value written into a place of another length.
     LengthMismatch {
+        /// The field (its Rust name; `""` where it is not known).
+        field: &'static str,
         /// Offset of the place in the message.
         at: usize,
         /// The length the place was laid out for.
@@ -390,7 +408,12 @@ impl fmt::Display for LoanError {
             Self::TooLarge => f.write_str("the lengths describe a message too large to lay out (a count over u32::MAX or a size over usize::MAX)"),
             Self::BoundExceeded { len, bound } => write!(f, "length {len} exceeds the field's bound of {bound}"),
             Self::ArrayLength { len, expected } => write!(f, "lengths for {len} elements given to an array of {expected}"),
-            Self::LengthMismatch { at, expected, got } => write!(f, "at byte {at}: a value of length {got} written where {expected} was laid out; state the length in the lens"),
+            Self::LengthMismatch { field, at, expected, got } => {
+                if !field.is_empty() {
+                    write!(f, "field `{field}` ")?;
+                }
+                write!(f, "at byte {at}: a value of length {got} written where {expected} was laid out; state that length in the lens (`SeqLens::Count(n)` lays out n elements with empty strings and sequences: give each element's lengths with `SeqLens::Each`)")
+            }
             Self::SizeMismatch { size, buffer } => write!(f, "the message needs exactly {size} bytes, the buffer has {buffer}"),
             Self::BufferTooSmall { at, needed, left } => write!(f, "at byte {at}: {needed} bytes needed, {left} left"),
             Self::Misaligned { address } => write!(f, "the message body at {address:#x} is not 8-aligned: numbers cannot be placed in it (use loan::AlignedBuffer or a pool chunk)"),
@@ -461,11 +484,12 @@ pub(crate) fn carve_plain_run<'a, T: CdrEncode>(
         None => return Some(Err(LoanError::TooLarge)),
     };
     let written = c.written();
+    let field = c.current_field();
     Some(c.take(align, len).and_then(|slot| {
         let at = HEADER_LEN + c.position() - len;
         let address = slot.as_ptr() as usize;
         crate::layout::plain_slice_mut(proof, slot)
-            .map(|items| Uninit::new(items, at, written))
+            .map(|items| Uninit::new(items, at, field, written))
             .ok_or(LoanError::Misaligned { address })
     }))
 }

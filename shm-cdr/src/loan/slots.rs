@@ -16,6 +16,7 @@ use crate::layout::plain_slice_mut;
 pub struct Uninit<'a, T> {
     items: &'a mut [T],
     at: usize,
+    field: &'static str,
     written: &'a Written,
 }
 
@@ -31,11 +32,21 @@ impl<T> fmt::Debug for Uninit<'_, T> {
 impl<'a, T> Uninit<'a, T> {
     /// A run over `items`, at message offset `at`. Counts as unwritten unless
     /// empty.
-    pub(crate) fn new(items: &'a mut [T], at: usize, written: &'a Written) -> Self {
+    pub(crate) fn new(
+        items: &'a mut [T],
+        at: usize,
+        field: &'static str,
+        written: &'a Written,
+    ) -> Self {
         if !items.is_empty() {
             written.add();
         }
-        Self { items, at, written }
+        Self {
+            items,
+            at,
+            field,
+            written,
+        }
     }
 
     /// The number of elements laid out.
@@ -67,6 +78,7 @@ impl<'a, T> Uninit<'a, T> {
     {
         if values.len() != self.items.len() {
             return Err(LoanError::LengthMismatch {
+                field: self.field,
                 at: self.at,
                 expected: self.items.len(),
                 got: values.len(),
@@ -87,6 +99,7 @@ impl<'a, T> Uninit<'a, T> {
         };
         if values.len() != self.items.len() {
             return Err(LoanError::LengthMismatch {
+                field: self.field,
                 at: self.at,
                 expected: self.items.len(),
                 got: values.len(),
@@ -117,6 +130,7 @@ impl<'a, T> Uninit<'a, T> {
         let extra = values.count();
         if n != self.items.len() || extra != 0 {
             return Err(LoanError::LengthMismatch {
+                field: self.field,
                 at: self.at,
                 expected: self.items.len(),
                 got: n + extra,
@@ -153,13 +167,17 @@ impl<'a, T> Uninit<'a, T> {
         let (Some(from), Some(to)) = (T::PLAIN, P::PLAIN) else {
             return Err(LoanError::NotPlain { at: self.at });
         };
-        let at = self.at;
-        let written = self.written;
+        let (at, field, written) = (self.at, self.field, self.written);
         let bytes = crate::layout::plain_bytes_mut(from, self.items);
         let len = bytes.len();
         match plain_slice_mut(to, bytes) {
             // The same bytes, so the same pending state: nothing to count again.
-            Some(items) => Ok(Uninit { items, at, written }),
+            Some(items) => Ok(Uninit {
+                items,
+                at,
+                field,
+                written,
+            }),
             None => Err(LoanError::NotWhole {
                 at,
                 bytes: len,
@@ -174,6 +192,7 @@ impl<'a, T> Uninit<'a, T> {
 pub struct StrSlot<'a> {
     bytes: &'a mut [u8],
     at: usize,
+    field: &'static str,
     written: &'a Written,
 }
 
@@ -187,11 +206,21 @@ impl fmt::Debug for StrSlot<'_> {
 }
 
 impl<'a> StrSlot<'a> {
-    pub(crate) fn new(bytes: &'a mut [u8], at: usize, written: &'a Written) -> Self {
+    pub(crate) fn new(
+        bytes: &'a mut [u8],
+        at: usize,
+        field: &'static str,
+        written: &'a Written,
+    ) -> Self {
         if !bytes.is_empty() {
             written.add();
         }
-        Self { bytes, at, written }
+        Self {
+            bytes,
+            at,
+            field,
+            written,
+        }
     }
 
     /// The length in bytes laid out (without the terminator).
@@ -213,6 +242,7 @@ impl<'a> StrSlot<'a> {
     pub fn write_bytes(self, s: &[u8]) -> Result<(), LoanError> {
         if s.len() != self.bytes.len() {
             return Err(LoanError::LengthMismatch {
+                field: self.field,
                 at: self.at,
                 expected: self.bytes.len(),
                 got: s.len(),
@@ -231,6 +261,7 @@ impl<'a> StrSlot<'a> {
 pub struct WStrSlot<'a> {
     units: &'a mut [u8],
     at: usize,
+    field: &'static str,
     written: &'a Written,
 }
 
@@ -244,11 +275,21 @@ impl fmt::Debug for WStrSlot<'_> {
 }
 
 impl<'a> WStrSlot<'a> {
-    pub(crate) fn new(units: &'a mut [u8], at: usize, written: &'a Written) -> Self {
+    pub(crate) fn new(
+        units: &'a mut [u8],
+        at: usize,
+        field: &'static str,
+        written: &'a Written,
+    ) -> Self {
         if !units.is_empty() {
             written.add();
         }
-        Self { units, at, written }
+        Self {
+            units,
+            at,
+            field,
+            written,
+        }
     }
 
     /// The UTF-16 code units laid out.
@@ -266,6 +307,7 @@ impl<'a> WStrSlot<'a> {
         let got = s.encode_utf16().count();
         if got != self.len() {
             return Err(LoanError::LengthMismatch {
+                field: self.field,
                 at: self.at,
                 expected: self.len(),
                 got,
@@ -367,6 +409,7 @@ pub(crate) fn write_each<T: InPlace>(
 ) -> Result<(), LoanError> {
     if values.len() != places.len() {
         return Err(LoanError::LengthMismatch {
+            field: "",
             at: 0,
             expected: places.len(),
             got: values.len(),

@@ -161,6 +161,45 @@ fn poses_borrow_as_structs_in_o1() {
     }
 }
 
+/// `SeqLens::Count` lays out elements with empty strings: a name written
+/// into one is refused with the field's name, both lengths and the fix.
+#[test]
+fn a_count_of_elements_with_strings_is_refused_naming_the_field_and_the_fix() {
+    let lens = PointCloud2Lens {
+        fields: SeqLens::Count(1),
+        data: 16,
+        ..Default::default()
+    };
+    let mut buffer = AlignedBuffer::new(encoded_size::<PointCloud2>(&lens).unwrap());
+    let written = Written::new();
+    let cloud = carve::<PointCloud2>(&lens, buffer.as_mut_slice(), &written).unwrap();
+    let Run::Each(mut fields) = cloud.fields else {
+        panic!("PointField[] has strings: one place per element");
+    };
+    let err = fields.remove(0).name.write("x").unwrap_err();
+    let text = err.to_string();
+    assert!(
+        matches!(
+            err,
+            LoanError::LengthMismatch {
+                field: "name",
+                expected: 0,
+                got: 1,
+                ..
+            }
+        ),
+        "{text}"
+    );
+    for needed in [
+        "field `name`",
+        "length 1",
+        "0 was laid out",
+        "SeqLens::Each",
+    ] {
+        assert!(text.contains(needed), "{needed:?} in {text}");
+    }
+}
+
 #[test]
 fn unwritten_and_wrongly_sized_writes_are_refused() {
     let lens = LaserScanLens {
@@ -180,6 +219,7 @@ fn unwritten_and_wrongly_sized_writes_are_refused() {
         matches!(
             err,
             LoanError::LengthMismatch {
+                field: "frame_id",
                 expected: 5,
                 got: 6,
                 ..
@@ -187,10 +227,15 @@ fn unwritten_and_wrongly_sized_writes_are_refused() {
         ),
         "{err}"
     );
+    assert!(
+        err.to_string().starts_with("field `frame_id` at byte"),
+        "{err}"
+    );
     let err = scan.ranges.write_slice(&[1.0; 9]).unwrap_err();
     assert!(matches!(
         err,
         LoanError::LengthMismatch {
+            field: "ranges",
             expected: 10,
             got: 9,
             ..

@@ -327,6 +327,7 @@ impl InPlaceElement for bool {
     fn write_run(items: &[Self], place: &mut [bool]) -> Result<(), LoanError> {
         if items.len() != place.len() {
             return Err(LoanError::LengthMismatch {
+                field: "",
                 at: 0,
                 expected: place.len(),
                 got: items.len(),

@@ -400,7 +400,7 @@ fn carve_string<'a>(
     let slot = c.take(1, len + 1)?;
     let (bytes, nul) = slot.split_at_mut(len);
     nul.fill(0);
-    Ok(StrSlot::new(bytes, at, c.written()))
+    Ok(StrSlot::new(bytes, at, c.current_field(), c.written()))
 }
 
 text_in_place!([] String, slot: StrSlot, len: |s: &Self| s.len(), end: string_end_in_place, carve: carve_string, min: 5, bound: None);

@@ -149,7 +149,7 @@ fn carve_wstring<'a>(
     c.count(units)?;
     let at = c.offset();
     let slot = c.take(4, units.checked_mul(4).ok_or(LoanError::TooLarge)?)?;
-    Ok(WStrSlot::new(slot, at, c.written()))
+    Ok(WStrSlot::new(slot, at, c.current_field(), c.written()))
 }
 
 text_in_place!([] WString, slot: WStrSlot, len: |s: &Self| utf16_len(s), end: wstring_end_in_place, carve: carve_wstring, min: 4, bound: None);
