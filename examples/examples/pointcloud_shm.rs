@@ -95,7 +95,7 @@ fn main() -> zenoh::Result<()> {
     // Warnings (a pool that fell back to the heap, a message missed) reach
     // stderr only through a logger: `RUST_LOG=info` shows more.
     shm_runtime::init_logging();
-    let (a, b) = loopback_pair(7448)?;
+    let (a, b) = loopback_pair(7457)?;
     // The default: a pool of up to 10 MiB that fits the process's memory-lock
     // limit (`ulimit -l`), rmw_zenoh's 512-byte threshold.
     let shm = ShmContext::new(ShmConfig::enabled())?;

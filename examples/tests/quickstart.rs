@@ -1,9 +1,11 @@
-//! The README's quick start: its code is `examples/quickstart.rs`, word for
-//! word, and a talker and a listener started from it exchange messages
-//! through shared memory in two processes.
+//! The README's programs: the quick start's code is `examples/quickstart.rs`,
+//! word for word, and a talker and a listener started from it exchange
+//! messages through shared memory in two processes; the main example says
+//! where each of its messages went, and means it.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
 
 /// The README's quick-start program is the example file: they cannot drift.
 #[test]
@@ -39,23 +41,39 @@ fn example(name: &str) -> PathBuf {
     path
 }
 
+/// Waits for `child` at most `limit`, killing it past that; its stdout and
+/// stderr, and whether it succeeded.
+fn finish(mut child: Child, limit: Duration) -> (bool, String, String) {
+    let deadline = Instant::now() + limit;
+    while child.try_wait().unwrap().is_none() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let _ = child.kill();
+    let out = child.wait_with_output().unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 #[test]
 fn a_talker_and_a_listener_exchange_the_users_struct_through_shared_memory() {
     let quickstart = example("quickstart");
-    let talker = Command::new(&quickstart)
-        .args(["talk", "16"])
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let listener = Command::new(&quickstart)
-        .args(["listen", "3"])
-        .output()
-        .unwrap();
-    let talked = talker.wait_with_output().unwrap();
-    let heard = String::from_utf8(listener.stdout).unwrap();
-    let said = String::from_utf8(talked.stdout).unwrap();
-    assert!(listener.status.success(), "listener: {heard}");
-    assert!(talked.status.success(), "talker: {said}");
+    let spawn = |args: &[&str]| {
+        Command::new(&quickstart)
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let talker = spawn(&["talk", "16"]);
+    let listener = spawn(&["listen", "3"]);
+    let (heard_ok, heard, listener_log) = finish(listener, Duration::from_secs(30));
+    let (talked_ok, said, talker_log) = finish(talker, Duration::from_secs(30));
+    assert!(heard_ok, "listener: {heard}{listener_log}");
+    assert!(talked_ok, "talker: {said}{talker_log}");
     let received: Vec<_> = heard.lines().collect();
     assert_eq!(received.len(), 3, "{heard}");
     for line in received {
@@ -69,5 +87,39 @@ fn a_talker_and_a_listener_exchange_the_users_struct_through_shared_memory() {
     assert!(
         said.lines().all(|line| line.ends_with("4344 bytes as Shm")),
         "{said}"
+    );
+}
+
+/// `pointcloud_shm`, the README's main command: the user-managed field and the
+/// automatic path go through shared memory, the publisher without shared
+/// memory does not (Zenoh's implicit copy into a pool of its own is off).
+#[test]
+fn the_main_example_sends_each_pattern_where_it_says() {
+    let run = Command::new(example("pointcloud_shm")).output().unwrap();
+    let out = String::from_utf8(run.stdout).unwrap();
+    assert!(run.status.success(), "{out}");
+    let line = |prefix: &str| {
+        out.lines()
+            .find(|line| line.starts_with(prefix))
+            .unwrap_or_else(|| panic!("no line {prefix:?} in {out}"))
+    };
+    let spliced = line("1. user-managed SHM field");
+    assert!(
+        spliced.contains("sent as Spliced") && spliced.contains("1048576 B in shared memory"),
+        "{spliced}"
+    );
+    let automatic = line("2. automatic threshold");
+    assert!(
+        automatic.contains("sent as Shm") && automatic.contains("one shared-memory buffer"),
+        "{automatic}"
+    );
+    let heap = line("3. publisher without_shm()");
+    assert!(
+        heap.contains("sent as Heap") && heap.contains("heap fragments"),
+        "{heap}"
+    );
+    assert!(
+        out.contains("40 of 40 messages above the threshold went through shared memory"),
+        "{out}"
     );
 }
