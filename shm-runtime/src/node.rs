@@ -206,11 +206,15 @@ impl RosNode {
     /// (rmw_zenoh_cpp's included). A Zenoh liveliness query, answered within
     /// `timeout`.
     pub fn graph(&self, timeout: std::time::Duration) -> zenoh::Result<Graph> {
+        // An unbounded channel: Zenoh hands the replies over on this thread
+        // before `wait` returns, and a bounded one (the default holds 256)
+        // would never return with more tokens than that.
         let replies = self
             .session
             .liveliness()
             .get(format!("@ros2_lv/{}/**", self.info.domain_id))
             .timeout(timeout)
+            .with(flume::unbounded())
             .wait()?;
         let mut tokens = Vec::new();
         while let Ok(reply) = replies.recv() {

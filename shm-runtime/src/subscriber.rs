@@ -13,7 +13,6 @@ use std::time::Duration;
 
 use shm_cdr::{CdrDecode, DecodeError, RosMessage};
 use zenoh::bytes::ZBytes;
-use zenoh::handlers::FifoChannelHandler;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
@@ -421,12 +420,12 @@ impl<T: RosMessage> RosSubscriber<T> {
         loop {
             let left = deadline.saturating_duration_since(std::time::Instant::now());
             match publishers.recv_timeout(left) {
-                Ok(Some(sample)) => {
+                Ok(sample) => {
                     if track(&mut alive, &sample) {
                         return true;
                     }
                 }
-                Ok(None) | Err(_) => return false,
+                Err(_) => return false,
             }
         }
     }
@@ -447,13 +446,16 @@ impl<T: RosMessage> RosSubscriber<T> {
     }
 
     /// A liveliness subscriber to the publishers' tokens, with the ones alive
-    /// now delivered first (history).
-    fn publisher_tokens(&self) -> Option<zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>> {
+    /// now delivered first (history). Its channel is unbounded: Zenoh replays
+    /// the history on this thread before `wait` returns, and a bounded one
+    /// (the default holds 256) would never return with more publishers.
+    fn publisher_tokens(&self) -> Option<zenoh::pubsub::Subscriber<flume::Receiver<Sample>>> {
         let (session, key) = self.publishers.as_ref()?;
         session
             .liveliness()
             .declare_subscriber(key.as_str())
             .history(true)
+            .with(flume::unbounded())
             .wait()
             .ok()
     }
