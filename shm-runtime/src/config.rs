@@ -33,6 +33,7 @@ pub struct ShmConfig {
 /// the process's memory-lock limit (`ulimit -l`; 8 MiB for an ordinary user on
 /// most Linux systems) bounds them all; see [`MemlockBudget`](crate::MemlockBudget).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum PoolSize {
     /// As large as the memory-lock limit allows, at most this many bytes: half
     /// of what the limit leaves after Zenoh's metadata segments (the

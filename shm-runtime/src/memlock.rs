@@ -90,7 +90,7 @@ impl fmt::Display for MemlockBudget {
             (None, false) => write!(f, "memory-lock limit unlimited"),
             (Some(limit), false) => write!(
                 f,
-                "memory-lock limit {} (`ulimit -l` {}), {} locked already",
+                "memory-lock limit (RLIMIT_MEMLOCK) {} (`ulimit -l` {}), {} locked already",
                 Bytes(limit),
                 limit / 1024,
                 Bytes(self.locked)
@@ -100,7 +100,7 @@ impl fmt::Display for MemlockBudget {
 }
 
 /// How to raise the limit, for error messages.
-pub(crate) const RAISE_THE_LIMIT: &str = "raise the memory-lock limit: `ulimit -l <KiB>` in the shell that starts the program (up to the hard limit, `ulimit -Hl`), `<user> - memlock <KiB>` in /etc/security/limits.conf, `LimitMEMLOCK=` in a systemd unit, `--ulimit memlock=<bytes>` or `--cap-add IPC_LOCK` for Docker";
+pub(crate) const RAISE_THE_LIMIT: &str = "raise the memory-lock limit (RLIMIT_MEMLOCK): `ulimit -l <KiB>` in the shell that starts the program (up to the hard limit, `ulimit -Hl`), `<user> - memlock <KiB>` in /etc/security/limits.conf, `LimitMEMLOCK=` in a systemd unit, `--ulimit memlock=<bytes>` (`-1`: unlimited) or `--cap-add IPC_LOCK` for Docker";
 
 /// A byte count printed in the unit that reads best.
 pub(crate) struct Bytes(pub(crate) u64);

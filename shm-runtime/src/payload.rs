@@ -12,6 +12,7 @@ use crate::shm_bytes::{self, Splice};
 
 /// Where a published message's bytes went.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum PayloadKind {
     /// Below the threshold, or no SHM configured: encoded into a heap buffer.
     Heap,

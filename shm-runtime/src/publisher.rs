@@ -24,6 +24,7 @@ use crate::rmw::{Attachment, Durability, Gid, History, Qos, Reliability};
 /// Why a publish failed. A full pool is not a failure: the message then goes on
 /// the heap ([`PayloadKind::HeapFallback`]).
 #[derive(Debug)]
+#[non_exhaustive]
 pub enum PublishError {
     /// The message could not be encoded (e.g. a bounded field over its bound).
     Encode(EncodeError),

@@ -78,6 +78,7 @@ impl Attachment {
 
 /// An attachment that is not rmw_zenoh_cpp's.
 #[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum AttachmentError {
     /// Not 33 bytes long.
     Length(usize),

@@ -518,6 +518,7 @@ impl<T: shm_cdr::DecodeOwned> futures_core::Stream for MessageStream<'_, T> {
 
 /// Receiving a message failed.
 #[derive(Debug)]
+#[non_exhaustive]
 pub enum RecvError {
     /// The subscriber is closed.
     Zenoh(zenoh::Error),

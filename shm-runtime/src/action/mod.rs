@@ -74,6 +74,7 @@ pub(crate) fn part_name(action: &str, part: &str) -> String {
 
 /// Why an action operation failed.
 #[derive(Debug)]
+#[non_exhaustive]
 pub enum ActionError {
     /// The server rejected the goal.
     Rejected,

@@ -35,6 +35,7 @@ pub(crate) const NO_TIMEOUT: Duration = Duration::from_millis(u64::MAX);
 
 /// Why a call failed.
 #[derive(Debug)]
+#[non_exhaustive]
 pub enum CallError {
     /// The request could not be encoded (e.g. a bounded field over its bound).
     Encode(EncodeError),
