@@ -18,6 +18,13 @@ use crate::publisher::{PublisherBuilder, RmwPublisher};
 use crate::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
 use crate::service::{ServiceClientBuilder, ServiceServerBuilder};
 use crate::subscriber::SubscriberBuilder;
+use crate::History;
+
+/// The depth rmw_zenoh_cpp gives a keep-last QoS of depth 0.
+const RMW_ZENOH_DEFAULT_DEPTH: NonZeroUsize = match NonZeroUsize::new(42) {
+    Some(depth) => depth,
+    None => panic!("42 is not zero"),
+};
 
 /// Entity ids are unique per process, hence per session as rmw_zenoh requires.
 static NEXT_ENTITY_ID: AtomicU64 = AtomicU64::new(0);
@@ -125,6 +132,15 @@ impl RosNode {
         );
         builder.invalid = invalid;
         builder.qos = qos;
+        // The queue keeps what the QoS announces, as rmw_zenoh_cpp's does: a
+        // reader that stops reading holds `depth` samples (and their
+        // shared-memory chunks), not everything published meanwhile.
+        builder.history = match qos.history {
+            crate::rmw::History::KeepLast(depth) => {
+                History::KeepLast(NonZeroUsize::new(depth).unwrap_or(RMW_ZENOH_DEFAULT_DEPTH))
+            }
+            crate::rmw::History::KeepAll => History::KeepAll,
+        };
         builder.liveliness =
             Some(
                 self.info

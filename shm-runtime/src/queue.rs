@@ -22,7 +22,8 @@ use zenoh::sample::Sample;
 /// having returned `Ok`.)
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum History {
-    /// Keep every sample until it is read (the default): nothing that arrives is
+    /// Keep every sample until it is read (the default on a plain key
+    /// expression; a node subscriber follows its QoS): nothing that arrives is
     /// dropped, and memory (or shared-memory chunks, which then make publishers
     /// fall back to the heap) grows while the application does not read.
     #[default]

@@ -56,7 +56,9 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         }
     }
 
-    /// How many unread samples to keep (default [`History::KeepAll`]).
+    /// How many unread samples to keep: by default what a node subscriber's QoS
+    /// announces (keep last 10 for ROS 2's default profile), every sample
+    /// ([`History::KeepAll`]) for a subscriber on a plain key expression.
     pub fn history(mut self, history: History) -> Self {
         self.history = history;
         self

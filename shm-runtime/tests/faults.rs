@@ -423,3 +423,48 @@ fn keep_last_keeps_the_newest_and_counts_the_rest() {
         "dropped here, not missed in transit"
     );
 }
+
+/// A node subscriber keeps what its QoS announces (ROS 2's default: keep last
+/// 10), not everything: one that does not read holds 10 images, the rest are
+/// counted in `lost()`, and the shared-memory chunks of the dropped ones go
+/// back to the publisher's pool, which therefore never runs dry on its
+/// account (100 × 64 KiB through a 1 MiB pool, every one in shared memory).
+#[test]
+fn a_node_subscriber_that_does_not_read_keeps_its_qos_depth_and_frees_the_pool() {
+    let _serial = serial();
+    let (a, b, _) = pair();
+    let shm = ShmContext::new(ShmConfig::enabled().pool_size(1 << 20)).unwrap();
+    let talker = common::node(&a, "camera");
+    let publisher = talker
+        .declare_publisher::<Image>("faults/qos_depth")
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    let subscriber = common::node(&b, "idle")
+        .declare_subscriber::<Image>("faults/qos_depth")
+        .wait()
+        .unwrap();
+    assert!(publisher.wait_for_subscribers(TIMEOUT));
+    for i in 0..100 {
+        let mut msg = Image {
+            data: vec![7; 64 * 1024],
+            ..Default::default()
+        };
+        msg.header.stamp.nanosec = i;
+        let outcome = publisher.publish(&msg).wait().unwrap();
+        assert_eq!(outcome.kind, PayloadKind::Shm, "message {i}");
+        // Let the subscriber take it (and drop the oldest) before the next.
+        let deadline = std::time::Instant::now() + TIMEOUT;
+        while subscriber.lost() + (subscriber.queued() as u64) < u64::from(i) + 1 {
+            assert!(std::time::Instant::now() < deadline, "message {i} missing");
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+    assert_eq!(subscriber.queued(), 10);
+    assert_eq!(subscriber.lost(), 90);
+    let got: Vec<u32> = std::iter::from_fn(|| subscriber.try_recv().unwrap())
+        .map(|s| s.decode::<Image>().unwrap().header.stamp.nanosec)
+        .collect();
+    assert_eq!(got, (90..100).collect::<Vec<_>>());
+    assert_eq!(shm.stats().fallbacks, 0);
+}
