@@ -104,13 +104,17 @@ pub(crate) fn sample_type(sample: &Sample) -> Option<(String, String)> {
 }
 
 /// The encoding our publishers give every sample of `T`:
-/// `application/cdr;<type name>;<RIHS01 hash>`.
+/// `application/cdr;<type name>;<RIHS01 hash>`, or plain `application/cdr`
+/// for a type whose name is too long for that: Zenoh writes an encoding's
+/// schema with a one-byte length, and panics on anything longer than 255
+/// bytes (a type name of more than 183 characters with its hash).
 pub(crate) fn type_encoding<T: RosMessage>() -> zenoh::bytes::Encoding {
-    zenoh::bytes::Encoding::APPLICATION_CDR.with_schema(format!(
-        "{};{}",
-        T::TYPE_NAME,
-        T::type_hash()
-    ))
+    const ZENOH_SCHEMA_MAX: usize = 255;
+    let schema = format!("{};{}", T::TYPE_NAME, T::type_hash());
+    if schema.len() > ZENOH_SCHEMA_MAX {
+        return zenoh::bytes::Encoding::APPLICATION_CDR;
+    }
+    zenoh::bytes::Encoding::APPLICATION_CDR.with_schema(schema)
 }
 
 /// A publisher, as its samples identify it.

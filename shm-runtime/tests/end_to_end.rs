@@ -911,3 +911,35 @@ fn lowlatency_refuses_inline_messages_it_cannot_carry() {
         "Zenoh's lowlatency transport carried a {size}-byte inline message: the guard may be relaxed"
     );
 }
+
+/// A type whose name is too long for Zenoh's encoding schema (255 bytes with
+/// its hash: more than 183 characters) travels without it: Zenoh panicked on
+/// the first publish of such a message, taking the process down.
+#[test]
+fn a_type_name_too_long_for_zenohs_encoding_schema_is_published_and_received() {
+    #[derive(shm_cdr::RosMessage, Debug, PartialEq)]
+    #[ros(
+        type_name = "a_package_with_a_rather_long_name_for_its_interfaces/msg/AMessageTypeWhoseNameGoesOnAndOnToMakeTheEncodingSchemaLongerThanZenohCanCarryInOneByteOfLengthWhichIsTwoHundredAndFiftyFiveBytes"
+    )]
+    struct Long {
+        value: u32,
+    }
+    assert!(<Long as shm_cdr::RosMessage>::TYPE_NAME.len() > 183);
+    let (a, b) = session_pair();
+    let node = RosNode::builder(&a, "long").domain_id(0).wait().unwrap();
+    let publisher = node.declare_publisher::<Long>("long").wait().unwrap();
+    let subscriber = RosNode::builder(&b, "reader")
+        .domain_id(0)
+        .wait()
+        .unwrap()
+        .declare_subscriber::<Long>("long")
+        .wait()
+        .unwrap();
+    assert!(publisher.wait_for_subscribers(TIMEOUT));
+    publisher.publish(&Long { value: 7 }).wait().unwrap();
+    let sample = subscriber
+        .recv_timeout(TIMEOUT)
+        .unwrap()
+        .expect("message lost");
+    assert_eq!(sample.decode::<Long>().unwrap(), Long { value: 7 });
+}
