@@ -445,6 +445,8 @@ fn a_server_that_goes_away_ends_every_wait() {
         goal.recv_feedback().is_none(),
         "feedback ends with the server"
     );
+    // Nobody knows the goal any more: not `Executing`, as its last status said.
+    assert_eq!(goal.status(), GoalStatus::Unknown);
     assert!(start.elapsed() < Duration::from_secs(10));
     assert!(!client.is_server_available());
     let refused = client.send_goal(Fibonacci_Goal { order: 1 }).wait();

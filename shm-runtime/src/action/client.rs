@@ -177,9 +177,14 @@ impl<A: RosAction> Goals<A> {
         }
     }
 
+    /// The server went away: every goal it had not finished is unknown now
+    /// (nobody holds its state or result), and its feedback ends.
     fn server_gone(&self) {
         for tracked in self.table().values_mut() {
             tracked.feedback = None;
+            if !tracked.status.is_terminal() {
+                tracked.status = GoalStatus::Unknown;
+            }
         }
     }
 
@@ -543,7 +548,8 @@ impl<A: RosAction> ClientGoalHandle<A> {
     }
 
     /// The goal's status as the server last published it (`Accepted` until
-    /// the first status array arrives).
+    /// the first status array arrives); [`GoalStatus::Unknown`] once the
+    /// server went away before the goal finished.
     pub fn status(&self) -> GoalStatus {
         self.client
             .inner
@@ -634,12 +640,26 @@ impl<A: RosAction> ResultBuilder<'_, A> {
 
     fn finish(
         handle: &ClientGoalHandle<A>,
-        response: shm_cdr::interface::ResponseOf<A::GetResult>,
-    ) -> GoalResult<A::Result> {
+        response: Result<shm_cdr::interface::ResponseOf<A::GetResult>, crate::service::CallError>,
+    ) -> Result<GoalResult<A::Result>, ActionError> {
+        let response = match response {
+            Ok(response) => response,
+            Err(error) => {
+                if matches!(error, crate::service::CallError::NoReply) {
+                    // The server went away with the goal: nobody knows it now.
+                    handle
+                        .client
+                        .inner
+                        .goals
+                        .finished(&handle.id, GoalStatus::Unknown);
+                }
+                return Err(error.into());
+            }
+        };
         let (status, result) = A::get_result_response_parts(response);
         let status = GoalStatus::from_code(status);
         handle.client.inner.goals.finished(&handle.id, status);
-        GoalResult { status, result }
+        Ok(GoalResult { status, result })
     }
 }
 
@@ -651,12 +671,8 @@ impl<A: RosAction> Wait for ResultBuilder<'_, A> {
     fn wait(self) -> Self::To {
         let request = A::get_result_request(self.handle.id);
         let inner = &self.handle.client.inner;
-        let response = inner
-            .get_result
-            .call(&request)
-            .timeout(self.timeout)
-            .wait()?;
-        Ok(Self::finish(self.handle, response))
+        let response = inner.get_result.call(&request).timeout(self.timeout).wait();
+        Self::finish(self.handle, response)
     }
 }
 
@@ -676,8 +692,7 @@ impl<'h, A: RosAction> IntoFuture for ResultBuilder<'h, A> {
                 .call(&request)
                 .timeout(timeout)
                 .into_future();
-            let response = call.await?;
-            Ok(Self::finish(handle, response))
+            Self::finish(handle, call.await)
         })
     }
 }
