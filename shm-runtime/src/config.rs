@@ -24,6 +24,10 @@ pub struct ShmConfig {
     /// and 0.71 s for 1 GiB with it, 3.4 ms and 0.48 s without (the rest is
     /// Zenoh's own set-up of the segment).
     pub prefault: bool,
+    /// Raise the process's soft memory-lock limit to its hard limit before
+    /// sizing the pool (the default, logged at info level): the soft limit is
+    /// all the kernel checks, and any process may raise it that far.
+    pub raise_memlock_limit: bool,
 }
 
 /// How large a shared-memory pool to create.
@@ -87,6 +91,7 @@ impl ShmConfig {
             threshold: Self::DEFAULT_THRESHOLD,
             alloc_timeout: Self::DEFAULT_ALLOC_TIMEOUT,
             prefault: true,
+            raise_memlock_limit: true,
         }
     }
 
@@ -94,6 +99,14 @@ impl ShmConfig {
     /// [`ShmConfig::prefault`](#structfield.prefault)).
     pub const fn prefault(mut self, on: bool) -> Self {
         self.prefault = on;
+        self
+    }
+
+    /// Whether to raise the soft memory-lock limit to the hard one before
+    /// sizing the pool (default `true`; see
+    /// [`ShmConfig::raise_memlock_limit`](#structfield.raise_memlock_limit)).
+    pub const fn raise_memlock_limit(mut self, on: bool) -> Self {
+        self.raise_memlock_limit = on;
         self
     }
 

@@ -46,21 +46,8 @@ pub struct MemlockBudget {
 }
 
 impl MemlockBudget {
-    /// Read the budget of this process. The first call raises the soft
-    /// `RLIMIT_MEMLOCK` to the hard one (as Zenoh raises the open-files limit),
-    /// since the soft limit is all the kernel checks and any process may raise
-    /// it that far.
+    /// Read the budget of this process as it stands.
     pub fn read() -> Self {
-        static RAISE: Once = Once::new();
-        RAISE.call_once(|| {
-            if let Ok((soft, hard)) = rlimit::getrlimit(Resource::MEMLOCK) {
-                if soft < hard {
-                    if let Err(error) = rlimit::setrlimit(Resource::MEMLOCK, hard, hard) {
-                        tracing::debug!(%error, soft, hard, "could not raise RLIMIT_MEMLOCK to its hard limit");
-                    }
-                }
-            }
-        });
         let limit = match rlimit::getrlimit(Resource::MEMLOCK) {
             Ok((soft, _)) if soft != rlimit::INFINITY => Some(soft),
             // Unlimited, or a platform without the limit.
@@ -72,6 +59,32 @@ impl MemlockBudget {
             exempt: has_ipc_lock(&status),
             locked: locked_bytes(&status),
         }
+    }
+
+    /// Raise the soft `RLIMIT_MEMLOCK` to the hard one (once per process, as
+    /// Zenoh raises the open-files limit), then [`read`](Self::read) the
+    /// budget. The soft limit is all the kernel checks, and any process may
+    /// raise it that far. [`ShmContext::new`](crate::ShmContext::new) does
+    /// this unless [`ShmConfig::raise_memlock_limit`](crate::ShmConfig) is off.
+    pub fn raise_and_read() -> Self {
+        static RAISE: Once = Once::new();
+        RAISE.call_once(|| {
+            let Ok((soft, hard)) = rlimit::getrlimit(Resource::MEMLOCK) else {
+                return;
+            };
+            if soft >= hard {
+                return;
+            }
+            match rlimit::setrlimit(Resource::MEMLOCK, hard, hard) {
+                Ok(()) => tracing::info!(
+                    from = soft,
+                    to = hard,
+                    "raised the soft memory-lock limit (RLIMIT_MEMLOCK) to the hard one for shared memory (ShmConfig::raise_memlock_limit(false) keeps it)"
+                ),
+                Err(error) => tracing::debug!(%error, soft, hard, "could not raise RLIMIT_MEMLOCK to its hard limit"),
+            }
+        });
+        Self::read()
     }
 
     /// Bytes that may still be locked, or `None` if locking is not limited.

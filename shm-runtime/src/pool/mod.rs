@@ -213,7 +213,11 @@ impl ShmContext {
         // One pool at a time: each is sized from what the others left.
         static CREATING: Mutex<()> = Mutex::new(());
         let _creating = CREATING.lock().unwrap_or_else(|e| e.into_inner());
-        let memlock = MemlockBudget::read();
+        let memlock = if config.raise_memlock_limit {
+            MemlockBudget::raise_and_read()
+        } else {
+            MemlockBudget::read()
+        };
         let size = size_pool(
             config.pool_size,
             &memlock,
