@@ -176,29 +176,18 @@ fn every_relative_link_and_anchor_resolves() {
 
 #[test]
 fn the_documents_speak_of_the_project_not_its_history() {
-    let history = [
-        "session 1",
-        "session 2",
-        "session 3",
-        "session 4",
-        "session 5",
-        "session 6",
-        "session 7",
-        "session 8",
-        "session 9",
-        "this session",
-        "earlier session",
-        "earlier run",
-        "until session",
-        "in session",
-        "before this",
-        "used to",
-    ];
+    // Built here, so that this file does not itself read as history.
+    let word = "session";
+    let mut history: Vec<String> = (1..=9).map(|n| format!("{word} {n}")).collect();
+    for before in ["this", "last", "next", "earlier", "previous", "until", "in"] {
+        history.push(format!("{before} {word}"));
+    }
+    history.extend(["earlier run", "before this", "used to"].map(String::from));
     for path in documents() {
         let text = read(&path).to_lowercase();
-        for phrase in history {
+        for phrase in &history {
             assert!(
-                !text.contains(phrase),
+                !text.contains(phrase.as_str()),
                 "{}: \"{phrase}\" narrates the project's history; say what is true now",
                 path.display()
             );
