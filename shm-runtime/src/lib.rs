@@ -29,38 +29,27 @@
 //! ```
 #![warn(missing_docs)]
 
-pub mod action;
-mod config;
-pub mod graph;
-mod inline_limit;
-mod loan;
 mod logging;
-mod matching;
-mod memlock;
 pub mod msgs;
-pub mod names;
-mod node;
-mod payload;
-mod pool;
 pub mod prelude;
-mod publisher;
-mod queue;
-pub mod rmw;
-pub mod service;
-mod shm_bytes;
-mod subscriber;
+mod ros;
+mod transport;
 
-pub use config::{ConfigError, PoolSize, ShmConfig};
-pub use inline_limit::Unfragmentable;
-pub use loan::{Loan, LoanPublish};
+pub use ros::{action, graph, names, rmw, service};
+
 pub use logging::{init_logging, DEFAULT_LOG_FILTER};
-pub use memlock::{MemlockBudget, ZENOH_METADATA_SEGMENT};
-pub use node::{RosNode, RosNodeBuilder};
-pub use payload::{EncodedPayload, PayloadKind};
-pub use pool::{CdrBackend, ShmContext, ShmStats};
-pub use publisher::{PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher};
-pub use shm_bytes::ShmBytes;
-pub use subscriber::{
+pub use ros::node::{RosNode, RosNodeBuilder};
+pub use transport::config::{ConfigError, PoolSize, ShmConfig};
+pub use transport::inline_limit::Unfragmentable;
+pub use transport::loan::{Loan, LoanPublish};
+pub use transport::memlock::{MemlockBudget, ZENOH_METADATA_SEGMENT};
+pub use transport::payload::{EncodedPayload, PayloadKind};
+pub use transport::pool::{CdrBackend, ShmContext, ShmStats};
+pub use transport::publisher::{
+    PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher,
+};
+pub use transport::shm_bytes::ShmBytes;
+pub use transport::subscriber::{
     CallbackSubscriber, CallbackSubscriberBuilder, History, MessageStream, RecvError, RosSample,
     RosSubscriber, SampleStream, SubscriberBuilder,
 };

@@ -31,7 +31,7 @@ fn a_graph_of_300_nodes_and_600_publishers_is_read_within_its_timeout() {
     let started = Instant::now();
     // Tokens travel to the other session; wait until all 901 nodes' and
     // publishers' tokens are seen, each query bounded by its timeout.
-    let graph = loop {
+    loop {
         let graph = observer.graph(Duration::from_secs(2)).unwrap();
         assert!(
             started.elapsed() < TIMEOUT + Duration::from_secs(3),
@@ -41,14 +41,14 @@ fn a_graph_of_300_nodes_and_600_publishers_is_read_within_its_timeout() {
             && graph.publishers("/rosout").len() == 300
             && graph.publishers("/chatter").len() == 300
         {
-            break graph;
+            break;
         }
         assert!(
             started.elapsed() < TIMEOUT,
             "not all seen: {} nodes",
             graph.nodes().len()
         );
-    };
+    }
     println!(
         "graph: 301 nodes, 600 publishers read in {:?}",
         started.elapsed()

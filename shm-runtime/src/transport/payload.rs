@@ -7,8 +7,8 @@ use std::sync::OnceLock;
 use shm_cdr::{CdrDecode, CdrEncode, DecodeError, DecodeErrorKind, EncodeError};
 use zenoh::bytes::ZBytes;
 
-use crate::pool::ShmContext;
-use crate::shm_bytes::{self, Splice};
+use crate::transport::pool::ShmContext;
+use crate::transport::shm_bytes::{self, Splice};
 
 /// Where a published message's bytes went.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -16,8 +16,8 @@ use zenoh::{Resolvable, Wait};
 use super::server::uuid_text;
 use super::state::GoalStatus;
 use super::{part_name, ActionError, GoalId, Stamp};
-use crate::rmw::Qos;
-use crate::service::{ServiceClient, NO_TIMEOUT};
+use crate::ros::rmw::Qos;
+use crate::ros::service::{ServiceClient, NO_TIMEOUT};
 use crate::{CallbackSubscriber, RosNode, RosSample};
 
 /// How long `send_goal` and `cancel` wait for the server by default (Zenoh's
@@ -632,7 +632,7 @@ pub struct ResultBuilder<'h, A: RosAction> {
 }
 
 impl<A: RosAction> ResultBuilder<'_, A> {
-    /// Give up after `timeout` ([`CallError::Timeout`](crate::service::CallError::Timeout)).
+    /// Give up after `timeout` ([`CallError::Timeout`](crate::ros::service::CallError::Timeout)).
     pub fn timeout(mut self, timeout: Duration) -> Self {
         self.timeout = timeout.min(NO_TIMEOUT);
         self
@@ -640,12 +640,15 @@ impl<A: RosAction> ResultBuilder<'_, A> {
 
     fn finish(
         handle: &ClientGoalHandle<A>,
-        response: Result<shm_cdr::interface::ResponseOf<A::GetResult>, crate::service::CallError>,
+        response: Result<
+            shm_cdr::interface::ResponseOf<A::GetResult>,
+            crate::ros::service::CallError,
+        >,
     ) -> Result<GoalResult<A::Result>, ActionError> {
         let response = match response {
             Ok(response) => response,
             Err(error) => {
-                if matches!(error, crate::service::CallError::NoReply) {
+                if matches!(error, crate::ros::service::CallError::NoReply) {
                     // The server went away with the goal: nobody knows it now.
                     handle
                         .client

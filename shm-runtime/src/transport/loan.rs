@@ -19,8 +19,8 @@ use zenoh::bytes::ZBytes;
 use zenoh::shm::ZShmMut;
 use zenoh::{Resolvable, Wait};
 
-use crate::payload::{EncodedPayload, PayloadKind, ShmPolicy};
-use crate::publisher::{PublishError, PublishOutcome, RosPublisher};
+use crate::transport::payload::{EncodedPayload, PayloadKind, ShmPolicy};
+use crate::transport::publisher::{PublishError, PublishOutcome, RosPublisher};
 
 /// Where a loan's bytes lie.
 enum Buffer {
@@ -147,7 +147,9 @@ impl<'p, T: RosMessage + InPlace> Loan<'p, T> {
     }
 
     /// Check, count and attach: everything the put needs.
-    fn prepare(self) -> Result<(crate::publisher::Prepared, &'p RosPublisher<T>), PublishError> {
+    fn prepare(
+        self,
+    ) -> Result<(crate::transport::publisher::Prepared, &'p RosPublisher<T>), PublishError> {
         self.written.check().map_err(PublishError::Loan)?;
         if let Some(policy) = self.publisher.policy() {
             policy.context.count(self.kind, self.size);

@@ -14,9 +14,9 @@ use zenoh::{Resolvable, Wait};
 
 use super::state::{transition, GoalEvent, GoalStatus};
 use super::{part_name, ActionError, GoalId, Stamp};
-use crate::publisher::{now_ns, PublishOutcome};
-use crate::rmw::Qos;
-use crate::service::{CallbackServiceServer, ServiceRequest};
+use crate::ros::rmw::Qos;
+use crate::ros::service::{CallbackServiceServer, ServiceRequest};
+use crate::transport::publisher::{now_ns, PublishOutcome};
 use crate::{RosNode, RosPublisher};
 
 /// rcl_action's default `result_timeout` (Kilted): how long a finished goal's

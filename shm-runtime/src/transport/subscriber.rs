@@ -18,13 +18,13 @@ use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedSubscriber, AdvancedSubscriberBuilderExt, HistoryConfig, RecoveryConfig};
 
-use crate::queue::{sample_type, Queue, TypeCheck};
-use crate::rmw::{
+use crate::ros::rmw::{
     counterpart_tokens_key_expr, Attachment, AttachmentError, Durability, EntityKind,
     History as RmwHistory, Qos, Reliability,
 };
+use crate::transport::queue::{sample_type, Queue, TypeCheck};
 
-pub use crate::queue::History;
+pub use crate::transport::queue::History;
 
 /// Builder of a [`RosSubscriber`]; resolve with `.wait()` or `.await`.
 #[must_use = "resolve the builder with .wait() or .await"]
@@ -38,7 +38,7 @@ pub struct SubscriberBuilder<'a, T> {
     /// Ask publishers declared with recovery for what never arrived.
     pub(crate) recovery: bool,
     /// A name that failed to resolve (node subscribers): reported by `build`.
-    pub(crate) invalid: Option<crate::names::NameError>,
+    pub(crate) invalid: Option<crate::ros::names::NameError>,
     pub(crate) message: PhantomData<fn() -> T>,
 }
 
@@ -125,7 +125,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
                         .max_samples(depth),
                 )
                 .subscriber_detection()
-                .query_timeout(crate::service::NO_TIMEOUT)
+                .query_timeout(crate::ros::service::NO_TIMEOUT)
         } else {
             builder.query_timeout(RECOVERY_QUERY_TIMEOUT)
         };
@@ -599,7 +599,7 @@ impl RosSample {
     /// message encoded into a pool, a spliced block's for a `ShmBytes` field,
     /// 0 for a payload that travelled as bytes.
     pub fn shm_len(&self) -> usize {
-        crate::payload::shm_len(self.sample.payload())
+        crate::transport::payload::shm_len(self.sample.payload())
     }
 
     /// How many fragments the payload arrived in (1 for a single buffer; 3 for a
@@ -619,13 +619,13 @@ impl RosSample {
     /// (a `&[u8]` field then points into the shared-memory block); a payload in
     /// other fragments is copied once into a contiguous buffer first.
     pub fn decode<'a, M: CdrDecode<'a>>(&'a self) -> Result<M, DecodeError> {
-        crate::payload::decode(self.sample.payload(), &self.copy)
+        crate::transport::payload::decode(self.sample.payload(), &self.copy)
     }
 
     /// [`decode`](Self::decode) into an existing value, reusing the memory it owns
     /// (see [`shm_cdr::from_bytes_into`]): a subscriber that keeps one message and
     /// decodes every sample into it allocates only when a message outgrows it.
     pub fn decode_into<'a, M: CdrDecode<'a>>(&'a self, out: &mut M) -> Result<(), DecodeError> {
-        crate::payload::decode_into(self.sample.payload(), &self.copy, out)
+        crate::transport::payload::decode_into(self.sample.payload(), &self.copy, out)
     }
 }

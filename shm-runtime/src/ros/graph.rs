@@ -7,7 +7,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 
-use crate::rmw::{Durability, EntityKind, Gid, History, Qos, Reliability};
+use crate::ros::rmw::{Durability, EntityKind, Gid, History, Qos, Reliability};
 
 /// A token that is not rmw_zenoh_cpp's.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -66,7 +66,7 @@ pub struct Endpoint {
     pub qos: Qos,
 }
 
-/// `%` back to `/` (see [`crate::rmw::mangle_name`]).
+/// `%` back to `/` (see [`crate::ros::rmw::mangle_name`]).
 fn demangle(name: &str) -> String {
     name.replace('%', "/")
 }

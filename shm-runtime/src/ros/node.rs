@@ -10,14 +10,14 @@ use shm_cdr::RosMessage;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::{Resolvable, Session, Wait};
 
-use crate::action::{ActionClientBuilder, ActionServerBuilder};
-use crate::graph::Graph;
-use crate::names::{self, NameError, NameKind, RemapRule, Remaps};
-use crate::pool::ShmContext;
-use crate::publisher::{PublisherBuilder, RmwPublisher};
-use crate::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
-use crate::service::{ServiceClientBuilder, ServiceServerBuilder};
-use crate::subscriber::SubscriberBuilder;
+use crate::ros::action::{ActionClientBuilder, ActionServerBuilder};
+use crate::ros::graph::Graph;
+use crate::ros::names::{self, NameError, NameKind, RemapRule, Remaps};
+use crate::ros::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
+use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
+use crate::transport::pool::ShmContext;
+use crate::transport::publisher::{PublisherBuilder, RmwPublisher};
+use crate::transport::subscriber::SubscriberBuilder;
 use crate::History;
 
 /// The depth rmw_zenoh_cpp gives a keep-last QoS of depth 0.
@@ -136,10 +136,10 @@ impl RosNode {
         // reader that stops reading holds `depth` samples (and their
         // shared-memory chunks), not everything published meanwhile.
         builder.history = match qos.history {
-            crate::rmw::History::KeepLast(depth) => {
+            crate::ros::rmw::History::KeepLast(depth) => {
                 History::KeepLast(NonZeroUsize::new(depth).unwrap_or(RMW_ZENOH_DEFAULT_DEPTH))
             }
-            crate::rmw::History::KeepAll => History::KeepAll,
+            crate::ros::rmw::History::KeepAll => History::KeepAll,
         };
         builder.liveliness =
             Some(
@@ -152,9 +152,9 @@ impl RosNode {
     /// A server of service `S` on `service` (e.g. `"/trigger"`, resolved like a
     /// topic name): a queryable on rmw_zenoh's service key with an `SS`
     /// liveliness token. Resolve it as it is for a queue of
-    /// [`ServiceRequest`](crate::service::ServiceRequest)s, or give it a
-    /// [`handler`](crate::service::ServiceServerBuilder::handler) or
-    /// [`callback`](crate::service::ServiceServerBuilder::callback) first. It
+    /// [`ServiceRequest`](crate::ros::service::ServiceRequest)s, or give it a
+    /// [`handler`](crate::ros::service::ServiceServerBuilder::handler) or
+    /// [`callback`](crate::ros::service::ServiceServerBuilder::callback) first. It
     /// keeps `Qos::services_default()`'s 10 requests waiting unless told
     /// otherwise, and replies from the node's shared memory.
     pub fn declare_service<S: RosService>(&self, service: &str) -> ServiceServerBuilder<'_, S> {
@@ -173,10 +173,10 @@ impl RosNode {
         builder.invalid = invalid;
         builder.shm.inherited = self.shm.clone();
         builder.history = match qos.history {
-            crate::rmw::History::KeepLast(depth) => {
+            crate::ros::rmw::History::KeepLast(depth) => {
                 NonZeroUsize::new(depth).map_or(crate::History::KeepAll, crate::History::KeepLast)
             }
-            crate::rmw::History::KeepAll => crate::History::KeepAll,
+            crate::ros::rmw::History::KeepAll => crate::History::KeepAll,
         };
         builder
     }
@@ -206,8 +206,8 @@ impl RosNode {
     /// topic name): its three services and two topics under
     /// `<action>/_action/`, as rcl_action and rmw_zenoh_cpp name them. Resolve
     /// it as it is (every goal accepted, every cancel accepted) or decide with
-    /// [`on_goal`](crate::action::ActionServerBuilder::on_goal) /
-    /// [`on_cancel`](crate::action::ActionServerBuilder::on_cancel) first.
+    /// [`on_goal`](crate::ros::action::ActionServerBuilder::on_goal) /
+    /// [`on_cancel`](crate::ros::action::ActionServerBuilder::on_cancel) first.
     pub fn declare_action_server<A: RosAction>(&self, action: &str) -> ActionServerBuilder<'_, A> {
         ActionServerBuilder::new(self, action)
     }

@@ -11,9 +11,9 @@ use zenoh::shm::{
 };
 use zenoh::Wait;
 
-use crate::config::{ConfigError, PoolSize, ShmConfig};
-use crate::memlock::{Bytes, MemlockBudget, RAISE_THE_LIMIT, ZENOH_METADATA_SEGMENT};
-use crate::payload::PayloadKind;
+use crate::transport::config::{ConfigError, PoolSize, ShmConfig};
+use crate::transport::memlock::{Bytes, MemlockBudget, RAISE_THE_LIMIT, ZENOH_METADATA_SEGMENT};
+use crate::transport::payload::PayloadKind;
 
 mod backend;
 

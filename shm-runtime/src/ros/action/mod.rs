@@ -64,8 +64,8 @@ pub use state::{transition, GoalEvent, GoalStatus};
 
 use std::fmt;
 
-use crate::publisher::PublishError;
-use crate::service::CallError;
+use crate::ros::service::CallError;
+use crate::transport::publisher::PublishError;
 
 /// The names of an action's services and topics: `<action>/_action/<part>`.
 pub(crate) fn part_name(action: &str, part: &str) -> String {

@@ -19,12 +19,12 @@ use zenoh::query::{ConsolidationMode, QueryTarget, Reply};
 use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
 
-use crate::inline_limit::{self, InlineLimit, Unfragmentable};
-use crate::payload::{encode_payload, ShmPolicy};
-use crate::pool::ShmContext;
-use crate::publisher::{now_ns, ShmSettings};
-use crate::queue::type_encoding;
-use crate::rmw::{Attachment, AttachmentError, Gid};
+use crate::ros::rmw::{Attachment, AttachmentError, Gid};
+use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
+use crate::transport::payload::{encode_payload, ShmPolicy};
+use crate::transport::pool::ShmContext;
+use crate::transport::publisher::{now_ns, ShmSettings};
+use crate::transport::queue::type_encoding;
 
 /// Zenoh's default query timeout, which rmw_zenoh_cpp's clients use too.
 const DEFAULT_TIMEOUT: Duration = Duration::from_secs(10);
@@ -98,7 +98,7 @@ pub struct ServiceClientBuilder<'a, S> {
     pub(crate) shm: ShmSettings,
     pub(crate) timeout: Duration,
     /// A name that failed to resolve: reported by `build`.
-    pub(crate) invalid: Option<crate::names::NameError>,
+    pub(crate) invalid: Option<crate::ros::names::NameError>,
     pub(crate) service: PhantomData<fn() -> S>,
 }
 
@@ -262,7 +262,7 @@ impl<S: RosService> ServiceClient<S> {
     /// Wait until a server is there, or `timeout` passes; returns whether one is.
     /// Built on Zenoh's matching listener: it wakes when the server appears.
     pub fn wait_for_service(&self, timeout: Duration) -> bool {
-        crate::matching::wait(
+        crate::transport::matching::wait(
             self.querier.matching_listener().wait(),
             || self.is_service_available(),
             timeout,
@@ -272,7 +272,7 @@ impl<S: RosService> ServiceClient<S> {
     /// Resolves once a server is there (at once if one is). Cancellation-safe;
     /// bound it with your runtime's timeout.
     pub async fn service_available(&self) -> zenoh::Result<()> {
-        crate::matching::matched(self.querier.matching_listener().wait(), || {
+        crate::transport::matching::matched(self.querier.matching_listener().wait(), || {
             self.is_service_available()
         })
         .await
@@ -461,7 +461,10 @@ impl<S> fmt::Debug for ServiceReply<S> {
         f.debug_struct("ServiceReply")
             .field("key_expr", &self.sample.key_expr().as_str())
             .field("len", &self.sample.payload().len())
-            .field("shm", &(crate::payload::shm_len(self.sample.payload()) > 0))
+            .field(
+                "shm",
+                &(crate::transport::payload::shm_len(self.sample.payload()) > 0),
+            )
             .finish()
     }
 }
@@ -475,7 +478,7 @@ impl<S: RosService> ServiceReply<S> {
     /// The response decoded as `M` (`S::Response` or a form of it borrowing from
     /// the reply).
     pub fn decode<'a, M: CdrDecode<'a>>(&'a self) -> Result<M, DecodeError> {
-        crate::payload::decode(self.sample.payload(), &self.copy)
+        crate::transport::payload::decode(self.sample.payload(), &self.copy)
     }
 
     /// rmw_zenoh's attachment of the reply (the call's sequence number, the
@@ -487,7 +490,7 @@ impl<S: RosService> ServiceReply<S> {
 
     /// Whether the response arrived in shared memory.
     pub fn is_shm(&self) -> bool {
-        crate::payload::shm_len(self.sample.payload()) > 0
+        crate::transport::payload::shm_len(self.sample.payload()) > 0
     }
 
     /// The Zenoh sample of the reply.

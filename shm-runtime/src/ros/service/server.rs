@@ -19,12 +19,12 @@ use zenoh::query::Query;
 use zenoh::{Resolvable, Session, Wait};
 
 use super::error_reply_text;
-use crate::inline_limit::{self, InlineLimit};
-use crate::payload::{encode_payload, PayloadKind, ShmPolicy};
-use crate::pool::ShmContext;
-use crate::publisher::{now_ns, PublishError, ShmSettings};
-use crate::queue::{type_encoding, History};
-use crate::rmw::{Attachment, Gid};
+use crate::ros::rmw::{Attachment, Gid};
+use crate::transport::inline_limit::{self, InlineLimit};
+use crate::transport::payload::{encode_payload, PayloadKind, ShmPolicy};
+use crate::transport::pool::ShmContext;
+use crate::transport::publisher::{now_ns, PublishError, ShmSettings};
+use crate::transport::queue::{type_encoding, History};
 
 /// Builder of a service server; resolve with `.wait()` or `.await` into a
 /// [`ServiceServer`] that queues requests, or first turn it into a callback
@@ -38,7 +38,7 @@ pub struct ServiceServerBuilder<'a, S> {
     pub(crate) shm: ShmSettings,
     pub(crate) history: History,
     /// A name that failed to resolve: reported by `build`.
-    pub(crate) invalid: Option<crate::names::NameError>,
+    pub(crate) invalid: Option<crate::ros::names::NameError>,
     pub(crate) service: PhantomData<fn() -> S>,
 }
 
@@ -486,7 +486,7 @@ impl<S: RosService> ServiceRequest<S> {
     /// the payload, e.g. the generated `…Ref<'a>`). On error, like
     /// [`request`](Self::request).
     pub fn decode<'a, M: CdrDecode<'a>>(&'a self) -> Result<M, DecodeError> {
-        crate::payload::decode(self.payload(), &self.copy).inspect_err(|e| {
+        crate::transport::payload::decode(self.payload(), &self.copy).inspect_err(|e| {
             self.shared.malformed.fetch_add(1, Ordering::Relaxed);
             tracing::warn!(key_expr = %self.shared.key_expr, "service request refused: {e}");
             reply_error(&self.query, format_args!("request refused: {e}"));
@@ -501,7 +501,7 @@ impl<S: RosService> ServiceRequest<S> {
 
     /// Whether the request arrived in shared memory.
     pub fn is_shm(&self) -> bool {
-        crate::payload::shm_len(self.payload()) > 0
+        crate::transport::payload::shm_len(self.payload()) > 0
     }
 
     /// Answer with `response`; resolve with `.wait()` or `.await`. It goes out

@@ -16,10 +16,10 @@ use zenoh::sample::SourceInfo;
 use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, MissDetectionConfig};
 
-use crate::inline_limit::{self, InlineLimit, Unfragmentable};
-use crate::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
-use crate::pool::ShmContext;
-use crate::rmw::{Attachment, Durability, Gid, History, Qos, Reliability};
+use crate::ros::rmw::{Attachment, Durability, Gid, History, Qos, Reliability};
+use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
+use crate::transport::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
+use crate::transport::pool::ShmContext;
 
 /// Why a publish failed. A full pool is not a failure: the message then goes on
 /// the heap ([`PayloadKind::HeapFallback`]).
@@ -158,7 +158,7 @@ pub struct PublisherBuilder<'a, T> {
     /// How many published messages to keep for subscribers that missed them.
     pub(crate) recovery: Option<usize>,
     /// A name that failed to resolve (node publishers): reported by `build`.
-    pub(crate) invalid: Option<crate::names::NameError>,
+    pub(crate) invalid: Option<crate::ros::names::NameError>,
     pub(crate) message: PhantomData<fn(&T)>,
 }
 
@@ -254,7 +254,7 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             return Err(invalid.into());
         }
         let policy = self.shm.resolve(self.session, &self.key_expr);
-        let encoding = crate::queue::type_encoding::<T>();
+        let encoding = crate::transport::queue::type_encoding::<T>();
         let inline_limit =
             InlineLimit::of(self.session, &self.key_expr, encoding.to_string().len());
         if self.recovery == Some(0) {
@@ -398,7 +398,7 @@ impl ZenohPublisher {
         }
     }
 
-    fn matching_listener(&self) -> zenoh::Result<crate::matching::Listener> {
+    fn matching_listener(&self) -> zenoh::Result<crate::transport::matching::Listener> {
         match self {
             Self::Plain(p) => p.matching_listener().wait(),
             Self::Advanced(p) => p.matching_listener().wait(),
@@ -444,7 +444,7 @@ impl<T: RosMessage> RosPublisher<T> {
     /// subscriber is known, like any pub/sub.) Built on Zenoh's matching
     /// listener: it wakes when the match happens.
     pub fn wait_for_subscribers(&self, timeout: std::time::Duration) -> bool {
-        crate::matching::wait(
+        crate::transport::matching::wait(
             self.publisher.matching_listener(),
             || self.has_subscribers(),
             timeout,
@@ -455,7 +455,7 @@ impl<T: RosMessage> RosPublisher<T> {
     /// one already does). Cancellation-safe; bound it with your runtime's
     /// timeout (e.g. `tokio::time::timeout`).
     pub async fn subscribers_matched(&self) -> zenoh::Result<()> {
-        crate::matching::matched(self.publisher.matching_listener(), || {
+        crate::transport::matching::matched(self.publisher.matching_listener(), || {
             self.has_subscribers()
         })
         .await

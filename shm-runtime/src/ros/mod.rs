@@ -1,0 +1,9 @@
+//! The ROS 2 node on top of the transport core: rmw_zenoh_cpp's names, tokens
+//! and attachments, nodes, services, actions and the graph.
+
+pub mod action;
+pub mod graph;
+pub mod names;
+pub(crate) mod node;
+pub mod rmw;
+pub mod service;

@@ -1,0 +1,15 @@
+//! The transport core: typed publishers and subscribers on any key expression,
+//! their payloads, the shared-memory pool and loans. Nothing here knows ROS
+//! names or the graph; the [`ros`](crate::ros) tree builds on it.
+
+pub(crate) mod config;
+pub(crate) mod inline_limit;
+pub(crate) mod loan;
+pub(crate) mod matching;
+pub(crate) mod memlock;
+pub(crate) mod payload;
+pub(crate) mod pool;
+pub(crate) mod publisher;
+pub(crate) mod queue;
+pub(crate) mod shm_bytes;
+pub(crate) mod subscriber;
