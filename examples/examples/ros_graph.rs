@@ -124,7 +124,7 @@ fn print(graph: &Graph) {
             }
         }
     }
-    for unreadable in &graph.unreadable {
+    for unreadable in graph.unreadable() {
         println!("\n(unreadable) {unreadable}");
     }
 }

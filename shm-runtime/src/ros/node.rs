@@ -11,7 +11,7 @@ use zenoh::liveliness::LivelinessToken;
 use zenoh::{Resolvable, Session, Wait};
 
 use crate::ros::action::{ActionClientBuilder, ActionServerBuilder};
-use crate::ros::graph::Graph;
+use crate::ros::graph::{Graph, GraphCache};
 use crate::ros::names::{self, NameError, NameKind, RemapRule, Remaps};
 use crate::ros::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
 use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
@@ -36,6 +36,7 @@ pub struct RosNode {
     info: NodeInfo,
     shm: Option<ShmContext>,
     remaps: Remaps,
+    graph: std::sync::Mutex<Option<GraphCache>>,
     _token: LivelinessToken,
 }
 
@@ -217,28 +218,28 @@ impl RosNode {
         ActionClientBuilder::new(self, action)
     }
 
-    /// A snapshot of the ROS graph of this node's domain: every node and
-    /// endpoint whose liveliness token is alive now, ours and other processes'
-    /// (rmw_zenoh_cpp's included). A Zenoh liveliness query, answered within
-    /// `timeout`.
-    pub fn graph(&self, timeout: std::time::Duration) -> zenoh::Result<Graph> {
-        // An unbounded channel: Zenoh hands the replies over on this thread
-        // before `wait` returns, and a bounded one (the default holds 256)
-        // would never return with more tokens than that.
-        let replies = self
-            .session
-            .liveliness()
-            .get(format!("@ros2_lv/{}/**", self.info.domain_id))
-            .timeout(timeout)
-            .with(flume::unbounded())
-            .wait()?;
-        let mut tokens = Vec::new();
-        while let Ok(reply) = replies.recv() {
-            if let Ok(sample) = reply.result() {
-                tokens.push(sample.key_expr().to_string());
-            }
+    /// The live ROS graph of this node's domain, shared by every node of the
+    /// session: made on first use, kept up to date by one liveliness
+    /// subscriber, queried from memory (see [`GraphCache`]).
+    pub fn graph_cache(&self) -> zenoh::Result<GraphCache> {
+        let mut cache = self.graph.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(cache) = cache.as_ref() {
+            return Ok(cache.clone());
         }
-        Ok(Graph::from_tokens(tokens.iter().map(String::as_str)))
+        let made = GraphCache::of(&self.session, self.info.domain_id)?;
+        *cache = Some(made.clone());
+        Ok(made)
+    }
+
+    /// A snapshot of the ROS graph of this node's domain: every node and
+    /// endpoint whose liveliness token is alive, ours and other processes'
+    /// (rmw_zenoh_cpp's included). It comes from the session's
+    /// [`graph_cache`](Self::graph_cache); the first call waits up to
+    /// `timeout` for the cache's first answers, later ones return at once.
+    pub fn graph(&self, timeout: std::time::Duration) -> zenoh::Result<Graph> {
+        let cache = self.graph_cache()?;
+        cache.wait_synced(timeout);
+        Ok(cache.snapshot())
     }
 
     /// The fully qualified name of `topic` for this node (see
@@ -365,6 +366,7 @@ impl RosNodeBuilder<'_> {
             info,
             shm: self.shm,
             remaps: self.remaps,
+            graph: std::sync::Mutex::default(),
             _token: token,
         })
     }

@@ -1,0 +1,572 @@
+//! The ROS graph as rmw_zenoh_cpp announces it: every node, publisher,
+//! subscriber, service server and client holds a liveliness token
+//! `@ros2_lv/<domain>/<zid>/<node id>/<entity id>/<kind>/<enclave>/<namespace>/<node>[/<topic>/<type>/<hash>/<qos>]`;
+//! [`Graph`] reads them back into names, types, QoS and GIDs, as
+//! `ros2 node list`, `ros2 topic list -t` and `ros2 node info` show them, and
+//! [`GraphCache`] keeps one up to date for a whole session, with
+//! [events](GraphEvent) as entities come and go.
+
+mod cache;
+mod events;
+
+pub use cache::{GraphCache, GraphGuard};
+pub use events::{GraphCallback, GraphEvent, GraphEvents};
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::fmt;
+use std::sync::Arc;
+
+use crate::ros::rmw::{Durability, EntityKind, Gid, History, Qos, Reliability};
+
+/// A token that is not rmw_zenoh_cpp's.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TokenError {
+    /// The token.
+    pub token: String,
+    /// What is wrong with it.
+    pub reason: &'static str,
+}
+
+impl fmt::Display for TokenError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "liveliness token {:?}: {}", self.token, self.reason)
+    }
+}
+
+impl std::error::Error for TokenError {}
+
+/// One node or endpoint on the graph, from its liveliness token.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Entity {
+    /// ROS domain.
+    pub domain_id: u32,
+    /// The Zenoh session id of the process that declared it.
+    pub zid: String,
+    /// The node's id within its session.
+    pub node_id: u64,
+    /// The entity's id within its session (the node's own for a node).
+    pub entity_id: u64,
+    /// Node, publisher, subscriber, service server or client.
+    pub kind: EntityKind,
+    /// Security enclave.
+    pub enclave: String,
+    /// The node's namespace.
+    pub namespace: String,
+    /// The node's name.
+    pub node_name: String,
+    /// Topic or service of an endpoint (`None` for a node).
+    pub endpoint: Option<Endpoint>,
+    /// The token itself.
+    pub token: String,
+    /// The entity's GID: XXH3-128 of the token.
+    pub gid: Gid,
+}
+
+/// What an endpoint's token says beyond its node.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Endpoint {
+    /// Fully qualified topic or service name (`/chatter`).
+    pub name: String,
+    /// ROS type name (`std_msgs/msg/String`, `std_srvs/srv/Trigger`).
+    pub type_name: String,
+    /// RIHS01 type hash.
+    pub type_hash: String,
+    /// QoS, with rmw_zenoh_cpp's defaults where the token leaves a field empty.
+    pub qos: Qos,
+}
+
+/// `%` back to `/` (see [`crate::ros::rmw::mangle_name`]).
+fn demangle(name: &str) -> String {
+    name.replace('%', "/")
+}
+
+/// `pkg::msg::dds_::Name_` → `pkg/msg/Name`.
+fn ros_type_name(dds: &str) -> Option<String> {
+    let mut parts = dds.split("::");
+    let (pkg, kind, dds_, name) = (parts.next()?, parts.next()?, parts.next()?, parts.next()?);
+    if dds_ != "dds_" || parts.next().is_some() {
+        return None;
+    }
+    Some(format!("{pkg}/{kind}/{}", name.strip_suffix('_')?))
+}
+
+/// rmw_zenoh_cpp's `keyexpr_to_qos`: empty fields are its defaults (reliable,
+/// volatile, keep last 42).
+fn parse_qos(text: &str) -> Option<Qos> {
+    let fields: Vec<&str> = text.split(':').collect();
+    let [reliability, durability, history, ..] = fields[..] else {
+        return None;
+    };
+    let reliability = match reliability {
+        "" | "1" => Reliability::Reliable,
+        "2" => Reliability::BestEffort,
+        _ => return None,
+    };
+    let durability = match durability {
+        "" | "2" => Durability::Volatile,
+        "1" => Durability::TransientLocal,
+        _ => return None,
+    };
+    let (kind, depth) = history.split_once(',')?;
+    let depth = if depth.is_empty() {
+        42
+    } else {
+        depth.parse().ok()?
+    };
+    let history = match kind {
+        "" | "1" => History::KeepLast(depth),
+        "2" => History::KeepAll,
+        _ => return None,
+    };
+    Some(Qos {
+        reliability,
+        durability,
+        history,
+    })
+}
+
+impl Entity {
+    /// Read a liveliness token.
+    pub fn parse(token: &str) -> Result<Self, TokenError> {
+        let error = |reason| TokenError {
+            token: token.to_owned(),
+            reason,
+        };
+        let rest = token
+            .strip_prefix("@ros2_lv/")
+            .ok_or(error("does not start with @ros2_lv/"))?;
+        let parts: Vec<&str> = rest.split('/').collect();
+        if parts.len() != 8 && parts.len() != 12 {
+            return Err(error("has neither 8 (node) nor 12 (endpoint) fields"));
+        }
+        let number = |s: &str| s.parse().map_err(|_| error("an id is not a number"));
+        let kind = EntityKind::from_token_field(parts[4]).ok_or(error("unknown entity kind"))?;
+        let endpoint = match (kind, parts.len()) {
+            (EntityKind::Node, 8) => None,
+            (EntityKind::Node, _) => return Err(error("a node token with endpoint fields")),
+            (_, 12) => Some(Endpoint {
+                name: demangle(parts[8]),
+                type_name: ros_type_name(parts[9])
+                    .ok_or(error("type is not pkg::kind::dds_::Name_"))?,
+                type_hash: parts[10].to_owned(),
+                qos: parse_qos(parts[11]).ok_or(error("QoS is not rmw_zenoh's"))?,
+            }),
+            _ => return Err(error("an endpoint token without topic fields")),
+        };
+        Ok(Self {
+            domain_id: number(parts[0])? as u32,
+            zid: parts[1].to_owned(),
+            node_id: number(parts[2])?,
+            entity_id: number(parts[3])?,
+            kind,
+            enclave: demangle(parts[5]),
+            namespace: demangle(parts[6]),
+            node_name: demangle(parts[7]),
+            endpoint,
+            token: token.to_owned(),
+            gid: Gid::from_token(token),
+        })
+    }
+
+    /// The node's fully qualified name (`/ns/name`).
+    pub fn node_fqn(&self) -> String {
+        if self.namespace.ends_with('/') {
+            format!("{}{}", self.namespace, self.node_name)
+        } else {
+            format!("{}/{}", self.namespace, self.node_name)
+        }
+    }
+}
+
+/// Tokens that could not be read are kept, with why, up to this many (a
+/// foreign program on `@ros2_lv` must not grow the graph without bound).
+pub const MAX_UNREADABLE: usize = 1024;
+
+/// Entities by token.
+type ByToken = BTreeMap<String, Arc<Entity>>;
+
+/// The ROS graph: every entity whose token is alive, indexed by token, by
+/// endpoint name and by node, so that each query reads only what it answers.
+///
+/// A `Graph` is either a snapshot ([`RosNode::graph`](crate::RosNode::graph),
+/// [`GraphCache::snapshot`]) or the live one inside a [`GraphCache`]
+/// ([`GraphCache::read`]); the queries are the same. Entities are shared
+/// (`Arc`), so a snapshot copies no names.
+///
+/// ```
+/// use shm_runtime::graph::Graph;
+///
+/// let graph = Graph::from_tokens([
+///     "@ros2_lv/0/ab/1/1/NN/%/%/talker",
+///     "@ros2_lv/0/ab/1/2/MP/%/%/talker/%chatter/std_msgs::msg::dds_::String_/RIHS01_df66/::,10:,:,:,,",
+/// ]);
+/// assert_eq!(graph.nodes(), ["/talker"]);
+/// assert_eq!(graph.publishers("/chatter")[0].node_fqn(), "/talker");
+/// assert_eq!(graph.node_endpoints("/talker").len(), 1);
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct Graph {
+    entities: ByToken,
+    /// Endpoints by topic or service name.
+    by_name: HashMap<String, ByToken>,
+    /// Node tokens by fully qualified node name (several nodes may share one).
+    nodes: BTreeMap<String, ByToken>,
+    /// Endpoints by their node's fully qualified name.
+    by_node: HashMap<String, ByToken>,
+    unreadable: BTreeMap<String, TokenError>,
+    counts: HashMap<EntityKind, usize>,
+}
+
+impl Graph {
+    /// Build a graph from tokens.
+    pub fn from_tokens<'a>(tokens: impl IntoIterator<Item = &'a str>) -> Self {
+        let mut graph = Self::default();
+        for token in tokens {
+            graph.insert(token);
+        }
+        graph
+    }
+
+    /// Add the entity of `token`; `Some` if it was not there. A token that
+    /// cannot be read is kept in [`unreadable`](Self::unreadable) instead.
+    pub(crate) fn insert(&mut self, token: &str) -> Option<Arc<Entity>> {
+        if self.entities.contains_key(token) {
+            return None;
+        }
+        let entity = match Entity::parse(token) {
+            Ok(entity) => Arc::new(entity),
+            Err(e) => {
+                if self.unreadable.len() < MAX_UNREADABLE {
+                    self.unreadable.insert(token.to_owned(), e);
+                }
+                return None;
+            }
+        };
+        let index = match &entity.endpoint {
+            None => self.nodes.entry(entity.node_fqn()).or_default(),
+            Some(endpoint) => {
+                self.by_name
+                    .entry(endpoint.name.clone())
+                    .or_default()
+                    .insert(token.to_owned(), entity.clone());
+                self.by_node.entry(entity.node_fqn()).or_default()
+            }
+        };
+        index.insert(token.to_owned(), entity.clone());
+        self.entities.insert(token.to_owned(), entity.clone());
+        *self.counts.entry(entity.kind).or_default() += 1;
+        Some(entity)
+    }
+
+    /// Remove the entity of `token`; `Some` if it was there.
+    pub(crate) fn remove(&mut self, token: &str) -> Option<Arc<Entity>> {
+        let Some(entity) = self.entities.remove(token) else {
+            self.unreadable.remove(token);
+            return None;
+        };
+        if let Some(count) = self.counts.get_mut(&entity.kind) {
+            *count -= 1;
+        }
+        fn take(index: &mut ByToken, token: &str) -> bool {
+            index.remove(token);
+            index.is_empty()
+        }
+        let fqn = entity.node_fqn();
+        match &entity.endpoint {
+            None => {
+                if self.nodes.get_mut(&fqn).is_some_and(|i| take(i, token)) {
+                    self.nodes.remove(&fqn);
+                }
+            }
+            Some(endpoint) => {
+                if self.by_node.get_mut(&fqn).is_some_and(|i| take(i, token)) {
+                    self.by_node.remove(&fqn);
+                }
+                if let Some(index) = self.by_name.get_mut(&endpoint.name) {
+                    if take(index, token) {
+                        self.by_name.remove(&endpoint.name);
+                    }
+                }
+            }
+        }
+        Some(entity)
+    }
+
+    /// Every entity, in token order.
+    pub fn entities(&self) -> impl Iterator<Item = &Arc<Entity>> + '_ {
+        self.entities.values()
+    }
+
+    /// The entity of `token`, if it is alive.
+    pub fn entity(&self, token: &str) -> Option<&Arc<Entity>> {
+        self.entities.get(token)
+    }
+
+    /// How many entities there are.
+    pub fn len(&self) -> usize {
+        self.entities.len()
+    }
+
+    /// Whether there is no entity at all.
+    pub fn is_empty(&self) -> bool {
+        self.entities.is_empty()
+    }
+
+    /// How many entities of `kind` there are.
+    pub fn count(&self, kind: EntityKind) -> usize {
+        self.counts.get(&kind).copied().unwrap_or(0)
+    }
+
+    /// Tokens under `@ros2_lv` that could not be read, with why (at most
+    /// [`MAX_UNREADABLE`]).
+    pub fn unreadable(&self) -> impl ExactSizeIterator<Item = &TokenError> + '_ {
+        self.unreadable.values()
+    }
+
+    /// Fully qualified node names, sorted, each once (`ros2 node list`).
+    pub fn nodes(&self) -> Vec<String> {
+        self.nodes.keys().cloned().collect()
+    }
+
+    /// Every node with its name, namespace, enclave and session, sorted by
+    /// fully qualified name.
+    pub fn node_entities(&self) -> Vec<Arc<Entity>> {
+        self.nodes
+            .values()
+            .flat_map(BTreeMap::values)
+            .cloned()
+            .collect()
+    }
+
+    /// Whether a node called `fqn` (`/ns/name`) is on the graph.
+    pub fn contains_node(&self, fqn: &str) -> bool {
+        self.nodes.contains_key(fqn)
+    }
+
+    /// The publishers, subscribers, servers and clients of the node(s) called
+    /// `fqn`, in token order (what `ros2 node info` shows).
+    pub fn node_endpoints(&self, fqn: &str) -> Vec<Arc<Entity>> {
+        self.by_node
+            .get(fqn)
+            .map(|index| index.values().cloned().collect())
+            .unwrap_or_default()
+    }
+
+    fn names_and_types(&self, kinds: &[EntityKind]) -> BTreeMap<String, BTreeSet<String>> {
+        let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for (name, index) in &self.by_name {
+            for e in index.values().filter(|e| kinds.contains(&e.kind)) {
+                if let Some(endpoint) = &e.endpoint {
+                    out.entry(name.clone())
+                        .or_default()
+                        .insert(endpoint.type_name.clone());
+                }
+            }
+        }
+        out
+    }
+
+    /// Topics with their types (`ros2 topic list -t`).
+    pub fn topics(&self) -> BTreeMap<String, BTreeSet<String>> {
+        self.names_and_types(&[EntityKind::Publisher, EntityKind::Subscriber])
+    }
+
+    /// Services with their types (`ros2 service list -t`).
+    pub fn services(&self) -> BTreeMap<String, BTreeSet<String>> {
+        self.names_and_types(&[EntityKind::ServiceServer, EntityKind::ServiceClient])
+    }
+
+    /// Actions with their types (`ros2 action list -t`): every
+    /// `<action>/_action/send_goal` service, its type
+    /// `<pkg>/action/<Name>_SendGoal` read as `<pkg>/action/<Name>`.
+    pub fn actions(&self) -> BTreeMap<String, BTreeSet<String>> {
+        let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for (name, types) in self.services() {
+            let Some(action) = name.strip_suffix("/_action/send_goal") else {
+                continue;
+            };
+            let types = types
+                .iter()
+                .filter_map(|t| t.strip_suffix("_SendGoal"))
+                .map(str::to_owned);
+            out.entry(action.to_owned()).or_default().extend(types);
+        }
+        out
+    }
+
+    /// The types and RIHS01 hashes announced on topic or service `name`, each
+    /// pair once (more than one means endpoints disagree).
+    pub fn types_of(&self, name: &str) -> BTreeSet<(String, String)> {
+        self.by_name
+            .get(name)
+            .into_iter()
+            .flat_map(BTreeMap::values)
+            .filter_map(|e| e.endpoint.as_ref())
+            .map(|t| (t.type_name.clone(), t.type_hash.clone()))
+            .collect()
+    }
+
+    /// Servers of `action` (the servers of its `send_goal` service).
+    pub fn action_servers(&self, action: &str) -> Vec<Arc<Entity>> {
+        self.servers(&format!("{action}/_action/send_goal"))
+    }
+
+    /// Clients of `action` (the clients of its `send_goal` service).
+    pub fn action_clients(&self, action: &str) -> Vec<Arc<Entity>> {
+        self.clients(&format!("{action}/_action/send_goal"))
+    }
+
+    /// The endpoints of `kind` on topic or service `name`, in token order
+    /// (`ros2 topic info -v`).
+    pub fn endpoints(&self, kind: EntityKind, name: &str) -> Vec<Arc<Entity>> {
+        self.by_name
+            .get(name)
+            .into_iter()
+            .flat_map(BTreeMap::values)
+            .filter(|e| e.kind == kind)
+            .cloned()
+            .collect()
+    }
+
+    /// Publishers of `topic`.
+    pub fn publishers(&self, topic: &str) -> Vec<Arc<Entity>> {
+        self.endpoints(EntityKind::Publisher, topic)
+    }
+
+    /// Subscribers of `topic`.
+    pub fn subscribers(&self, topic: &str) -> Vec<Arc<Entity>> {
+        self.endpoints(EntityKind::Subscriber, topic)
+    }
+
+    /// Servers of `service`.
+    pub fn servers(&self, service: &str) -> Vec<Arc<Entity>> {
+        self.endpoints(EntityKind::ServiceServer, service)
+    }
+
+    /// Clients of `service`.
+    pub fn clients(&self, service: &str) -> Vec<Arc<Entity>> {
+        self.endpoints(EntityKind::ServiceClient, service)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tokens_read_back_into_what_they_say() {
+        let token = "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/10/MP/%/%demo/talker/%demo%chatter/std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18/2:1:,7:,:,:,,";
+        let e = Entity::parse(token).unwrap();
+        assert_eq!((e.domain_id, e.node_id, e.entity_id), (2, 0, 10));
+        assert_eq!(e.kind, EntityKind::Publisher);
+        assert_eq!(e.node_fqn(), "/demo/talker");
+        assert_eq!(e.enclave, "/");
+        let t = e.endpoint.as_ref().unwrap();
+        assert_eq!(t.name, "/demo/chatter");
+        assert_eq!(t.type_name, "std_msgs/msg/String");
+        assert_eq!(
+            t.qos,
+            Qos {
+                reliability: Reliability::BestEffort,
+                durability: Durability::TransientLocal,
+                history: History::KeepLast(7),
+            }
+        );
+        assert_eq!(e.gid, Gid::from_token(token));
+        // Every profile survives the round trip through the token's text.
+        for qos in [
+            Qos::default(),
+            Qos::sensor_data(),
+            Qos::services_default(),
+            Qos::parameters(),
+            Qos::system_default(),
+            Qos::transient_local(1),
+        ] {
+            assert_eq!(parse_qos(&qos.to_key_expr()), Some(qos));
+        }
+        let node = Entity::parse("@ros2_lv/0/ab/3/3/NN/%/%/listener").unwrap();
+        assert_eq!(
+            (node.kind, node.node_fqn()),
+            (EntityKind::Node, "/listener".into())
+        );
+        assert!(node.endpoint.is_none());
+    }
+
+    #[test]
+    fn foreign_tokens_are_refused_with_the_reason() {
+        for (token, reason) in [
+            ("@ros2_lv/0/ab/3/3/XX/%/%/n", "unknown entity kind"),
+            ("@ros2_lv/0/ab/3/3/NN/%/%", "has neither"),
+            ("@ros2_lv/0/ab/x/3/NN/%/%/n", "not a number"),
+            (
+                "@ros2_lv/0/ab/1/2/MP/%/%/n/%t/std_msgs::String/RIHS01_x/::,10:,:,:,,",
+                "type",
+            ),
+            (
+                "@ros2_lv/0/ab/1/2/MP/%/%/n/%t/a::msg::dds_::B_/RIHS01_x/9::,:,:,:,,",
+                "QoS",
+            ),
+        ] {
+            let e = Entity::parse(token).unwrap_err();
+            assert!(e.reason.contains(reason), "{token}: {e}");
+        }
+        let graph = Graph::from_tokens(["@ros2_lv/0/ab/3/3/NN/%/%/n", "@ros2_lv/bad"]);
+        assert_eq!(graph.count(EntityKind::Node), 1);
+        assert_eq!(graph.nodes(), ["/n"]);
+        assert_eq!(graph.unreadable().len(), 1);
+    }
+
+    #[test]
+    fn every_index_follows_tokens_coming_and_going() {
+        let node = |i: u32| format!("@ros2_lv/0/ab/{i}/{i}/NN/%/%demo/n{i}");
+        let endpoint = |i: u32, kind: &str, topic: &str| {
+            format!("@ros2_lv/0/ab/{i}/{}/{kind}/%/%demo/n{i}/%{topic}/std_msgs::msg::dds_::String_/RIHS01_00/::,10:,:,:,,", 1000 + i)
+        };
+        let mut graph = Graph::default();
+        let mut tokens = Vec::new();
+        for i in 0..50 {
+            tokens.push(node(i));
+            tokens.push(endpoint(i, "MP", "rosout"));
+            tokens.push(endpoint(i, if i % 2 == 0 { "MS" } else { "SS" }, "x"));
+        }
+        for token in &tokens {
+            assert!(graph.insert(token).is_some());
+            assert!(graph.insert(token).is_none(), "a token counts once");
+        }
+        assert_eq!(graph.len(), 150);
+        assert_eq!(graph.nodes().len(), 50);
+        assert_eq!(graph.count(EntityKind::Publisher), 50);
+        assert_eq!(graph.count(EntityKind::Subscriber), 25);
+        assert_eq!(graph.publishers("/rosout").len(), 50);
+        assert_eq!(graph.servers("/x").len(), 25);
+        assert_eq!(graph.node_endpoints("/demo/n7").len(), 2);
+        assert_eq!(graph.types_of("/rosout").len(), 1);
+        assert!(graph.topics().contains_key("/x"));
+        assert!(graph.services().contains_key("/x"));
+        // Every other one leaves: each index forgets it, empty entries go.
+        for token in tokens.iter().step_by(2) {
+            assert!(graph.remove(token).is_some());
+            assert!(graph.remove(token).is_none());
+        }
+        let rebuilt = Graph::from_tokens(tokens.iter().skip(1).step_by(2).map(String::as_str));
+        assert_eq!(graph.len(), rebuilt.len());
+        assert_eq!(graph.nodes(), rebuilt.nodes());
+        assert_eq!(graph.topics(), rebuilt.topics());
+        assert_eq!(graph.services(), rebuilt.services());
+        assert_eq!(graph.by_name.len(), rebuilt.by_name.len());
+        assert_eq!(graph.by_node.len(), rebuilt.by_node.len());
+        for kind in [
+            EntityKind::Node,
+            EntityKind::Publisher,
+            EntityKind::Subscriber,
+            EntityKind::ServiceServer,
+        ] {
+            assert_eq!(graph.count(kind), rebuilt.count(kind), "{kind:?}");
+        }
+        for token in tokens.iter().skip(1).step_by(2) {
+            graph.remove(token);
+        }
+        assert!(graph.is_empty());
+        assert!(graph.by_name.is_empty() && graph.by_node.is_empty() && graph.nodes.is_empty());
+    }
+}
