@@ -56,8 +56,8 @@ pub struct Entity {
     pub node_name: String,
     /// Topic or service of an endpoint (`None` for a node).
     pub endpoint: Option<Endpoint>,
-    /// The token itself.
-    pub token: String,
+    /// The token itself (shared by the graph's indexes).
+    pub token: Arc<str>,
     /// The entity's GID: XXH3-128 of the token.
     pub gid: Gid,
 }
@@ -163,7 +163,7 @@ impl Entity {
             namespace: demangle(parts[6]),
             node_name: demangle(parts[7]),
             endpoint,
-            token: token.to_owned(),
+            token: token.into(),
             gid: Gid::from_token(token),
         })
     }
@@ -183,7 +183,7 @@ impl Entity {
 pub const MAX_UNREADABLE: usize = 1024;
 
 /// Entities by token.
-type ByToken = BTreeMap<String, Arc<Entity>>;
+type ByToken = BTreeMap<Arc<str>, Arc<Entity>>;
 
 /// The ROS graph: every entity whose token is alive, indexed by token, by
 /// endpoint name and by node, so that each query reads only what it answers.
@@ -248,12 +248,12 @@ impl Graph {
                 self.by_name
                     .entry(endpoint.name.clone())
                     .or_default()
-                    .insert(token.to_owned(), entity.clone());
+                    .insert(entity.token.clone(), entity.clone());
                 self.by_node.entry(entity.node_fqn()).or_default()
             }
         };
-        index.insert(token.to_owned(), entity.clone());
-        self.entities.insert(token.to_owned(), entity.clone());
+        index.insert(entity.token.clone(), entity.clone());
+        self.entities.insert(entity.token.clone(), entity.clone());
         *self.counts.entry(entity.kind).or_default() += 1;
         Some(entity)
     }
