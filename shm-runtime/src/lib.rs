@@ -48,6 +48,10 @@ pub use transport::pool::{CdrBackend, ShmContext, ShmStats};
 pub use transport::publisher::{
     PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher,
 };
+pub use transport::receive_failures::{
+    receive_failure_layer, shm_receive_failures, ReceiveFailureCause, ReceiveFailureLayer,
+    ShmReceiveFailures,
+};
 pub use transport::shm_bytes::ShmBytes;
 pub use transport::subscriber::{
     CallbackSubscriber, CallbackSubscriberBuilder, History, MessageStream, RecvError, RosSample,

@@ -11,5 +11,6 @@ pub(crate) mod payload;
 pub(crate) mod pool;
 pub(crate) mod publisher;
 pub(crate) mod queue;
+pub(crate) mod receive_failures;
 pub(crate) mod shm_bytes;
 pub(crate) mod subscriber;
