@@ -40,6 +40,7 @@ pub use ros::{action, graph, names, rmw, service};
 pub use logging::{init_logging, DEFAULT_LOG_FILTER};
 pub use ros::node::{RosNode, RosNodeBuilder};
 pub use transport::config::{ConfigError, PoolSize, ShmConfig};
+pub use transport::executor::Executor;
 pub use transport::inline_limit::Unfragmentable;
 pub use transport::loan::{Loan, LoanPublish};
 pub use transport::memlock::{MemlockBudget, ZENOH_METADATA_SEGMENT};
@@ -48,6 +49,7 @@ pub use transport::pool::{CdrBackend, ShmContext, ShmStats};
 pub use transport::publisher::{
     PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher,
 };
+pub use transport::queue::DEFAULT_MAX_QUEUED_BYTES;
 pub use transport::receive_failures::{
     receive_failure_layer, shm_receive_failures, ReceiveFailureCause, ReceiveFailureLayer,
     ShmReceiveFailures,

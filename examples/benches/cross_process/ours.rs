@@ -312,7 +312,7 @@ pub fn echo(
         if callback {
             alive.push(Box::new(
                 builder
-                    .callback(move |sample| answer(&pong, ros_reply(path, sample)))
+                    .callback_inline(move |sample| answer(&pong, ros_reply(path, sample)))
                     .wait()?,
             ));
         } else {

@@ -3,6 +3,7 @@
 //! names or the graph; the [`ros`](crate::ros) tree builds on it.
 
 pub(crate) mod config;
+pub(crate) mod executor;
 pub(crate) mod inline_limit;
 pub(crate) mod loan;
 pub(crate) mod matching;

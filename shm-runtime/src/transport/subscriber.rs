@@ -6,7 +6,7 @@ use std::fmt;
 use std::future::IntoFuture;
 use std::marker::PhantomData;
 use std::pin::Pin;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::task::{Context, Poll};
 use std::time::Duration;
@@ -22,7 +22,8 @@ use crate::ros::rmw::{
     counterpart_tokens_key_expr, Attachment, AttachmentError, Durability, EntityKind,
     History as RmwHistory, Qos, Reliability,
 };
-use crate::transport::queue::{sample_type, Queue, TypeCheck};
+use crate::transport::executor::{Dispatch, Executor};
+use crate::transport::queue::{sample_type, Queue, TypeCheck, DEFAULT_MAX_QUEUED_BYTES};
 
 pub use crate::transport::queue::History;
 
@@ -34,6 +35,7 @@ pub struct SubscriberBuilder<'a, T> {
     /// rmw_zenoh liveliness token (`MS`) to declare, for node subscribers.
     pub(crate) liveliness: Option<String>,
     pub(crate) history: History,
+    pub(crate) max_queued_bytes: usize,
     pub(crate) qos: Qos,
     /// Ask publishers declared with recovery for what never arrived.
     pub(crate) recovery: bool,
@@ -49,6 +51,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
             key_expr,
             liveliness: None,
             history: History::KeepAll,
+            max_queued_bytes: DEFAULT_MAX_QUEUED_BYTES,
             qos: Qos::default(),
             recovery: false,
             invalid: None,
@@ -61,6 +64,15 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
     /// ([`History::KeepAll`]) for a subscriber on a plain key expression.
     pub fn history(mut self, history: History) -> Self {
         self.history = history;
+        self
+    }
+
+    /// The memory budget of a [`History::KeepAll`] subscriber: the bytes of
+    /// samples it may hold, queued or not yet dropped by the application
+    /// (default 256 MiB). Past it, arriving samples are dropped and counted in
+    /// [`RosSubscriber::lost`] until the application releases some.
+    pub fn max_queued_bytes(mut self, bytes: usize) -> Self {
+        self.max_queued_bytes = bytes;
         self
     }
 
@@ -152,16 +164,36 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         }
     }
 
-    /// Call `callback` with every sample as it arrives, on Zenoh's thread, instead
-    /// of queueing samples for [`RosSubscriber::recv`]. Decode inside the callback
-    /// to borrow from the sample.
-    pub fn callback<F>(self, callback: F) -> CallbackSubscriberBuilder<'a, T, F>
+    /// Call `callback` with every sample, in arrival order, on a thread of an
+    /// [`Executor`] ([`Executor::global`] unless
+    /// [`CallbackSubscriberBuilder::executor`] names another), instead of
+    /// queueing samples for [`RosSubscriber::recv`]. Samples wait in the
+    /// subscriber's own queue under its [`History`] while the callback runs,
+    /// so a slow callback costs its own queue (counted in
+    /// [`CallbackSubscriber::lost`]), never Zenoh's thread, the publishers or
+    /// other subscribers. Decode inside the callback to borrow from the sample.
+    pub fn callback<F>(self, callback: F) -> CallbackSubscriberBuilder<'a, T>
+    where
+        F: FnMut(RosSample) + Send + 'static,
+    {
+        CallbackSubscriberBuilder {
+            inner: self,
+            callback: Callback::Dispatched(Box::new(callback), None),
+        }
+    }
+
+    /// Call `callback` on Zenoh's receive thread, as each sample arrives: the
+    /// lowest latency, for code that never blocks and returns within
+    /// microseconds. While it runs, that thread receives nothing else for the
+    /// session (a callback that blocks for seconds stalls the publishers and
+    /// makes Zenoh close the connection). Prefer [`callback`](Self::callback).
+    pub fn callback_inline<F>(self, callback: F) -> CallbackSubscriberBuilder<'a, T>
     where
         F: Fn(RosSample) + Send + Sync + 'static,
     {
         CallbackSubscriberBuilder {
             inner: self,
-            callback,
+            callback: Callback::Inline(Box::new(callback)),
         }
     }
 
@@ -169,13 +201,16 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         let token = self.declare_token()?;
         let (queue, receiver) = Queue::new(
             self.history,
+            self.max_queued_bytes,
             &self.key_expr,
             TypeCheck::new::<T>(&self.key_expr),
         );
         let lost = queue.lost.clone();
         let missed = queue.missed.clone();
         let wrong_type = queue.type_check.rejected.clone();
-        let subscriber = self.declare(move |sample| queue.push(sample))?;
+        let subscriber = self.declare(move |sample| {
+            queue.push(sample);
+        })?;
         let publishers = self.liveliness.as_deref().and_then(|token| {
             let key = counterpart_tokens_key_expr(token, EntityKind::Publisher)?;
             Some((self.session.clone(), key))
@@ -234,53 +269,148 @@ impl ZenohSubscriber {
 
 /// Builder of a callback subscriber; resolve with `.wait()` or `.await`.
 #[must_use = "resolve the builder with .wait() or .await"]
-pub struct CallbackSubscriberBuilder<'a, T, F> {
+pub struct CallbackSubscriberBuilder<'a, T> {
     inner: SubscriberBuilder<'a, T>,
-    callback: F,
+    callback: Callback,
 }
 
-/// A subscriber that hands every sample to a callback; undeclared when dropped.
-pub struct CallbackSubscriber<T> {
-    _subscriber: ZenohSubscriber,
-    _token: Option<LivelinessToken>,
-    message: PhantomData<fn() -> T>,
+enum Callback {
+    Dispatched(Box<dyn FnMut(RosSample) + Send>, Option<Executor>),
+    Inline(Box<dyn Fn(RosSample) + Send + Sync>),
 }
 
-impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> CallbackSubscriberBuilder<'_, T, F> {
+impl<T: RosMessage> CallbackSubscriberBuilder<'_, T> {
+    /// Run the callback on `executor`'s threads instead of the global ones
+    /// (no effect on an inline callback).
+    pub fn executor(mut self, executor: &Executor) -> Self {
+        if let Callback::Dispatched(_, chosen) = &mut self.callback {
+            *chosen = Some(executor.clone());
+        }
+        self
+    }
+
     fn build(self) -> zenoh::Result<CallbackSubscriber<T>> {
         let token = self.inner.declare_token()?;
-        let callback = self.callback;
-        let type_check = TypeCheck::new::<T>(&self.inner.key_expr);
-        let subscriber = self.inner.declare(move |sample| {
-            if type_check.accepts(&sample) {
-                callback(RosSample::new(sample))
+        let key_expr = self.inner.key_expr.clone();
+        let (queue, receiver) = Queue::new(
+            self.inner.history,
+            self.inner.max_queued_bytes,
+            &key_expr,
+            TypeCheck::new::<T>(&key_expr),
+        );
+        let counters = Counters {
+            lost: queue.lost.clone(),
+            missed: queue.missed.clone(),
+            wrong_type: queue.type_check.rejected.clone(),
+        };
+        let (subscriber, dispatch) = match self.callback {
+            Callback::Dispatched(callback, executor) => {
+                let executor = executor.unwrap_or_else(|| Executor::global().clone());
+                let dispatch = Dispatch::new(receiver, callback, executor, key_expr);
+                let notify = dispatch.clone();
+                let subscriber = self.inner.declare(move |sample| {
+                    if queue.push(sample) {
+                        notify.notify();
+                    }
+                })?;
+                (subscriber, Some(dispatch))
             }
-        })?;
+            Callback::Inline(callback) => {
+                let type_check = queue.type_check;
+                let subscriber = self.inner.declare(move |sample| {
+                    if type_check.accepts(&sample) {
+                        callback(RosSample::new(sample))
+                    }
+                })?;
+                (subscriber, None)
+            }
+        };
         Ok(CallbackSubscriber {
-            _subscriber: subscriber,
+            subscriber,
+            dispatch,
+            counters,
             _token: token,
             message: PhantomData,
         })
     }
 }
 
-impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> Resolvable
-    for CallbackSubscriberBuilder<'_, T, F>
-{
+/// A subscriber that hands every sample to a callback (see
+/// [`SubscriberBuilder::callback`]); undeclared when dropped, after which its
+/// callback is not called again.
+pub struct CallbackSubscriber<T> {
+    subscriber: ZenohSubscriber,
+    dispatch: Option<Arc<Dispatch<RosSample>>>,
+    counters: Counters,
+    _token: Option<LivelinessToken>,
+    message: PhantomData<fn() -> T>,
+}
+
+struct Counters {
+    lost: Arc<AtomicU64>,
+    missed: Arc<AtomicU64>,
+    wrong_type: Arc<AtomicU64>,
+}
+
+impl<T> fmt::Debug for CallbackSubscriber<T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("CallbackSubscriber")
+            .field("key_expr", &self.subscriber.key_expr())
+            .field("queued", &self.queued())
+            .finish()
+    }
+}
+
+impl<T> CallbackSubscriber<T> {
+    /// Samples dropped because the callback did not keep up: its queue's
+    /// [`History`] depth, or the memory budget of a `KeepAll` queue, was
+    /// exceeded (see [`RosSubscriber::lost`]). Always 0 inline.
+    pub fn lost(&self) -> u64 {
+        self.counters.lost.load(Ordering::Relaxed)
+    }
+
+    /// Messages that never arrived (see [`RosSubscriber::missed`]); counted
+    /// for dispatched callbacks.
+    pub fn missed(&self) -> u64 {
+        self.counters.missed.load(Ordering::Relaxed)
+    }
+
+    /// Samples of another message type, dropped (see
+    /// [`RosSubscriber::wrong_type`]).
+    pub fn wrong_type(&self) -> u64 {
+        self.counters.wrong_type.load(Ordering::Relaxed)
+    }
+
+    /// Samples waiting for the callback.
+    pub fn queued(&self) -> usize {
+        self.dispatch.as_ref().map_or(0, |d| d.queued())
+    }
+
+    /// The key expression subscribed to.
+    pub fn key_expr(&self) -> &str {
+        self.subscriber.key_expr()
+    }
+}
+
+impl<T> Drop for CallbackSubscriber<T> {
+    fn drop(&mut self) {
+        if let Some(dispatch) = &self.dispatch {
+            dispatch.close();
+        }
+    }
+}
+
+impl<T: RosMessage> Resolvable for CallbackSubscriberBuilder<'_, T> {
     type To = zenoh::Result<CallbackSubscriber<T>>;
 }
 
-impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> Wait
-    for CallbackSubscriberBuilder<'_, T, F>
-{
+impl<T: RosMessage> Wait for CallbackSubscriberBuilder<'_, T> {
     fn wait(self) -> Self::To {
         self.build()
     }
 }
 
-impl<T: RosMessage, F: Fn(RosSample) + Send + Sync + 'static> IntoFuture
-    for CallbackSubscriberBuilder<'_, T, F>
-{
+impl<T: RosMessage> IntoFuture for CallbackSubscriberBuilder<'_, T> {
     type Output = zenoh::Result<CallbackSubscriber<T>>;
     type IntoFuture = std::future::Ready<Self::Output>;
     fn into_future(self) -> Self::IntoFuture {
@@ -296,7 +426,7 @@ pub struct RosSubscriber<T> {
     /// For node subscribers: the session and the key expression of the
     /// tokens of the publishers this subscriber matches.
     publishers: Option<(Session, String)>,
-    receiver: flume::Receiver<Sample>,
+    receiver: flume::Receiver<RosSample>,
     lost: Arc<AtomicU64>,
     missed: Arc<AtomicU64>,
     wrong_type: Arc<AtomicU64>,
@@ -315,19 +445,19 @@ impl<T> fmt::Debug for RosSubscriber<T> {
 impl<T: RosMessage> RosSubscriber<T> {
     /// Wait for the next sample.
     pub fn recv(&self) -> zenoh::Result<RosSample> {
-        Ok(RosSample::new(self.receiver.recv()?))
+        Ok(self.receiver.recv()?)
     }
 
     /// Wait for the next sample, asynchronously. Cancellation-safe: dropping the
     /// future before it completes loses no sample.
     pub async fn recv_async(&self) -> zenoh::Result<RosSample> {
-        Ok(RosSample::new(self.receiver.recv_async().await?))
+        Ok(self.receiver.recv_async().await?)
     }
 
     /// Wait at most `timeout` for the next sample.
     pub fn recv_timeout(&self, timeout: Duration) -> zenoh::Result<Option<RosSample>> {
         match self.receiver.recv_timeout(timeout) {
-            Ok(sample) => Ok(Some(RosSample::new(sample))),
+            Ok(sample) => Ok(Some(sample)),
             Err(flume::RecvTimeoutError::Timeout) => Ok(None),
             Err(e) => Err(e.into()),
         }
@@ -336,7 +466,7 @@ impl<T: RosMessage> RosSubscriber<T> {
     /// The next sample if one is queued.
     pub fn try_recv(&self) -> zenoh::Result<Option<RosSample>> {
         match self.receiver.try_recv() {
-            Ok(sample) => Ok(Some(RosSample::new(sample))),
+            Ok(sample) => Ok(Some(sample)),
             Err(flume::TryRecvError::Empty) => Ok(None),
             Err(e) => Err(e.into()),
         }
@@ -476,7 +606,7 @@ fn track(alive: &mut std::collections::HashSet<String>, sample: &Sample) -> bool
 /// The samples of a [`RosSubscriber`], from [`RosSubscriber::stream`].
 #[must_use = "streams do nothing unless polled"]
 pub struct SampleStream<'a> {
-    inner: flume::r#async::RecvStream<'a, Sample>,
+    inner: flume::r#async::RecvStream<'a, RosSample>,
 }
 
 impl fmt::Debug for SampleStream<'_> {
@@ -489,9 +619,7 @@ impl futures_core::Stream for SampleStream<'_> {
     type Item = RosSample;
 
     fn poll_next(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Option<RosSample>> {
-        Pin::new(&mut self.inner)
-            .poll_next(cx)
-            .map(|sample| sample.map(RosSample::new))
+        Pin::new(&mut self.inner).poll_next(cx)
     }
 }
 
@@ -546,6 +674,21 @@ pub struct RosSample {
     /// A contiguous copy, made at most once, for payloads that arrived in more
     /// fragments than can be borrowed from.
     copy: OnceLock<Vec<u8>>,
+    /// What this sample counts against its subscriber's memory budget.
+    _held: Option<Held>,
+}
+
+/// Bytes a sample counts against its subscriber's budget, given back when the
+/// sample is dropped (which is also when its shared-memory chunk is).
+struct Held {
+    counter: Arc<AtomicUsize>,
+    bytes: usize,
+}
+
+impl Drop for Held {
+    fn drop(&mut self) {
+        self.counter.fetch_sub(self.bytes, Ordering::Relaxed);
+    }
 }
 
 impl fmt::Debug for RosSample {
@@ -559,10 +702,16 @@ impl fmt::Debug for RosSample {
 }
 
 impl RosSample {
-    fn new(sample: Sample) -> Self {
+    pub(crate) fn new(sample: Sample) -> Self {
+        Self::queued(sample, None)
+    }
+
+    /// A sample that counts `bytes` against `counter` until dropped.
+    pub(crate) fn queued(sample: Sample, held: Option<(Arc<AtomicUsize>, usize)>) -> Self {
         Self {
             sample,
             copy: OnceLock::new(),
+            _held: held.map(|(counter, bytes)| Held { counter, bytes }),
         }
     }
 

@@ -73,7 +73,7 @@ impl<'a, A: RosAction> ActionClientBuilder<'a, A> {
         let for_feedback = goals.clone();
         let feedback = node
             .declare_subscriber::<A::FeedbackMessage>(&part_name(&name, "feedback"))
-            .callback(move |sample: RosSample| for_feedback.feedback(&sample))
+            .callback_inline(move |sample: RosSample| for_feedback.feedback(&sample))
             .wait()?;
         let for_status = goals.clone();
         let status = node
@@ -81,7 +81,7 @@ impl<'a, A: RosAction> ActionClientBuilder<'a, A> {
                 &part_name(&name, "status"),
                 Qos::transient_local(1),
             )
-            .callback(move |sample: RosSample| for_status.status(&sample))
+            .callback_inline(move |sample: RosSample| for_status.status(&sample))
             .wait()?;
         // The server went away: goals waiting for feedback stop waiting (a
         // result call then fails with `NoReply`).
