@@ -41,7 +41,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "borrowed  location {:?} and header.frame_id {:?} point into the buffer: {}",
         view.location,
         view.header.frame_id,
-        inside(view.location) && inside(view.header.frame_id)
+        inside(&view.location) && inside(&view.header.frame_id)
     );
 
     // A service: request, response and event types, and the service's own hash.

@@ -75,8 +75,8 @@ mod tests {
         let bytes = shm_cdr::to_vec(&battery).expect("encodes");
         let view: BatteryRef = shm_cdr::from_bytes(&bytes).expect("decodes");
         let inside = |s: &str| bytes.as_ptr_range().contains(&s.as_ptr());
-        assert!(inside(view.header.frame_id), "frame_id was copied");
-        assert!(inside(view.location), "location was copied");
+        assert!(inside(&view.header.frame_id), "frame_id was copied");
+        assert!(inside(&view.location), "location was copied");
         assert_eq!(view.header.frame_id, "base_link");
         assert_eq!(shm_cdr::to_vec(&view).expect("encodes"), bytes);
         assert_eq!(BatteryRef::type_hash(), Battery::type_hash());

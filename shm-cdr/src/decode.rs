@@ -196,6 +196,8 @@ pub struct Reader<'de, B: ByteOrder> {
     rest: Option<Box<[&'de [u8]]>>,
     /// Index in `rest` of the next segment.
     next: usize,
+    /// The input lies in memory other processes may write (see [`shared`](Self::shared)).
+    shared: bool,
     order: PhantomData<B>,
 }
 
@@ -209,8 +211,27 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
             end: body.len(),
             rest: None,
             next: 0,
+            shared: false,
             order: PhantomData,
         }
+    }
+
+    /// Mark the input as memory other processes may write while what is
+    /// decoded from it lives (shared memory): what must be checked to be valid
+    /// is copied first and checked in the copy. Strings are: a `Cow<str>`
+    /// field is read owned, a `&str` field is a
+    /// [`DecodeErrorKind::SharedBorrow`] error. Byte and number slices still
+    /// borrow: every bit pattern is a valid value of them, so a rewrite can
+    /// change what they read, never make it invalid.
+    pub fn shared(mut self) -> Self {
+        self.shared = true;
+        self
+    }
+
+    /// Whether the input is [shared](Self::shared).
+    #[inline(always)]
+    pub fn is_shared(&self) -> bool {
+        self.shared
     }
 
     /// A reader over a body that arrived as consecutive segments. Values inside one

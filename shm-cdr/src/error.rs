@@ -85,6 +85,11 @@ pub enum DecodeErrorKind {
         /// The value's length.
         len: usize,
     },
+    /// A `&str` field cannot borrow from [shared](crate::Reader::shared)
+    /// input: another process could rewrite its bytes after the UTF-8 check.
+    /// `Cow<str>` (copied from shared memory, borrowed elsewhere) or `String`
+    /// read it.
+    SharedBorrow,
     /// More than 3 bytes follow the message, in [`from_bytes_strict`](crate::from_bytes_strict).
     TrailingBytes {
         /// How many bytes follow the message.
@@ -95,6 +100,9 @@ pub enum DecodeErrorKind {
 impl fmt::Display for DecodeErrorKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            Self::SharedBorrow => f.write_str(
+                "a `&str` cannot borrow from shared memory, which another process may rewrite after the UTF-8 check: use `Cow<str>` (copied from shared memory, borrowed elsewhere) or `String`",
+            ),
             Self::UnexpectedEof { needed, remaining } => write!(
                 f,
                 "input ends early: {needed} more bytes needed, {remaining} left"

@@ -217,7 +217,27 @@ pub fn read_header(bytes: &[u8]) -> Result<Endianness, DecodeError> {
 /// were; [`from_bytes_strict`] refuses more than 3.
 #[inline]
 pub fn from_bytes<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeError> {
-    read_message(bytes, NewValue(PhantomData), AfterEnd::Ignore).map(|(value, _)| value)
+    read_message(bytes, NewValue(PhantomData), AfterEnd::Ignore, false).map(|(value, _)| value)
+}
+
+/// [`from_bytes`] for input in memory that other processes may write while
+/// the value lives, such as a shared-memory segment (see
+/// [`Reader::shared`]): strings are copied and checked in the copy (a
+/// `Cow<str>` field is read owned; a `&str` field is a
+/// [`DecodeErrorKind::SharedBorrow`] error), byte and number slices borrow.
+/// No rewrite of the input can then make a decoded value invalid.
+#[inline]
+pub fn from_shared_bytes<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeError> {
+    read_message(bytes, NewValue(PhantomData), AfterEnd::Ignore, true).map(|(value, _)| value)
+}
+
+/// [`from_shared_bytes`] into an existing value (see [`from_bytes_into`]).
+#[inline]
+pub fn from_shared_bytes_into<'de, T: CdrDecode<'de>>(
+    bytes: &'de [u8],
+    out: &mut T,
+) -> Result<(), DecodeError> {
+    read_message(bytes, IntoValue(out), AfterEnd::Ignore, true).map(|_| ())
 }
 
 /// [`from_bytes`], also returning the bytes that follow the end of the message
@@ -226,7 +246,7 @@ pub fn from_bytes<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeE
 pub fn take_from_bytes<'de, T: CdrDecode<'de>>(
     bytes: &'de [u8],
 ) -> Result<(T, &'de [u8]), DecodeError> {
-    let (value, trailing) = read_message(bytes, NewValue(PhantomData), AfterEnd::Ignore)?;
+    let (value, trailing) = read_message(bytes, NewValue(PhantomData), AfterEnd::Ignore, false)?;
     Ok((value, &bytes[bytes.len() - trailing..]))
 }
 
@@ -235,7 +255,8 @@ pub fn take_from_bytes<'de, T: CdrDecode<'de>>(
 /// [`DecodeErrorKind::TrailingBytes`] error.
 #[inline]
 pub fn from_bytes_strict<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeError> {
-    read_message(bytes, NewValue(PhantomData), AfterEnd::AtMostPadding).map(|(value, _)| value)
+    read_message(bytes, NewValue(PhantomData), AfterEnd::AtMostPadding, false)
+        .map(|(value, _)| value)
 }
 
 /// [`from_bytes`] into an existing value, reusing the memory it owns (see
@@ -246,7 +267,7 @@ pub fn from_bytes_into<'de, T: CdrDecode<'de>>(
     bytes: &'de [u8],
     out: &mut T,
 ) -> Result<(), DecodeError> {
-    read_message(bytes, IntoValue(out), AfterEnd::Ignore).map(|_| ())
+    read_message(bytes, IntoValue(out), AfterEnd::Ignore, false).map(|_| ())
 }
 
 /// Decode a message that arrived as consecutive fragments (e.g. a Zenoh payload
@@ -255,7 +276,7 @@ pub fn from_bytes_into<'de, T: CdrDecode<'de>>(
 /// contiguous copy with [`from_bytes`] then. The header must be in the first
 /// fragment; at most [`MAX_SEGMENTS`] fragments.
 pub fn from_segments<'de, T: CdrDecode<'de>>(segments: &[&'de [u8]]) -> Result<T, DecodeError> {
-    read_segments(segments, NewValue(PhantomData))
+    read_segments(segments, NewValue(PhantomData), false)
 }
 
 /// [`from_segments`] into an existing value, reusing the memory it owns (see
@@ -264,7 +285,23 @@ pub fn from_segments_into<'de, T: CdrDecode<'de>>(
     segments: &[&'de [u8]],
     out: &mut T,
 ) -> Result<(), DecodeError> {
-    read_segments(segments, IntoValue(out))
+    read_segments(segments, IntoValue(out), false)
+}
+
+/// [`from_segments`] for fragments of which any may lie in memory other
+/// processes write (see [`from_shared_bytes`]).
+pub fn from_shared_segments<'de, T: CdrDecode<'de>>(
+    segments: &[&'de [u8]],
+) -> Result<T, DecodeError> {
+    read_segments(segments, NewValue(PhantomData), true)
+}
+
+/// [`from_shared_segments`] into an existing value (see [`from_bytes_into`]).
+pub fn from_shared_segments_into<'de, T: CdrDecode<'de>>(
+    segments: &[&'de [u8]],
+    out: &mut T,
+) -> Result<(), DecodeError> {
+    read_segments(segments, IntoValue(out), true)
 }
 
 /// What follows the end of a message may be.
@@ -309,14 +346,23 @@ fn read_message<'de, R: ReadBody<'de>>(
     bytes: &'de [u8],
     body: R,
     after_end: AfterEnd,
+    shared: bool,
 ) -> Result<(R::Output, usize), DecodeError> {
+    fn reader<B: ByteOrder>(rest: &[u8], shared: bool) -> Reader<'_, B> {
+        let reader = Reader::new(rest);
+        if shared {
+            reader.shared()
+        } else {
+            reader
+        }
+    }
     match bytes {
         // The common case first, without a call: little-endian plain CDR.
         [0x00, 0x01, _, _, rest @ ..] => {
-            finish(&mut Reader::<LittleEndian>::new(rest), body, after_end)
+            finish(&mut reader::<LittleEndian>(rest, shared), body, after_end)
         }
         [0x00, 0x00, _, _, rest @ ..] => {
-            finish(&mut Reader::<BigEndian>::new(rest), body, after_end)
+            finish(&mut reader::<BigEndian>(rest, shared), body, after_end)
         }
         _ => Err(read_header(bytes).err().unwrap_or_else(|| {
             DecodeError::new(DecodeErrorKind::UnknownEncapsulation([0xff, 0xff]), 0)
@@ -327,6 +373,7 @@ fn read_message<'de, R: ReadBody<'de>>(
 fn read_segments<'de, R: ReadBody<'de>>(
     segments: &[&'de [u8]],
     body: R,
+    shared: bool,
 ) -> Result<R::Output, DecodeError> {
     let first = segments.first().copied().unwrap_or_default();
     let endianness = read_header(first)?;
@@ -338,15 +385,19 @@ fn read_segments<'de, R: ReadBody<'de>>(
     rest[1..segments.len()].copy_from_slice(&segments[1..]);
     let rest = &rest[..segments.len()];
     let fragmented = || DecodeError::new(DecodeErrorKind::Fragmented { len: 0 }, 0);
+    fn reader<'de, B: ByteOrder>(rest: &[&'de [u8]], shared: bool) -> Option<Reader<'de, B>> {
+        let reader = Reader::from_segments(rest)?;
+        Some(if shared { reader.shared() } else { reader })
+    }
     match endianness {
         Endianness::Little => finish(
-            &mut Reader::<LittleEndian>::from_segments(rest).ok_or_else(fragmented)?,
+            &mut reader::<LittleEndian>(rest, shared).ok_or_else(fragmented)?,
             body,
             AfterEnd::Ignore,
         )
         .map(|(value, _)| value),
         Endianness::Big => finish(
-            &mut Reader::<BigEndian>::from_segments(rest).ok_or_else(fragmented)?,
+            &mut reader::<BigEndian>(rest, shared).ok_or_else(fragmented)?,
             body,
             AfterEnd::Ignore,
         )

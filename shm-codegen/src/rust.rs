@@ -671,7 +671,11 @@ fn field_type(index: &Index, ty: &FieldType, from: &TypeRef, form: Form) -> Stri
         return shm_bytes_type(index).to_owned();
     }
     let element = match (&ty.base, form) {
-        (BaseType::Primitive(Primitive::String(None)), Form::Borrowed) => "&'a str".to_owned(),
+        // Not `&'a str`: from shared memory, which another process may rewrite
+        // after the UTF-8 check, a string is copied (`Cow::Owned`).
+        (BaseType::Primitive(Primitive::String(None)), Form::Borrowed) => {
+            "::std::borrow::Cow<'a, str>".to_owned()
+        }
         (BaseType::Primitive(p), _) => primitive_type(*p, krate),
         (BaseType::Message(r), _) => index.path(r, from, form),
     };
@@ -708,7 +712,7 @@ fn default_expr(f: &Field, form: Form, krate: &str) -> String {
     };
     let borrowed_str = form == Form::Borrowed && p == Primitive::String(None);
     let scalar = |v: &Value| match v {
-        Value::Str(s) if borrowed_str => format!("{s:?}"),
+        Value::Str(s) if borrowed_str => format!("::std::borrow::Cow::Borrowed({s:?})"),
         Value::Str(s) => format!("::core::convert::From::from({s:?})"),
         other => const_literal(other, p),
     };

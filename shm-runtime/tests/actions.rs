@@ -62,6 +62,8 @@ fn a_goal_runs_with_feedback_and_result_under_rmw_zenoh_names() {
             "/fibonacci/_action/status",
             Qos::transient_local(1),
         )
+        // Every status, not only the newest: the callback may fall behind.
+        .history(shm_runtime::History::KeepAll)
         .callback(move |sample| {
             let array: GoalStatusArray = sample.decode().unwrap();
             seen.lock()

@@ -253,8 +253,8 @@ proptest! {
     fn borrowed_decode_equals_owned(image in image_strategy()) {
         let bytes = shm_cdr::to_vec(&image).unwrap();
         let borrowed: ImageRef = shm_cdr::from_bytes(&bytes).unwrap();
-        prop_assert_eq!(borrowed.header.frame_id, image.header.frame_id.as_str());
-        prop_assert_eq!(borrowed.encoding, image.encoding.as_str());
+        prop_assert_eq!(&borrowed.header.frame_id, image.header.frame_id.as_str());
+        prop_assert_eq!(&borrowed.encoding, image.encoding.as_str());
         prop_assert_eq!(borrowed.data, image.data.as_slice());
         prop_assert_eq!(&shm_cdr::to_vec(&borrowed).unwrap(), &bytes);
         let _: HeaderRef = borrowed.header;

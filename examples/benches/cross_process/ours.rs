@@ -363,7 +363,7 @@ fn ros_reply(path: Path, sample: RosSample) -> Pong {
     };
     let at_ns = now_ns();
     let seq = cloud.header.stamp.sec as u64;
-    let ok = cloud_ok(cloud.header.frame_id, cloud.row_step, &[cloud.data], seq);
+    let ok = cloud_ok(&cloud.header.frame_id, cloud.row_step, &[cloud.data], seq);
     Pong {
         path: path as u8,
         ok,

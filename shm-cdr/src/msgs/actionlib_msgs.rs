@@ -39,7 +39,7 @@ pub mod msg {
         /// The id provides a way to associate feedback and
         /// result message with specific goal requests. The id
         /// specified must be unique.
-        pub id: &'a str,
+        pub id: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for GoalIDRef<'a> {
@@ -117,7 +117,7 @@ pub mod msg {
         /// `uint8 status`
         pub status: u8,
         /// Allow for the user to associate a string with GoalStatus for debugging.
-        pub text: &'a str,
+        pub text: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for GoalStatusRef<'a> {

@@ -110,11 +110,11 @@ pub mod msg {
         #[ros(byte)]
         pub level: u8,
         /// A description of the test/component reporting.
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
         /// A description of the status.
-        pub message: &'a str,
+        pub message: ::std::borrow::Cow<'a, str>,
         /// A hardware unique string.
-        pub hardware_id: &'a str,
+        pub hardware_id: ::std::borrow::Cow<'a, str>,
         /// An array of values associated with the status.
         pub values: ::std::vec::Vec<KeyValueRef<'a>>,
     }
@@ -160,9 +160,9 @@ pub mod msg {
     #[ros(type_name = "diagnostic_msgs/msg/KeyValue", crate = "crate")]
     pub struct KeyValueRef<'a> {
         /// What to label this value when viewing.
-        pub key: &'a str,
+        pub key: ::std::borrow::Cow<'a, str>,
         /// A value to track over time.
-        pub value: &'a str,
+        pub value: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for KeyValueRef<'a> {
@@ -241,7 +241,7 @@ pub mod srv {
         /// and <http://wiki.ros.org/diagnostics/Tutorials/Using%20the%20GenericAnalyzer>
         /// for examples of the structure of yaml files which are expected to have been
         /// loaded into the namespace.
-        pub load_namespace: &'a str,
+        pub load_namespace: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for AddDiagnostics_RequestRef<'a> {
@@ -296,7 +296,7 @@ pub mod srv {
         /// of analyzers failed.
         pub success: bool,
         /// Message with additional information about the success or failure
-        pub message: &'a str,
+        pub message: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for AddDiagnostics_ResponseRef<'a> {
@@ -448,7 +448,7 @@ pub mod srv {
     #[ros(type_name = "diagnostic_msgs/srv/SelfTest_Response", crate = "crate")]
     pub struct SelfTest_ResponseRef<'a> {
         /// `string id`
-        pub id: &'a str,
+        pub id: ::std::borrow::Cow<'a, str>,
         /// `byte passed`
         #[ros(byte)]
         pub passed: u8,

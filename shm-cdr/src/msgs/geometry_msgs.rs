@@ -960,7 +960,7 @@ pub mod msg {
         /// The frame id in the header is used as the reference frame of this transform.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// The frame id of the child frame to which this transform points.
-        pub child_frame_id: &'a str,
+        pub child_frame_id: ::std::borrow::Cow<'a, str>,
         /// Translation and rotation in 3-dimensions of child_frame_id from header.frame_id.
         pub transform: Transform,
     }
@@ -1259,9 +1259,9 @@ pub mod msg {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// `string body_frame_id`
-        pub body_frame_id: &'a str,
+        pub body_frame_id: ::std::borrow::Cow<'a, str>,
         /// `string reference_frame_id`
-        pub reference_frame_id: &'a str,
+        pub reference_frame_id: ::std::borrow::Cow<'a, str>,
         /// `geometry_msgs/Twist velocity`
         pub velocity: Twist,
     }

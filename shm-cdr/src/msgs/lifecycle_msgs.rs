@@ -72,7 +72,7 @@ pub mod msg {
         /// The state id value from the above definitions.
         pub id: u8,
         /// A text label of the state.
-        pub label: &'a str,
+        pub label: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for StateRef<'a> {
@@ -196,7 +196,7 @@ pub mod msg {
         /// The transition id from above definitions.
         pub id: u8,
         /// A text label of the transition.
-        pub label: &'a str,
+        pub label: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for TransitionRef<'a> {

@@ -255,7 +255,7 @@ pub mod msg {
         /// Includes the frame id of the pose parent.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// Frame id the pose points to. The twist is in this coordinate frame.
-        pub child_frame_id: &'a str,
+        pub child_frame_id: ::std::borrow::Cow<'a, str>,
         /// Estimated pose that is typically relative to a fixed world frame.
         pub pose: super::super::geometry_msgs::msg::PoseWithCovariance,
         /// Estimated linear and angular velocity relative to child_frame_id.
@@ -647,7 +647,7 @@ pub mod srv {
         /// URL of map resource
         /// Can be an absolute path to a file: file:///path/to/maps/floor1.yaml
         /// Or, relative to a ROS package: package://my_ros_package/maps/floor2.yaml
-        pub map_url: &'a str,
+        pub map_url: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for LoadMap_RequestRef<'a> {

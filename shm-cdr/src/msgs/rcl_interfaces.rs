@@ -130,10 +130,10 @@ pub mod msg {
     #[ros(type_name = "rcl_interfaces/msg/ListParametersResult", crate = "crate")]
     pub struct ListParametersResultRef<'a> {
         /// The resulting parameters under the given prefixes.
-        pub names: ::std::vec::Vec<&'a str>,
+        pub names: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
         /// The resulting prefixes under the given prefixes.
         /// TODO(wjwwood): link to prefix definition and rules.
-        pub prefixes: ::std::vec::Vec<&'a str>,
+        pub prefixes: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
     }
 
     impl<'a> ::core::default::Default for ListParametersResultRef<'a> {
@@ -234,13 +234,13 @@ pub mod msg {
         /// Corresponding log level, see above definitions.
         pub level: u8,
         /// The name representing the logger this message came from.
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
         /// The full log message.
-        pub msg: &'a str,
+        pub msg: ::std::borrow::Cow<'a, str>,
         /// The file the message came from.
-        pub file: &'a str,
+        pub file: ::std::borrow::Cow<'a, str>,
         /// The function the message came from.
-        pub function: &'a str,
+        pub function: ::std::borrow::Cow<'a, str>,
         /// The line in the file the message came from.
         pub line: u32,
     }
@@ -307,7 +307,7 @@ pub mod msg {
     #[ros(type_name = "rcl_interfaces/msg/LoggerLevel", crate = "crate")]
     pub struct LoggerLevelRef<'a> {
         /// The logger name.
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
         /// The logger level
         pub level: u32,
     }
@@ -357,7 +357,7 @@ pub mod msg {
     #[ros(type_name = "rcl_interfaces/msg/Parameter", crate = "crate")]
     pub struct ParameterRef<'a> {
         /// The full name of the parameter.
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
         /// The parameter's value which can be one of several types, see
         /// `ParameterValue.msg` and `ParameterType.msg`.
         pub value: ParameterValueRef<'a>,
@@ -431,17 +431,17 @@ pub mod msg {
     #[ros(type_name = "rcl_interfaces/msg/ParameterDescriptor", crate = "crate")]
     pub struct ParameterDescriptorRef<'a> {
         /// The name of the parameter.
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
         /// Enum values are defined in the `ParameterType.msg` message.
         pub r#type: u8,
         /// Description of the parameter, visible from introspection tools.
-        pub description: &'a str,
+        pub description: ::std::borrow::Cow<'a, str>,
         /// Plain English description of additional constraints which cannot be expressed
         /// with the available constraints, e.g. "only prime numbers".
         ///
         /// By convention, this should only be used to clarify constraints which cannot
         /// be completely expressed with the parameter constraints below.
-        pub additional_constraints: &'a str,
+        pub additional_constraints: ::std::borrow::Cow<'a, str>,
         /// If 'true' then the value cannot change after it has been initialized.
         pub read_only: bool,
         /// If true, the parameter is allowed to change type.
@@ -515,7 +515,7 @@ pub mod msg {
         /// The time stamp when this parameter event occurred.
         pub stamp: super::super::builtin_interfaces::msg::Time,
         /// Fully qualified ROS path to node.
-        pub node: &'a str,
+        pub node: ::std::borrow::Cow<'a, str>,
         /// New parameters that have been set for this node.
         pub new_parameters: ::std::vec::Vec<ParameterRef<'a>>,
         /// Parameters that have been changed during this event.
@@ -715,7 +715,7 @@ pub mod msg {
         /// A double precision floating point value following IEEE 754.
         pub double_value: f64,
         /// A textual value with no practical length limit.
-        pub string_value: &'a str,
+        pub string_value: ::std::borrow::Cow<'a, str>,
         /// An array of bytes, used for non-textual information.
         #[ros(byte)]
         pub byte_array_value: &'a [u8],
@@ -726,7 +726,7 @@ pub mod msg {
         /// An array of 64-bit floating point values.
         pub double_array_value: ::std::borrow::Cow<'a, [f64]>,
         /// An array of string values.
-        pub string_array_value: ::std::vec::Vec<&'a str>,
+        pub string_array_value: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
     }
 
     impl<'a> ::core::default::Default for ParameterValueRef<'a> {
@@ -784,7 +784,7 @@ pub mod msg {
         /// True when succeed, false when failed.
         pub successful: bool,
         /// Reason why the setting was either successful or a failure.
-        pub reason: &'a str,
+        pub reason: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for SetLoggerLevelsResultRef<'a> {
@@ -835,7 +835,7 @@ pub mod msg {
         pub successful: bool,
         /// Reason why the setting was a failure. On success, the contents of this field
         /// are undefined.  This should only be used for logging and user interfaces.
-        pub reason: &'a str,
+        pub reason: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for SetParametersResultRef<'a> {
@@ -884,7 +884,7 @@ pub mod srv {
     )]
     pub struct DescribeParameters_RequestRef<'a> {
         /// A list of parameters of which to get the descriptor.
-        pub names: ::std::vec::Vec<&'a str>,
+        pub names: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
     }
 
     impl<'a> ::core::default::Default for DescribeParameters_RequestRef<'a> {
@@ -1055,7 +1055,7 @@ pub mod srv {
     )]
     pub struct GetLoggerLevels_RequestRef<'a> {
         /// A list of logger names to get.
-        pub names: ::std::vec::Vec<&'a str>,
+        pub names: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
     }
 
     impl<'a> ::core::default::Default for GetLoggerLevels_RequestRef<'a> {
@@ -1225,7 +1225,7 @@ pub mod srv {
     pub struct GetParameterTypes_RequestRef<'a> {
         /// A list of parameter names.
         /// TODO(wjwwood): link to parameter naming rules.
-        pub names: ::std::vec::Vec<&'a str>,
+        pub names: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
     }
 
     impl<'a> ::core::default::Default for GetParameterTypes_RequestRef<'a> {
@@ -1411,7 +1411,7 @@ pub mod srv {
     )]
     pub struct GetParameters_RequestRef<'a> {
         /// A list of parameter names to get.
-        pub names: ::std::vec::Vec<&'a str>,
+        pub names: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
     }
 
     impl<'a> ::core::default::Default for GetParameters_RequestRef<'a> {
@@ -1595,7 +1595,7 @@ pub mod srv {
     )]
     pub struct ListParameters_RequestRef<'a> {
         /// The list of parameter prefixes to query.
-        pub prefixes: ::std::vec::Vec<&'a str>,
+        pub prefixes: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
         /// Relative depth from given prefixes to return.
         ///
         /// Use DEPTH_RECURSIVE to get the recursive parameters and prefixes for each prefix.

@@ -163,9 +163,9 @@ pub mod msg {
         pub cell_temperature: ::std::borrow::Cow<'a, [f32]>,
         /// If individual temperatures unknown but number of cells known set each to NaN
         /// The location into which the battery is inserted. (slot number or plug)
-        pub location: &'a str,
+        pub location: ::std::borrow::Cow<'a, str>,
         /// The best approximation of the battery serial number
-        pub serial_number: &'a str,
+        pub serial_number: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for BatteryStateRef<'a> {
@@ -355,7 +355,7 @@ pub mod msg {
         /// The distortion model used. Supported models are listed in
         /// sensor_msgs/distortion_models.hpp. For most cameras, "plumb_bob" - a
         /// simple model of radial and tangential distortion - is sufficent.
-        pub distortion_model: &'a str,
+        pub distortion_model: ::std::borrow::Cow<'a, str>,
         /// The distortion parameters, size depending on the distortion model.
         /// For "plumb_bob", the 5 parameters are: (k1, k2, t1, t2, k3).
         pub d: ::std::borrow::Cow<'a, [f64]>,
@@ -502,7 +502,7 @@ pub mod msg {
     pub struct ChannelFloat32Ref<'a> {
         /// The channel name should give semantics of the channel (e.g.
         /// "intensity" instead of "value").
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
         /// The values array should be 1-1 with the elements of the associated
         /// PointCloud.
         pub values: ::std::borrow::Cow<'a, [f32]>,
@@ -555,7 +555,7 @@ pub mod msg {
         /// Header timestamp should be acquisition time of image
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// Specifies the format of the data
-        pub format: &'a str,
+        pub format: ::std::borrow::Cow<'a, str>,
         /// Compressed image buffer
         pub data: &'a [u8],
     }
@@ -764,7 +764,7 @@ pub mod msg {
         /// image width, that is, number of columns
         pub width: u32,
         /// Encoding of pixels -- channel meaning, ordering, size
-        pub encoding: &'a str,
+        pub encoding: ::std::borrow::Cow<'a, str>,
         /// is this data bigendian?
         pub is_bigendian: u8,
         /// Full row length in bytes
@@ -978,7 +978,7 @@ pub mod msg {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// `string[] name`
-        pub name: ::std::vec::Vec<&'a str>,
+        pub name: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
         /// `float64[] position`
         pub position: ::std::borrow::Cow<'a, [f64]>,
         /// `float64[] velocity`
@@ -1435,7 +1435,7 @@ pub mod msg {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// `string[] joint_names`
-        pub joint_names: ::std::vec::Vec<&'a str>,
+        pub joint_names: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
         /// `geometry_msgs/Transform[] transforms`
         pub transforms: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Transform]>,
         /// `geometry_msgs/Twist[] twist`
@@ -1970,7 +1970,7 @@ pub mod msg {
     pub struct PointFieldRef<'a> {
         /// Common PointField names are x, y, z, intensity, rgb, rgba
         /// Name of field
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
         /// Offset from start of point struct
         pub offset: u32,
         /// Datatype enumeration, see above
@@ -2286,7 +2286,7 @@ pub mod msg {
         /// corresponding time from this external source
         pub time_ref: super::super::builtin_interfaces::msg::Time,
         /// (optional) name of time source
-        pub source: &'a str,
+        pub source: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for TimeReferenceRef<'a> {
@@ -2395,7 +2395,7 @@ pub mod srv {
         /// True if the call succeeded
         pub success: bool,
         /// Used to give details about success
-        pub status_message: &'a str,
+        pub status_message: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for SetCameraInfo_ResponseRef<'a> {

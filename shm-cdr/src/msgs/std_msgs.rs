@@ -383,7 +383,7 @@ pub mod msg {
         /// Two-integer timestamp that is expressed as seconds and nanoseconds.
         pub stamp: super::super::builtin_interfaces::msg::Time,
         /// Transform frame with which this data is associated.
-        pub frame_id: &'a str,
+        pub frame_id: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for HeaderRef<'a> {
@@ -757,7 +757,7 @@ pub mod msg {
     #[ros(type_name = "std_msgs/msg/MultiArrayDimension", crate = "crate")]
     pub struct MultiArrayDimensionRef<'a> {
         /// label of given dimension
-        pub label: &'a str,
+        pub label: ::std::borrow::Cow<'a, str>,
         /// size of given dimension (in type units)
         pub size: u32,
         /// stride of given dimension
@@ -863,7 +863,7 @@ pub mod msg {
     #[ros(type_name = "std_msgs/msg/String", crate = "crate")]
     pub struct StringRef<'a> {
         /// `string data`
-        pub data: &'a str,
+        pub data: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for StringRef<'a> {

@@ -131,7 +131,7 @@ pub mod srv {
         /// indicate successful run of triggered service
         pub success: bool,
         /// informational, e.g. for error messages
-        pub message: &'a str,
+        pub message: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for SetBool_ResponseRef<'a> {
@@ -261,7 +261,7 @@ pub mod srv {
         /// indicate successful run of triggered service
         pub success: bool,
         /// informational, e.g. for error messages
-        pub message: &'a str,
+        pub message: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for Trigger_ResponseRef<'a> {

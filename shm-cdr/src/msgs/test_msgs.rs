@@ -1128,7 +1128,7 @@ pub mod msg {
         /// `uint64[3] uint64_values`
         pub uint64_values: [u64; 3],
         /// `string[3] string_values`
-        pub string_values: [&'a str; 3],
+        pub string_values: [::std::borrow::Cow<'a, str>; 3],
         /// `test_msgs/BasicTypes[3] basic_types_values`
         pub basic_types_values: [BasicTypes; 3],
         /// `test_msgs/Constants[3] constants_values`
@@ -1164,7 +1164,7 @@ pub mod msg {
         /// `uint64[3] uint64_values_default`
         pub uint64_values_default: [u64; 3],
         /// `string[3] string_values_default`
-        pub string_values_default: [&'a str; 3],
+        pub string_values_default: [::std::borrow::Cow<'a, str>; 3],
         /// Regression test: check alignment of basic field after an array field is correct
         pub alignment_check: i32,
     }
@@ -1202,7 +1202,11 @@ pub mod msg {
                 uint32_values_default: [0, 1, 4294967295],
                 int64_values_default: [0, 9223372036854775807, -9223372036854775808],
                 uint64_values_default: [0, 1, 18446744073709551615],
-                string_values_default: ["", "max value", "min value"],
+                string_values_default: [
+                    ::std::borrow::Cow::Borrowed(""),
+                    ::std::borrow::Cow::Borrowed("max value"),
+                    ::std::borrow::Cow::Borrowed("min value"),
+                ],
                 alignment_check: ::core::default::Default::default(),
             }
         }
@@ -1562,7 +1566,7 @@ pub mod msg {
         /// `uint64[<=3] uint64_values`
         pub uint64_values: crate::BoundedVec<u64, 3>,
         /// `string[<=3] string_values`
-        pub string_values: crate::BoundedVec<&'a str, 3>,
+        pub string_values: crate::BoundedVec<::std::borrow::Cow<'a, str>, 3>,
         /// `test_msgs/BasicTypes[<=3] basic_types_values`
         pub basic_types_values: crate::BoundedVec<BasicTypes, 3>,
         /// `test_msgs/Constants[<=3] constants_values`
@@ -1598,7 +1602,7 @@ pub mod msg {
         /// `uint64[<=3] uint64_values_default`
         pub uint64_values_default: crate::BoundedVec<u64, 3>,
         /// `string[<=3] string_values_default`
-        pub string_values_default: crate::BoundedVec<&'a str, 3>,
+        pub string_values_default: crate::BoundedVec<::std::borrow::Cow<'a, str>, 3>,
         /// Regression test: check alignment of basic field after a sequence field is correct
         pub alignment_check: i32,
     }
@@ -1649,9 +1653,9 @@ pub mod msg {
                     18446744073709551615
                 ]),
                 string_values_default: crate::BoundedVec::from(::std::vec![
-                    "",
-                    "max value",
-                    "min value"
+                    ::std::borrow::Cow::Borrowed(""),
+                    ::std::borrow::Cow::Borrowed("max value"),
+                    ::std::borrow::Cow::Borrowed("min value")
                 ]),
                 alignment_check: ::core::default::Default::default(),
             }
@@ -1982,17 +1986,17 @@ pub mod msg {
     #[ros(type_name = "test_msgs/msg/Strings", crate = "crate")]
     pub struct StringsRef<'a> {
         /// `string string_value`
-        pub string_value: &'a str,
+        pub string_value: ::std::borrow::Cow<'a, str>,
         /// `string string_value_default1`
-        pub string_value_default1: &'a str,
+        pub string_value_default1: ::std::borrow::Cow<'a, str>,
         /// `string string_value_default2`
-        pub string_value_default2: &'a str,
+        pub string_value_default2: ::std::borrow::Cow<'a, str>,
         /// `string string_value_default3`
-        pub string_value_default3: &'a str,
+        pub string_value_default3: ::std::borrow::Cow<'a, str>,
         /// `string string_value_default4`
-        pub string_value_default4: &'a str,
+        pub string_value_default4: ::std::borrow::Cow<'a, str>,
         /// `string string_value_default5`
-        pub string_value_default5: &'a str,
+        pub string_value_default5: ::std::borrow::Cow<'a, str>,
         /// `string<=22 bounded_string_value`
         pub bounded_string_value: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default1`
@@ -2011,11 +2015,11 @@ pub mod msg {
         fn default() -> Self {
             Self {
                 string_value: ::core::default::Default::default(),
-                string_value_default1: "Hello world!",
-                string_value_default2: "Hello'world!",
-                string_value_default3: "Hello\"world!",
-                string_value_default4: "Hello'world!",
-                string_value_default5: "Hello\"world!",
+                string_value_default1: ::std::borrow::Cow::Borrowed("Hello world!"),
+                string_value_default2: ::std::borrow::Cow::Borrowed("Hello'world!"),
+                string_value_default3: ::std::borrow::Cow::Borrowed("Hello\"world!"),
+                string_value_default4: ::std::borrow::Cow::Borrowed("Hello'world!"),
+                string_value_default5: ::std::borrow::Cow::Borrowed("Hello\"world!"),
                 bounded_string_value: ::core::default::Default::default(),
                 bounded_string_value_default1: ::core::convert::From::from("Hello world!"),
                 bounded_string_value_default2: ::core::convert::From::from("Hello'world!"),
@@ -2181,7 +2185,7 @@ pub mod msg {
         /// `uint64[] uint64_values`
         pub uint64_values: ::std::borrow::Cow<'a, [u64]>,
         /// `string[] string_values`
-        pub string_values: ::std::vec::Vec<&'a str>,
+        pub string_values: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
         /// `test_msgs/BasicTypes[] basic_types_values`
         pub basic_types_values: ::std::vec::Vec<BasicTypes>,
         /// `test_msgs/Constants[] constants_values`
@@ -2217,7 +2221,7 @@ pub mod msg {
         /// `uint64[] uint64_values_default`
         pub uint64_values_default: ::std::borrow::Cow<'a, [u64]>,
         /// `string[] string_values_default`
-        pub string_values_default: ::std::vec::Vec<&'a str>,
+        pub string_values_default: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
         /// Regression test: check alignment of basic field after a sequence field is correct
         pub alignment_check: i32,
     }
@@ -2269,7 +2273,11 @@ pub mod msg {
                     1,
                     18446744073709551615
                 ]),
-                string_values_default: ::std::vec!["", "max value", "min value"],
+                string_values_default: ::std::vec![
+                    ::std::borrow::Cow::Borrowed(""),
+                    ::std::borrow::Cow::Borrowed("max value"),
+                    ::std::borrow::Cow::Borrowed("min value")
+                ],
                 alignment_check: ::core::default::Default::default(),
             }
         }
@@ -2472,7 +2480,7 @@ pub mod srv {
         /// `uint64[3] uint64_values`
         pub uint64_values: [u64; 3],
         /// `string[3] string_values`
-        pub string_values: [&'a str; 3],
+        pub string_values: [::std::borrow::Cow<'a, str>; 3],
         /// `test_msgs/BasicTypes[3] basic_types_values`
         pub basic_types_values: [super::super::test_msgs::msg::BasicTypes; 3],
         /// `test_msgs/Constants[3] constants_values`
@@ -2508,7 +2516,7 @@ pub mod srv {
         /// `uint64[3] uint64_values_default`
         pub uint64_values_default: [u64; 3],
         /// `string[3] string_values_default`
-        pub string_values_default: [&'a str; 3],
+        pub string_values_default: [::std::borrow::Cow<'a, str>; 3],
     }
 
     impl<'a> ::core::default::Default for Arrays_RequestRef<'a> {
@@ -2544,7 +2552,11 @@ pub mod srv {
                 uint32_values_default: [0, 1, 4294967295],
                 int64_values_default: [0, 9223372036854775807, -9223372036854775808],
                 uint64_values_default: [0, 1, 18446744073709551615],
-                string_values_default: ["", "max value", "min value"],
+                string_values_default: [
+                    ::std::borrow::Cow::Borrowed(""),
+                    ::std::borrow::Cow::Borrowed("max value"),
+                    ::std::borrow::Cow::Borrowed("min value"),
+                ],
             }
         }
     }
@@ -2701,7 +2713,7 @@ pub mod srv {
         /// `uint64[3] uint64_values`
         pub uint64_values: [u64; 3],
         /// `string[3] string_values`
-        pub string_values: [&'a str; 3],
+        pub string_values: [::std::borrow::Cow<'a, str>; 3],
         /// `test_msgs/BasicTypes[3] basic_types_values`
         pub basic_types_values: [super::super::test_msgs::msg::BasicTypes; 3],
         /// `test_msgs/Constants[3] constants_values`
@@ -2737,7 +2749,7 @@ pub mod srv {
         /// `uint64[3] uint64_values_default`
         pub uint64_values_default: [u64; 3],
         /// `string[3] string_values_default`
-        pub string_values_default: [&'a str; 3],
+        pub string_values_default: [::std::borrow::Cow<'a, str>; 3],
     }
 
     impl<'a> ::core::default::Default for Arrays_ResponseRef<'a> {
@@ -2773,7 +2785,11 @@ pub mod srv {
                 uint32_values_default: [0, 1, 4294967295],
                 int64_values_default: [0, 9223372036854775807, -9223372036854775808],
                 uint64_values_default: [0, 1, 18446744073709551615],
-                string_values_default: ["", "max value", "min value"],
+                string_values_default: [
+                    ::std::borrow::Cow::Borrowed(""),
+                    ::std::borrow::Cow::Borrowed("max value"),
+                    ::std::borrow::Cow::Borrowed("min value"),
+                ],
             }
         }
     }
@@ -2944,7 +2960,7 @@ pub mod srv {
         /// `uint64 uint64_value`
         pub uint64_value: u64,
         /// `string string_value`
-        pub string_value: &'a str,
+        pub string_value: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for BasicTypes_RequestRef<'a> {
@@ -3063,7 +3079,7 @@ pub mod srv {
         /// `uint64 uint64_value`
         pub uint64_value: u64,
         /// `string string_value`
-        pub string_value: &'a str,
+        pub string_value: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for BasicTypes_ResponseRef<'a> {

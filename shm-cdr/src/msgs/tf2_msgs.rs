@@ -48,7 +48,7 @@ pub mod msg {
         /// `uint8 error`
         pub error: u8,
         /// `string error_string`
-        pub error_string: &'a str,
+        pub error_string: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for TF2ErrorRef<'a> {

@@ -43,7 +43,7 @@ pub mod msg {
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// The names of the active joints in each trajectory point. These names are
         /// ordered and must correspond to the values in each trajectory point.
-        pub joint_names: ::std::vec::Vec<&'a str>,
+        pub joint_names: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
         /// Array of trajectory points, which describe the positions, velocities,
         /// accelerations and/or efforts of the joints at each time point.
         pub points: ::std::vec::Vec<JointTrajectoryPointRef<'a>>,
@@ -192,7 +192,7 @@ pub mod msg {
         /// The header is used to specify the coordinate frame and the reference time for the trajectory durations
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// `string[] joint_names`
-        pub joint_names: ::std::vec::Vec<&'a str>,
+        pub joint_names: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
         /// `trajectory_msgs/MultiDOFJointTrajectoryPoint[] points`
         pub points: ::std::vec::Vec<MultiDOFJointTrajectoryPointRef<'a>>,
     }

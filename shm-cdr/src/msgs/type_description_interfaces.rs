@@ -41,12 +41,12 @@ pub mod msg {
     #[ros(type_name = "type_description_interfaces/msg/Field", crate = "crate")]
     pub struct FieldRef<'a> {
         /// Name of the field.
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
         /// Type of the field, including details about the type like length, nested name, etc.
         pub r#type: FieldType,
         /// Literal default value of the field as a string, as it appeared in the original
         /// message description file, whether that be .msg/.srv/.action or .idl.
-        pub default_value: &'a str,
+        pub default_value: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for FieldRef<'a> {
@@ -393,9 +393,9 @@ pub mod msg {
     )]
     pub struct KeyValueRef<'a> {
         /// `string key`
-        pub key: &'a str,
+        pub key: ::std::borrow::Cow<'a, str>,
         /// `string value`
-        pub value: &'a str,
+        pub value: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for KeyValueRef<'a> {
@@ -510,17 +510,17 @@ pub mod msg {
     )]
     pub struct TypeSourceRef<'a> {
         /// ROS interface type name, in PACKAGE/NAMESPACE/TYPENAME format.
-        pub type_name: &'a str,
+        pub type_name: ::std::borrow::Cow<'a, str>,
         /// The type of the original source file, typically matching the file extension.
         /// Well-known encodings: "idl", "msg", "srv", "action", "dynamic", "implicit".
         /// "dynamic" specifies a type created programmatically by a user, thus having no source.
         /// "implicit" specifies a type created automatically as a subtype of a
         /// complex type (service or action) - such as the request message for a service.
         /// Implicit types will have no contents, the full source will be available on the parent srv/action.
-        pub encoding: &'a str,
+        pub encoding: ::std::borrow::Cow<'a, str>,
         /// Dumped contents of the interface definition source file.
         /// If `encoding` is "dynamic" or "implicit", this field will be empty.
-        pub raw_file_contents: &'a str,
+        pub raw_file_contents: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for TypeSourceRef<'a> {
@@ -576,9 +576,9 @@ pub mod srv {
     )]
     pub struct GetTypeDescription_RequestRef<'a> {
         /// ROS interface type name, in PACKAGE/NAMESPACE/TYPENAME format.
-        pub type_name: &'a str,
+        pub type_name: ::std::borrow::Cow<'a, str>,
         /// REP-2011 RIHS hash string.
-        pub type_hash: &'a str,
+        pub type_hash: ::std::borrow::Cow<'a, str>,
         /// Whether to return the original idl/msg/etc. source file(s) in the response.
         pub include_type_sources: bool,
     }
@@ -651,7 +651,7 @@ pub mod srv {
         pub successful: bool,
         /// If `successful` is false, contains a reason for failure.
         /// If `successful` is true, this is left empty.
-        pub failure_reason: &'a str,
+        pub failure_reason: ::std::borrow::Cow<'a, str>,
         /// The parsed type description which can be used programmatically.
         pub type_description:
             super::super::type_description_interfaces::msg::TypeDescriptionRef<'a>,

@@ -86,7 +86,7 @@ pub mod msg {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// Namespace which is used with the id to form a unique id.
-        pub ns: &'a str,
+        pub ns: ::std::borrow::Cow<'a, str>,
         /// Unique id within the namespace.
         pub id: i32,
         /// One of the above types, e.g. CIRCLE, LINE_STRIP, etc.
@@ -199,9 +199,9 @@ pub mod msg {
         pub pose: super::super::geometry_msgs::msg::Pose,
         /// Identifying string. Must be globally unique in
         /// the topic that this message is sent through.
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
         /// Short description (\< 40 characters).
-        pub description: &'a str,
+        pub description: ::std::borrow::Cow<'a, str>,
         /// Scale to be used for default controls (default=1).
         pub scale: f32,
         /// All menu and submenu entries associated with this marker.
@@ -343,7 +343,7 @@ pub mod msg {
         /// Identifying string for this control.
         /// You need to assign a unique value to this to receive feedback from the GUI
         /// on what actions the user performs on this control (e.g. a button click).
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
         /// Defines the local coordinate frame (relative to the pose of the parent
         /// interactive marker) in which is being rotated and translated.
         /// Default: Identity
@@ -371,7 +371,7 @@ pub mod msg {
         /// Short description (\< 40 characters) of what this control does,
         /// e.g. "Move the robot".
         /// Default: A generic description based on the interaction mode
-        pub description: &'a str,
+        pub description: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for InteractiveMarkerControlRef<'a> {
@@ -472,11 +472,11 @@ pub mod msg {
         /// Time/frame info.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// Identifying string. Must be unique in the topic namespace.
-        pub client_id: &'a str,
+        pub client_id: ::std::borrow::Cow<'a, str>,
         /// Specifies which interactive marker and control this message refers to
-        pub marker_name: &'a str,
+        pub marker_name: ::std::borrow::Cow<'a, str>,
         /// `string control_name`
-        pub control_name: &'a str,
+        pub control_name: ::std::borrow::Cow<'a, str>,
         /// `uint8 event_type`
         pub event_type: u8,
         /// Current pose of the marker
@@ -556,7 +556,7 @@ pub mod msg {
     pub struct InteractiveMarkerInitRef<'a> {
         /// Identifying string. Must be unique in the topic namespace
         /// that this server works on.
-        pub server_id: &'a str,
+        pub server_id: ::std::borrow::Cow<'a, str>,
         /// Sequence number.
         /// The client will use this to detect if it has missed a subsequent
         /// update.  Every update message will have the same sequence number as
@@ -623,7 +623,7 @@ pub mod msg {
         pub pose: super::super::geometry_msgs::msg::Pose,
         /// Identifying string. Must be globally unique in
         /// the topic that this message is sent through.
-        pub name: &'a str,
+        pub name: ::std::borrow::Cow<'a, str>,
     }
 
     impl<'a> ::core::default::Default for InteractiveMarkerPoseRef<'a> {
@@ -700,7 +700,7 @@ pub mod msg {
     pub struct InteractiveMarkerUpdateRef<'a> {
         /// Identifying string. Must be unique in the topic namespace
         /// that this server works on.
-        pub server_id: &'a str,
+        pub server_id: ::std::borrow::Cow<'a, str>,
         /// Sequence number.
         /// The client will use this to detect if it has missed an update.
         pub seq_num: u64,
@@ -711,7 +711,7 @@ pub mod msg {
         /// Poses of markers that should be moved
         pub poses: ::std::vec::Vec<InteractiveMarkerPoseRef<'a>>,
         /// Names of markers to be erased
-        pub erases: ::std::vec::Vec<&'a str>,
+        pub erases: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
     }
 
     impl<'a> ::core::default::Default for InteractiveMarkerUpdateRef<'a> {
@@ -875,7 +875,7 @@ pub mod msg {
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
         /// Namespace in which to place the object.
         /// Used in conjunction with id to create a unique name for the object.
-        pub ns: &'a str,
+        pub ns: ::std::borrow::Cow<'a, str>,
         /// Object ID used in conjunction with the namespace for manipulating and deleting the object later.
         pub id: i32,
         /// Type of object.
@@ -907,20 +907,20 @@ pub mod msg {
         /// a format acceptable to (resource retriever)\[<https://docs.ros.org/en/rolling/p/resource_retriever/>\]
         /// or an embedded texture via a string matching the format:
         /// "embedded://texture_name"
-        pub texture_resource: &'a str,
+        pub texture_resource: ::std::borrow::Cow<'a, str>,
         /// An image to be loaded into the rendering engine as the texture for this marker.
         /// This will be used iff texture_resource is set to embedded.
         pub texture: super::super::sensor_msgs::msg::CompressedImageRef<'a>,
         /// Location of each vertex within the texture; in the range: \[0.0-1.0\]
         pub uv_coordinates: ::std::borrow::Cow<'a, [UVCoordinate]>,
         /// Only used for text markers
-        pub text: &'a str,
+        pub text: ::std::borrow::Cow<'a, str>,
         /// Only used for MESH_RESOURCE markers.
         /// Similar to texture_resource, mesh_resource uses resource retriever to load a mesh.
         /// Optionally, a mesh file can be sent in-message via the mesh_file field. If doing so,
         /// use the following format for mesh_resource:
         /// "embedded://mesh_name"
-        pub mesh_resource: &'a str,
+        pub mesh_resource: ::std::borrow::Cow<'a, str>,
         /// `visualization_msgs/MeshFile mesh_file`
         pub mesh_file: MeshFileRef<'a>,
         /// `bool mesh_use_embedded_materials`
@@ -1115,9 +1115,9 @@ pub mod msg {
         /// menu entry is a top-level entry, set parent_id to 0.
         pub parent_id: u32,
         /// menu / entry title
-        pub title: &'a str,
+        pub title: ::std::borrow::Cow<'a, str>,
         /// Arguments to command indicated by command_type (below)
-        pub command: &'a str,
+        pub command: ::std::borrow::Cow<'a, str>,
         /// `uint8 command_type`
         pub command_type: u8,
     }
@@ -1169,7 +1169,7 @@ pub mod msg {
     pub struct MeshFileRef<'a> {
         /// The filename is used for both debug purposes and to provide a file extension
         /// for whatever parser is used.
-        pub filename: &'a str,
+        pub filename: ::std::borrow::Cow<'a, str>,
         /// This stores the raw text of the mesh file.
         pub data: &'a [u8],
     }

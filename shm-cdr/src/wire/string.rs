@@ -143,15 +143,18 @@ fn write_strings<B: ByteOrder, S: AsRef<str>>(
     outcome
 }
 
-/// Read a string borrowed from the input. A length of 0 (no NUL at all) is read as
-/// the empty string, as Fast-CDR does.
+/// The bytes of a string before its NUL, borrowed from the input and not yet
+/// checked as UTF-8, with the body position of the first. A length of 0 (no
+/// NUL at all) is read as the empty string, as Fast-CDR does.
 #[inline]
-fn read_str<'de, B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<&'de str, DecodeError> {
+fn read_str_bytes<'de, B: ByteOrder>(
+    r: &mut Reader<'de, B>,
+) -> Result<(&'de [u8], usize), DecodeError> {
     let with_nul = r.read_count(1)?;
     let at = r.position();
     let bytes = r.read_bytes(with_nul)?;
     let Some((&last, contents)) = bytes.split_last() else {
-        return Ok("");
+        return Ok((&[], at));
     };
     if last != 0 {
         return Err(r.error_at(
@@ -159,14 +162,62 @@ fn read_str<'de, B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<&'de str, Decod
             DecodeErrorKind::MissingNul { found: last },
         ));
     }
-    utf8(contents).map_err(|e| {
-        r.error_at(
-            at + e.valid_up_to(),
-            DecodeErrorKind::InvalidUtf8 {
-                valid_up_to: e.valid_up_to(),
+    Ok((contents, at))
+}
+
+fn invalid_utf8<B: ByteOrder>(r: &Reader<'_, B>, at: usize, e: std::str::Utf8Error) -> DecodeError {
+    r.error_at(
+        at + e.valid_up_to(),
+        DecodeErrorKind::InvalidUtf8 {
+            valid_up_to: e.valid_up_to(),
+        },
+    )
+}
+
+/// Read a string borrowed from the input, checked as UTF-8 where it lies. Not
+/// from [shared](Reader::shared) input: another process could rewrite the bytes
+/// after the check, and the `&str` would no longer be UTF-8.
+#[inline]
+fn read_str<'de, B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<&'de str, DecodeError> {
+    let at = r.position();
+    if r.is_shared() {
+        return Err(r.error_at(at, DecodeErrorKind::SharedBorrow));
+    }
+    let (contents, at) = read_str_bytes(r)?;
+    utf8(contents).map_err(|e| invalid_utf8(r, at, e))
+}
+
+/// Read a string into `out`, reusing its memory: the bytes are copied first
+/// and checked as UTF-8 in the copy, so what is checked is what is kept, even
+/// when another process rewrites the input meanwhile.
+#[inline]
+#[allow(unsafe_code)]
+fn read_string_into<B: ByteOrder>(
+    r: &mut Reader<'_, B>,
+    bound: Option<usize>,
+    out: &mut String,
+) -> Result<(), DecodeError> {
+    let start = r.position();
+    let (contents, at) = read_str_bytes(r)?;
+    if let Some(bound) = bound.filter(|&bound| contents.len() > bound) {
+        return Err(r.error_at(
+            start,
+            DecodeErrorKind::BoundExceeded {
+                len: contents.len(),
+                bound,
             },
-        )
-    })
+        ));
+    }
+    let mut bytes = std::mem::take(out).into_bytes();
+    bytes.clear();
+    bytes.extend_from_slice(contents);
+    match utf8(&bytes) {
+        // SAFETY: `bytes` was just checked as UTF-8, and nothing else can
+        // write it: it is this function's own allocation.
+        Ok(_) => *out = unsafe { String::from_utf8_unchecked(bytes) },
+        Err(e) => return Err(invalid_utf8(r, at, e)),
+    }
+    Ok(())
 }
 
 /// `str::from_utf8` with an ASCII fast path: names and frame ids are ASCII, and
@@ -231,15 +282,14 @@ impl<'de> CdrDecode<'de> for String {
 
     #[inline]
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
-        read_str(r).map(str::to_owned)
+        let mut out = String::new();
+        read_string_into(r, None, &mut out)?;
+        Ok(out)
     }
 
     #[inline]
     fn decode_into<B: ByteOrder>(&mut self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
-        let s = read_str(r)?;
-        self.clear();
-        self.push_str(s);
-        Ok(())
+        read_string_into(r, None, self)
     }
 }
 
@@ -252,11 +302,18 @@ impl<'de: 'a, 'a> CdrDecode<'de> for &'a str {
     }
 }
 
+/// Borrowed from ordinary input; copied (then checked) from
+/// [shared](Reader::shared) input, which another process may rewrite.
 impl<'de: 'a, 'a> CdrDecode<'de> for Cow<'a, str> {
     const MIN_WIRE_SIZE: usize = 4;
 
     #[inline]
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
+        if r.is_shared() {
+            let mut out = String::new();
+            read_string_into(r, None, &mut out)?;
+            return Ok(Cow::Owned(out));
+        }
         read_str(r).map(Cow::Borrowed)
     }
 }
@@ -284,35 +341,15 @@ impl<'de, const N: usize> CdrDecode<'de> for BoundedString<N> {
 
     #[inline]
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
-        read_bounded_str::<B, N>(r).map(|s| Self(s.to_owned()))
+        let mut out = String::new();
+        read_string_into(r, Some(N), &mut out)?;
+        Ok(Self(out))
     }
 
     #[inline]
     fn decode_into<B: ByteOrder>(&mut self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
-        let s = read_bounded_str::<B, N>(r)?;
-        self.0.clear();
-        self.0.push_str(s);
-        Ok(())
+        read_string_into(r, Some(N), &mut self.0)
     }
-}
-
-/// A `string<=N`: at most `N` bytes before the NUL.
-#[inline]
-fn read_bounded_str<'de, B: ByteOrder, const N: usize>(
-    r: &mut Reader<'de, B>,
-) -> Result<&'de str, DecodeError> {
-    let at = r.position();
-    let s = read_str(r)?;
-    if s.len() > N {
-        return Err(r.error_at(
-            at,
-            DecodeErrorKind::BoundExceeded {
-                len: s.len(),
-                bound: N,
-            },
-        ));
-    }
-    Ok(s)
 }
 
 macro_rules! string_type {

@@ -135,7 +135,9 @@ pub(crate) fn decode<'a, M: CdrDecode<'a>>(
 ) -> Result<M, DecodeError> {
     read_payload(payload, copy, |body| match body {
         Body::Contiguous(bytes) => shm_cdr::from_bytes(bytes),
-        Body::Fragments(segments) => shm_cdr::from_segments(segments),
+        Body::Shared(bytes) => shm_cdr::from_shared_bytes(bytes),
+        Body::Fragments(segments, false) => shm_cdr::from_segments(segments),
+        Body::Fragments(segments, true) => shm_cdr::from_shared_segments(segments),
     })
 }
 
@@ -147,7 +149,9 @@ pub(crate) fn decode_into<'a, M: CdrDecode<'a>>(
 ) -> Result<(), DecodeError> {
     read_payload(payload, copy, |body| match body {
         Body::Contiguous(bytes) => shm_cdr::from_bytes_into(bytes, out),
-        Body::Fragments(segments) => shm_cdr::from_segments_into(segments, out),
+        Body::Shared(bytes) => shm_cdr::from_shared_bytes_into(bytes, out),
+        Body::Fragments(segments, false) => shm_cdr::from_segments_into(segments, out),
+        Body::Fragments(segments, true) => shm_cdr::from_shared_segments_into(segments, out),
     })
 }
 
@@ -159,13 +163,14 @@ fn read_payload<'a, R>(
 ) -> Result<R, DecodeError> {
     let mut slices = payload.slices();
     match (slices.next(), slices.next()) {
+        (Some(only), None) if payload.as_shm().is_some() => return read(Body::Shared(only)),
         (Some(only), None) => return read(Body::Contiguous(only)),
         (None, _) => return read(Body::Contiguous(&[])),
         _ => {}
     }
     if copy.get().is_none() && payload.slices().count() <= shm_cdr::MAX_SEGMENTS {
         let segments: Vec<&'a [u8]> = payload.slices().collect();
-        match read(Body::Fragments(&segments)) {
+        match read(Body::Fragments(&segments, shm_len(payload) > 0)) {
             Err(e) if matches!(e.kind(), DecodeErrorKind::Fragmented { .. }) => {}
             done => return done,
         }
@@ -175,8 +180,15 @@ fn read_payload<'a, R>(
     ))
 }
 
-/// A payload as [`read_payload`] hands it over.
+/// A payload as [`read_payload`] hands it over. What lies in shared memory,
+/// which any process that maps it can rewrite, is decoded as shared input
+/// (see [`shm_cdr::from_shared_bytes`]): no rewrite can make a decoded value
+/// invalid.
 enum Body<'a, 's> {
+    /// Private memory: this process's own.
     Contiguous(&'a [u8]),
-    Fragments(&'s [&'a [u8]]),
+    /// One shared-memory buffer.
+    Shared(&'a [u8]),
+    /// Fragments; `true` if any lies in shared memory.
+    Fragments(&'s [&'a [u8]], bool),
 }
