@@ -228,7 +228,7 @@ fn measure_size(bytes: usize, port: u16) -> [(f64, f64); 8] {
             *cloud.width = width;
             *cloud.point_step = 16;
             *cloud.row_step = width * 16;
-            *cloud.is_dense = true;
+            cloud.is_dense.set(true);
             cloud.fields.write_slice(&fields).unwrap();
             let points = cloud.data.cast::<[f32; 4]>().unwrap();
             points.write_with(|i| [i as f32, 0.5, -1.0, 7.0]);

@@ -112,7 +112,7 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     *cloud.width = POINTS as u32;
     *cloud.point_step = 16;
     *cloud.row_step = POINTS as u32 * 16;
-    *cloud.is_dense = true;
+    cloud.is_dense.set(true);
     cloud.fields.write_slice(&fields)?;
     let points = cloud.data.cast::<PointXyzi>()?.write_with(|i| {
         let a = i as f32 * 0.001;

@@ -557,14 +557,19 @@ pub(crate) fn plain_slice_mut<T>(_proof: PlainLayout<T>, bytes: &mut [u8]) -> Op
     })
 }
 
-/// `bytes`, zeroed, as `bool`s (all `false`).
+/// `bytes`, zeroed, as [`LoanBool`](crate::loan::LoanBool)s (all `false`).
 #[allow(unsafe_code)]
-pub(crate) fn zeroed_bools(bytes: &mut [u8]) -> &mut [bool] {
+pub(crate) fn zeroed_bools(bytes: &mut [u8]) -> &mut [crate::loan::LoanBool] {
     bytes.fill(0);
-    // SAFETY: `bool` has the size and alignment of `u8`, and 0 is `false`, a valid
-    // `bool`; the unique borrow of `bytes` passes to the result, and every value a
-    // `&mut bool` can store (0 or 1) is a valid `u8`, and CDR's encoding of a bool.
-    unsafe { std::slice::from_raw_parts_mut(bytes.as_mut_ptr().cast::<bool>(), bytes.len()) }
+    // SAFETY: `LoanBool` is `repr(transparent)` over a `u8`, so it has the size
+    // and alignment of `u8` and every byte is a valid one; the unique borrow of
+    // `bytes` passes to the result.
+    unsafe {
+        std::slice::from_raw_parts_mut(
+            bytes.as_mut_ptr().cast::<crate::loan::LoanBool>(),
+            bytes.len(),
+        )
+    }
 }
 
 /// The bytes of `items`, mutably (see [`PlainLayout`]).

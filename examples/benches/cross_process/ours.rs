@@ -150,7 +150,7 @@ impl Sender for LoanSender<'_> {
         *cloud.point_step = 16;
         *cloud.row_step = bytes as u32;
         cloud.data.fill(fill_byte(seq));
-        *cloud.is_dense = true;
+        cloud.is_dense.set(true);
         self.ready = Some(loan);
         Ok(())
     }

@@ -41,7 +41,9 @@
 //! ```
 //!
 //! What goes where:
-//! - numbers and `bool` are `&mut` references into the buffer, zero until set;
+//! - numbers are `&mut` references into the buffer, zero until set; a `bool`
+//!   is a [`LoanBool`] (`set`/`get`), since the buffer may be shared memory
+//!   that another process can write, and a byte there need not be a `bool`;
 //! - a sequence (or array) of numbers, or of structs whose memory layout is their
 //!   CDR layout ([`PlainLayout`](crate::layout::PlainLayout)), is an [`Uninit`]
 //!   run: write it once (from a slice, a function of the index, an iterator, a
@@ -70,7 +72,7 @@ mod slots;
 #[cfg(all(test, feature = "msgs"))]
 mod tests;
 
-pub use slots::{AlignedBuffer, Run, SeqLens, StrSlot, Uninit, WStrSlot};
+pub use slots::{AlignedBuffer, LoanBool, Run, SeqLens, StrSlot, Uninit, WStrSlot};
 
 /// A field type that can be laid out in a buffer from its lengths alone, and
 /// then written in place.

@@ -466,3 +466,26 @@ impl AlignedBuffer {
         (self.storage, self.message)
     }
 }
+
+/// A `bool` field in a loaned buffer: one byte, `false` until set. A loaned
+/// buffer may be shared memory, which every process that maps it can write;
+/// a `&mut bool` there would be undefined behaviour the moment another
+/// process wrote a byte other than 0 or 1, so the byte is kept as a byte and
+/// read as `true` unless it is 0.
+#[repr(transparent)]
+#[derive(Debug, Default, PartialEq, Eq)]
+pub struct LoanBool(u8);
+
+impl LoanBool {
+    /// Write `value` (as CDR encodes it: 1 or 0).
+    #[inline]
+    pub fn set(&mut self, value: bool) {
+        self.0 = u8::from(value);
+    }
+
+    /// The value: `true` unless the byte is 0.
+    #[inline]
+    pub fn get(&self) -> bool {
+        self.0 != 0
+    }
+}

@@ -369,7 +369,7 @@ fn a_cloud_of_typed_points_is_written_in_place() {
     *cloud.width = 100;
     *cloud.point_step = 16;
     *cloud.row_step = 1600;
-    *cloud.is_dense = true;
+    cloud.is_dense.set(true);
     cloud.fields.write_slice(&fields).unwrap();
     let data = cloud.data.cast::<PointXyzi>().unwrap();
     // 1600 bytes are not a whole number of 24-byte `Pose`s.

@@ -12,7 +12,7 @@ use crate::encode::{CdrEncode, Writer};
 use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError};
 use crate::layout::{align_up, zeroed_bools, FixedLayout, PlainLayout};
-use crate::loan::{self, Carver, InPlace, InPlaceElement, LoanError, Uninit};
+use crate::loan::{self, Carver, InPlace, InPlaceElement, LoanBool, LoanError, Uninit};
 
 macro_rules! number {
     ($($ty:ty => $size:literal, $type_id:ident $(, $borrow:ident)?;)*) => {$(
@@ -279,7 +279,7 @@ number_in_place! {
 
 impl InPlace for bool {
     type Lens = ();
-    type Mut<'a> = &'a mut bool;
+    type Mut<'a> = &'a mut LoanBool;
 
     fn lens(&self) {}
 
@@ -287,26 +287,28 @@ impl InPlace for bool {
         start.checked_add(1)
     }
 
-    fn carve<'a>((): &(), c: &mut Carver<'a>) -> Result<&'a mut bool, LoanError> {
+    fn carve<'a>((): &(), c: &mut Carver<'a>) -> Result<&'a mut LoanBool, LoanError> {
         match zeroed_bools(c.take(1, 1)?) {
             [one] => Ok(one),
             _ => Err(LoanError::TooLarge),
         }
     }
 
-    fn write_in_place(&self, place: &mut bool) -> Result<(), LoanError> {
-        *place = *self;
+    fn write_in_place(&self, place: &mut LoanBool) -> Result<(), LoanError> {
+        place.set(*self);
         Ok(())
     }
 }
 
 /// `bool`s are not plain (only 0 and 1 are valid), so runs of them are zeroed
-/// (`false`) rather than left unwritten.
+/// (`false`) rather than left unwritten, and handed out as [`LoanBool`]s: a
+/// loaned buffer may lie in shared memory, where another process could write
+/// a byte that is no `bool`.
 impl InPlaceElement for bool {
     type RunLens = usize;
-    type RunMut<'a> = &'a mut [bool];
+    type RunMut<'a> = &'a mut [LoanBool];
     type ArrayLens = ();
-    type ArrayMut<'a, const N: usize> = &'a mut [bool; N];
+    type ArrayMut<'a, const N: usize> = &'a mut [LoanBool; N];
 
     fn run_lens(items: &[Self]) -> usize {
         items.len()
@@ -320,11 +322,15 @@ impl InPlaceElement for bool {
         start.checked_add(n)
     }
 
-    fn carve_run<'a>(_: &usize, n: usize, c: &mut Carver<'a>) -> Result<&'a mut [bool], LoanError> {
+    fn carve_run<'a>(
+        _: &usize,
+        n: usize,
+        c: &mut Carver<'a>,
+    ) -> Result<&'a mut [LoanBool], LoanError> {
         Ok(zeroed_bools(c.take(1, n)?))
     }
 
-    fn write_run(items: &[Self], place: &mut [bool]) -> Result<(), LoanError> {
+    fn write_run(items: &[Self], place: &mut [LoanBool]) -> Result<(), LoanError> {
         if items.len() != place.len() {
             return Err(LoanError::LengthMismatch {
                 field: "",
@@ -333,7 +339,9 @@ impl InPlaceElement for bool {
                 got: items.len(),
             });
         }
-        place.copy_from_slice(items);
+        for (slot, &value) in place.iter_mut().zip(items) {
+            slot.set(value);
+        }
         Ok(())
     }
 
@@ -346,15 +354,18 @@ impl InPlaceElement for bool {
     fn carve_array<'a, const N: usize>(
         (): &(),
         c: &mut Carver<'a>,
-    ) -> Result<&'a mut [bool; N], LoanError> {
-        <&mut [bool; N]>::try_from(zeroed_bools(c.take(1, N)?)).map_err(|_| LoanError::TooLarge)
+    ) -> Result<&'a mut [LoanBool; N], LoanError> {
+        <&mut [LoanBool; N]>::try_from(zeroed_bools(c.take(1, N)?))
+            .map_err(|_| LoanError::TooLarge)
     }
 
     fn write_array<const N: usize>(
         items: &[Self; N],
-        place: &mut [bool; N],
+        place: &mut [LoanBool; N],
     ) -> Result<(), LoanError> {
-        *place = *items;
+        for (slot, &value) in place.iter_mut().zip(items) {
+            slot.set(value);
+        }
         Ok(())
     }
 }
