@@ -197,3 +197,62 @@ fn a_panicking_callback_goes_on_with_the_next_sample() {
     assert_eq!(seen_rx.recv_timeout(TIMEOUT).unwrap(), 0);
     assert_eq!(seen_rx.recv_timeout(TIMEOUT).unwrap(), 2);
 }
+
+/// A service handler blocked for 6 s holds up neither Zenoh's thread nor
+/// another server of the same session.
+#[test]
+fn a_blocked_service_handler_does_not_stall_another_server() {
+    use shm_cdr::msgs::std_srvs::srv::{Trigger, Trigger_Request, Trigger_Response};
+
+    let (a, b, _) = loopback_sessions();
+    let server_node = common::node(&a, "servers");
+    let (release, released) = mpsc::channel::<()>();
+    let released = std::sync::Mutex::new(released);
+    let _slow = server_node
+        .declare_service::<Trigger>("/slow")
+        .handler(move |_| {
+            let _ = released
+                .lock()
+                .unwrap()
+                .recv_timeout(Duration::from_secs(30));
+            Trigger_Response {
+                success: true,
+                message: "late".into(),
+            }
+        })
+        .wait()
+        .unwrap();
+    let _fast = server_node
+        .declare_service::<Trigger>("/fast")
+        .handler(|_| Trigger_Response {
+            success: true,
+            message: "at once".into(),
+        })
+        .wait()
+        .unwrap();
+    let client_node = common::node(&b, "clients");
+    let slow = client_node
+        .declare_client::<Trigger>("/slow")
+        .wait()
+        .unwrap();
+    let fast = client_node
+        .declare_client::<Trigger>("/fast")
+        .wait()
+        .unwrap();
+    assert!(slow.wait_for_service(TIMEOUT) && fast.wait_for_service(TIMEOUT));
+
+    let pending = std::thread::spawn(move || {
+        slow.call(&Trigger_Request::default())
+            .timeout(Duration::from_secs(30))
+            .wait()
+    });
+    std::thread::sleep(Duration::from_millis(200));
+    // 6 s of calls to the other server while the first handler is blocked.
+    for _ in 0..60 {
+        let response = fast.call(&Trigger_Request::default()).wait().unwrap();
+        assert_eq!(response.message, "at once");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    release.send(()).unwrap();
+    assert_eq!(pending.join().unwrap().unwrap().message, "late");
+}

@@ -355,8 +355,7 @@ impl InPlaceElement for bool {
         (): &(),
         c: &mut Carver<'a>,
     ) -> Result<&'a mut [LoanBool; N], LoanError> {
-        <&mut [LoanBool; N]>::try_from(zeroed_bools(c.take(1, N)?))
-            .map_err(|_| LoanError::TooLarge)
+        <&mut [LoanBool; N]>::try_from(zeroed_bools(c.take(1, N)?)).map_err(|_| LoanError::TooLarge)
     }
 
     fn write_array<const N: usize>(

@@ -124,6 +124,20 @@ pub(crate) struct Dispatch<I> {
     what: String,
 }
 
+impl<I> Dispatch<I> {
+    /// Items waiting for the callback.
+    pub(crate) fn queued(&self) -> usize {
+        self.receiver.len()
+    }
+
+    /// The entity is gone: its callback is not called again (one running
+    /// now finishes).
+    pub(crate) fn close(&self) {
+        self.closed.store(true, Ordering::SeqCst);
+        self.receiver.drain().for_each(drop);
+    }
+}
+
 impl<I: Send + 'static> Dispatch<I> {
     pub(crate) fn new(
         receiver: flume::Receiver<I>,
@@ -139,18 +153,6 @@ impl<I: Send + 'static> Dispatch<I> {
             executor,
             what,
         })
-    }
-
-    /// Items waiting for the callback.
-    pub(crate) fn queued(&self) -> usize {
-        self.receiver.len()
-    }
-
-    /// The entity is gone: its callback is not called again (one running
-    /// now finishes).
-    pub(crate) fn close(&self) {
-        self.closed.store(true, Ordering::SeqCst);
-        self.receiver.drain().for_each(drop);
     }
 
     /// Called (on Zenoh's thread) after an item was queued: never blocks.
@@ -185,6 +187,22 @@ impl<I: Send + 'static> Ready for Dispatch<I> {
         if !self.receiver.is_empty() && !self.scheduled.swap(true, Ordering::SeqCst) {
             let executor = self.executor.clone();
             executor.schedule(self);
+        }
+    }
+}
+
+/// A callback as a builder keeps it: dispatched on an executor (the
+/// default) or inline on Zenoh's thread (the explicit opt-in).
+pub(crate) enum Callback<I> {
+    Dispatched(Box<dyn FnMut(I) + Send>, Option<Executor>),
+    Inline(Box<dyn Fn(I) + Send + Sync>),
+}
+
+impl<I> Callback<I> {
+    /// Run a dispatched callback on `executor` (no effect inline).
+    pub(crate) fn set_executor(&mut self, executor: &Executor) {
+        if let Self::Dispatched(_, chosen) = self {
+            *chosen = Some(executor.clone());
         }
     }
 }

@@ -22,7 +22,7 @@ use crate::ros::rmw::{
     counterpart_tokens_key_expr, Attachment, AttachmentError, Durability, EntityKind,
     History as RmwHistory, Qos, Reliability,
 };
-use crate::transport::executor::{Dispatch, Executor};
+use crate::transport::executor::{Callback, Dispatch, Executor};
 use crate::transport::queue::{sample_type, Queue, TypeCheck, DEFAULT_MAX_QUEUED_BYTES};
 
 pub use crate::transport::queue::History;
@@ -271,21 +271,14 @@ impl ZenohSubscriber {
 #[must_use = "resolve the builder with .wait() or .await"]
 pub struct CallbackSubscriberBuilder<'a, T> {
     inner: SubscriberBuilder<'a, T>,
-    callback: Callback,
-}
-
-enum Callback {
-    Dispatched(Box<dyn FnMut(RosSample) + Send>, Option<Executor>),
-    Inline(Box<dyn Fn(RosSample) + Send + Sync>),
+    callback: Callback<RosSample>,
 }
 
 impl<T: RosMessage> CallbackSubscriberBuilder<'_, T> {
     /// Run the callback on `executor`'s threads instead of the global ones
     /// (no effect on an inline callback).
     pub fn executor(mut self, executor: &Executor) -> Self {
-        if let Callback::Dispatched(_, chosen) = &mut self.callback {
-            *chosen = Some(executor.clone());
-        }
+        self.callback.set_executor(executor);
         self
     }
 

@@ -67,8 +67,9 @@ impl<'a, A: RosAction> ActionServerBuilder<'a, A> {
         }
     }
 
-    /// Decide on each new goal with `decide(goal_id, &goal)` (on Zenoh's
-    /// thread, before the client gets its answer; keep it short). Without it,
+    /// Decide on each new goal with `decide(goal_id, &goal)` (on an
+    /// [`Executor`](crate::Executor) thread, before the client gets its
+    /// answer). Without it,
     /// every goal is accepted. A goal whose id the server already has is
     /// rejected without asking.
     pub fn on_goal<F>(mut self, decide: F) -> Self
@@ -79,7 +80,8 @@ impl<'a, A: RosAction> ActionServerBuilder<'a, A> {
         self
     }
 
-    /// Decide on each goal a cancel request names (on Zenoh's thread). Without
+    /// Decide on each goal a cancel request names (on an
+    /// [`Executor`](crate::Executor) thread). Without
     /// it, every cancel of an accepted or executing goal is accepted.
     pub fn on_cancel<F>(mut self, decide: F) -> Self
     where

@@ -20,6 +20,7 @@ use zenoh::{Resolvable, Session, Wait};
 
 use super::error_reply_text;
 use crate::ros::rmw::{Attachment, Gid};
+use crate::transport::executor::{Callback, Dispatch, Executor};
 use crate::transport::inline_limit::{self, InlineLimit};
 use crate::transport::payload::{encode_payload, PayloadKind, ShmPolicy};
 use crate::transport::pool::ShmContext;
@@ -84,31 +85,43 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
         self
     }
 
-    /// Call `callback` with every request as it arrives, on Zenoh's thread: reply
-    /// there, or move the request to where the work happens and reply from there
-    /// (a [`ServiceRequest`] is `Send`). Keep the callback short: Zenoh's thread
-    /// serves every entity of the session.
-    pub fn callback<F>(self, callback: F) -> CallbackServiceServerBuilder<'a, S, F>
+    /// Call `callback` with every request, in arrival order, on a thread of
+    /// an [`Executor`] ([`Executor::global`] unless
+    /// [`CallbackServiceServerBuilder::executor`] names another): reply there,
+    /// or move the request to where the work happens and reply from there (a
+    /// [`ServiceRequest`] is `Send`). Requests wait in the server's own queue
+    /// under its [`history`](Self::history) meanwhile, so a slow callback
+    /// never holds up Zenoh's thread.
+    pub fn callback<F>(self, callback: F) -> CallbackServiceServerBuilder<'a, S>
+    where
+        F: FnMut(ServiceRequest<S>) + Send + 'static,
+    {
+        CallbackServiceServerBuilder {
+            inner: self,
+            callback: Callback::Dispatched(Box::new(callback), None),
+        }
+    }
+
+    /// Call `callback` on Zenoh's receive thread as each request arrives: for
+    /// code that only hands the request on, never blocks and returns within
+    /// microseconds (the session receives nothing else meanwhile). Prefer
+    /// [`callback`](Self::callback).
+    pub fn callback_inline<F>(self, callback: F) -> CallbackServiceServerBuilder<'a, S>
     where
         F: Fn(ServiceRequest<S>) + Send + Sync + 'static,
     {
         CallbackServiceServerBuilder {
             inner: self,
-            callback,
+            callback: Callback::Inline(Box::new(callback)),
         }
     }
 
-    /// Answer every request with `handler(request)`, on Zenoh's thread. A request
-    /// that is not a valid `S::Request` gets an error reply saying where it
-    /// broke. For handlers that take time, use a [`ServiceServer`] and its
-    /// [`serve`](ServiceServer::serve) (async) or [`recv`](ServiceServer::recv)
-    /// in a thread of your own.
-    pub fn handler<H>(
-        self,
-        handler: H,
-    ) -> CallbackServiceServerBuilder<'a, S, impl Fn(ServiceRequest<S>) + Send + Sync + 'static>
+    /// Answer every request with `handler(request)`, on an [`Executor`]'s
+    /// thread (see [`callback`](Self::callback)). A request that is not a
+    /// valid `S::Request` gets an error reply saying where it broke.
+    pub fn handler<H>(self, mut handler: H) -> CallbackServiceServerBuilder<'a, S>
     where
-        H: Fn(S::Request) -> S::Response + Send + Sync + 'static,
+        H: FnMut(S::Request) -> S::Response + Send + 'static,
     {
         self.callback(move |request: ServiceRequest<S>| {
             if let Ok(decoded) = request.request() {
@@ -153,33 +166,51 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
         Ok((Arc::new(shared), token))
     }
 
-    fn build(self) -> zenoh::Result<ServiceServer<S>> {
-        let (shared, token) = self.shared()?;
+    /// A queue of requests under `history`, and what Zenoh's callback does
+    /// with each query: take it as a request and queue it (pushing out the
+    /// oldest past the depth, whose client gets an error reply); whether it
+    /// queued one.
+    fn queue(
+        &self,
+        shared: &Arc<Shared>,
+    ) -> (
+        flume::Receiver<ServiceRequest<S>>,
+        impl Fn(Query) -> bool + Send + Sync + 'static,
+    ) {
         let (sender, receiver) = flume::unbounded::<ServiceRequest<S>>();
         let oldest = receiver.clone();
         let history = self.history;
         let for_queue = shared.clone();
+        let push = move |query| {
+            let Some(request) = ServiceRequest::take(query, &for_queue) else {
+                return false;
+            };
+            if let History::KeepLast(depth) = history {
+                while oldest.len() >= depth.get() {
+                    let Ok(pushed_out) = oldest.try_recv() else {
+                        break;
+                    };
+                    for_queue.dropped.fetch_add(1, Ordering::Relaxed);
+                    pushed_out.refuse(format_args!(
+                        "request dropped: {depth} newer requests were waiting for the server (its history depth)"
+                    ));
+                }
+            }
+            // The receiver lives as long as the queryable.
+            sender.send(request).is_ok()
+        };
+        (receiver, push)
+    }
+
+    fn build(self) -> zenoh::Result<ServiceServer<S>> {
+        let (shared, token) = self.shared()?;
+        let (receiver, push) = self.queue(&shared);
         let queryable = self
             .session
             .declare_queryable(shared.key_expr.clone())
             .complete(true)
             .callback(move |query| {
-                let Some(request) = ServiceRequest::take(query, &for_queue) else {
-                    return;
-                };
-                if let History::KeepLast(depth) = history {
-                    while oldest.len() >= depth.get() {
-                        let Ok(pushed_out) = oldest.try_recv() else {
-                            break;
-                        };
-                        for_queue.dropped.fetch_add(1, Ordering::Relaxed);
-                        pushed_out.refuse(format_args!(
-                            "request dropped: {depth} newer requests were waiting for the server (its history depth)"
-                        ));
-                    }
-                }
-                // The receiver lives as long as the queryable: this cannot fail.
-                let _ = sender.send(request);
+                push(query);
             })
             .wait()?;
         Ok(ServiceServer {
@@ -328,15 +359,25 @@ impl<S: RosService> ServiceServer<S> {
 
 /// Builder of a [`CallbackServiceServer`]; resolve with `.wait()` or `.await`.
 #[must_use = "resolve the builder with .wait() or .await"]
-pub struct CallbackServiceServerBuilder<'a, S, F> {
+pub struct CallbackServiceServerBuilder<'a, S> {
     inner: ServiceServerBuilder<'a, S>,
-    callback: F,
+    callback: Callback<ServiceRequest<S>>,
+}
+
+impl<S: RosService> CallbackServiceServerBuilder<'_, S> {
+    /// Run the callback on `executor`'s threads instead of the global ones
+    /// (no effect on an inline callback).
+    pub fn executor(mut self, executor: &Executor) -> Self {
+        self.callback.set_executor(executor);
+        self
+    }
 }
 
 /// A service server that hands every request to a callback; undeclared when
-/// dropped.
+/// dropped, after which its callback is not called again.
 pub struct CallbackServiceServer<S> {
     queryable: zenoh::query::Queryable<()>,
+    dispatch: Option<Arc<Dispatch<ServiceRequest<S>>>>,
     shared: Arc<Shared>,
     gid: Option<Gid>,
     _token: Option<LivelinessToken>,
@@ -369,26 +410,44 @@ impl<S: RosService> CallbackServiceServer<S> {
     }
 }
 
-impl<S: RosService, F: Fn(ServiceRequest<S>) + Send + Sync + 'static>
-    CallbackServiceServerBuilder<'_, S, F>
-{
+impl<S: RosService> CallbackServiceServerBuilder<'_, S> {
     fn build(self) -> zenoh::Result<CallbackServiceServer<S>> {
         let (shared, token) = self.inner.shared()?;
-        let callback = self.callback;
-        let for_requests = shared.clone();
-        let queryable = self
-            .inner
-            .session
-            .declare_queryable(shared.key_expr.clone())
-            .complete(true)
-            .callback(move |query| {
-                if let Some(request) = ServiceRequest::take(query, &for_requests) {
-                    callback(request);
-                }
-            })
-            .wait()?;
+        let declare = |callback: Box<dyn Fn(Query) + Send + Sync>| {
+            self.inner
+                .session
+                .declare_queryable(shared.key_expr.clone())
+                .complete(true)
+                .callback(callback)
+                .wait()
+        };
+        let (queryable, dispatch) = match self.callback {
+            Callback::Dispatched(callback, executor) => {
+                let (receiver, push) = self.inner.queue(&shared);
+                let executor = executor.unwrap_or_else(|| Executor::global().clone());
+                let dispatch =
+                    Dispatch::new(receiver, callback, executor, self.inner.key_expr.clone());
+                let notify = dispatch.clone();
+                let queryable = declare(Box::new(move |query| {
+                    if push(query) {
+                        notify.notify();
+                    }
+                }))?;
+                (queryable, Some(dispatch))
+            }
+            Callback::Inline(callback) => {
+                let for_requests = shared.clone();
+                let queryable = declare(Box::new(move |query| {
+                    if let Some(request) = ServiceRequest::take(query, &for_requests) {
+                        callback(request);
+                    }
+                }))?;
+                (queryable, None)
+            }
+        };
         Ok(CallbackServiceServer {
             queryable,
+            dispatch,
             shared,
             gid: self.inner.gid,
             _token: token,
@@ -397,23 +456,25 @@ impl<S: RosService, F: Fn(ServiceRequest<S>) + Send + Sync + 'static>
     }
 }
 
-impl<S: RosService, F: Fn(ServiceRequest<S>) + Send + Sync + 'static> Resolvable
-    for CallbackServiceServerBuilder<'_, S, F>
-{
+impl<S> Drop for CallbackServiceServer<S> {
+    fn drop(&mut self) {
+        if let Some(dispatch) = &self.dispatch {
+            dispatch.close();
+        }
+    }
+}
+
+impl<S: RosService> Resolvable for CallbackServiceServerBuilder<'_, S> {
     type To = zenoh::Result<CallbackServiceServer<S>>;
 }
 
-impl<S: RosService, F: Fn(ServiceRequest<S>) + Send + Sync + 'static> Wait
-    for CallbackServiceServerBuilder<'_, S, F>
-{
+impl<S: RosService> Wait for CallbackServiceServerBuilder<'_, S> {
     fn wait(self) -> Self::To {
         self.build()
     }
 }
 
-impl<S: RosService, F: Fn(ServiceRequest<S>) + Send + Sync + 'static> IntoFuture
-    for CallbackServiceServerBuilder<'_, S, F>
-{
+impl<S: RosService> IntoFuture for CallbackServiceServerBuilder<'_, S> {
     type Output = zenoh::Result<CallbackServiceServer<S>>;
     type IntoFuture = std::future::Ready<Self::Output>;
     fn into_future(self) -> Self::IntoFuture {
