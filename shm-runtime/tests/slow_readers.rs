@@ -242,14 +242,14 @@ fn a_blocked_service_handler_does_not_stall_another_server() {
     assert!(slow.wait_for_service(TIMEOUT) && fast.wait_for_service(TIMEOUT));
 
     let pending = std::thread::spawn(move || {
-        slow.call(&Trigger_Request::default())
+        slow.call(&Trigger_Request)
             .timeout(Duration::from_secs(30))
             .wait()
     });
     std::thread::sleep(Duration::from_millis(200));
     // 6 s of calls to the other server while the first handler is blocked.
     for _ in 0..60 {
-        let response = fast.call(&Trigger_Request::default()).wait().unwrap();
+        let response = fast.call(&Trigger_Request).wait().unwrap();
         assert_eq!(response.message, "at once");
         std::thread::sleep(Duration::from_millis(100));
     }
