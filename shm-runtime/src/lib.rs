@@ -42,6 +42,7 @@ pub use ros::node::{RosNode, RosNodeBuilder};
 pub use transport::config::{ConfigError, PoolSize, ShmConfig};
 pub use transport::executor::Executor;
 pub use transport::inline_limit::Unfragmentable;
+pub use transport::limits::{KeyExprTooLong, MAX_KEY_EXPR_LEN};
 pub use transport::loan::{Loan, LoanPublish};
 pub use transport::memlock::{MemlockBudget, ZENOH_METADATA_SEGMENT};
 pub use transport::payload::{EncodedPayload, PayloadKind};

@@ -15,6 +15,7 @@ use crate::ros::graph::{Graph, GraphCache};
 use crate::ros::names::{self, NameError, NameKind, RemapRule, Remaps};
 use crate::ros::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
 use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
+use crate::transport::limits::check_key_expr;
 use crate::transport::pool::ShmContext;
 use crate::transport::publisher::{PublisherBuilder, RmwPublisher};
 use crate::transport::subscriber::SubscriberBuilder;
@@ -356,11 +357,9 @@ impl RosNodeBuilder<'_> {
             namespace: names::normalize_namespace(&namespace)?,
             name,
         };
-        let token = self
-            .session
-            .liveliness()
-            .declare_token(info.node_token())
-            .wait()?;
+        let node_token = info.node_token();
+        check_key_expr("liveliness token", &node_token)?;
+        let token = self.session.liveliness().declare_token(node_token).wait()?;
         Ok(RosNode {
             session: self.session.clone(),
             info,

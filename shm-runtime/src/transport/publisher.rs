@@ -18,6 +18,7 @@ use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, Mis
 
 use crate::ros::rmw::{Attachment, Durability, Gid, History, Qos, Reliability};
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
+use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
 use crate::transport::pool::ShmContext;
 
@@ -252,6 +253,10 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
     fn build(self) -> zenoh::Result<RosPublisher<T>> {
         if let Some(invalid) = self.invalid {
             return Err(invalid.into());
+        }
+        check_key_expr("key expression", &self.key_expr)?;
+        if let Some(rmw) = &self.rmw {
+            check_key_expr("liveliness token", &rmw.token)?;
         }
         let policy = self.shm.resolve(self.session, &self.key_expr);
         let encoding = crate::transport::queue::type_encoding::<T>();

@@ -23,6 +23,7 @@ use crate::ros::rmw::{
     History as RmwHistory, Qos, Reliability,
 };
 use crate::transport::executor::{Callback, Dispatch, Executor};
+use crate::transport::limits::check_key_expr;
 use crate::transport::queue::{sample_type, Queue, TypeCheck, DEFAULT_MAX_QUEUED_BYTES};
 
 pub use crate::transport::queue::History;
@@ -152,6 +153,10 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
     fn declare_token(&self) -> zenoh::Result<Option<LivelinessToken>> {
         if let Some(invalid) = &self.invalid {
             return Err(invalid.clone().into());
+        }
+        check_key_expr("key expression", &self.key_expr)?;
+        if let Some(token) = &self.liveliness {
+            check_key_expr("liveliness token", token)?;
         }
         match &self.liveliness {
             Some(token) => Ok(Some(

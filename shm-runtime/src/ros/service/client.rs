@@ -21,6 +21,7 @@ use zenoh::{Resolvable, Session, Wait};
 
 use crate::ros::rmw::{Attachment, AttachmentError, Gid};
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
+use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, ShmPolicy};
 use crate::transport::pool::ShmContext;
 use crate::transport::publisher::{now_ns, ShmSettings};
@@ -146,6 +147,8 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
         if let Some(invalid) = self.invalid {
             return Err(invalid.into());
         }
+        check_key_expr("key expression", &self.key_expr)?;
+        check_key_expr("liveliness token", &self.token)?;
         let policy = self.shm.resolve(self.session, &self.key_expr);
         let request_encoding = type_encoding::<S::Request>();
         let inline_limit = InlineLimit::of(

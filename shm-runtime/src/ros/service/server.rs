@@ -22,6 +22,7 @@ use super::error_reply_text;
 use crate::ros::rmw::{Attachment, Gid};
 use crate::transport::executor::{Callback, Dispatch, Executor};
 use crate::transport::inline_limit::{self, InlineLimit};
+use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, PayloadKind, ShmPolicy};
 use crate::transport::pool::ShmContext;
 use crate::transport::publisher::{now_ns, PublishError, ShmSettings};
@@ -137,6 +138,10 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
     fn shared(&self) -> zenoh::Result<(Arc<Shared>, Option<LivelinessToken>)> {
         if let Some(invalid) = &self.invalid {
             return Err(invalid.clone().into());
+        }
+        check_key_expr("key expression", &self.key_expr)?;
+        if let Some(token) = &self.token {
+            check_key_expr("liveliness token", token)?;
         }
         let policy = self.shm.resolve(self.session, &self.key_expr);
         let response_encoding = type_encoding::<S::Response>();
