@@ -39,6 +39,7 @@ pub use ros::{action, graph, names, rmw, service};
 
 pub use logging::{init_logging, DEFAULT_LOG_FILTER};
 pub use ros::node::{RosNode, RosNodeBuilder};
+pub use ros::rosout::RosoutLayer;
 pub use transport::config::{ConfigError, PoolSize, ShmConfig};
 pub use transport::executor::Executor;
 pub use transport::inline_limit::Unfragmentable;

@@ -6,4 +6,5 @@ pub mod graph;
 pub mod names;
 pub(crate) mod node;
 pub mod rmw;
+pub(crate) mod rosout;
 pub mod service;
