@@ -75,7 +75,7 @@ fn tracing_events_reach_rosout_as_rcl_log_messages() {
         .expect("the /rosout publisher on the graph");
     assert_eq!(
         ours.endpoint.as_ref().unwrap().qos,
-        Qos::transient_local(1000)
+        Qos::transient_local(1000).lifespan(Duration::from_secs(10))
     );
     drop(dispatch);
 }

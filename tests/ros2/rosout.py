@@ -61,9 +61,9 @@ def main():
         check(fields[7:11] == ["%demo", "talker", "%rosout", "rcl_interfaces::msg::dds_::Log_"],
               f"token names {fields[7:11]}")
         check(fields[11] == h, f"token hash {fields[11]} != rosidl's {h}")
-        reliability, durability, history = fields[12].split(":")[:3]
-        check(durability == "1" and history.split(",")[1] == "1000",
-              f"token QoS {fields[12]}: not transient local, keep last 1000")
+        # rclcpp's rcl_qos_profile_rosout_default as rmw_zenoh_cpp writes it:
+        # reliable, transient local, keep last 1000, lifespan 10 s.
+        check(fields[12] == ":1:,1000:,:10,0:,,", f"token QoS {fields[12]} is not rclcpp's /rosout QoS")
 
     time.sleep(0.5)
     started = time.time()

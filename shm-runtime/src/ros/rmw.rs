@@ -2,6 +2,7 @@
 //! expressions, the per-sample attachment, liveliness tokens and GIDs.
 
 use std::fmt;
+use std::time::Duration;
 
 use shm_cdr::interface::RosService;
 use shm_cdr::RosMessage;
@@ -153,8 +154,19 @@ pub enum History {
     KeepAll,
 }
 
-/// The QoS that goes into a liveliness token. Deadline, lifespan and liveliness
-/// are left at rmw_zenoh's defaults (infinite, automatic).
+/// Liveliness QoS (rmw values).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Liveliness {
+    /// `RMW_QOS_POLICY_LIVELINESS_AUTOMATIC` (1): the default.
+    Automatic = 1,
+    /// `RMW_QOS_POLICY_LIVELINESS_MANUAL_BY_TOPIC` (3).
+    ManualByTopic = 3,
+}
+
+/// A QoS profile as it goes into a liveliness token and a Zenoh declaration.
+/// Deadline, lifespan and liveliness are announced on the graph, as rmw_zenoh_cpp
+/// announces them, so tools and peers see them; shm-runtime does not enforce
+/// them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Qos {
     /// Reliability.
@@ -163,66 +175,159 @@ pub struct Qos {
     pub durability: Durability,
     /// History and depth.
     pub history: History,
+    /// The longest expected gap between messages; `None` (the default): no
+    /// deadline.
+    pub deadline: Option<Duration>,
+    /// How long a message stays valid; `None` (the default): for ever.
+    /// rclcpp's `/rosout` says 10 s.
+    pub lifespan: Option<Duration>,
+    /// How the entity's liveliness is asserted.
+    pub liveliness: Liveliness,
+    /// The liveliness lease; `None` (the default): infinite.
+    pub liveliness_lease: Option<Duration>,
 }
 
 impl Default for Qos {
     /// ROS 2's default profile: reliable, volatile, keep last 10.
     fn default() -> Self {
-        Self {
-            reliability: Reliability::Reliable,
-            durability: Durability::Volatile,
-            history: History::KeepLast(10),
-        }
+        Self::with_history(
+            Reliability::Reliable,
+            Durability::Volatile,
+            History::KeepLast(10),
+        )
     }
 }
 
+/// `RMW_DURATION_INFINITE`, rmw_zenoh's default for every duration: written as
+/// empty fields in a token.
+const INFINITE_SEC: u64 = 9_223_372_036;
+const INFINITE_NSEC: u64 = 854_775_807;
+
+/// A duration's `sec,nsec` token fields, each empty where it equals
+/// `RMW_DURATION_INFINITE`'s (as rmw_zenoh_cpp writes them).
+fn duration_fields(duration: Option<Duration>) -> String {
+    let Some(duration) = duration else {
+        return ",".to_owned();
+    };
+    let (sec, nsec) = (duration.as_secs(), u64::from(duration.subsec_nanos()));
+    let sec = if sec == INFINITE_SEC {
+        String::new()
+    } else {
+        sec.to_string()
+    };
+    let nsec = if nsec == INFINITE_NSEC {
+        String::new()
+    } else {
+        nsec.to_string()
+    };
+    format!("{sec},{nsec}")
+}
+
+/// Read `sec,nsec` token fields back (empty: infinite's part); `None` for
+/// infinite.
+pub(crate) fn parse_duration_fields(sec: &str, nsec: &str) -> Option<Option<Duration>> {
+    let sec: u64 = if sec.is_empty() {
+        INFINITE_SEC
+    } else {
+        sec.parse().ok()?
+    };
+    let nsec: u64 = if nsec.is_empty() {
+        INFINITE_NSEC
+    } else {
+        nsec.parse().ok()?
+    };
+    if (sec, nsec) == (INFINITE_SEC, INFINITE_NSEC) {
+        return Some(None);
+    }
+    // rmw allows nsec past a second; Duration::new carries it over.
+    let nsec = u32::try_from(nsec).ok()?;
+    Some(Some(Duration::new(sec, nsec)))
+}
+
 impl Qos {
+    /// A profile with these three policies and the defaults for the rest (no
+    /// deadline, infinite lifespan, automatic liveliness).
+    pub const fn with_history(
+        reliability: Reliability,
+        durability: Durability,
+        history: History,
+    ) -> Self {
+        Self {
+            reliability,
+            durability,
+            history,
+            deadline: None,
+            lifespan: None,
+            liveliness: Liveliness::Automatic,
+            liveliness_lease: None,
+        }
+    }
+
+    /// This profile with a deadline.
+    pub const fn deadline(mut self, deadline: Duration) -> Self {
+        self.deadline = Some(deadline);
+        self
+    }
+
+    /// This profile with a lifespan.
+    pub const fn lifespan(mut self, lifespan: Duration) -> Self {
+        self.lifespan = Some(lifespan);
+        self
+    }
+
+    /// This profile with a liveliness kind and lease.
+    pub const fn liveliness(mut self, liveliness: Liveliness, lease: Option<Duration>) -> Self {
+        self.liveliness = liveliness;
+        self.liveliness_lease = lease;
+        self
+    }
+
     /// `rmw_qos_profile_sensor_data`: best effort, volatile, keep last 5.
     pub const fn sensor_data() -> Self {
-        Self {
-            reliability: Reliability::BestEffort,
-            durability: Durability::Volatile,
-            history: History::KeepLast(5),
-        }
+        Self::with_history(
+            Reliability::BestEffort,
+            Durability::Volatile,
+            History::KeepLast(5),
+        )
     }
 
     /// `rmw_qos_profile_services_default`: reliable, volatile, keep last 10 (what
     /// servers and clients announce, and how many requests a server keeps).
     pub const fn services_default() -> Self {
-        Self {
-            reliability: Reliability::Reliable,
-            durability: Durability::Volatile,
-            history: History::KeepLast(10),
-        }
+        Self::with_history(
+            Reliability::Reliable,
+            Durability::Volatile,
+            History::KeepLast(10),
+        )
     }
 
     /// `rmw_qos_profile_parameters`: reliable, volatile, keep last 1000.
     pub const fn parameters() -> Self {
-        Self {
-            reliability: Reliability::Reliable,
-            durability: Durability::Volatile,
-            history: History::KeepLast(1000),
-        }
+        Self::with_history(
+            Reliability::Reliable,
+            Durability::Volatile,
+            History::KeepLast(1000),
+        )
     }
 
     /// `rmw_qos_profile_system_default` as rmw_zenoh_cpp resolves it: reliable,
     /// volatile, keep last 42 (every field of its token empty).
     pub const fn system_default() -> Self {
-        Self {
-            reliability: Reliability::Reliable,
-            durability: Durability::Volatile,
-            history: History::KeepLast(42),
-        }
+        Self::with_history(
+            Reliability::Reliable,
+            Durability::Volatile,
+            History::KeepLast(42),
+        )
     }
 
     /// A latched topic (`/tf_static`, `/map`): reliable, transient local, keep
     /// last `depth`; late subscribers receive the last `depth` messages.
     pub const fn transient_local(depth: usize) -> Self {
-        Self {
-            reliability: Reliability::Reliable,
-            durability: Durability::TransientLocal,
-            history: History::KeepLast(depth),
-        }
+        Self::with_history(
+            Reliability::Reliable,
+            Durability::TransientLocal,
+            History::KeepLast(depth),
+        )
     }
 
     /// rmw_zenoh_cpp's `qos_to_keyexpr`: `rel:dur:hist,depth:dl_s,dl_ns:ls_s,ls_ns:liv,lease_s,lease_ns`,
@@ -244,7 +349,16 @@ impl Qos {
             History::KeepLast(depth) => (String::new(), depth.to_string()),
             History::KeepAll => ("2".to_owned(), String::new()),
         };
-        format!("{reliability}:{durability}:{history},{depth}:,:,:,,")
+        let liveliness = match self.liveliness {
+            Liveliness::Automatic => String::new(),
+            other => (other as u8).to_string(),
+        };
+        format!(
+            "{reliability}:{durability}:{history},{depth}:{}:{}:{liveliness},{}",
+            duration_fields(self.deadline),
+            duration_fields(self.lifespan),
+            duration_fields(self.liveliness_lease)
+        )
     }
 }
 
@@ -462,11 +576,7 @@ mod tests {
             namespace: "/".into(),
             name: "talker".into(),
         };
-        let qos = Qos {
-            reliability: Reliability::Reliable,
-            durability: Durability::TransientLocal,
-            history: History::KeepLast(7),
-        };
+        let qos = Qos::transient_local(7);
         let token = node.topic_token::<StringMsg>(10, EntityKind::Publisher, "/chatter", &qos);
         assert_eq!(
             token,
@@ -487,11 +597,18 @@ mod tests {
         // rmw_zenoh_cpp 0.6.7 writes ROS 2's default profile (reliable,
         // volatile, keep last 10) as `::,10:,:,:,,`.
         assert_eq!(Qos::default().to_key_expr(), "::,10:,:,:,,");
-        let all = Qos {
-            reliability: Reliability::BestEffort,
-            durability: Durability::TransientLocal,
-            history: History::KeepAll,
-        };
+        let all = Qos::with_history(
+            Reliability::BestEffort,
+            Durability::TransientLocal,
+            History::KeepAll,
+        );
         assert_eq!(all.to_key_expr(), "2:1:2,:,:,:,,");
+        // rclcpp's /rosout: a 10 s lifespan, as rmw_zenoh_cpp writes it.
+        let rosout = Qos::transient_local(1000).lifespan(Duration::from_secs(10));
+        assert_eq!(rosout.to_key_expr(), ":1:,1000:,:10,0:,,");
+        let every = Qos::default()
+            .deadline(Duration::from_millis(1500))
+            .liveliness(Liveliness::ManualByTopic, Some(Duration::new(2, 5)));
+        assert_eq!(every.to_key_expr(), "::,10:1,500000000:,:3,2,5");
     }
 }

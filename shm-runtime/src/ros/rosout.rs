@@ -20,14 +20,16 @@ use crate::ros::rmw::Qos;
 /// counted in [`RosoutLayer::dropped`], never waited for.
 const QUEUE: usize = 1000;
 
-/// rclcpp's `/rosout` QoS: reliable, transient local, the last 1000 (its
-/// 10 s lifespan is not carried by the graph tokens yet).
-pub(crate) const ROSOUT_QOS: Qos = Qos::transient_local(1000);
+/// rclcpp's `/rosout` QoS: reliable, transient local, the last 1000, a
+/// lifespan of 10 s.
+pub(crate) const ROSOUT_QOS: Qos =
+    Qos::transient_local(1000).lifespan(std::time::Duration::from_secs(10));
 
 /// A `tracing` layer that publishes the application's events on `/rosout` as
 /// `rcl_interfaces/msg/Log`, under the node's logger name (`/demo/talker`
 /// logs as `demo.talker`), with the event's level, message and fields, file,
-/// module and line, as rclcpp's logging does. Made by
+/// module and line, on rclcpp's QoS (reliable, transient local, the last
+/// 1000, a lifespan of 10 s), as rclcpp's logging does. Made by
 /// [`RosNode::rosout_layer`].
 ///
 /// Events are handed to a thread of the layer's own, which publishes them:

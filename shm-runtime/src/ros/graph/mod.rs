@@ -16,7 +16,11 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::fmt;
 use std::sync::Arc;
 
-use crate::ros::rmw::{Durability, EntityKind, Gid, History, Qos, Reliability};
+use std::time::Duration;
+
+use crate::ros::rmw::{
+    parse_duration_fields, Durability, EntityKind, Gid, History, Liveliness, Qos, Reliability,
+};
 
 /// A token that is not rmw_zenoh_cpp's.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -118,11 +122,29 @@ fn parse_qos(text: &str) -> Option<Qos> {
         "2" => History::KeepAll,
         _ => return None,
     };
-    Some(Qos {
-        reliability,
-        durability,
-        history,
-    })
+    let mut qos = Qos::with_history(reliability, durability, history);
+    // Deadline, lifespan, liveliness: absent in a short token, empty parts
+    // are rmw_zenoh's defaults.
+    let pair = |field: Option<&&str>| -> Option<Option<Duration>> {
+        let Some(field) = field else {
+            return Some(None);
+        };
+        let (sec, nsec) = field.split_once(',')?;
+        parse_duration_fields(sec, nsec)
+    };
+    qos.deadline = pair(fields.get(3))?;
+    qos.lifespan = pair(fields.get(4))?;
+    if let Some(liveliness) = fields.get(5) {
+        let (kind, lease) = liveliness.split_once(',')?;
+        qos.liveliness = match kind {
+            "" | "1" => Liveliness::Automatic,
+            "3" => Liveliness::ManualByTopic,
+            _ => return None,
+        };
+        let (sec, nsec) = lease.split_once(',')?;
+        qos.liveliness_lease = parse_duration_fields(sec, nsec)?;
+    }
+    Some(qos)
 }
 
 impl Entity {
@@ -466,11 +488,11 @@ mod tests {
         assert_eq!(t.type_name, "std_msgs/msg/String");
         assert_eq!(
             t.qos,
-            Qos {
-                reliability: Reliability::BestEffort,
-                durability: Durability::TransientLocal,
-                history: History::KeepLast(7),
-            }
+            Qos::with_history(
+                Reliability::BestEffort,
+                Durability::TransientLocal,
+                History::KeepLast(7)
+            )
         );
         assert_eq!(e.gid, Gid::from_token(token));
         // Every profile survives the round trip through the token's text.
@@ -481,6 +503,10 @@ mod tests {
             Qos::parameters(),
             Qos::system_default(),
             Qos::transient_local(1),
+            Qos::transient_local(1000).lifespan(Duration::from_secs(10)),
+            Qos::default()
+                .deadline(Duration::from_millis(1500))
+                .liveliness(Liveliness::ManualByTopic, Some(Duration::new(2, 5))),
         ] {
             assert_eq!(parse_qos(&qos.to_key_expr()), Some(qos));
         }
