@@ -211,9 +211,17 @@ fn warner() -> &'static Warner {
                     let due = last[cause.index()].map_or(true, |at| at.elapsed() >= WARN_EVERY);
                     if due {
                         last[cause.index()] = Some(Instant::now());
+                        // What this process has locked against its limit, for
+                        // the memory-lock cause: the numbers to size pools by.
+                        let budget = match cause {
+                            ReceiveFailureCause::MemoryLock => {
+                                format!(" ({})", crate::MemlockBudget::read())
+                            }
+                            _ => String::new(),
+                        };
                         tracing::warn!(
                             "a message was lost: this process could not map the sender's \
-                             shared memory ({cause}: {error}); {} so far for this cause. {}",
+                             shared memory ({cause}: {error}); {} so far for this cause. {}{budget}",
                             COUNTS[cause.index()].load(Ordering::Relaxed),
                             cause.advice()
                         );
