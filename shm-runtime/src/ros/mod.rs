@@ -8,3 +8,4 @@ pub(crate) mod node;
 pub mod rmw;
 pub(crate) mod rosout;
 pub mod service;
+pub mod time;

@@ -15,6 +15,7 @@ use crate::ros::graph::{Graph, GraphCache};
 use crate::ros::names::{self, NameError, NameKind, RemapRule, Remaps};
 use crate::ros::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
 use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
+use crate::ros::time::{Clock, RosTime, Timer};
 use crate::transport::limits::check_key_expr;
 use crate::transport::pool::ShmContext;
 use crate::transport::publisher::{PublisherBuilder, RmwPublisher};
@@ -38,6 +39,7 @@ pub struct RosNode {
     shm: Option<ShmContext>,
     remaps: Remaps,
     graph: std::sync::Mutex<Option<GraphCache>>,
+    clock: Clock,
     _token: LivelinessToken,
 }
 
@@ -61,6 +63,7 @@ impl RosNode {
             domain_id: names::domain_id_from(std::env::var("ROS_DOMAIN_ID").ok().as_deref()),
             shm: None,
             remaps: Remaps::default(),
+            use_sim_time: false,
             invalid: None,
         }
     }
@@ -219,6 +222,60 @@ impl RosNode {
         ActionClientBuilder::new(self, action)
     }
 
+    /// The node's ROS clock: system time, or `/clock` while the node uses
+    /// simulated time (see [`Clock`]).
+    pub fn clock(&self) -> &Clock {
+        &self.clock
+    }
+
+    /// Follow simulated time from `/clock` (`true`), as `use_sim_time` makes
+    /// an rclcpp node do, or go back to system time; switchable at any time.
+    /// The node's clock, its ROS-time timers and sleeps follow at once.
+    pub fn set_use_sim_time(&self, on: bool) -> zenoh::Result<()> {
+        if on == self.clock.is_simulated() {
+            return Ok(());
+        }
+        if !on {
+            self.clock.set_simulated(None);
+            return Ok(());
+        }
+        let tick = self.clock.tick_handle();
+        let subscription = self
+            .declare_subscriber_with_qos::<shm_cdr::msgs::rosgraph_msgs::msg::Clock>(
+                "/clock",
+                crate::ros::time::CLOCK_QOS,
+            )
+            .callback_inline(move |sample| {
+                match sample.decode::<shm_cdr::msgs::rosgraph_msgs::msg::Clock>() {
+                    Ok(clock) => tick(RosTime::from_msg(&clock.clock)),
+                    Err(e) => tracing::warn!("/clock: not a rosgraph_msgs/msg/Clock: {e}"),
+                }
+            })
+            .wait()?;
+        self.clock.set_simulated(Some(subscription));
+        Ok(())
+    }
+
+    /// Call `callback` every `period` of the node's ROS time (simulated time
+    /// while the node uses it), on a thread of the timer's own; see [`Timer`].
+    pub fn create_timer(
+        &self,
+        period: std::time::Duration,
+        callback: impl FnMut() + Send + 'static,
+    ) -> std::io::Result<Timer> {
+        Timer::start(self.clock.clone(), period, callback)
+    }
+
+    /// Call `callback` every `period` of system time, whatever the node's
+    /// clock follows (rclcpp's wall timer); see [`Timer`].
+    pub fn create_wall_timer(
+        &self,
+        period: std::time::Duration,
+        callback: impl FnMut() + Send + 'static,
+    ) -> std::io::Result<Timer> {
+        Timer::start(Clock::new(), period, callback)
+    }
+
     /// A `tracing` layer that publishes the application's log on `/rosout`
     /// under this node's logger name, as rclcpp nodes do (see
     /// [`RosoutLayer`](crate::RosoutLayer)); install it next to your
@@ -290,6 +347,7 @@ pub struct RosNodeBuilder<'a> {
     domain_id: Result<u32, NameError>,
     shm: Option<ShmContext>,
     remaps: Remaps,
+    use_sim_time: bool,
     /// The first rule or argument that did not parse: reported by `build`.
     invalid: Option<NameError>,
 }
@@ -306,6 +364,13 @@ impl RosNodeBuilder<'_> {
     /// set).
     pub fn domain_id(mut self, domain_id: u32) -> Self {
         self.domain_id = Ok(domain_id);
+        self
+    }
+
+    /// Start on simulated time from `/clock` (see
+    /// [`RosNode::set_use_sim_time`]).
+    pub fn use_sim_time(mut self, on: bool) -> Self {
+        self.use_sim_time = on;
         self
     }
 
@@ -368,14 +433,19 @@ impl RosNodeBuilder<'_> {
         let node_token = info.node_token();
         check_key_expr("liveliness token", &node_token)?;
         let token = self.session.liveliness().declare_token(node_token).wait()?;
-        Ok(RosNode {
+        let node = RosNode {
             session: self.session.clone(),
             info,
             shm: self.shm,
             remaps: self.remaps,
             graph: std::sync::Mutex::default(),
+            clock: Clock::new(),
             _token: token,
-        })
+        };
+        if self.use_sim_time {
+            node.set_use_sim_time(true)?;
+        }
+        Ok(node)
     }
 }
 
