@@ -158,7 +158,7 @@ fn a_cache_follows_400_nodes_and_2000_tokens_coming_and_going_with_an_event_for_
 #[test]
 fn a_graph_query_past_256_tokens_returns_within_its_timeout() {
     let (a, b, _) = loopback_sessions();
-    let _system = system(&a, "node", 300);
+    let system = system(&a, "node", 300);
     let observer = common::node(&b, "observer");
     let started = Instant::now();
     observer.graph(Duration::from_secs(5)).unwrap();
@@ -170,6 +170,13 @@ fn a_graph_query_past_256_tokens_returns_within_its_timeout() {
     let cache = observer.graph_cache().unwrap();
     assert!(sees_all(&cache, "node", 300), "not all 300 nodes seen");
     assert_eq!(cache.read().count(EntityKind::Node), 301);
+    // Tokens that were there before the cache leave it too.
+    drop(system);
+    assert!(
+        cache.wait_until(TIMEOUT, |graph| graph.count(EntityKind::Node) == 1
+            && graph.publishers("/rosout").is_empty()),
+        "nodes that were there first stayed on the graph after leaving"
+    );
 }
 
 #[test]
