@@ -17,8 +17,9 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use shm_cdr::msgs::std_msgs::UInt8MultiArray;
+use shm_cdr_examples::peer_session;
 use shm_runtime::SessionExt;
-use zenoh::{Config, Session, Wait};
+use zenoh::{Session, Wait};
 
 const ROUNDS: usize = 5000;
 const TIMEOUT: Duration = Duration::from_secs(10);
@@ -34,23 +35,9 @@ fn sessions() -> (Session, Session) {
         .and_then(|l| l.local_addr())
         .expect("a free port")
         .port();
-    let config = |key: &str| {
-        let mut c = Config::default();
-        for (k, v) in [
-            ("mode", "\"peer\""),
-            ("scouting/multicast/enabled", "false"),
-            (key, &format!("[\"tcp/127.0.0.1:{port}\"]")),
-        ] {
-            c.insert_json5(k, v).expect("config");
-        }
-        c
-    };
-    let a = zenoh::open(config("listen/endpoints"))
-        .wait()
-        .expect("open");
-    let b = zenoh::open(config("connect/endpoints"))
-        .wait()
-        .expect("open");
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let a = peer_session(&endpoint, true).expect("open");
+    let b = peer_session(&endpoint, false).expect("open");
     (a, b)
 }
 

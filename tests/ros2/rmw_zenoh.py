@@ -3,7 +3,9 @@ actions.py) speak them: GIDs, the 33-byte attachment, peer sessions."""
 import json
 import socket
 import struct
+import sys
 import time
+from pathlib import Path
 
 import xxhash
 import zenoh
@@ -41,3 +43,10 @@ def open_session(endpoint, listen):
     conf.insert_json5("scouting/multicast/enabled", "false")
     conf.insert_json5("listen/endpoints" if listen else "connect/endpoints", json.dumps([endpoint]))
     return zenoh.open(conf)
+
+
+def rosidl_hash(type_name):
+    """The RIHS01 hash rosidl installed for `pkg/kind/Name` (share/<pkg>/<kind>/<Name>.json)."""
+    pkg, kind, name = type_name.split("/")
+    desc = json.loads((Path(sys.prefix) / "share" / pkg / kind / f"{name}.json").read_text())
+    return next(h["hash_string"] for h in desc["type_hashes"] if h["type_name"] == type_name)

@@ -12,7 +12,6 @@ rmw_zenoh's attachment.
 
     python tests/ros2/rosout.py <dir with the interop_rosout binary>
 """
-import json
 import subprocess
 import sys
 import time
@@ -21,10 +20,9 @@ from pathlib import Path
 from rcl_interfaces.msg import Log
 from rclpy.serialization import deserialize_message
 
-from rmw_zenoh import free_port, open_session, parse_attachment
+from rmw_zenoh import free_port, open_session, parse_attachment, rosidl_hash
 
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples") / "interop_rosout"
-SHARE = Path(sys.prefix) / "share"
 failures = []
 
 
@@ -33,11 +31,6 @@ def check(ok, what):
         failures.append(what)
     return ok
 
-
-def rosidl_hash(type_name):
-    pkg, kind, name = type_name.split("/")
-    desc = json.loads((SHARE / pkg / kind / f"{name}.json").read_text())
-    return next(h["hash_string"] for h in desc["type_hashes"] if h["type_name"] == type_name)
 
 
 def main():

@@ -18,7 +18,6 @@ the CDR, rosidl's `.json` for the type hash, python-xxhash for GIDs.
 
     python tests/ros2/services.py <dir with the interop_service binary>
 """
-import json
 import subprocess
 import sys
 import time
@@ -28,10 +27,9 @@ import zenoh
 from rclpy.serialization import deserialize_message, serialize_message
 from test_msgs.srv import BasicTypes
 
-from rmw_zenoh import attachment, free_port, gid_of, open_session, parse_attachment
+from rmw_zenoh import attachment, free_port, gid_of, open_session, parse_attachment, rosidl_hash
 
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples") / "interop_service"
-SHARE = Path(sys.prefix) / "share"
 SERVICES_QOS = "::,10:,:,:,,"  # reliable, volatile, keep last 10, as rmw_zenoh_cpp 0.6.7 writes it
 failures = []
 
@@ -41,11 +39,6 @@ def check(ok, what):
         failures.append(what)
     return ok
 
-
-def rosidl_hash(type_name):
-    pkg, kind, name = type_name.split("/")
-    desc = json.loads((SHARE / pkg / kind / f"{name}.json").read_text())
-    return next(h["hash_string"] for h in desc["type_hashes"] if h["type_name"] == type_name)
 
 
 def service_key(name, type_name):
