@@ -84,14 +84,16 @@ impl Executor {
     }
 
     /// The process's executor, made on first use, with as many threads as
-    /// the machine has CPUs (at least two, at most eight).
-    pub fn global() -> &'static Executor {
-        static GLOBAL: OnceLock<Executor> = OnceLock::new();
-        GLOBAL.get_or_init(|| {
+    /// the machine has CPUs (at least two, at most eight). An error if its
+    /// threads could not be started (then, and on every later call).
+    pub fn global() -> std::io::Result<&'static Executor> {
+        static GLOBAL: OnceLock<Result<Executor, String>> = OnceLock::new();
+        let made = GLOBAL.get_or_init(|| {
             let cpus = std::thread::available_parallelism().map_or(2, |n| n.get());
-            // Thread creation failing this early leaves nothing else to do.
-            Executor::new(cpus.clamp(2, 8))
-                .unwrap_or_else(|e| panic!("shm-runtime: cannot start callback threads: {e}"))
+            Executor::new(cpus.clamp(2, 8)).map_err(|e| e.to_string())
+        });
+        made.as_ref().map_err(|e| {
+            std::io::Error::other(format!("shm-runtime: cannot start callback threads: {e}"))
         })
     }
 

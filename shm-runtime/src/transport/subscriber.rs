@@ -303,7 +303,10 @@ impl<T: RosMessage> CallbackSubscriberBuilder<'_, T> {
         };
         let (subscriber, dispatch) = match self.callback {
             Callback::Dispatched(callback, executor) => {
-                let executor = executor.unwrap_or_else(|| Executor::global().clone());
+                let executor = match executor {
+                    Some(executor) => executor,
+                    None => Executor::global()?.clone(),
+                };
                 let dispatch = Dispatch::new(receiver, callback, executor, key_expr);
                 let notify = dispatch.clone();
                 let subscriber = self.inner.declare(move |sample| {

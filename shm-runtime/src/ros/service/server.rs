@@ -429,7 +429,10 @@ impl<S: RosService> CallbackServiceServerBuilder<'_, S> {
         let (queryable, dispatch) = match self.callback {
             Callback::Dispatched(callback, executor) => {
                 let (receiver, push) = self.inner.queue(&shared);
-                let executor = executor.unwrap_or_else(|| Executor::global().clone());
+                let executor = match executor {
+                    Some(executor) => executor,
+                    None => Executor::global()?.clone(),
+                };
                 let dispatch =
                     Dispatch::new(receiver, callback, executor, self.inner.key_expr.clone());
                 let notify = dispatch.clone();
