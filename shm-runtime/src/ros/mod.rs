@@ -5,6 +5,7 @@ pub mod action;
 pub mod graph;
 pub mod names;
 pub(crate) mod node;
+pub mod parameters;
 pub mod rmw;
 pub(crate) mod rosout;
 pub mod service;

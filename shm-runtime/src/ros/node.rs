@@ -4,6 +4,7 @@
 use std::future::IntoFuture;
 use std::num::NonZeroUsize;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use shm_cdr::interface::{RosAction, RosService};
 use shm_cdr::RosMessage;
@@ -13,6 +14,9 @@ use zenoh::{Resolvable, Session, Wait};
 use crate::ros::action::{ActionClientBuilder, ActionServerBuilder};
 use crate::ros::graph::{Graph, GraphCache};
 use crate::ros::names::{self, NameError, NameKind, RemapRule, Remaps};
+use crate::ros::parameters::{
+    ParameterDescriptor, ParameterError, ParameterServer, ParameterValue, SetResult,
+};
 use crate::ros::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
 use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
 use crate::ros::time::{Clock, RosTime, Timer};
@@ -40,6 +44,7 @@ pub struct RosNode {
     remaps: Remaps,
     graph: std::sync::Mutex<Option<GraphCache>>,
     clock: Clock,
+    parameters: std::sync::Mutex<Option<Arc<ParameterServer>>>,
     _token: LivelinessToken,
 }
 
@@ -220,6 +225,89 @@ impl RosNode {
     /// A client of action `A` on `action`.
     pub fn declare_action_client<A: RosAction>(&self, action: &str) -> ActionClientBuilder<'_, A> {
         ActionClientBuilder::new(self, action)
+    }
+
+    /// The node's parameters, their six services and `/parameter_events`,
+    /// started on first use.
+    fn parameter_server(&self) -> Result<Arc<ParameterServer>, ParameterError> {
+        let mut server = self.parameters.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(server) = server.as_ref() {
+            return Ok(server.clone());
+        }
+        let started = Arc::new(
+            ParameterServer::start(self).map_err(|e| ParameterError::Zenoh(e.to_string()))?,
+        );
+        *server = Some(started.clone());
+        Ok(started)
+    }
+
+    /// Declare parameter `name` with the value `default` (statically typed:
+    /// it keeps that type); returns its value. The first declaration starts
+    /// the node's parameter services (`~/list_parameters`, `~/get_parameters`,
+    /// `~/get_parameter_types`, `~/describe_parameters`, `~/set_parameters`,
+    /// `~/set_parameters_atomically`), which answer as rclpy's do, and
+    /// `/parameter_events`, where every declaration and change is announced.
+    pub fn declare_parameter(
+        &self,
+        name: &str,
+        default: impl Into<ParameterValue>,
+    ) -> Result<ParameterValue, ParameterError> {
+        self.declare_parameter_with(name, default, ParameterDescriptor::default())
+    }
+
+    /// [`declare_parameter`](Self::declare_parameter) with a descriptor:
+    /// description, read-only, dynamic typing, ranges. A default outside the
+    /// range is an error saying why.
+    pub fn declare_parameter_with(
+        &self,
+        name: &str,
+        default: impl Into<ParameterValue>,
+        descriptor: ParameterDescriptor,
+    ) -> Result<ParameterValue, ParameterError> {
+        self.parameter_server()?
+            .declare(name, default.into(), descriptor)
+    }
+
+    /// The value of parameter `name`, if it is declared.
+    pub fn parameter(&self, name: &str) -> Option<ParameterValue> {
+        let server = self.parameters.lock().unwrap_or_else(|e| e.into_inner());
+        server.as_ref()?.value(name)
+    }
+
+    /// Set parameter `name` under the rules the parameter services apply (its
+    /// descriptor, then the validation callbacks); the result says why not.
+    pub fn set_parameter(&self, name: &str, value: impl Into<ParameterValue>) -> SetResult {
+        self.set_parameters_atomically(&[(name.to_owned(), value.into())])
+    }
+
+    /// Set every parameter of `set`, or none.
+    pub fn set_parameters_atomically(&self, set: &[(String, ParameterValue)]) -> SetResult {
+        match self.parameter_server() {
+            Ok(server) => server.set(set),
+            Err(e) => SetResult::refused(e.to_string()),
+        }
+    }
+
+    /// Validate every change of this node's parameters before it is applied,
+    /// from its services or from the node itself: `Err(reason)` refuses the
+    /// whole change with that reason. Runs while the parameters are locked:
+    /// do not read or set this node's parameters from it.
+    pub fn on_set_parameters(
+        &self,
+        validate: impl FnMut(&[(String, ParameterValue)]) -> Result<(), String> + Send + 'static,
+    ) -> Result<(), ParameterError> {
+        self.parameter_server()?.add_on_set(Box::new(validate));
+        Ok(())
+    }
+
+    /// Call `callback` with every change after it was applied (same lock
+    /// rule as [`on_set_parameters`](Self::on_set_parameters)).
+    pub fn on_parameters_set(
+        &self,
+        callback: impl FnMut(&[(String, ParameterValue)]) + Send + 'static,
+    ) -> Result<(), ParameterError> {
+        self.parameter_server()?.add_after_set(Box::new(callback));
+        Ok(())
     }
 
     /// The node's ROS clock: system time, or `/clock` while the node uses
@@ -440,6 +528,7 @@ impl RosNodeBuilder<'_> {
             remaps: self.remaps,
             graph: std::sync::Mutex::default(),
             clock: Clock::new(),
+            parameters: std::sync::Mutex::default(),
             _token: token,
         };
         if self.use_sim_time {

@@ -1,0 +1,137 @@
+//! Parameters through their services, from another node: declared values
+//! are read and set under their descriptors, a validation callback can
+//! refuse, and every change is announced on `/parameter_events`. (The same
+//! questions are compared with rclpy's answers in `tests/ros2/parameters.py`.)
+
+mod common;
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use common::loopback_sessions;
+use shm_cdr::msgs::rcl_interfaces::msg::{Parameter, ParameterEvent, ParameterValue as ValueMsg};
+use shm_cdr::msgs::rcl_interfaces::srv::{
+    GetParameters, GetParameters_Request, SetParameters, SetParameters_Request,
+};
+use shm_runtime::parameters::{ParameterDescriptor, ParameterError, ParameterValue};
+use shm_runtime::rmw::Qos;
+use shm_runtime::RosNode;
+use zenoh::Wait;
+
+const TIMEOUT: Duration = Duration::from_secs(10);
+
+#[test]
+fn another_node_reads_and_sets_parameters_under_their_descriptors() {
+    let (a, b, _) = loopback_sessions();
+    let node = RosNode::builder(&a, "driver")
+        .namespace("/robot")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    assert_eq!(
+        node.declare_parameter_with(
+            "max_speed",
+            1.5,
+            ParameterDescriptor::new("m/s").floating_point_range(0.0, 3.0, 0.0)
+        ),
+        Ok(ParameterValue::Double(1.5))
+    );
+    assert!(matches!(
+        node.declare_parameter("max_speed", 2.0),
+        Err(ParameterError::AlreadyDeclared(_))
+    ));
+    assert!(matches!(
+        node.declare_parameter_with(
+            "gain",
+            9i64,
+            ParameterDescriptor::default().integer_range(0, 5, 0)
+        ),
+        Err(ParameterError::InvalidValue { .. })
+    ));
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let applied = seen.clone();
+    node.on_parameters_set(move |set| applied.lock().unwrap().extend(set.to_vec()))
+        .unwrap();
+    node.on_set_parameters(|set| {
+        match set.iter().any(|(_, v)| *v == ParameterValue::Double(2.5)) {
+            true => Err("2.5 is reserved".into()),
+            false => Ok(()),
+        }
+    })
+    .unwrap();
+
+    let tool = common::node(&b, "tool");
+    let events = tool
+        .declare_subscriber_with_qos::<ParameterEvent>("/parameter_events", Qos::parameters())
+        .wait()
+        .unwrap();
+    let set = tool
+        .declare_client::<SetParameters>("/robot/driver/set_parameters")
+        .wait()
+        .unwrap();
+    let get = tool
+        .declare_client::<GetParameters>("/robot/driver/get_parameters")
+        .wait()
+        .unwrap();
+    assert!(set.wait_for_service(TIMEOUT) && get.wait_for_service(TIMEOUT));
+    assert!(events.wait_for_publishers(TIMEOUT));
+
+    let double = |v: f64| ValueMsg {
+        r#type: 3,
+        double_value: v,
+        ..Default::default()
+    };
+    let request = SetParameters_Request {
+        parameters: [2.0, 4.0, 2.5]
+            .map(|v| Parameter {
+                name: "max_speed".into(),
+                value: double(v),
+            })
+            .to_vec(),
+    };
+    let results = set.call(&request).wait().unwrap().results;
+    let outcome: Vec<(bool, &str)> = results
+        .iter()
+        .map(|r| (r.successful, r.reason.as_str()))
+        .collect();
+    assert_eq!(
+        outcome,
+        [
+            (true, ""),
+            (
+                false,
+                "Parameter max_speed out of range Min: 0.0, Max: 3.0, value: 4.0"
+            ),
+            (false, "2.5 is reserved"),
+        ]
+    );
+    assert_eq!(
+        node.parameter("max_speed"),
+        Some(ParameterValue::Double(2.0))
+    );
+    assert_eq!(
+        *seen.lock().unwrap(),
+        [("max_speed".to_owned(), ParameterValue::Double(2.0))]
+    );
+    let values = get
+        .call(&GetParameters_Request {
+            names: vec!["max_speed".into()],
+        })
+        .wait()
+        .unwrap()
+        .values;
+    assert_eq!(values, [double(2.0)]);
+
+    let event: ParameterEvent = events
+        .recv_timeout(TIMEOUT)
+        .unwrap()
+        .expect("a parameter event")
+        .decode()
+        .unwrap();
+    assert_eq!(event.node, "/robot/driver");
+    assert_eq!(event.changed_parameters.len(), 1);
+    assert_eq!(event.changed_parameters[0].value, double(2.0));
+    // The node sets its own the same way.
+    assert!(!node.set_parameter("max_speed", "fast").successful);
+    assert!(node.set_parameter("max_speed", 0.5).successful);
+}
