@@ -135,3 +135,59 @@ fn another_node_reads_and_sets_parameters_under_their_descriptors() {
     assert!(!node.set_parameter("max_speed", "fast").successful);
     assert!(node.set_parameter("max_speed", 0.5).successful);
 }
+
+#[test]
+fn values_from_the_command_line_and_a_parameter_file_replace_defaults() {
+    let (a, _, _) = loopback_sessions();
+    let file = std::env::temp_dir().join(format!("shm_params_{}.yaml", std::process::id()));
+    std::fs::write(
+        &file,
+        "/**:\n  ros__parameters:\n    rate: 10\n/robot/driver:\n  ros__parameters:\n    limits:\n      speed: 2.0\n    frame: odom\n",
+    )
+    .unwrap();
+    let args = [
+        "driver_bin",
+        "--ros-args",
+        "--params-file",
+        file.to_str().unwrap(),
+        "-p",
+        "limits.speed:=2.5",
+        "-r",
+        "__ns:=/robot",
+    ];
+    let node = RosNode::builder(&a, "driver")
+        .domain_id(0)
+        .ros_args(args)
+        .wait()
+        .unwrap();
+    // The command line's -p comes after the file: it wins.
+    assert_eq!(
+        node.declare_parameter("limits.speed", 1.0),
+        Ok(ParameterValue::Double(2.5))
+    );
+    assert_eq!(node.declare_parameter("frame", "map"), Ok("odom".into()));
+    assert_eq!(
+        node.declare_parameter("rate", 5i64),
+        Ok(ParameterValue::Integer(10))
+    );
+    assert_eq!(
+        node.declare_parameter("untouched", true),
+        Ok(ParameterValue::Bool(true))
+    );
+    // Of another type than the default: a clear error.
+    let other = RosNode::builder(&a, "other")
+        .domain_id(0)
+        .ros_args(["--ros-args", "-p", "rate:=fast"])
+        .wait()
+        .unwrap();
+    let error = other.declare_parameter("rate", 5i64).unwrap_err();
+    assert!(error.to_string().contains("command line"), "{error}");
+    // A value that cannot be read fails the node's declaration, saying which.
+    let bad = RosNode::builder(&a, "bad")
+        .domain_id(0)
+        .ros_args(["--ros-args", "-p", "rate=5"])
+        .wait()
+        .unwrap_err();
+    assert!(bad.to_string().contains("rate=5"), "{bad}");
+    std::fs::remove_file(file).unwrap();
+}

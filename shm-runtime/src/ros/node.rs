@@ -15,7 +15,8 @@ use crate::ros::action::{ActionClientBuilder, ActionServerBuilder};
 use crate::ros::graph::{Graph, GraphCache};
 use crate::ros::names::{self, NameError, NameKind, RemapRule, Remaps};
 use crate::ros::parameters::{
-    ParameterDescriptor, ParameterError, ParameterServer, ParameterValue, SetResult,
+    OverrideError, ParameterDescriptor, ParameterError, ParameterOverrides, ParameterServer,
+    ParameterValue, SetResult,
 };
 use crate::ros::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
 use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
@@ -45,6 +46,8 @@ pub struct RosNode {
     graph: std::sync::Mutex<Option<GraphCache>>,
     clock: Clock,
     parameters: std::sync::Mutex<Option<Arc<ParameterServer>>>,
+    /// Initial parameter values from the command line, for this node.
+    overrides: Vec<(String, ParameterValue)>,
     _token: LivelinessToken,
 }
 
@@ -69,7 +72,9 @@ impl RosNode {
             shm: None,
             remaps: Remaps::default(),
             use_sim_time: false,
+            overrides: ParameterOverrides::default(),
             invalid: None,
+            invalid_override: None,
         }
     }
 
@@ -256,16 +261,38 @@ impl RosNode {
     }
 
     /// [`declare_parameter`](Self::declare_parameter) with a descriptor:
-    /// description, read-only, dynamic typing, ranges. A default outside the
-    /// range is an error saying why.
+    /// description, read-only, dynamic typing, ranges. A value given on the
+    /// command line (`-p`, `--params-file`; see
+    /// [`RosNodeBuilder::ros_args`]) replaces the default; it must be of the
+    /// default's type unless the parameter is dynamically typed. A value
+    /// outside the range is an error saying why.
     pub fn declare_parameter_with(
         &self,
         name: &str,
         default: impl Into<ParameterValue>,
         descriptor: ParameterDescriptor,
     ) -> Result<ParameterValue, ParameterError> {
-        self.parameter_server()?
-            .declare(name, default.into(), descriptor)
+        let default = default.into();
+        let value = match self.overrides.iter().find(|(n, _)| n == name) {
+            Some((_, given)) => {
+                if !descriptor.dynamic_typing
+                    && !matches!(default, ParameterValue::NotSet)
+                    && given.type_code() != default.type_code()
+                {
+                    return Err(ParameterError::InvalidValue {
+                        name: name.to_owned(),
+                        reason: format!(
+                            "the value given on the command line ({given}) is of type {}, the parameter's default of type {}",
+                            given.type_code(),
+                            default.type_code()
+                        ),
+                    });
+                }
+                given.clone()
+            }
+            None => default,
+        };
+        self.parameter_server()?.declare(name, value, descriptor)
     }
 
     /// The value of parameter `name`, if it is declared.
@@ -436,8 +463,10 @@ pub struct RosNodeBuilder<'a> {
     shm: Option<ShmContext>,
     remaps: Remaps,
     use_sim_time: bool,
+    overrides: ParameterOverrides,
     /// The first rule or argument that did not parse: reported by `build`.
     invalid: Option<NameError>,
+    invalid_override: Option<OverrideError>,
 }
 
 impl RosNodeBuilder<'_> {
@@ -493,17 +522,35 @@ impl RosNodeBuilder<'_> {
         I: IntoIterator<Item = S>,
         S: AsRef<str>,
     {
-        match names::ros_args_remaps(args) {
+        let args: Vec<String> = args.into_iter().map(|a| a.as_ref().to_owned()).collect();
+        match names::ros_args_remaps(&args) {
             Ok(rules) => rules.into_iter().for_each(|r| self.remaps.push(r)),
             Err(e) => {
                 self.invalid.get_or_insert(e);
             }
         }
+        match ParameterOverrides::from_ros_args(&args) {
+            Ok(overrides) => self.overrides.extend(overrides),
+            Err(e) => {
+                self.invalid_override.get_or_insert(e);
+            }
+        }
+        self
+    }
+
+    /// Initial values for the node's parameters, as `-p` and
+    /// `--params-file` give them (after those of [`ros_args`](Self::ros_args);
+    /// a later value wins).
+    pub fn parameter_overrides(mut self, overrides: ParameterOverrides) -> Self {
+        self.overrides.extend(overrides);
         self
     }
 
     fn build(self) -> zenoh::Result<RosNode> {
         if let Some(invalid) = self.invalid {
+            return Err(invalid.into());
+        }
+        if let Some(invalid) = self.invalid_override {
             return Err(invalid.into());
         }
         names::validate_node_name(&self.name)?;
@@ -521,7 +568,9 @@ impl RosNodeBuilder<'_> {
         let node_token = info.node_token();
         check_key_expr("liveliness token", &node_token)?;
         let token = self.session.liveliness().declare_token(node_token).wait()?;
+        let overrides = self.overrides.for_node(&info.fqn());
         let node = RosNode {
+            overrides,
             session: self.session.clone(),
             info,
             shm: self.shm,

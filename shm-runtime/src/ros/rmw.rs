@@ -401,6 +401,15 @@ impl NodeInfo {
         )
     }
 
+    /// The node's fully qualified name (`/ns/name`).
+    pub fn fqn(&self) -> String {
+        if self.namespace.ends_with('/') {
+            format!("{}{}", self.namespace, self.name)
+        } else {
+            format!("{}/{}", self.namespace, self.name)
+        }
+    }
+
     /// The node's own liveliness token (`NN`).
     pub fn node_token(&self) -> String {
         self.prefix(self.node_id, EntityKind::Node.as_str())

@@ -3,9 +3,11 @@
 //! served by the six `rcl_interfaces` services and announced on
 //! `/parameter_events` (see [`RosNode::declare_parameter`](crate::RosNode::declare_parameter)).
 
+mod overrides;
 mod services;
 mod store;
 
+pub use overrides::{OverrideError, ParameterOverrides};
 use std::fmt;
 
 use shm_cdr::msgs::rcl_interfaces::msg as rcl;

@@ -75,12 +75,7 @@ impl ParameterServer {
         let events = node
             .declare_publisher_with_qos::<ParameterEvent>("/parameter_events", Qos::parameters())
             .wait()?;
-        let info = node.info();
-        let fqn = if info.namespace.ends_with('/') {
-            format!("{}{}", info.namespace, info.name)
-        } else {
-            format!("{}/{}", info.namespace, info.name)
-        };
+        let fqn = node.info().fqn();
         let shared = Arc::new(Shared {
             store: Mutex::default(),
             events,
