@@ -191,3 +191,30 @@ fn values_from_the_command_line_and_a_parameter_file_replace_defaults() {
     assert!(bad.to_string().contains("rate=5"), "{bad}");
     std::fs::remove_file(file).unwrap();
 }
+
+#[test]
+fn the_use_sim_time_parameter_switches_the_nodes_clock() {
+    let (a, _, _) = loopback_sessions();
+    let node = common::node(&a, "sim");
+    node.declare_parameter("gain", 1.0).unwrap();
+    assert_eq!(
+        node.parameter("use_sim_time"),
+        Some(ParameterValue::Bool(false))
+    );
+    assert!(node.set_parameter("use_sim_time", true).successful);
+    assert!(node.clock().is_simulated());
+    assert!(node.set_parameter("use_sim_time", false).successful);
+    assert!(!node.clock().is_simulated());
+    // Given on the command line, it holds from the start.
+    let started = RosNode::builder(&a, "sim2")
+        .domain_id(0)
+        .ros_args(["--ros-args", "-p", "use_sim_time:=true"])
+        .wait()
+        .unwrap();
+    assert!(started.clock().is_simulated());
+    started.declare_parameter("gain", 1.0).unwrap();
+    assert_eq!(
+        started.parameter("use_sim_time"),
+        Some(ParameterValue::Bool(true))
+    );
+}

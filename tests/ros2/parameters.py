@@ -11,7 +11,7 @@ sets). Our node is asked over Zenoh with rclpy's serialization and rmw_zenoh's
 conventions; rclpy's node through its own service callbacks. The replies must be
 equal, and so must the `/parameter_events` both publish for the sets.
 
-Known differences, left out of the comparison: rclpy declares `use_sim_time` and
+Known differences, left out of the comparison: rclpy declares
 `start_type_description_service` on every node; and for a parameter that was never
 declared, rclpy's reason reads "Invalid access to undeclared parameter(s): []"
 (its list comes out empty), ours names the parameter.
@@ -34,7 +34,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from rmw_zenoh import attachment, free_port, gid_of, open_session, rosidl_hash
 
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples") / "interop_parameters"
-AUTO = {"use_sim_time", "start_type_description_service"}
+AUTO = {"start_type_description_service"}
 failures = []
 
 

@@ -33,6 +33,9 @@ const RMW_ZENOH_DEFAULT_DEPTH: NonZeroUsize = match NonZeroUsize::new(42) {
     None => panic!("42 is not zero"),
 };
 
+/// The parameter every ROS node has, switching its clock to `/clock`.
+const USE_SIM_TIME: &str = "use_sim_time";
+
 /// Entity ids are unique per process, hence per session as rmw_zenoh requires.
 static NEXT_ENTITY_ID: AtomicU64 = AtomicU64::new(0);
 
@@ -139,29 +142,7 @@ impl RosNode {
         topic: &str,
         qos: Qos,
     ) -> SubscriberBuilder<'_, T> {
-        let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
-        let (topic, invalid) = self.resolve(topic, NameKind::Topic);
-        let mut builder = SubscriberBuilder::new(
-            &self.session,
-            topic_key_expr::<T>(self.info.domain_id, &topic),
-        );
-        builder.invalid = invalid;
-        builder.qos = qos;
-        // The queue keeps what the QoS announces, as rmw_zenoh_cpp's does: a
-        // reader that stops reading holds `depth` samples (and their
-        // shared-memory chunks), not everything published meanwhile.
-        builder.history = match qos.history {
-            crate::ros::rmw::History::KeepLast(depth) => {
-                History::KeepLast(NonZeroUsize::new(depth).unwrap_or(RMW_ZENOH_DEFAULT_DEPTH))
-            }
-            crate::ros::rmw::History::KeepAll => History::KeepAll,
-        };
-        builder.liveliness =
-            Some(
-                self.info
-                    .topic_token::<T>(entity_id, EntityKind::Subscriber, &topic, &qos),
-            );
-        builder
+        node_subscriber(&self.session, &self.info, &self.remaps, topic, qos)
     }
 
     /// A server of service `S` on `service` (e.g. `"/trigger"`, resolved like a
@@ -242,6 +223,26 @@ impl RosNode {
         let started = Arc::new(
             ParameterServer::start(self).map_err(|e| ParameterError::Zenoh(e.to_string()))?,
         );
+        // `use_sim_time`, as every rclcpp and rclpy node has it: setting it
+        // switches the node's clock.
+        let switch = self.sim_time_switch();
+        started.add_after_set(Box::new(move |set| {
+            for (name, value) in set {
+                if let (USE_SIM_TIME, ParameterValue::Bool(on)) = (name.as_str(), value) {
+                    if let Err(e) = switch.set(*on) {
+                        tracing::warn!("use_sim_time: {e}");
+                    }
+                }
+            }
+        }));
+        let use_sim_time = self
+            .overrides
+            .iter()
+            .find(|(name, _)| name == USE_SIM_TIME)
+            .map_or(ParameterValue::Bool(self.clock.is_simulated()), |(_, v)| {
+                v.clone()
+            });
+        started.declare(USE_SIM_TIME, use_sim_time, ParameterDescriptor::default())?;
         *server = Some(started.clone());
         Ok(started)
     }
@@ -347,28 +348,7 @@ impl RosNode {
     /// an rclcpp node do, or go back to system time; switchable at any time.
     /// The node's clock, its ROS-time timers and sleeps follow at once.
     pub fn set_use_sim_time(&self, on: bool) -> zenoh::Result<()> {
-        if on == self.clock.is_simulated() {
-            return Ok(());
-        }
-        if !on {
-            self.clock.set_simulated(None);
-            return Ok(());
-        }
-        let tick = self.clock.tick_handle();
-        let subscription = self
-            .declare_subscriber_with_qos::<shm_cdr::msgs::rosgraph_msgs::msg::Clock>(
-                "/clock",
-                crate::ros::time::CLOCK_QOS,
-            )
-            .callback_inline(move |sample| {
-                match sample.decode::<shm_cdr::msgs::rosgraph_msgs::msg::Clock>() {
-                    Ok(clock) => tick(RosTime::from_msg(&clock.clock)),
-                    Err(e) => tracing::warn!("/clock: not a rosgraph_msgs/msg/Clock: {e}"),
-                }
-            })
-            .wait()?;
-        self.clock.set_simulated(Some(subscription));
-        Ok(())
+        self.sim_time_switch().set(on)
     }
 
     /// Call `callback` every `period` of the node's ROS time (simulated time
@@ -437,18 +417,112 @@ impl RosNode {
     }
 
     fn resolve_name(&self, name: &str, kind: NameKind) -> Result<String, NameError> {
-        let (node, namespace) = (&self.info.name, &self.info.namespace);
-        let expanded = names::expand_topic_name(name, node, namespace)?;
-        self.remaps.name(&expanded, kind, node, namespace)
+        resolve_name(&self.info, &self.remaps, name, kind)
     }
 
     /// The resolved name, or the name as given with the error that the builder
     /// reports when it is resolved.
     fn resolve(&self, name: &str, kind: NameKind) -> (String, Option<NameError>) {
-        match self.resolve_name(name, kind) {
-            Ok(full) => (full, None),
-            Err(e) => ("/".to_owned(), Some(e)),
+        resolve(&self.info, &self.remaps, name, kind)
+    }
+
+    /// What switches this node's clock between system and simulated time,
+    /// apart from the node (for the `use_sim_time` parameter).
+    fn sim_time_switch(&self) -> SimTimeSwitch {
+        SimTimeSwitch {
+            session: self.session.clone(),
+            info: self.info.clone(),
+            remaps: self.remaps.clone(),
+            clock: self.clock.clone(),
         }
+    }
+}
+
+fn resolve_name(
+    info: &NodeInfo,
+    remaps: &Remaps,
+    name: &str,
+    kind: NameKind,
+) -> Result<String, NameError> {
+    let (node, namespace) = (&info.name, &info.namespace);
+    let expanded = names::expand_topic_name(name, node, namespace)?;
+    remaps.name(&expanded, kind, node, namespace)
+}
+
+fn resolve(
+    info: &NodeInfo,
+    remaps: &Remaps,
+    name: &str,
+    kind: NameKind,
+) -> (String, Option<NameError>) {
+    match resolve_name(info, remaps, name, kind) {
+        Ok(full) => (full, None),
+        Err(e) => ("/".to_owned(), Some(e)),
+    }
+}
+
+/// A node's subscriber of `T` on `topic` (see [`RosNode::declare_subscriber_with_qos`]).
+fn node_subscriber<'s, T: RosMessage>(
+    session: &'s Session,
+    info: &NodeInfo,
+    remaps: &Remaps,
+    topic: &str,
+    qos: Qos,
+) -> SubscriberBuilder<'s, T> {
+    let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
+    let (topic, invalid) = resolve(info, remaps, topic, NameKind::Topic);
+    let mut builder = SubscriberBuilder::new(session, topic_key_expr::<T>(info.domain_id, &topic));
+    builder.invalid = invalid;
+    builder.qos = qos;
+    // The queue keeps what the QoS announces, as rmw_zenoh_cpp's does: a
+    // reader that stops reading holds `depth` samples (and their
+    // shared-memory chunks), not everything published meanwhile.
+    builder.history = match qos.history {
+        crate::ros::rmw::History::KeepLast(depth) => {
+            History::KeepLast(NonZeroUsize::new(depth).unwrap_or(RMW_ZENOH_DEFAULT_DEPTH))
+        }
+        crate::ros::rmw::History::KeepAll => History::KeepAll,
+    };
+    builder.liveliness =
+        Some(info.topic_token::<T>(entity_id, EntityKind::Subscriber, &topic, &qos));
+    builder
+}
+
+/// Switches a node's clock between system time and `/clock`.
+#[derive(Clone)]
+pub(crate) struct SimTimeSwitch {
+    session: Session,
+    info: NodeInfo,
+    remaps: Remaps,
+    clock: Clock,
+}
+
+impl SimTimeSwitch {
+    pub(crate) fn set(&self, on: bool) -> zenoh::Result<()> {
+        if on == self.clock.is_simulated() {
+            return Ok(());
+        }
+        if !on {
+            self.clock.set_simulated(None);
+            return Ok(());
+        }
+        let tick = self.clock.tick_handle();
+        let subscription = node_subscriber::<shm_cdr::msgs::rosgraph_msgs::msg::Clock>(
+            &self.session,
+            &self.info,
+            &self.remaps,
+            "/clock",
+            crate::ros::time::CLOCK_QOS,
+        )
+        .callback_inline(move |sample| {
+            match sample.decode::<shm_cdr::msgs::rosgraph_msgs::msg::Clock>() {
+                Ok(clock) => tick(RosTime::from_msg(&clock.clock)),
+                Err(e) => tracing::warn!("/clock: not a rosgraph_msgs/msg/Clock: {e}"),
+            }
+        })
+        .wait()?;
+        self.clock.set_simulated(Some(subscription));
+        Ok(())
     }
 }
 
@@ -580,7 +654,11 @@ impl RosNodeBuilder<'_> {
             parameters: std::sync::Mutex::default(),
             _token: token,
         };
-        if self.use_sim_time {
+        let sim_override = node
+            .overrides
+            .iter()
+            .any(|(name, value)| name == USE_SIM_TIME && *value == ParameterValue::Bool(true));
+        if self.use_sim_time || sim_override {
             node.set_use_sim_time(true)?;
         }
         Ok(node)
