@@ -218,3 +218,62 @@ fn the_use_sim_time_parameter_switches_the_nodes_clock() {
         Some(ParameterValue::Bool(true))
     );
 }
+
+#[test]
+fn a_parameter_client_reads_and_sets_another_nodes_parameters() {
+    let (a, b, _) = loopback_sessions();
+    let node = RosNode::builder(&a, "driver")
+        .namespace("/robot")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    node.declare_parameter_with(
+        "limits.speed",
+        1.0,
+        ParameterDescriptor::new("m/s").floating_point_range(0.0, 2.0, 0.0),
+    )
+    .unwrap();
+    node.declare_parameter("frame", "base").unwrap();
+
+    let tool = common::node(&b, "tool");
+    let driver = tool.parameter_client("/robot/driver").unwrap();
+    assert!(driver.wait_for_services(TIMEOUT));
+    let listed = driver.list(&[], 0).unwrap();
+    assert_eq!(listed.names, ["use_sim_time", "limits.speed", "frame"]);
+    assert_eq!(listed.prefixes, ["limits"]);
+    assert_eq!(
+        driver.get(&["frame", "limits.speed"]).unwrap(),
+        [ParameterValue::from("base"), ParameterValue::Double(1.0)]
+    );
+    let missing = driver.get(&["frame", "nope"]).unwrap_err();
+    assert!(missing.to_string().contains("/robot/driver"), "{missing}");
+    assert_eq!(driver.types(&["frame"]).unwrap(), [4]);
+    assert_eq!(
+        driver.describe(&["limits.speed"]).unwrap()[0].description,
+        "m/s"
+    );
+    let results = driver
+        .set(&[
+            ("limits.speed".into(), ParameterValue::Double(1.5)),
+            ("limits.speed".into(), ParameterValue::Double(5.0)),
+        ])
+        .unwrap();
+    assert_eq!(
+        results.iter().map(|r| r.successful).collect::<Vec<_>>(),
+        [true, false]
+    );
+    assert!(
+        !driver
+            .set_atomically(&[
+                ("frame".into(), "odom".into()),
+                ("limits.speed".into(), ParameterValue::Integer(1)),
+            ])
+            .unwrap()
+            .successful
+    );
+    assert_eq!(node.parameter("frame"), Some("base".into()));
+    assert_eq!(
+        node.parameter("limits.speed"),
+        Some(ParameterValue::Double(1.5))
+    );
+}

@@ -15,8 +15,8 @@ use crate::ros::action::{ActionClientBuilder, ActionServerBuilder};
 use crate::ros::graph::{Graph, GraphCache};
 use crate::ros::names::{self, NameError, NameKind, RemapRule, Remaps};
 use crate::ros::parameters::{
-    OverrideError, ParameterDescriptor, ParameterError, ParameterOverrides, ParameterServer,
-    ParameterValue, SetResult,
+    OverrideError, ParameterClient, ParameterDescriptor, ParameterError, ParameterOverrides,
+    ParameterServer, ParameterValue, SetResult,
 };
 use crate::ros::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
 use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
@@ -336,6 +336,11 @@ impl RosNode {
     ) -> Result<(), ParameterError> {
         self.parameter_server()?.add_after_set(Box::new(callback));
         Ok(())
+    }
+
+    /// The parameters of node `node` (`/ns/name`), through its services.
+    pub fn parameter_client(&self, node: &str) -> zenoh::Result<ParameterClient> {
+        ParameterClient::new(self, node)
     }
 
     /// The node's ROS clock: system time, or `/clock` while the node uses

@@ -3,10 +3,12 @@
 //! served by the six `rcl_interfaces` services and announced on
 //! `/parameter_events` (see [`RosNode::declare_parameter`](crate::RosNode::declare_parameter)).
 
+mod client;
 mod overrides;
 mod services;
 mod store;
 
+pub use client::ParameterClient;
 pub use overrides::{OverrideError, ParameterOverrides};
 use std::fmt;
 

@@ -28,6 +28,14 @@ impl SetResult {
         }
     }
 
+    /// From `rcl_interfaces/msg/SetParametersResult`.
+    pub fn from_msg(msg: rcl::SetParametersResult) -> Self {
+        Self {
+            successful: msg.successful,
+            reason: msg.reason,
+        }
+    }
+
     /// As `rcl_interfaces/msg/SetParametersResult`.
     pub fn to_msg(&self) -> rcl::SetParametersResult {
         rcl::SetParametersResult {
