@@ -316,7 +316,8 @@ def python_serves_rust_calls():
         check(lines[2] == f"goal {ids[2].hex()} cancel code 0 canceling 1 Canceled", f"third goal: {lines[2]!r}")
         # Our graph reads this peer's tokens back: its node, action and status QoS.
         graph = ('graph node true action {"test_msgs/action/Fibonacci"} servers 1 status publishers 1 '
-                 'qos Some(Qos { reliability: Reliable, durability: TransientLocal, history: KeepLast(1) })')
+                 'qos Some(Qos { reliability: Reliable, durability: TransientLocal, history: KeepLast(1), '
+                 'deadline: None, lifespan: None, liveliness: Automatic, liveliness_lease: None })')
         check(lines[3] == graph, f"graph of the Python peer: {lines[3]!r}")
     check(server.requests["cancel_goal"] == [(ids[2], (0, 0))] if len(ids) == 3 else False,
           f"cancel requests {server.requests['cancel_goal']}")
