@@ -52,6 +52,7 @@ pub use transport::publisher::{
     PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher,
 };
 pub use transport::queue::DEFAULT_MAX_QUEUED_BYTES;
+pub use transport::reach::{Reach, Receiver, PROBE_TIMEOUT};
 pub use transport::receive_failures::{
     receive_failure_layer, shm_receive_failures, ReceiveFailureCause, ReceiveFailureLayer,
     ShmReceiveFailures,

@@ -1,94 +1,192 @@
-//! A subscriber whose process cannot map the publisher's shared memory (here:
+//! A subscriber whose process cannot map a publisher's shared memory (here:
 //! its memory-lock limit is used up, as with a second camera in a container)
-//! gets nothing for those messages from Zenoh, not even an error. Every one of
-//! them must still be counted, with its cause: received + counted = published.
+//! would get nothing for those messages from Zenoh, not even an error. The
+//! publisher checks every subscribing session before its pool's messages go
+//! to it (see `Reach`): a session that cannot map the pool gets every message
+//! from the heap, and its process's log names the cause.
 //!
-//! The limit is lowered inside this process, so this binary holds this test
-//! alone. As root (`CAP_IPC_LOCK`) nothing fails and the sum holds with no
-//! failure; `.ci/unprivileged` runs it as an ordinary user, where every
-//! shared-memory message fails to map until the publisher's pool is full and
-//! it goes on from the heap.
+//! The limit is lowered inside this process, so these tests take turns. As
+//! root (`CAP_IPC_LOCK`) nothing fails and every message goes through shared
+//! memory; `.ci/unprivileged` runs them as an ordinary user, where the
+//! limit bites.
 
 mod common;
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use common::{loopback_sessions, shm_serial};
 use shm_cdr::msgs::std_msgs::UInt8MultiArray;
 use shm_runtime::{
-    shm_receive_failures, MemlockBudget, PayloadKind, ReceiveFailureCause, SessionExt, ShmConfig,
-    ShmContext,
+    shm_receive_failures, MemlockBudget, PayloadKind, Reach, ReceiveFailureCause, RosPublisher,
+    RosSubscriber, SessionExt, ShmConfig, ShmContext, ZENOH_METADATA_SEGMENT,
 };
 use zenoh::Wait;
 
 const PUBLISHED: usize = 40;
 const TIMEOUT: Duration = Duration::from_secs(10);
 
+/// Restores the soft memory-lock limit when dropped, whatever the test did.
+struct LimitGuard(u64, u64);
+
+impl LimitGuard {
+    /// Lower the soft limit to `soft` (never above where it is).
+    fn lower_to(soft: u64) -> Self {
+        let (old, hard) = rlimit::getrlimit(rlimit::Resource::MEMLOCK).unwrap();
+        rlimit::setrlimit(rlimit::Resource::MEMLOCK, soft.min(old), hard).unwrap();
+        Self(old, hard)
+    }
+}
+
+impl Drop for LimitGuard {
+    fn drop(&mut self) {
+        let _ = rlimit::setrlimit(rlimit::Resource::MEMLOCK, self.0, self.1);
+    }
+}
+
+fn message(i: usize) -> UInt8MultiArray {
+    UInt8MultiArray {
+        data: vec![i as u8; 64 * 1024],
+        ..Default::default()
+    }
+}
+
+/// Publish [`PUBLISHED`] messages; the kinds they went as.
+fn publish_all(publisher: &RosPublisher<UInt8MultiArray>) -> Vec<PayloadKind> {
+    (0..PUBLISHED)
+        .map(|i| publisher.publish(&message(i)).wait().unwrap().kind)
+        .collect()
+}
+
+/// Receive until [`PUBLISHED`] messages arrived or [`TIMEOUT`] passed; each
+/// must be the one published in its place.
+fn receive_all(subscriber: &RosSubscriber<UInt8MultiArray>) -> usize {
+    let mut received = 0;
+    while received < PUBLISHED {
+        let Ok(Some(sample)) = subscriber.recv_timeout(TIMEOUT) else {
+            break;
+        };
+        let got: UInt8MultiArray = sample.decode().unwrap();
+        assert_eq!(got.data[0] as usize, received, "out of order or corrupt");
+        received += 1;
+    }
+    received
+}
+
+/// Whether the memory-lock limit applies to this process.
+fn limited() -> bool {
+    let budget = MemlockBudget::read();
+    !budget.exempt && budget.limit.is_some()
+}
+
 #[test]
-fn every_message_the_subscriber_cannot_map_is_counted_with_its_cause() {
+fn a_session_that_cannot_map_the_pool_gets_every_message_from_the_heap() {
     let _shm = shm_serial();
     shm_runtime::init_logging();
     let (a, b, _) = loopback_sessions();
     let shm = ShmContext::new(ShmConfig::enabled().threshold(1024)).unwrap();
+    let Some(pool_size) = shm.pool_size() else {
+        eprintln!(
+            "no pool under this limit ({}): nothing to map",
+            shm.memlock()
+        );
+        return;
+    };
     let publisher = a
         .declare_ros_publisher::<UInt8MultiArray>("loss/blobs")
         .shm(&shm)
         .wait()
         .unwrap();
+    // From here on nothing more can be locked, so the subscriber's session
+    // cannot map the pool.
+    let before = shm_receive_failures();
+    let limit = LimitGuard::lower_to(MemlockBudget::read().locked);
     let subscriber = b
         .declare_ros_subscriber::<UInt8MultiArray>("loss/blobs")
         .wait()
         .unwrap();
     assert!(publisher.wait_for_subscribers(TIMEOUT));
 
-    // From here on nothing more can be locked: the subscriber's session has
-    // not mapped the pool yet, and now it cannot.
-    let budget = MemlockBudget::read();
-    let limited = budget.available().is_some();
-    let (soft, hard) = rlimit::getrlimit(rlimit::Resource::MEMLOCK).unwrap();
-    rlimit::setrlimit(rlimit::Resource::MEMLOCK, budget.locked.min(soft), hard).unwrap();
+    let receivers = publisher.receivers();
+    assert_eq!(receivers.len(), 1, "{receivers:?}");
+    assert_eq!(receivers[0].session, b.zid());
+    let (reach, kind) = match limited() {
+        true => (Reach::CannotMap, PayloadKind::ReceiverCannotMap),
+        false => (Reach::SharedMemory, PayloadKind::Shm),
+    };
+    assert_eq!(receivers[0].reach, reach);
+    let kinds = publish_all(&publisher);
+    assert!(kinds.iter().all(|k| *k == kind), "{kinds:?}");
+    let received = receive_all(&subscriber);
+    drop(limit);
 
-    let before = shm_receive_failures();
-    let mut through_shm = 0;
-    for i in 0..PUBLISHED {
-        let message = UInt8MultiArray {
-            data: vec![i as u8; 64 * 1024],
-            ..Default::default()
-        };
-        let outcome = publisher.publish(&message).wait().unwrap();
-        through_shm += usize::from(outcome.kind == PayloadKind::Shm);
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    let failed = || shm_receive_failures().total() - before.total();
-    let mut received = 0;
-    let deadline = Instant::now() + TIMEOUT;
-    while received + (failed() as usize) < PUBLISHED && Instant::now() < deadline {
-        if let Ok(Some(_)) = subscriber.recv_timeout(Duration::from_millis(100)) {
-            received += 1;
-        }
-    }
-    rlimit::setrlimit(rlimit::Resource::MEMLOCK, soft, hard).unwrap();
-
-    let failures = shm_receive_failures();
     println!(
-        "{budget}: {through_shm} of {PUBLISHED} sent through shared memory, {received} received, {} counted as lost",
-        failed()
+        "pool of {pool_size} bytes, receiver {reach:?}: {received} of {PUBLISHED} received, {} missed",
+        subscriber.missed()
     );
+    assert_eq!(received, PUBLISHED, "a message was lost");
+    assert_eq!(subscriber.missed(), 0);
     assert_eq!(
-        received + failed() as usize,
-        PUBLISHED,
-        "a message was lost silently"
+        shm.stats().cannot_map as usize,
+        match limited() {
+            true => PUBLISHED,
+            false => 0,
+        }
     );
-    assert_eq!(
-        failures.count(ReceiveFailureCause::MemoryLock)
-            - before.count(ReceiveFailureCause::MemoryLock),
-        failed(),
-        "every loss here is the memory-lock limit's"
-    );
-    if limited && shm.pool_size().is_some() {
+    if limited() {
+        // The failed probe is in the subscriber process's log, with its cause.
+        let failures = shm_receive_failures();
         assert!(
-            failed() > 0,
-            "the limit was used up, yet every message mapped"
+            failures.count(ReceiveFailureCause::MemoryLock)
+                > before.count(ReceiveFailureCause::MemoryLock)
         );
+    }
+}
+
+#[test]
+fn of_two_pools_the_one_that_does_not_fit_goes_from_the_heap_and_nothing_is_lost() {
+    let _shm = shm_serial();
+    shm_runtime::init_logging();
+    const POOL: usize = 1 << 20;
+    let (a, b, port) = loopback_sessions();
+    let c = common::connect_to(port);
+    let pools = [ShmConfig::enabled(), ShmConfig::enabled()]
+        .map(|config| ShmContext::new(config.pool_size(POOL).threshold(1024)));
+    let [Ok(first), Ok(second)] = pools else {
+        eprintln!("two pools of 1 MiB do not fit this limit: nothing to show");
+        return;
+    };
+    let publishers =
+        [(&a, &first, "loss/left"), (&c, &second, "loss/right")].map(|(session, pool, key)| {
+            session
+                .declare_ros_publisher::<UInt8MultiArray>(key)
+                .shm(pool)
+                .wait()
+                .unwrap()
+        });
+    // Room for the metadata segment and one pool, not two.
+    let room = MemlockBudget::read().locked + ZENOH_METADATA_SEGMENT + POOL as u64 + 512 * 1024;
+    let limit = LimitGuard::lower_to(room);
+    let subscribers = ["loss/left", "loss/right"].map(|key| {
+        b.declare_ros_subscriber::<UInt8MultiArray>(key)
+            .wait()
+            .unwrap()
+    });
+    let mut reaches = Vec::new();
+    for (publisher, subscriber) in publishers.iter().zip(&subscribers) {
+        assert!(publisher.wait_for_subscribers(TIMEOUT));
+        let receivers = publisher.receivers();
+        assert_eq!(receivers.len(), 1, "{receivers:?}");
+        reaches.push(receivers[0].reach);
+        publish_all(publisher);
+        assert_eq!(receive_all(subscriber), PUBLISHED, "a message was lost");
+        assert_eq!(subscriber.missed(), 0);
+    }
+    drop(limit);
+    println!("reaches under {room} bytes of memory-lock limit: {reaches:?}");
+    if limited() {
+        reaches.sort_by_key(|r| *r == Reach::CannotMap);
+        assert_eq!(reaches, [Reach::SharedMemory, Reach::CannotMap]);
+    } else {
+        assert_eq!(reaches, [Reach::SharedMemory; 2]);
     }
 }

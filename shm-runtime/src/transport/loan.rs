@@ -19,7 +19,7 @@ use zenoh::bytes::ZBytes;
 use zenoh::shm::ZShmMut;
 use zenoh::{Resolvable, Wait};
 
-use crate::transport::payload::{EncodedPayload, PayloadKind, ShmPolicy};
+use crate::transport::payload::{routed, EncodedPayload, PayloadKind, ShmPolicy};
 use crate::transport::publisher::{PublishError, PublishOutcome, RosPublisher};
 
 /// Where a loan's bytes lie.
@@ -81,7 +81,10 @@ impl<T: RosMessage + InPlace> RosPublisher<T> {
     /// stays full for the configured wait, or the message is larger than the whole
     /// pool, or there is no pool, the loan is on the heap and [`Loan::kind`]
     /// says so ([`PayloadKind::HeapFallback`], [`PayloadKind::TooLargeForPool`],
-    /// [`PayloadKind::PoolUnavailable`]).
+    /// [`PayloadKind::PoolUnavailable`]); so it is while a subscribing session
+    /// has not shown it maps the pool, or cannot ([`PayloadKind::ReceiverPending`],
+    /// [`PayloadKind::ReceiverCannotMap`]). A loan in the pool that such a
+    /// session appears for before it is published is copied to the heap then.
     ///
     /// Fails if the lengths break a bound or cannot be laid out.
     pub fn loan(&self, lens: T::Lens) -> Result<Loan<'_, T>, LoanError> {
@@ -107,7 +110,10 @@ fn allocate(policy: Option<&ShmPolicy>, size: usize) -> (Buffer, PayloadKind) {
     let Some(policy) = policy.filter(|p| size >= p.threshold) else {
         return (Buffer::Heap(AlignedBuffer::new(size)), PayloadKind::Heap);
     };
-    match policy.context.place(size) {
+    match policy
+        .gate()
+        .map_or_else(|| policy.context.place(size), Err)
+    {
         Ok(chunk) => (Buffer::Shm(chunk), PayloadKind::Shm),
         Err(heap) => (Buffer::Heap(AlignedBuffer::new(size)), heap),
     }
@@ -151,11 +157,8 @@ impl<'p, T: RosMessage + InPlace> Loan<'p, T> {
         self,
     ) -> Result<(crate::transport::publisher::Prepared, &'p RosPublisher<T>), PublishError> {
         self.written.check().map_err(PublishError::Loan)?;
-        if let Some(policy) = self.publisher.policy() {
-            policy.context.count(self.kind, self.size);
-        }
         let publisher = self.publisher;
-        let encoded = EncodedPayload {
+        let mut encoded = EncodedPayload {
             bytes: self.buffer.into_zbytes(),
             kind: self.kind,
             size: self.size,
@@ -165,6 +168,10 @@ impl<'p, T: RosMessage + InPlace> Loan<'p, T> {
                 self.size
             },
         };
+        if let Some(policy) = publisher.policy() {
+            encoded = routed(encoded, policy);
+            policy.context.count(encoded.kind, encoded.size);
+        }
         Ok((publisher.prepare_encoded(encoded)?, publisher))
     }
 }

@@ -13,6 +13,7 @@ pub(crate) mod payload;
 pub(crate) mod pool;
 pub(crate) mod publisher;
 pub(crate) mod queue;
+pub(crate) mod reach;
 pub(crate) mod receive_failures;
 pub(crate) mod shm_bytes;
 pub(crate) mod subscriber;

@@ -2,12 +2,13 @@
 //! shared memory at or above the threshold, or the heap) and a received payload
 //! back into a message (borrowing from it wherever it can).
 
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 use shm_cdr::{CdrDecode, CdrEncode, DecodeError, DecodeErrorKind, EncodeError};
 use zenoh::bytes::ZBytes;
 
 use crate::transport::pool::ShmContext;
+use crate::transport::reach::Receivers;
 use crate::transport::shm_bytes::{self, Splice};
 
 /// Where a published message's bytes went.
@@ -33,6 +34,24 @@ pub enum PayloadKind {
     /// heap (counted in [`ShmStats::unavailable`](crate::ShmStats), warned
     /// about once).
     PoolUnavailable,
+    /// Above the threshold, but a session that subscribes to the publisher
+    /// has not yet answered whether it maps the pool (one round trip, once
+    /// per session and pool): encoded on the heap meanwhile (counted in
+    /// [`ShmStats::pending`](crate::ShmStats)).
+    ReceiverPending,
+    /// Above the threshold, but a session that subscribes to the publisher
+    /// cannot map the pool (its process's memory-lock limit, most often):
+    /// encoded on the heap, so that it gets every message (counted in
+    /// [`ShmStats::cannot_map`](crate::ShmStats), warned about once; see
+    /// [`RosPublisher::receivers`](crate::RosPublisher::receivers)).
+    ReceiverCannotMap,
+}
+
+impl PayloadKind {
+    /// Whether the bytes lie (at least partly) in shared memory.
+    pub fn is_shm(self) -> bool {
+        matches!(self, Self::Shm | Self::Spliced)
+    }
 }
 
 /// An encoded message, ready to put.
@@ -51,10 +70,30 @@ pub struct EncodedPayload {
 }
 
 /// How a publisher encodes: with a pool and threshold, or heap only.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub(crate) struct ShmPolicy {
     pub(crate) context: ShmContext,
     pub(crate) threshold: usize,
+    /// The sessions subscribing to a publisher, which must map the pool
+    /// before its messages go through it (publishers only).
+    pub(crate) receivers: Option<Arc<Receivers>>,
+}
+
+impl std::fmt::Debug for ShmPolicy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ShmPolicy")
+            .field("context", &self.context)
+            .field("threshold", &self.threshold)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ShmPolicy {
+    /// Why a message above the threshold must go from the heap now, if it
+    /// must (see [`Receivers::gate`]).
+    pub(crate) fn gate(&self) -> Option<PayloadKind> {
+        self.receivers.as_ref().and_then(|r| r.gate())
+    }
 }
 
 /// Encode `msg` for publishing under `policy`.
@@ -64,9 +103,11 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
 ) -> Result<EncodedPayload, EncodeError> {
     let size = match shm_bytes::encode_spliced(msg)? {
         Splice::Done(spliced) => {
-            if let Some(policy) = policy {
-                policy.context.count(PayloadKind::Spliced, spliced.size);
-            }
+            let Some(policy) = policy else {
+                return Ok(spliced);
+            };
+            let spliced = routed(spliced, policy);
+            policy.context.count(spliced.kind, spliced.size);
             return Ok(spliced);
         }
         Splice::NotNeeded(size) => size,
@@ -74,7 +115,10 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
     let mut kind = PayloadKind::Heap;
     if let Some(policy) = policy {
         if size >= policy.threshold {
-            match policy.context.place(size) {
+            match policy
+                .gate()
+                .map_or_else(|| policy.context.place(size), Err)
+            {
                 Ok(mut buffer) => {
                     // The provider hands out exactly `size` bytes, so the payload
                     // is the encoding and nothing else.
@@ -101,6 +145,24 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
         size,
         inline: size,
     })
+}
+
+/// `encoded` as it may go out under `policy`: a payload in shared memory
+/// (spliced or loaned) is copied to the heap while a subscribing session
+/// has not shown it maps the pool, or cannot (see [`ShmPolicy::gate`]).
+pub(crate) fn routed(encoded: EncodedPayload, policy: &ShmPolicy) -> EncodedPayload {
+    if !encoded.kind.is_shm() {
+        return encoded;
+    }
+    match policy.gate() {
+        None => encoded,
+        Some(kind) => EncodedPayload {
+            bytes: ZBytes::from(encoded.bytes.to_bytes().into_owned()),
+            kind,
+            size: encoded.size,
+            inline: encoded.size,
+        },
+    }
 }
 
 /// How many bytes of a received `payload` lie in shared memory: all of them

@@ -6,6 +6,7 @@ use std::future::{Future, IntoFuture};
 use std::marker::PhantomData;
 use std::pin::Pin;
 use std::sync::atomic::{AtomicI64, AtomicU32, Ordering};
+use std::sync::Arc;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use shm_cdr::{EncodeError, RosMessage};
@@ -21,6 +22,7 @@ use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
 use crate::transport::pool::ShmContext;
+use crate::transport::reach::{Receiver, Receivers, PROBE_TIMEOUT};
 
 /// Why a publish failed. A full pool is not a failure: the message then goes on
 /// the heap ([`PayloadKind::HeapFallback`]).
@@ -114,10 +116,32 @@ impl ShmSettings {
     /// default, with the pool's threshold unless overridden; heap only if the
     /// session does not carry shared memory.
     pub(crate) fn resolve(&self, session: &Session, key_expr: &str) -> Option<ShmPolicy> {
+        self.resolve_with(session, key_expr, false).ok().flatten()
+    }
+
+    /// [`resolve`](Self::resolve) for a publisher: its messages go through the
+    /// pool only to subscribing sessions that map it (see [`Receivers`]).
+    pub(crate) fn resolve_for_publisher(
+        &self,
+        session: &Session,
+        key_expr: &str,
+    ) -> zenoh::Result<Option<ShmPolicy>> {
+        self.resolve_with(session, key_expr, true)
+    }
+
+    fn resolve_with(
+        &self,
+        session: &Session,
+        key_expr: &str,
+        follow_receivers: bool,
+    ) -> zenoh::Result<Option<ShmPolicy>> {
         let context = match &self.choice {
-            ShmChoice::Inherit => self.inherited.clone()?,
+            ShmChoice::Inherit => match self.inherited.clone() {
+                Some(context) => context,
+                None => return Ok(None),
+            },
             ShmChoice::Use(context) => context.clone(),
-            ShmChoice::Off => return None,
+            ShmChoice::Off => return Ok(None),
         };
         if !session_has_shm(session) {
             // Zenoh would copy every SHM buffer out again: report what goes out.
@@ -125,10 +149,18 @@ impl ShmSettings {
                 key_expr,
                 "the session has transport/shared_memory/enabled=false: this entity sends from the heap"
             );
-            return None;
+            return Ok(None);
         }
         let threshold = self.threshold.unwrap_or(context.config().threshold);
-        Some(ShmPolicy { context, threshold })
+        let receivers = match follow_receivers && context.pool_size().is_some() {
+            true => Some(Arc::new(Receivers::follow(session, key_expr, &context)?)),
+            false => None,
+        };
+        Ok(Some(ShmPolicy {
+            context,
+            threshold,
+            receivers,
+        }))
     }
 }
 
@@ -258,7 +290,9 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
         if let Some(rmw) = &self.rmw {
             check_key_expr("liveliness token", &rmw.token)?;
         }
-        let policy = self.shm.resolve(self.session, &self.key_expr);
+        let policy = self
+            .shm
+            .resolve_for_publisher(self.session, &self.key_expr)?;
         let encoding = crate::transport::queue::type_encoding::<T>();
         let inline_limit =
             InlineLimit::of(self.session, &self.key_expr, encoding.to_string().len());
@@ -370,6 +404,10 @@ fn session_has_shm(session: &Session) -> bool {
         .unwrap_or(true)
 }
 
+/// How often [`RosPublisher::wait_for_subscribers`] looks whether the
+/// subscribing sessions have answered the pool's probe.
+const RECEIVER_POLL: std::time::Duration = std::time::Duration::from_millis(1);
+
 /// Heartbeat period of reliable transient-local publishers (rmw_zenoh_cpp's)
 /// and of publishers with recovery.
 const HEARTBEAT_PERIOD: std::time::Duration = std::time::Duration::from_millis(500);
@@ -448,22 +486,52 @@ impl<T: RosMessage> RosPublisher<T> {
     /// passes; returns whether one did. (Zenoh drops what is published before a
     /// subscriber is known, like any pub/sub.) Built on Zenoh's matching
     /// listener: it wakes when the match happens.
+    ///
+    /// A publisher with a pool also waits, within the same `timeout`, until
+    /// every subscribing session has answered whether it maps the pool (one
+    /// round trip; see [`receivers`](Self::receivers)), so that the messages
+    /// published next take their final path.
     pub fn wait_for_subscribers(&self, timeout: std::time::Duration) -> bool {
-        crate::transport::matching::wait(
+        let deadline = std::time::Instant::now() + timeout;
+        if !crate::transport::matching::wait(
             self.publisher.matching_listener(),
             || self.has_subscribers(),
             timeout,
-        )
+        ) {
+            return false;
+        }
+        while !self.receivers_checked() {
+            if std::time::Instant::now() >= deadline {
+                break;
+            }
+            std::thread::sleep(RECEIVER_POLL);
+        }
+        true
+    }
+
+    /// Whether every session known to subscribe has answered whether it maps
+    /// the pool (starting the checks that are due).
+    fn receivers_checked(&self) -> bool {
+        self.policy
+            .as_ref()
+            .map_or(true, |p| p.gate() != Some(PayloadKind::ReceiverPending))
     }
 
     /// Resolves once at least one subscriber matches this publisher (at once if
-    /// one already does). Cancellation-safe; bound it with your runtime's
+    /// one already does), and the subscribing sessions have answered whether
+    /// they map the pool, as [`wait_for_subscribers`](Self::wait_for_subscribers)
+    /// does (for at most [`PROBE_TIMEOUT`]). Cancellation-safe; bound it with your runtime's
     /// timeout (e.g. `tokio::time::timeout`).
     pub async fn subscribers_matched(&self) -> zenoh::Result<()> {
         crate::transport::matching::matched(self.publisher.matching_listener(), || {
             self.has_subscribers()
         })
-        .await
+        .await?;
+        let deadline = std::time::Instant::now() + PROBE_TIMEOUT;
+        while !self.receivers_checked() && std::time::Instant::now() < deadline {
+            futures_timer::Delay::new(RECEIVER_POLL).await;
+        }
+        Ok(())
     }
 
     /// Whether a subscriber matches this publisher now.
@@ -484,6 +552,20 @@ impl<T: RosMessage> RosPublisher<T> {
     /// The rmw_zenoh liveliness token, for ROS-style publishers.
     pub fn liveliness_token(&self) -> Option<&str> {
         self.rmw.as_ref().map(|r| r.token.as_str())
+    }
+
+    /// The sessions that subscribe to this publisher, each with how it gets
+    /// the messages that go through shared memory: mapped in place, copied into
+    /// a link that carries no shared memory (another user, another host), or
+    /// from the heap because it cannot map the pool (see [`Reach`]). Empty
+    /// for a publisher without a pool. Sessions of this project's subscribers
+    /// are listed; other ROS 2 subscribers (rmw_zenoh_cpp's) are not, and get
+    /// what Zenoh sends them.
+    pub fn receivers(&self) -> Vec<Receiver> {
+        self.policy
+            .as_ref()
+            .and_then(|p| p.receivers.as_ref())
+            .map_or_else(Vec::new, |r| r.list())
     }
 
     /// The shared-memory pool used, if any.

@@ -106,8 +106,12 @@ impl fmt::Display for ReceiveFailureCause {
 
 static COUNTS: [AtomicU64; 5] = [const { AtomicU64::new(0) }; 5];
 
-/// How many messages this process did not receive because it could not map
-/// their shared memory, by cause, since it started. Counted only while a
+/// How many messages this process could not take from shared memory because
+/// it could not map it, by cause, since it started. This project's
+/// publishers check each subscribing session with one probe message first
+/// and send to a session that cannot map their pool from the heap, so for
+/// them this counts the probe, and nothing is lost; the messages of other
+/// senders (rmw_zenoh_cpp's) counted here were lost. Counted only while a
 /// [`receive_failure_layer`] is installed ([`init_logging`](crate::init_logging)
 /// installs one).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -116,19 +120,18 @@ pub struct ShmReceiveFailures {
 }
 
 impl ShmReceiveFailures {
-    /// Messages lost for `cause`.
+    /// Messages (and probes) not mapped for `cause`.
     pub fn count(&self, cause: ReceiveFailureCause) -> u64 {
         self.counts[cause.index()]
     }
 
-    /// Messages lost for any cause.
+    /// Messages (and probes) not mapped for any cause.
     pub fn total(&self) -> u64 {
         self.counts.iter().sum()
     }
 }
 
-/// The messages this process lost so far because it could not map their
-/// shared memory (see [`ShmReceiveFailures`]).
+/// The messages this process could not map so far (see [`ShmReceiveFailures`]).
 pub fn shm_receive_failures() -> ShmReceiveFailures {
     ShmReceiveFailures {
         counts: COUNTS.each_ref().map(|c| c.load(Ordering::Relaxed)),
@@ -220,8 +223,9 @@ fn warner() -> &'static Warner {
                             _ => String::new(),
                         };
                         tracing::warn!(
-                            "a message was lost: this process could not map the sender's \
-                             shared memory ({cause}: {error}); {} so far for this cause. {}{budget}",
+                            "this process could not map a sender's shared memory ({cause}: {error}); \
+                             {} so far for this cause. Publishers of shm-runtime then send to it from the heap; \
+                             a message of another sender (rmw_zenoh_cpp) was lost. {}{budget}",
                             COUNTS[cause.index()].load(Ordering::Relaxed),
                             cause.advice()
                         );

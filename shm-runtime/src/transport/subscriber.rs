@@ -14,6 +14,8 @@ use std::time::Duration;
 use shm_cdr::{CdrDecode, DecodeError, RosMessage};
 use zenoh::bytes::ZBytes;
 use zenoh::liveliness::LivelinessToken;
+
+use crate::transport::reach::ReceiverMark;
 use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedSubscriber, AdvancedSubscriberBuilderExt, HistoryConfig, RecoveryConfig};
@@ -150,7 +152,11 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         Ok(ZenohSubscriber::Advanced(builder.wait()?))
     }
 
-    fn declare_token(&self) -> zenoh::Result<Option<LivelinessToken>> {
+    /// The announcements a subscriber keeps while it lives, declared before
+    /// its Zenoh subscriber so that publishers learn of them first: the
+    /// rmw_zenoh liveliness token of a node subscriber, and the session's
+    /// receiver mark (see [`ReceiverMark`]).
+    fn declare_token(&self) -> zenoh::Result<Announced> {
         if let Some(invalid) = &self.invalid {
             return Err(invalid.clone().into());
         }
@@ -158,15 +164,20 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         if let Some(token) = &self.liveliness {
             check_key_expr("liveliness token", token)?;
         }
-        match &self.liveliness {
-            Some(token) => Ok(Some(
+        let receiver = ReceiverMark::announce(self.session, &self.key_expr)?;
+        let rmw = match &self.liveliness {
+            Some(token) => Some(
                 self.session
                     .liveliness()
                     .declare_token(token.clone())
                     .wait()?,
-            )),
-            None => Ok(None),
-        }
+            ),
+            None => None,
+        };
+        Ok(Announced {
+            _rmw: rmw,
+            _receiver: receiver,
+        })
     }
 
     /// Call `callback` with every sample, in arrival order, on a thread of an
@@ -249,6 +260,12 @@ impl<T: RosMessage> IntoFuture for SubscriberBuilder<'_, T> {
     fn into_future(self) -> Self::IntoFuture {
         std::future::ready(self.build())
     }
+}
+
+/// What a subscriber announces while it lives.
+struct Announced {
+    _rmw: Option<LivelinessToken>,
+    _receiver: ReceiverMark,
 }
 
 /// How long a recovering subscriber waits for a publisher's cache to answer
@@ -343,7 +360,7 @@ pub struct CallbackSubscriber<T> {
     subscriber: ZenohSubscriber,
     dispatch: Option<Arc<Dispatch<RosSample>>>,
     counters: Counters,
-    _token: Option<LivelinessToken>,
+    _token: Announced,
     message: PhantomData<fn() -> T>,
 }
 
@@ -431,7 +448,7 @@ pub struct RosSubscriber<T> {
     lost: Arc<AtomicU64>,
     missed: Arc<AtomicU64>,
     wrong_type: Arc<AtomicU64>,
-    _token: Option<LivelinessToken>,
+    _token: Announced,
     message: PhantomData<fn() -> T>,
 }
 

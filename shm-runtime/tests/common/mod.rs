@@ -130,6 +130,19 @@ pub fn loopback_sessions() -> (zenoh::Session, zenoh::Session, u16) {
     (open(true), open(false), port)
 }
 
+/// One more peer session connected to the listener of [`loopback_sessions`]
+/// on `port`.
+#[allow(dead_code)] // not every test binary uses it
+pub fn connect_to(port: u16) -> zenoh::Session {
+    use zenoh::Wait;
+    open_with(
+        without_implicit_shm_copy(peer_config(port, false)),
+        &shm_clients(),
+    )
+    .wait()
+    .unwrap()
+}
+
 /// A node in domain 0 (whatever `ROS_DOMAIN_ID` says).
 #[allow(dead_code)] // not every test binary uses it
 pub fn node(session: &zenoh::Session, name: &str) -> shm_runtime::RosNode {

@@ -14,6 +14,7 @@ use zenoh::Wait;
 use crate::transport::config::{ConfigError, PoolSize, ShmConfig};
 use crate::transport::memlock::{Bytes, MemlockBudget, RAISE_THE_LIMIT, ZENOH_METADATA_SEGMENT};
 use crate::transport::payload::PayloadKind;
+use crate::transport::reach::ReachTable;
 
 mod backend;
 
@@ -58,6 +59,8 @@ struct Inner {
     config: ShmConfig,
     memlock: MemlockBudget,
     stats: Counters,
+    /// The sessions checked for whether they map this pool.
+    reach: ReachTable,
 }
 
 #[derive(Default)]
@@ -67,6 +70,8 @@ struct Counters {
     fallbacks: AtomicU64,
     too_large: AtomicU64,
     unavailable: AtomicU64,
+    pending: AtomicU64,
+    cannot_map: AtomicU64,
 }
 
 /// How many messages went where (see [`ShmContext::stats`]).
@@ -85,6 +90,13 @@ pub struct ShmStats {
     /// Messages above the threshold published from the heap because the
     /// memory-lock limit left no room for a pool (see [`PoolSize::AtMost`]).
     pub unavailable: u64,
+    /// Messages above the threshold published from the heap while a
+    /// subscribing session was being checked for whether it maps the pool
+    /// (see [`Reach`](crate::Reach)).
+    pub pending: u64,
+    /// Messages above the threshold published from the heap because a
+    /// subscribing session cannot map the pool (see [`Reach::CannotMap`](crate::Reach::CannotMap)).
+    pub cannot_map: u64,
 }
 
 impl std::fmt::Debug for ShmContext {
@@ -284,6 +296,7 @@ impl ShmContext {
                 config,
                 memlock,
                 stats: Counters::default(),
+                reach: ReachTable::default(),
             }),
         }
     }
@@ -345,6 +358,11 @@ impl ShmContext {
         self.alloc_bounded(len, AllocAlignment::ALIGN_1_BYTE, timeout)
     }
 
+    /// What this pool knows of the sessions it has checked.
+    pub(crate) fn reach_table(&self) -> &ReachTable {
+        &self.inner.reach
+    }
+
     /// Counters since the pool was created.
     pub fn stats(&self) -> ShmStats {
         let c = &self.inner.stats;
@@ -354,6 +372,8 @@ impl ShmContext {
             fallbacks: c.fallbacks.load(Ordering::Relaxed),
             too_large: c.too_large.load(Ordering::Relaxed),
             unavailable: c.unavailable.load(Ordering::Relaxed),
+            pending: c.pending.load(Ordering::Relaxed),
+            cannot_map: c.cannot_map.load(Ordering::Relaxed),
         }
     }
 
@@ -480,6 +500,13 @@ impl ShmContext {
                         "message larger than the whole shared-memory pool: it can never fit, so it is published from the heap; enlarge the pool (ShmConfig::pool_size / ZENOH_SHM_ALLOC_SIZE) to send it through shared memory"
                     );
                 }
+            }
+            // Warned about where the check settles (see `reach`).
+            PayloadKind::ReceiverPending => {
+                c.pending.fetch_add(1, Ordering::Relaxed);
+            }
+            PayloadKind::ReceiverCannotMap => {
+                c.cannot_map.fetch_add(1, Ordering::Relaxed);
             }
             PayloadKind::PoolUnavailable => {
                 if c.unavailable.fetch_add(1, Ordering::Relaxed) == 0 {

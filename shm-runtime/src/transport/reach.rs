@@ -1,0 +1,400 @@
+//! Whether the processes that subscribe to a publisher can map its pool.
+//!
+//! Zenoh maps a sender's shared memory in the receiving process on the first
+//! message that needs it, locks it in RAM, and drops the message (with a
+//! debug-level log line, nothing else) when it cannot: the memory-lock limit
+//! is used up, the open-files limit is reached. The publisher's `put`
+//! succeeded; the subscriber never learns a message existed. So before a
+//! pool's messages go to a receiving session through shared memory, the pool
+//! checks that session once: a query to its probe queryable carrying a small
+//! chunk of the pool. A reply says the chunk was mapped, or arrived as bytes
+//! because the link between them carries no shared memory (other users,
+//! other hosts, a router without it); no reply says the session could not map
+//! it. Until a subscriber's session has answered, and for good if it cannot
+//! map, the publishers of that pool send from the heap, which every
+//! subscriber can read.
+//!
+//! Receiving sessions announce themselves per key expression with a
+//! liveliness token `<key>/@shm_cdr_rx/<zid>/<n>`, so a publisher checks only
+//! the sessions that subscribe to what it publishes.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, Weak};
+use std::time::{Duration, Instant};
+
+use zenoh::liveliness::LivelinessToken;
+use zenoh::query::Queryable;
+use zenoh::sample::SampleKind;
+use zenoh::session::ZenohId;
+use zenoh::{Session, Wait};
+
+use crate::transport::limits::check_key_expr;
+use crate::transport::payload::PayloadKind;
+use crate::transport::pool::ShmContext;
+
+/// The verbatim chunk between a subscriber's key expression and its session
+/// in a receiver token.
+const RECEIVER_CHUNK: &str = "@shm_cdr_rx";
+
+/// How long a publisher's probe waits for a subscribing session's reply
+/// before it takes the session as unable to map the pool (see [`Reach`]).
+pub const PROBE_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// How long after a failed probe the session is asked again (its limit may
+/// have been raised, or another pool released).
+const RETRY_AFTER: Duration = Duration::from_secs(30);
+
+/// What a probe's reply says.
+const MAPPED: &[u8] = b"shm";
+const AS_BYTES: &[u8] = b"bytes";
+
+/// How a subscriber's session receives a publisher's shared-memory messages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Reach {
+    /// The check is under way (it takes one round trip): messages go from
+    /// the heap meanwhile ([`PayloadKind::ReceiverPending`]).
+    Checking,
+    /// The session maps the pool: messages reach it in place.
+    SharedMemory,
+    /// The link to the session carries no shared memory (another user,
+    /// another host, a router without it): Zenoh copies each message into
+    /// that link. Nothing is lost.
+    Bytes,
+    /// The session could not map the pool (its process's memory-lock or
+    /// open-files limit, most often; that process's log names the cause):
+    /// messages go from the heap so that it gets every one
+    /// ([`PayloadKind::ReceiverCannotMap`]). Asked again every 30 s.
+    CannotMap,
+}
+
+impl fmt::Display for Reach {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Checking => "being checked",
+            Self::SharedMemory => "shared memory",
+            Self::Bytes => "bytes (the link carries no shared memory)",
+            Self::CannotMap => "cannot map the pool",
+        })
+    }
+}
+
+/// One session that subscribes to a publisher, and how it gets the
+/// publisher's shared-memory messages (see [`RosPublisher::receivers`](crate::RosPublisher::receivers)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Receiver {
+    /// The subscribing session.
+    pub session: ZenohId,
+    /// How it receives.
+    pub reach: Reach,
+}
+
+/// What a pool knows of the sessions it has checked.
+#[derive(Default)]
+pub(crate) struct ReachTable {
+    sessions: Mutex<HashMap<ZenohId, (Reach, Instant)>>,
+}
+
+impl ReachTable {
+    fn lock(&self) -> MutexGuard<'_, HashMap<ZenohId, (Reach, Instant)>> {
+        // Each entry is written whole.
+        self.sessions.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// Every session's probe queryable, shared by its subscribers.
+type Responders = HashMap<ZenohId, Weak<Responder>>;
+static RESPONDERS: Mutex<Option<Responders>> = Mutex::new(None);
+
+/// Numbers receiver tokens apart within a process.
+static NEXT_RECEIVER: AtomicU64 = AtomicU64::new(0);
+
+/// Answers probes for one session.
+struct Responder {
+    _queryable: Queryable<()>,
+}
+
+fn probe_key(session: ZenohId) -> String {
+    format!("@shm_cdr/probe/{session}")
+}
+
+impl Responder {
+    /// The responder of `session`: the one its subscribers share, or a new one.
+    fn of(session: &Session) -> zenoh::Result<Arc<Self>> {
+        let mut responders = RESPONDERS.lock().unwrap_or_else(|e| e.into_inner());
+        let responders = responders.get_or_insert_with(HashMap::new);
+        if let Some(responder) = responders.get(&session.zid()).and_then(Weak::upgrade) {
+            return Ok(responder);
+        }
+        responders.retain(|_, r| r.strong_count() > 0);
+        let queryable = session
+            .declare_queryable(probe_key(session.zid()))
+            .callback(|query| {
+                // Reaching this callback means Zenoh mapped the chunk, or
+                // the link brought it as bytes.
+                let mapped = query.payload().is_some_and(|p| p.as_shm().is_some());
+                let answer = if mapped { MAPPED } else { AS_BYTES };
+                if let Err(e) = query.reply(query.key_expr().clone(), answer).wait() {
+                    tracing::debug!("shared-memory probe: could not reply: {e}");
+                }
+            })
+            .wait()?;
+        let responder = Arc::new(Self {
+            _queryable: queryable,
+        });
+        responders.insert(session.zid(), Arc::downgrade(&responder));
+        Ok(responder)
+    }
+}
+
+/// A subscriber's announcement that its session receives `key_expr`: kept
+/// for as long as the subscriber lives.
+pub(crate) struct ReceiverMark {
+    _token: LivelinessToken,
+    _responder: Arc<Responder>,
+}
+
+impl ReceiverMark {
+    /// Announce that `session` subscribes to `key_expr`, answering probes.
+    pub(crate) fn announce(session: &Session, key_expr: &str) -> zenoh::Result<Self> {
+        let n = NEXT_RECEIVER.fetch_add(1, Ordering::Relaxed);
+        let token = format!("{key_expr}/{RECEIVER_CHUNK}/{}/{n}", session.zid());
+        check_key_expr("key expression", &token)?;
+        let responder = Responder::of(session)?;
+        let token = session.liveliness().declare_token(token).wait()?;
+        Ok(Self {
+            _token: token,
+            _responder: responder,
+        })
+    }
+}
+
+/// The sessions that subscribe to one publisher, followed through their
+/// tokens, and the gate they put on its use of shared memory.
+pub(crate) struct Receivers {
+    shared: Arc<Shared>,
+    _subscriber: zenoh::pubsub::Subscriber<()>,
+}
+
+struct Shared {
+    session: Session,
+    pool: ShmContext,
+    key_expr: String,
+    /// Alive receiver tokens and their session.
+    tokens: Mutex<HashMap<String, ZenohId>>,
+}
+
+impl Shared {
+    fn tokens(&self) -> MutexGuard<'_, HashMap<String, ZenohId>> {
+        // Each entry is written whole.
+        self.tokens.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// The session named in a receiver token.
+fn session_of(token: &str) -> Option<ZenohId> {
+    let rest = token.rsplit_once(&format!("/{RECEIVER_CHUNK}/"))?.1;
+    rest.split('/').next()?.parse().ok()
+}
+
+impl Receivers {
+    /// Follow the sessions that subscribe to `key_expr`, checking each one
+    /// against `pool` as it appears.
+    pub(crate) fn follow(
+        session: &Session,
+        key_expr: &str,
+        pool: &ShmContext,
+    ) -> zenoh::Result<Self> {
+        let shared = Arc::new(Shared {
+            session: session.clone(),
+            pool: pool.clone(),
+            key_expr: key_expr.to_owned(),
+            tokens: Mutex::default(),
+        });
+        let selector = format!("{key_expr}/{RECEIVER_CHUNK}/**");
+        check_key_expr("key expression", &selector)?;
+        let on_sample = Arc::downgrade(&shared);
+        // A callback: Zenoh replays every alive token before `wait` returns.
+        let subscriber = session
+            .liveliness()
+            .declare_subscriber(selector)
+            .history(true)
+            .callback(move |sample| {
+                let Some(shared) = on_sample.upgrade() else {
+                    return;
+                };
+                let token = sample.key_expr().as_str();
+                let Some(zid) = session_of(token) else {
+                    return;
+                };
+                match sample.kind() {
+                    SampleKind::Put => {
+                        shared.tokens().insert(token.to_owned(), zid);
+                        probe(&shared, zid);
+                    }
+                    SampleKind::Delete => {
+                        shared.tokens().remove(token);
+                    }
+                }
+            })
+            .wait()?;
+        Ok(Self {
+            shared,
+            _subscriber: subscriber,
+        })
+    }
+
+    /// The sessions subscribing now, each with how it receives.
+    pub(crate) fn list(&self) -> Vec<Receiver> {
+        let mut sessions: Vec<ZenohId> = self.shared.tokens().values().copied().collect();
+        sessions.sort_unstable();
+        sessions.dedup();
+        let table = self.shared.pool.reach_table().lock();
+        sessions
+            .into_iter()
+            .map(|session| Receiver {
+                session,
+                reach: table.get(&session).map_or(Reach::Checking, |(r, _)| *r),
+            })
+            .collect()
+    }
+
+    /// Why a message above the threshold must go from the heap now, if it
+    /// must: a subscribing session not yet checked, or one that cannot map
+    /// the pool. Starts the checks that are due.
+    pub(crate) fn gate(&self) -> Option<PayloadKind> {
+        let mut gate = None;
+        let mut due = Vec::new();
+        {
+            // Lock order: tokens, then the pool's table (as `probe` takes them).
+            let tokens = self.shared.tokens();
+            if tokens.is_empty() {
+                return None;
+            }
+            let table = self.shared.pool.reach_table().lock();
+            for session in tokens.values() {
+                match table.get(session) {
+                    None => {
+                        due.push(*session);
+                        gate = gate.or(Some(PayloadKind::ReceiverPending));
+                    }
+                    Some((Reach::Checking, _)) => {
+                        gate = gate.or(Some(PayloadKind::ReceiverPending));
+                    }
+                    Some((Reach::CannotMap, since)) => {
+                        if since.elapsed() >= RETRY_AFTER {
+                            due.push(*session);
+                        }
+                        gate = Some(PayloadKind::ReceiverCannotMap);
+                    }
+                    Some((Reach::SharedMemory | Reach::Bytes, _)) => {}
+                }
+            }
+        }
+        for session in due {
+            probe(&self.shared, session);
+        }
+        gate
+    }
+}
+
+/// Ask `session` whether it maps `shared`'s pool, unless a check is under
+/// way or settled (a failed one is repeated after [`RETRY_AFTER`]).
+fn probe(shared: &Shared, session: ZenohId) {
+    let pool = &shared.pool;
+    {
+        let mut table = pool.reach_table().lock();
+        match table.get(&session) {
+            Some((Reach::Checking | Reach::SharedMemory | Reach::Bytes, _)) => return,
+            Some((Reach::CannotMap, since)) if since.elapsed() < RETRY_AFTER => return,
+            _ => {}
+        }
+        table.insert(session, (Reach::Checking, Instant::now()));
+    }
+    // Never wait for room here (this may run on Zenoh's thread): with the
+    // pool full, the next publish asks again.
+    let Some(mut chunk) = pool.alloc_message(8, Duration::ZERO) else {
+        pool.reach_table().lock().remove(&session);
+        return;
+    };
+    chunk.fill(0);
+    let verdict = Verdict {
+        pool: pool.clone(),
+        session,
+        key_expr: shared.key_expr.clone(),
+        answer: Mutex::new(None),
+    };
+    let sent = shared
+        .session
+        .get(probe_key(session))
+        .payload(chunk)
+        .timeout(PROBE_TIMEOUT)
+        .callback(move |reply| {
+            if let Ok(sample) = reply.result() {
+                let reach = match &*sample.payload().to_bytes() {
+                    MAPPED => Reach::SharedMemory,
+                    _ => Reach::Bytes,
+                };
+                *verdict.answer.lock().unwrap_or_else(|e| e.into_inner()) = Some(reach);
+            }
+        })
+        .wait();
+    if let Err(e) = sent {
+        tracing::debug!("shared-memory probe of session {session}: {e}");
+        pool.reach_table().lock().remove(&session);
+    }
+}
+
+/// Settles a probe when Zenoh drops its reply callback: after the reply and
+/// the final, or at the timeout with none.
+struct Verdict {
+    pool: ShmContext,
+    session: ZenohId,
+    key_expr: String,
+    answer: Mutex<Option<Reach>>,
+}
+
+impl Drop for Verdict {
+    fn drop(&mut self) {
+        let answer = self.answer.get_mut().unwrap_or_else(|e| e.into_inner());
+        let reach = answer.unwrap_or(Reach::CannotMap);
+        let first_failure = {
+            let mut table = self.pool.reach_table().lock();
+            let before = table.insert(self.session, (reach, Instant::now()));
+            reach == Reach::CannotMap && !matches!(before, Some((Reach::CannotMap, _)))
+        };
+        if first_failure {
+            tracing::warn!(
+                key_expr = %self.key_expr,
+                session = %self.session,
+                pool_size = self.pool.pool_size().unwrap_or(0),
+                "a subscriber's process could not map this shared-memory pool (no answer to the probe within {PROBE_TIMEOUT:?}): \
+                 messages to it go from the heap, so that it gets every one (ShmStats::cannot_map counts them). \
+                 That process's log names the cause; most often its memory-lock limit (RLIMIT_MEMLOCK) is used up \
+                 by the segments it maps: raise it there, or make the publishers' pools smaller"
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_receiver_token_names_its_session() {
+        let zid: ZenohId = "a1b2c3".parse().unwrap();
+        assert_eq!(
+            session_of(&format!("0/chatter/{RECEIVER_CHUNK}/{zid}/7")),
+            Some(zid)
+        );
+        assert_eq!(
+            session_of(&format!("demo/**/{RECEIVER_CHUNK}/{zid}/0")),
+            Some(zid)
+        );
+        assert_eq!(session_of("0/chatter"), None);
+        assert_eq!(session_of(&format!("a/{RECEIVER_CHUNK}/not-hex/1")), None);
+    }
+}
