@@ -163,17 +163,24 @@ fn of_two_pools_the_one_that_does_not_fit_goes_from_the_heap_and_nothing_is_lost
                 .wait()
                 .unwrap()
         });
-    // Room for the metadata segment and one pool, not two.
+    // Room for one pool (and the metadata segment, if this process has not
+    // mapped it as a reader yet): the first subscriber's session maps it.
     let room = MemlockBudget::read().locked + ZENOH_METADATA_SEGMENT + POOL as u64 + 512 * 1024;
     let limit = LimitGuard::lower_to(room);
-    let subscribers = ["loss/left", "loss/right"].map(|key| {
-        b.declare_ros_subscriber::<UInt8MultiArray>(key)
-            .wait()
-            .unwrap()
-    });
+    let left = b
+        .declare_ros_subscriber::<UInt8MultiArray>("loss/left")
+        .wait()
+        .unwrap();
+    assert!(publishers[0].wait_for_subscribers(TIMEOUT));
+    // Then no room for the second.
+    let _tighter = LimitGuard::lower_to(MemlockBudget::read().locked);
+    let right = b
+        .declare_ros_subscriber::<UInt8MultiArray>("loss/right")
+        .wait()
+        .unwrap();
+    assert!(publishers[1].wait_for_subscribers(TIMEOUT));
     let mut reaches = Vec::new();
-    for (publisher, subscriber) in publishers.iter().zip(&subscribers) {
-        assert!(publisher.wait_for_subscribers(TIMEOUT));
+    for (publisher, subscriber) in publishers.iter().zip([&left, &right]) {
         let receivers = publisher.receivers();
         assert_eq!(receivers.len(), 1, "{receivers:?}");
         reaches.push(receivers[0].reach);
@@ -181,12 +188,64 @@ fn of_two_pools_the_one_that_does_not_fit_goes_from_the_heap_and_nothing_is_lost
         assert_eq!(receive_all(subscriber), PUBLISHED, "a message was lost");
         assert_eq!(subscriber.missed(), 0);
     }
+    drop(_tighter);
     drop(limit);
     println!("reaches under {room} bytes of memory-lock limit: {reaches:?}");
     if limited() {
-        reaches.sort_by_key(|r| *r == Reach::CannotMap);
         assert_eq!(reaches, [Reach::SharedMemory, Reach::CannotMap]);
     } else {
         assert_eq!(reaches, [Reach::SharedMemory; 2]);
     }
+}
+
+#[test]
+fn a_session_at_its_open_files_limit_gets_every_message_from_the_heap() {
+    let _shm = shm_serial();
+    shm_runtime::init_logging();
+    let (a, b, _) = loopback_sessions();
+    let shm = ShmContext::new(ShmConfig::enabled().threshold(1024)).unwrap();
+    if shm.pool_size().is_none() {
+        eprintln!(
+            "no pool under this limit ({}): nothing to map",
+            shm.memlock()
+        );
+        return;
+    }
+    let publisher = a
+        .declare_ros_publisher::<UInt8MultiArray>("loss/files")
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    let before = shm_receive_failures();
+    // Every file descriptor the limit allows is in use: the subscriber's
+    // session cannot open the pool's segment (the open-files limit applies
+    // to root as well).
+    let (soft, hard) = rlimit::getrlimit(rlimit::Resource::NOFILE).unwrap();
+    // (The listing counts its own descriptor, closed when it ends.)
+    let open = std::fs::read_dir("/proc/self/fd").unwrap().count() as u64 - 1;
+    rlimit::setrlimit(rlimit::Resource::NOFILE, open.min(soft), hard).unwrap();
+    let subscriber = b
+        .declare_ros_subscriber::<UInt8MultiArray>("loss/files")
+        .wait()
+        .unwrap();
+    let matched = publisher.wait_for_subscribers(TIMEOUT);
+    let receivers = publisher.receivers();
+    let kinds = publish_all(&publisher);
+    let received = receive_all(&subscriber);
+    rlimit::setrlimit(rlimit::Resource::NOFILE, soft, hard).unwrap();
+
+    assert!(matched);
+    assert_eq!(receivers.len(), 1, "{receivers:?}");
+    assert_eq!(receivers[0].reach, Reach::CannotMap);
+    assert!(
+        kinds.iter().all(|k| *k == PayloadKind::ReceiverCannotMap),
+        "{kinds:?}"
+    );
+    assert_eq!(received, PUBLISHED, "a message was lost");
+    let failures = shm_receive_failures();
+    assert!(
+        failures.count(ReceiveFailureCause::OpenFiles)
+            > before.count(ReceiveFailureCause::OpenFiles),
+        "{failures:?}"
+    );
 }

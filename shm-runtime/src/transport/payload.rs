@@ -12,7 +12,7 @@ use crate::transport::reach::Receivers;
 use crate::transport::shm_bytes::{self, Splice};
 
 /// Where a published message's bytes went.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum PayloadKind {
     /// Below the threshold, or no SHM configured: encoded into a heap buffer.

@@ -224,8 +224,9 @@ fn warner() -> &'static Warner {
                         };
                         tracing::warn!(
                             "this process could not map a sender's shared memory ({cause}: {error}); \
-                             {} so far for this cause. Publishers of shm-runtime then send to it from the heap; \
-                             a message of another sender (rmw_zenoh_cpp) was lost. {}{budget}",
+                             {} so far for this cause. From an shm-runtime publisher this was its probe: it sends to \
+                             this process from the heap and nothing is lost; from another sender (rmw_zenoh_cpp) \
+                             it was a message, lost. Cause: {}{budget}",
                             COUNTS[cause.index()].load(Ordering::Relaxed),
                             cause.advice()
                         );
