@@ -43,8 +43,11 @@ const RECEIVER_CHUNK: &str = "@shm_cdr_rx";
 pub const PROBE_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// How long after a failed probe the session is asked again (its limit may
-/// have been raised, or another pool released).
+/// have been raised, or another session released what it had locked),
+/// doubling with each failure up to [`RETRY_AFTER_MAX`]: a failed probe
+/// leaves its 8-byte chunk referenced for good, so they stay few.
 const RETRY_AFTER: Duration = Duration::from_secs(30);
+const RETRY_AFTER_MAX: Duration = Duration::from_secs(3600);
 
 /// What a probe's reply says.
 const MAPPED: &[u8] = b"shm";
@@ -91,14 +94,38 @@ pub struct Receiver {
     pub reach: Reach,
 }
 
+/// What a pool knows of one session.
+#[derive(Debug, Clone, Copy)]
+struct Checked {
+    reach: Reach,
+    /// When `reach` was settled (or the check started).
+    at: Instant,
+    /// Probes in a row that got no answer.
+    failures: u32,
+}
+
+impl Checked {
+    /// Whether a session that could not map the pool is due another probe.
+    fn due(&self) -> bool {
+        self.due_at(Instant::now())
+    }
+
+    fn due_at(&self, now: Instant) -> bool {
+        let backoff = RETRY_AFTER
+            .saturating_mul(1 << self.failures.saturating_sub(1).min(16))
+            .min(RETRY_AFTER_MAX);
+        self.reach == Reach::CannotMap && now.saturating_duration_since(self.at) >= backoff
+    }
+}
+
 /// What a pool knows of the sessions it has checked.
 #[derive(Default)]
 pub(crate) struct ReachTable {
-    sessions: Mutex<HashMap<ZenohId, (Reach, Instant)>>,
+    sessions: Mutex<HashMap<ZenohId, Checked>>,
 }
 
 impl ReachTable {
-    fn lock(&self) -> MutexGuard<'_, HashMap<ZenohId, (Reach, Instant)>> {
+    fn lock(&self) -> MutexGuard<'_, HashMap<ZenohId, Checked>> {
         // Each entry is written whole.
         self.sessions.lock().unwrap_or_else(|e| e.into_inner())
     }
@@ -256,7 +283,7 @@ impl Receivers {
             .into_iter()
             .map(|session| Receiver {
                 session,
-                reach: table.get(&session).map_or(Reach::Checking, |(r, _)| *r),
+                reach: table.get(&session).map_or(Reach::Checking, |c| c.reach),
             })
             .collect()
     }
@@ -280,16 +307,16 @@ impl Receivers {
                         due.push(*session);
                         gate = gate.or(Some(PayloadKind::ReceiverPending));
                     }
-                    Some((Reach::Checking, _)) => {
-                        gate = gate.or(Some(PayloadKind::ReceiverPending));
-                    }
-                    Some((Reach::CannotMap, since)) => {
-                        if since.elapsed() >= RETRY_AFTER {
-                            due.push(*session);
+                    Some(checked) => match checked.reach {
+                        Reach::Checking => gate = gate.or(Some(PayloadKind::ReceiverPending)),
+                        Reach::CannotMap => {
+                            if checked.due() {
+                                due.push(*session);
+                            }
+                            gate = Some(PayloadKind::ReceiverCannotMap);
                         }
-                        gate = Some(PayloadKind::ReceiverCannotMap);
-                    }
-                    Some((Reach::SharedMemory | Reach::Bytes, _)) => {}
+                        Reach::SharedMemory | Reach::Bytes => {}
+                    },
                 }
             }
         }
@@ -301,22 +328,36 @@ impl Receivers {
 }
 
 /// Ask `session` whether it maps `shared`'s pool, unless a check is under
-/// way or settled (a failed one is repeated after [`RETRY_AFTER`]).
+/// way or settled (a failed one is repeated after a backoff, see
+/// [`RETRY_AFTER`]).
 fn probe(shared: &Shared, session: ZenohId) {
     let pool = &shared.pool;
-    {
+    let failures = {
         let mut table = pool.reach_table().lock();
-        match table.get(&session) {
-            Some((Reach::Checking | Reach::SharedMemory | Reach::Bytes, _)) => return,
-            Some((Reach::CannotMap, since)) if since.elapsed() < RETRY_AFTER => return,
-            _ => {}
-        }
-        table.insert(session, (Reach::Checking, Instant::now()));
-    }
+        let failures = match table.get(&session) {
+            None => 0,
+            Some(checked) if checked.due() => checked.failures,
+            Some(_) => return,
+        };
+        // Keep showing `CannotMap` while it is asked again.
+        let reach = match failures {
+            0 => Reach::Checking,
+            _ => Reach::CannotMap,
+        };
+        table.insert(
+            session,
+            Checked {
+                reach,
+                at: Instant::now(),
+                failures,
+            },
+        );
+        failures
+    };
     // Never wait for room here (this may run on Zenoh's thread): with the
     // pool full, the next publish asks again.
     let Some(mut chunk) = pool.alloc_message(8, Duration::ZERO) else {
-        pool.reach_table().lock().remove(&session);
+        forget(pool, session, failures);
         return;
     };
     chunk.fill(0);
@@ -343,7 +384,28 @@ fn probe(shared: &Shared, session: ZenohId) {
         .wait();
     if let Err(e) = sent {
         tracing::debug!("shared-memory probe of session {session}: {e}");
-        pool.reach_table().lock().remove(&session);
+        forget(pool, session, failures);
+    }
+}
+
+/// A probe that could not be sent: asked again on the next publish (or, after
+/// failures, at the next backoff).
+fn forget(pool: &ShmContext, session: ZenohId, failures: u32) {
+    let mut table = pool.reach_table().lock();
+    match failures {
+        0 => {
+            table.remove(&session);
+        }
+        _ => {
+            table.insert(
+                session,
+                Checked {
+                    reach: Reach::CannotMap,
+                    at: Instant::now(),
+                    failures,
+                },
+            );
+        }
     }
 }
 
@@ -362,8 +424,19 @@ impl Drop for Verdict {
         let reach = answer.unwrap_or(Reach::CannotMap);
         let first_failure = {
             let mut table = self.pool.reach_table().lock();
-            let before = table.insert(self.session, (reach, Instant::now()));
-            reach == Reach::CannotMap && !matches!(before, Some((Reach::CannotMap, _)))
+            let failures = match reach {
+                Reach::CannotMap => table.get(&self.session).map_or(0, |c| c.failures) + 1,
+                _ => 0,
+            };
+            table.insert(
+                self.session,
+                Checked {
+                    reach,
+                    at: Instant::now(),
+                    failures,
+                },
+            );
+            failures == 1
         };
         if first_failure {
             tracing::warn!(
@@ -371,7 +444,7 @@ impl Drop for Verdict {
                 session = %self.session,
                 pool_size = self.pool.pool_size().unwrap_or(0),
                 "a subscriber's process could not map this shared-memory pool (no answer to the probe within {PROBE_TIMEOUT:?}): \
-                 messages to it go from the heap, so that it gets every one (ShmStats::cannot_map counts them). \
+                 messages to it go from the heap, so that it gets every one (ShmStats::cannot_map counts them); asked again after 30 s, then less and less often. \
                  That process's log names the cause; most often its memory-lock limit (RLIMIT_MEMLOCK) is used up \
                  by the segments it maps: raise it there, or make the publishers' pools smaller"
             );
@@ -382,6 +455,26 @@ impl Drop for Verdict {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_session_that_cannot_map_is_asked_again_less_and_less_often() {
+        let at = Instant::now();
+        let due = |reach, failures, secs| {
+            Checked {
+                reach,
+                at,
+                failures,
+            }
+            .due_at(at + Duration::from_secs(secs))
+        };
+        assert!(due(Reach::CannotMap, 1, 31));
+        assert!(!due(Reach::CannotMap, 2, 31));
+        assert!(due(Reach::CannotMap, 2, 61));
+        assert!(!due(Reach::CannotMap, 30, 3599));
+        assert!(due(Reach::CannotMap, 30, 3601));
+        assert!(!due(Reach::SharedMemory, 0, 7200));
+        assert!(!due(Reach::Checking, 0, 7200));
+    }
 
     #[test]
     fn a_receiver_token_names_its_session() {
