@@ -3,6 +3,7 @@
 
 pub mod action;
 pub mod graph;
+pub mod lifecycle;
 pub mod names;
 pub(crate) mod node;
 pub mod parameters;
