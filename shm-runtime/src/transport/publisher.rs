@@ -557,7 +557,7 @@ impl<T: RosMessage> RosPublisher<T> {
     /// The sessions that subscribe to this publisher, each with how it gets
     /// the messages that go through shared memory: mapped in place, copied into
     /// a link that carries no shared memory (another user, another host), or
-    /// from the heap because it cannot map the pool (see [`Reach`]). Empty
+    /// from the heap because it cannot map the pool (see [`Reach`](crate::Reach)). Empty
     /// for a publisher without a pool. Sessions of this project's subscribers
     /// are listed; other ROS 2 subscribers (rmw_zenoh_cpp's) are not, and get
     /// what Zenoh sends them.
