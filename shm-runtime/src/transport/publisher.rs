@@ -67,6 +67,7 @@ impl From<EncodeError> for PublishError {
 
 /// What one publish did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct PublishOutcome {
     /// Where the bytes went.
     pub kind: PayloadKind,

@@ -87,6 +87,7 @@ impl fmt::Display for Reach {
 /// One session that subscribes to a publisher, and how it gets the
 /// publisher's shared-memory messages (see [`RosPublisher::receivers`](crate::RosPublisher::receivers)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct Receiver {
     /// The subscribing session.
     pub session: ZenohId,

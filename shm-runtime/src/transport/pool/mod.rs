@@ -76,6 +76,7 @@ struct Counters {
 
 /// How many messages went where (see [`ShmContext::stats`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct ShmStats {
     /// Messages encoded into shared memory (including zero-copy splices).
     pub shm: u64,
