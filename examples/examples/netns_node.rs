@@ -70,6 +70,9 @@ fn publish(endpoint: &str, count: u32, subscribers: usize) -> Result<(), Error> 
     }
     // Each subscriber says hello after declaring its subscription, and both
     // travel on the same link, in order: every subscriber is matched now.
+    // Wait for their sessions' answers to the pool's probe, so that the first
+    // message takes its final path too.
+    publisher.wait_for_subscribers(Duration::from_secs(30));
     let mut out = std::io::stdout();
     for i in 0..count {
         let msg = cloud(i);
