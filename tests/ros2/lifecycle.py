@@ -17,13 +17,12 @@ import time
 from pathlib import Path
 
 import rclpy
-import zenoh
 from lifecycle_msgs.msg import Transition, TransitionEvent
 from lifecycle_msgs.srv import ChangeState, GetAvailableStates, GetAvailableTransitions, GetState
 from rclpy.lifecycle import LifecycleNode, TransitionCallbackReturn
-from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.serialization import deserialize_message
 
-from rmw_zenoh import attachment, free_port, gid_of, open_session, rosidl_hash
+from rmw_zenoh import call, free_port, gid_of, open_session, rosidl_hash
 
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples") / "interop_lifecycle"
 failures = []
@@ -152,14 +151,7 @@ def main():
         name = SERVICES[service].__name__
         key = (f"0/demo/lc_node/{service}/lifecycle_msgs::srv::dds_::{name}_/"
                f"{rosidl_hash('lifecycle_msgs/srv/' + name)}")
-        for _ in range(50):
-            replies = list(session.get(key, payload=serialize_message(request), attachment=attachment(seq, gid),
-                                       target=zenoh.QueryTarget.ALL_COMPLETE, timeout=10))
-            oks = [r.ok for r in replies if r.ok is not None]
-            if oks:
-                return deserialize_message(oks[0].payload.to_bytes(), SERVICES[service].Response)
-            time.sleep(0.1)
-        return None
+        return call(session, key, request, SERVICES[service].Response, seq, gid)
 
     compared = asked = 0
     for seq, question in enumerate(QUESTIONS, start=1):

@@ -24,14 +24,13 @@ import time
 from pathlib import Path
 
 import rclpy
-import zenoh
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, Parameter, ParameterDescriptor,
                                 ParameterEvent, ParameterType, ParameterValue, SetParametersResult)
 from rcl_interfaces.srv import (DescribeParameters, GetParameterTypes, GetParameters, ListParameters,
                                 SetParameters, SetParametersAtomically)
-from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.serialization import deserialize_message
 
-from rmw_zenoh import attachment, free_port, gid_of, open_session, rosidl_hash
+from rmw_zenoh import call, free_port, gid_of, open_session, rosidl_hash
 
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples") / "interop_parameters"
 AUTO = {"start_type_description_service"}
@@ -150,14 +149,7 @@ def main():
     def ask_ours(service, srv_type, request, seq):
         name = srv_type.__name__
         key = f"0/demo/param_node/{service}/rcl_interfaces::srv::dds_::{name}_/{rosidl_hash('rcl_interfaces/srv/' + name)}"
-        for _ in range(50):
-            replies = list(session.get(key, payload=serialize_message(request), attachment=attachment(seq, gid),
-                                       target=zenoh.QueryTarget.ALL_COMPLETE, timeout=10))
-            oks = [r.ok for r in replies if r.ok is not None]
-            if oks:
-                return deserialize_message(oks[0].payload.to_bytes(), srv_type.Response)
-            time.sleep(0.1)
-        return None
+        return call(session, key, request, srv_type.Response, seq, gid)
 
     compared = 0
     for seq, (service, srv_type, request) in enumerate(QUESTIONS, start=1):

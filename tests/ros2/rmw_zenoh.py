@@ -50,3 +50,17 @@ def rosidl_hash(type_name):
     pkg, kind, name = type_name.split("/")
     desc = json.loads((Path(sys.prefix) / "share" / pkg / kind / f"{name}.json").read_text())
     return next(h["hash_string"] for h in desc["type_hashes"] if h["type_name"] == type_name)
+
+
+def call(session, key, request, response_type, seq, gid, tries=50):
+    """Call the rmw_zenoh service on `key` with rclpy's serialization: the first
+    reply as a `response_type`, or None if no server answered in `tries` attempts."""
+    from rclpy.serialization import deserialize_message, serialize_message
+    for _ in range(tries):
+        replies = list(session.get(key, payload=serialize_message(request), attachment=attachment(seq, gid),
+                                   target=zenoh.QueryTarget.ALL_COMPLETE, timeout=10))
+        oks = [r.ok for r in replies if r.ok is not None]
+        if oks:
+            return deserialize_message(oks[0].payload.to_bytes(), response_type)
+        time.sleep(0.1)
+    return None
