@@ -187,3 +187,71 @@ pub fn raw_publisher_matched(
     }
     true
 }
+
+/// Numbered 64 KiB messages, published and received in order (the
+/// shared-memory loss tests).
+#[allow(dead_code)] // not every test binary uses it
+pub mod blobs {
+    use std::time::Duration;
+
+    use shm_cdr::msgs::std_msgs::UInt8MultiArray;
+    use shm_runtime::{PayloadKind, RosPublisher, RosSubscriber};
+    use zenoh::Wait;
+
+    /// How many each test publishes.
+    pub const PUBLISHED: usize = 40;
+    const TIMEOUT: Duration = Duration::from_secs(10);
+
+    pub fn message(i: usize) -> UInt8MultiArray {
+        UInt8MultiArray {
+            data: vec![i as u8; 64 * 1024],
+            ..Default::default()
+        }
+    }
+
+    /// Publish [`PUBLISHED`] messages; the kinds they went as.
+    pub fn publish_all(publisher: &RosPublisher<UInt8MultiArray>) -> Vec<PayloadKind> {
+        (0..PUBLISHED)
+            .map(|i| publisher.publish(&message(i)).wait().unwrap().kind)
+            .collect()
+    }
+
+    /// Receive until [`PUBLISHED`] messages arrived or [`TIMEOUT`] passed; each
+    /// must be the one published in its place.
+    pub fn receive_all(subscriber: &RosSubscriber<UInt8MultiArray>) -> usize {
+        let mut received = 0;
+        while received < PUBLISHED {
+            let Ok(Some(sample)) = subscriber.recv_timeout(TIMEOUT) else {
+                break;
+            };
+            let got: UInt8MultiArray = sample.decode().unwrap();
+            assert_eq!(got.data[0] as usize, received, "out of order or corrupt");
+            received += 1;
+        }
+        received
+    }
+
+    /// Restores the soft memory-lock limit when dropped, whatever the test did.
+    pub struct LimitGuard(u64, u64);
+
+    impl LimitGuard {
+        /// Lower the soft limit to `soft` (never above where it is).
+        pub fn lower_to(soft: u64) -> Self {
+            let (old, hard) = rlimit::getrlimit(rlimit::Resource::MEMLOCK).unwrap();
+            rlimit::setrlimit(rlimit::Resource::MEMLOCK, soft.min(old), hard).unwrap();
+            Self(old, hard)
+        }
+    }
+
+    impl Drop for LimitGuard {
+        fn drop(&mut self) {
+            let _ = rlimit::setrlimit(rlimit::Resource::MEMLOCK, self.0, self.1);
+        }
+    }
+
+    /// Whether the memory-lock limit applies to this process.
+    pub fn limited() -> bool {
+        let budget = shm_runtime::MemlockBudget::read();
+        !budget.exempt && budget.limit.is_some()
+    }
+}
