@@ -35,9 +35,9 @@ pub enum PayloadKind {
     /// about once).
     PoolUnavailable,
     /// Above the threshold, but a session that subscribes to the publisher
-    /// has not yet answered whether it maps the pool (one round trip, once
-    /// per session and pool): encoded on the heap meanwhile (counted in
-    /// [`ShmStats::pending`](crate::ShmStats)).
+    /// had not answered whether it maps the pool (one round trip, once per
+    /// session and pool) within the pool's `alloc_timeout`: encoded on the
+    /// heap meanwhile (counted in [`ShmStats::pending`](crate::ShmStats)).
     ReceiverPending,
     /// Above the threshold, but a session that subscribes to the publisher
     /// cannot map the pool (its process's memory-lock limit, most often):
@@ -90,9 +90,21 @@ impl std::fmt::Debug for ShmPolicy {
 
 impl ShmPolicy {
     /// Why a message above the threshold must go from the heap now, if it
-    /// must (see [`Receivers::gate`]).
+    /// must (see [`Receivers::gate`]). A session still being checked is
+    /// waited for as a full pool is, up to the pool's `alloc_timeout`: the
+    /// check takes one round trip, and the message then takes its final path.
     pub(crate) fn gate(&self) -> Option<PayloadKind> {
-        self.receivers.as_ref().and_then(|r| r.gate())
+        let receivers = self.receivers.as_ref()?;
+        let mut gate = receivers.gate();
+        if gate == Some(PayloadKind::ReceiverPending) {
+            let deadline = std::time::Instant::now() + self.context.config().alloc_timeout;
+            while gate == Some(PayloadKind::ReceiverPending) && std::time::Instant::now() < deadline
+            {
+                std::thread::sleep(std::time::Duration::from_micros(50));
+                gate = receivers.gate();
+            }
+        }
+        gate
     }
 }
 
