@@ -4,6 +4,8 @@
 //! ```text
 //! ros2_types hashes      # one line per type: `<kind> <type name> <RIHS01 hash>`
 //! ros2_types user-hashes # the same for examples/interfaces/robot_interfaces (build.rs)
+//! ros2_types descriptions # one JSON object per line: a type's full description
+//!                         # (default values included) and its sources
 //! ros2_types roundtrip   # stdin: `<type name> <hex>` lines; stdout: `ok <hex>` or `err <why>`
 //! ```
 //!
@@ -64,6 +66,14 @@ macro_rules! tables {
                 $( ("message", <$m as RosMessage>::TYPE_NAME, <$m as RosMessage>::type_hash()), )*
                 $( ("service", <$s as RosService>::TYPE_NAME, <$s as RosService>::type_hash()), )*
                 $( ("action", <$a as RosAction>::TYPE_NAME, <$a as RosAction>::type_hash()), )*
+            ]
+        }
+
+        fn descriptions() -> Vec<shm_cdr::describe::FullDescription> {
+            vec![
+                $( <$m as RosMessage>::full_description(), )*
+                $( <$s as RosService>::full_description(), )*
+                $( <$a as RosAction>::full_description(), )*
             ]
         }
 
@@ -136,6 +146,26 @@ fn main() {
                 let _ = writeln!(out, "{kind} {name} {hash}");
             }
         }
+        "descriptions" => {
+            for description in descriptions() {
+                let sources: Vec<serde_json::Value> = description
+                    .sources()
+                    .map(|(type_name, encoding, text)| {
+                        serde_json::json!({
+                            "type_name": type_name,
+                            "encoding": encoding,
+                            "raw_file_contents": text,
+                        })
+                    })
+                    .collect();
+                let line = serde_json::json!({
+                    "type_description_msg": serde_json::from_str::<serde_json::Value>(&description.json())
+                        .unwrap_or_else(|e| panic!("{}: not JSON: {e}", description.own.type_name)),
+                    "sources": sources,
+                });
+                let _ = writeln!(out, "{line}");
+            }
+        }
         "roundtrip" => {
             let table = roundtrips();
             let mut scratch = Vec::new();
@@ -157,7 +187,7 @@ fn main() {
             }
         }
         _ => {
-            eprintln!("usage: ros2_types hashes | roundtrip");
+            eprintln!("usage: ros2_types hashes | user-hashes | descriptions | roundtrip");
             std::process::exit(2);
         }
     }

@@ -156,21 +156,230 @@ impl FieldType {
 
 /// One named field of a message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub struct Field {
     /// The ROS field name.
     pub name: &'static str,
     /// Its type.
     pub field_type: FieldType,
+    /// The default value the interface file gives the field, as rosidl writes it
+    /// in a type description (Python's `str()` of the value: `1.0`, `True`,
+    /// `(0, 127, -128)`, `('', 'max value')`, a string unquoted), or empty. It is
+    /// not part of the type hash.
+    pub default_value: &'static str,
 }
 
-/// A message type: its name and fields, as they enter the type hash.
+impl Field {
+    /// A field with no default value.
+    pub const fn new(name: &'static str, field_type: FieldType) -> Self {
+        Self {
+            name,
+            field_type,
+            default_value: "",
+        }
+    }
+
+    /// The same field with a default value, written as rosidl writes it (see
+    /// [`default_value`](Self::default_value)).
+    pub const fn with_default_value(self, default_value: &'static str) -> Self {
+        Self {
+            default_value,
+            ..self
+        }
+    }
+}
+
+/// Where a type was defined: the interface file's text, as rosidl reports it in
+/// `type_description_interfaces/TypeSource`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub struct TypeSource {
+    /// `msg`, `srv`, `action`, `idl`, `implicit` (a type rosidl derives from a
+    /// `.srv` or `.action` file, with no text of its own), or empty when the type
+    /// was declared in Rust and has no file.
+    pub encoding: &'static str,
+    /// The file's text, its lines joined by `\n` with no newline at the end.
+    pub raw_file_contents: &'static str,
+}
+
+impl TypeSource {
+    /// No interface file: a type declared in Rust (`#[derive(RosMessage)]`).
+    /// [`TypeDescription::source_text`] writes a `.msg` text for it.
+    pub const NONE: Self = Self {
+        encoding: "",
+        raw_file_contents: "",
+    };
+
+    /// A type rosidl derives from a `.srv` or `.action` file (`…_Request`,
+    /// `…_Goal`, `…_SendGoal`, …).
+    pub const IMPLICIT: Self = Self {
+        encoding: "implicit",
+        raw_file_contents: "",
+    };
+
+    /// A file of the given encoding (`msg`, `srv`, `action`, `idl`) and text.
+    pub const fn file(encoding: &'static str, raw_file_contents: &'static str) -> Self {
+        Self {
+            encoding,
+            raw_file_contents,
+        }
+    }
+}
+
+/// A message type: its name and fields, as they enter the type hash, and where
+/// it was defined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub struct TypeDescription {
     /// `pkg/msg/Name`.
     pub type_name: &'static str,
     /// The fields in declaration order (an empty message lists rosidl's
     /// `structure_needs_at_least_one_member: uint8`).
     pub fields: &'static [Field],
+    /// The interface file it came from (not part of the type hash).
+    pub source: TypeSource,
+}
+
+impl TypeDescription {
+    /// A description of `type_name` with these fields and source.
+    pub const fn new(
+        type_name: &'static str,
+        fields: &'static [Field],
+        source: TypeSource,
+    ) -> Self {
+        Self {
+            type_name,
+            fields,
+            source,
+        }
+    }
+
+    /// The source's encoding and text as a type-description service reports them.
+    /// A type declared in Rust has no file: it gets `msg` and a `.msg` text written
+    /// from its fields, which describes the same type.
+    pub fn source_text(&self) -> (&'static str, std::borrow::Cow<'static, str>) {
+        if self.source.encoding.is_empty() {
+            ("msg", std::borrow::Cow::Owned(msg_text(self.fields)))
+        } else {
+            (
+                self.source.encoding,
+                std::borrow::Cow::Borrowed(self.source.raw_file_contents),
+            )
+        }
+    }
+}
+
+/// `.msg` text declaring `fields`, one per line.
+fn msg_text(fields: &[Field]) -> String {
+    let mut out = String::new();
+    for (i, field) in fields.iter().enumerate() {
+        if i > 0 {
+            out.push('\n');
+        }
+        let t = &field.field_type;
+        let element = match t.element {
+            TypeId::Nested => {
+                // `pkg/msg/Name` is written `pkg/Name` in .msg files.
+                let mut parts = t.nested_type_name.split('/');
+                match (parts.next(), parts.next(), parts.next()) {
+                    (Some(pkg), Some(_), Some(name)) => format!("{pkg}/{name}"),
+                    _ => t.nested_type_name.to_owned(),
+                }
+            }
+            TypeId::BoundedString => format!("string<={}", t.string_capacity),
+            TypeId::BoundedWString => format!("wstring<={}", t.string_capacity),
+            other => msg_primitive_name(other).to_owned(),
+        };
+        out.push_str(&element);
+        match t.container {
+            Container::Single => {}
+            Container::Array(n) => {
+                let _ = write!(out, "[{n}]");
+            }
+            Container::BoundedSequence(n) => {
+                let _ = write!(out, "[<={n}]");
+            }
+            Container::Sequence => out.push_str("[]"),
+        }
+        out.push(' ');
+        out.push_str(field.name);
+        if !field.default_value.is_empty() {
+            out.push(' ');
+            out.push_str(&msg_default(field));
+        }
+    }
+    out
+}
+
+fn msg_primitive_name(id: TypeId) -> &'static str {
+    match id {
+        TypeId::Int8 => "int8",
+        TypeId::Uint8 => "uint8",
+        TypeId::Int16 => "int16",
+        TypeId::Uint16 => "uint16",
+        TypeId::Int32 => "int32",
+        TypeId::Uint32 => "uint32",
+        TypeId::Int64 => "int64",
+        TypeId::Uint64 => "uint64",
+        TypeId::Float32 => "float32",
+        TypeId::Float64 => "float64",
+        TypeId::Char => "char",
+        TypeId::WChar => "wchar",
+        TypeId::Boolean => "bool",
+        TypeId::Byte => "byte",
+        TypeId::String | TypeId::BoundedString => "string",
+        TypeId::WString | TypeId::BoundedWString => "wstring",
+        TypeId::Nested => "",
+    }
+}
+
+/// A description's default value written back as `.msg` syntax: Python's tuple
+/// `(a, b)` becomes `[a, b]`, `True` becomes `true`, a string is quoted.
+fn msg_default(field: &Field) -> String {
+    let text = field.default_value;
+    let is_text = matches!(
+        field.field_type.element,
+        TypeId::String | TypeId::WString | TypeId::BoundedString | TypeId::BoundedWString
+    );
+    let scalar = |s: &str| match s {
+        "True" => "true".to_owned(),
+        "False" => "false".to_owned(),
+        other => other.to_owned(),
+    };
+    match field.field_type.container {
+        Container::Single if is_text => {
+            let mut quoted = String::with_capacity(text.len() + 2);
+            quoted.push('"');
+            for c in text.chars() {
+                if c == '"' || c == '\\' {
+                    quoted.push('\\');
+                }
+                quoted.push(c);
+            }
+            quoted.push('"');
+            quoted
+        }
+        Container::Single => scalar(text),
+        _ => {
+            // Python's repr of a tuple; its strings are already quoted.
+            let inner = text
+                .strip_prefix('(')
+                .and_then(|t| t.strip_suffix(')'))
+                .unwrap_or(text);
+            let inner = inner.strip_suffix(',').unwrap_or(inner);
+            if is_text {
+                format!("[{inner}]")
+            } else {
+                let items: Vec<String> = inner
+                    .split(',')
+                    .map(str::trim)
+                    .filter(|s| !s.is_empty())
+                    .map(scalar)
+                    .collect();
+                format!("[{}]", items.join(", "))
+            }
+        }
+    }
 }
 
 /// The message types a type references, each once, sorted by name.
@@ -241,8 +450,9 @@ octet_types!(u8, i8);
 #[cfg(feature = "bytes")]
 impl OctetType for bytes::Bytes {}
 
-fn write_type_description(out: &mut String, description: &TypeDescription) {
-    // Names are validated ASCII identifiers, so no JSON escaping is ever needed.
+fn write_type_description(out: &mut String, description: &TypeDescription, defaults: bool) {
+    // Names are validated ASCII identifiers, so no JSON escaping is needed for
+    // them; default values may hold any text.
     let _ = write!(
         out,
         "{{\"type_name\": \"{}\", \"fields\": [",
@@ -255,15 +465,38 @@ fn write_type_description(out: &mut String, description: &TypeDescription) {
         let t = &field.field_type;
         let _ = write!(
             out,
-            "{{\"name\": \"{}\", \"type\": {{\"type_id\": {}, \"capacity\": {}, \"string_capacity\": {}, \"nested_type_name\": \"{}\"}}}}",
+            "{{\"name\": \"{}\", \"type\": {{\"type_id\": {}, \"capacity\": {}, \"string_capacity\": {}, \"nested_type_name\": \"{}\"}}",
             field.name,
             t.type_id(),
             t.capacity(),
             t.string_capacity,
             t.nested_type_name
         );
+        if defaults {
+            out.push_str(", \"default_value\": ");
+            write_json_string(out, field.default_value);
+        }
+        out.push('}');
     }
     out.push_str("]}");
+}
+
+fn write_json_string(out: &mut String, text: &str) {
+    out.push('"');
+    for c in text.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            '\t' => out.push_str("\\t"),
+            c if u32::from(c) < 0x20 => {
+                let _ = write!(out, "\\u{:04x}", u32::from(c));
+            }
+            c => out.push(c),
+        }
+    }
+    out.push('"');
 }
 
 /// The exact text rosidl hashes for a type: its description and the descriptions of
@@ -272,18 +505,85 @@ pub fn type_description_json<'a>(
     description: &TypeDescription,
     referenced: impl IntoIterator<Item = &'a TypeDescription>,
 ) -> String {
+    description_json(description, referenced, false)
+}
+
+fn description_json<'a>(
+    description: &TypeDescription,
+    referenced: impl IntoIterator<Item = &'a TypeDescription>,
+    defaults: bool,
+) -> String {
     let mut out = String::with_capacity(1024);
     out.push_str("{\"type_description\": ");
-    write_type_description(&mut out, description);
+    write_type_description(&mut out, description, defaults);
     out.push_str(", \"referenced_type_descriptions\": [");
     for (i, referenced) in referenced.into_iter().enumerate() {
         if i > 0 {
             out.push_str(", ");
         }
-        write_type_description(&mut out, referenced);
+        write_type_description(&mut out, referenced, defaults);
     }
     out.push_str("]}");
     out
+}
+
+/// A type with every type it references, sorted by name: what a
+/// `type_description_interfaces/TypeDescription` message carries.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FullDescription {
+    /// The type itself.
+    pub own: TypeDescription,
+    /// Every type it references, directly or not, each once, sorted by name.
+    pub referenced: Vec<TypeDescription>,
+}
+
+impl FullDescription {
+    /// The description of `own` with the types `register` adds (a type's
+    /// `register_types`).
+    pub fn collect(own: TypeDescription, register: impl FnOnce(&mut TypeRegistry)) -> Self {
+        let mut registry = TypeRegistry::default();
+        register(&mut registry);
+        let referenced = registry
+            .iter()
+            .filter(|d| d.type_name != own.type_name)
+            .copied()
+            .collect();
+        Self { own, referenced }
+    }
+
+    /// The description of message type `T`.
+    pub fn of_message<T: crate::RosMessage + ?Sized>() -> Self {
+        Self::collect(T::type_description(), T::register_types)
+    }
+
+    /// The text rosidl hashes (no default values).
+    pub fn hashed_json(&self) -> String {
+        description_json(&self.own, &self.referenced, false)
+    }
+
+    /// The JSON rosidl installs as `type_description_msg` in its `.json` files,
+    /// default values included.
+    pub fn json(&self) -> String {
+        description_json(&self.own, &self.referenced, true)
+    }
+
+    /// The `RIHS01` hash.
+    pub fn type_hash(&self) -> String {
+        rihs01_of_json(&self.hashed_json())
+    }
+
+    /// The sources a type-description service reports, as rosidl orders them:
+    /// the type's own, then each referenced type's; each as (type name,
+    /// encoding, text) from [`TypeDescription::source_text`].
+    pub fn sources(
+        &self,
+    ) -> impl Iterator<Item = (&'static str, &'static str, std::borrow::Cow<'static, str>)> + '_
+    {
+        std::iter::once(&self.own).chain(&self.referenced).map(|d| {
+            let (encoding, text) = d.source_text();
+            (d.type_name, encoding, text)
+        })
+    }
 }
 
 /// `RIHS01_` followed by the lowercase hex SHA-256 of `json`.
@@ -300,13 +600,7 @@ pub fn rihs01_of_json(json: &str) -> String {
 /// The hashed JSON text of message type `T` (for debugging a hash mismatch against
 /// rosidl's `.json` type description files).
 pub fn message_description_json<T: crate::RosMessage + ?Sized>() -> String {
-    let mut registry = TypeRegistry::default();
-    T::register_types(&mut registry);
-    let own = T::type_description();
-    type_description_json(
-        &own,
-        registry.iter().filter(|d| d.type_name != own.type_name),
-    )
+    FullDescription::of_message::<T>().hashed_json()
 }
 
 /// Compute the `RIHS01` hash of message type `T` (derived code caches it).

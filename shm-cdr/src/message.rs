@@ -1,7 +1,7 @@
 //! The [`RosMessage`] trait: a ROS 2 message type with its names and type hash.
 
 use crate::decode::HEADER_LEN;
-use crate::describe::{Field, RosElement, TypeDescription};
+use crate::describe::{Field, FullDescription, RosElement, TypeDescription, TypeSource};
 use crate::encode::CdrEncode;
 
 /// A ROS 2 message type. Implement it with `#[derive(RosMessage)]`, which also
@@ -28,12 +28,24 @@ pub trait RosMessage: CdrEncode + RosElement {
     /// The REP 2011 type hash, `RIHS01_` and 64 hex digits, equal to rosidl's.
     fn type_hash() -> &'static str;
 
+    /// The `.msg` file the type was generated from, or
+    /// [`TypeSource::IMPLICIT`] for a type rosidl derives from a `.srv` or
+    /// `.action` file; [`TypeSource::NONE`] for a type declared in Rust. Set with
+    /// `#[ros(source = "…")]`.
+    const SOURCE: TypeSource = TypeSource::NONE;
+
     /// This type's own description (referenced types excluded).
     fn type_description() -> TypeDescription {
-        TypeDescription {
-            type_name: Self::TYPE_NAME,
-            fields: Self::FIELDS,
-        }
+        TypeDescription::new(Self::TYPE_NAME, Self::FIELDS, Self::SOURCE)
+    }
+
+    /// This type's description with every type it references, as a
+    /// type-description service reply carries it.
+    fn full_description() -> FullDescription
+    where
+        Self: Sized,
+    {
+        FullDescription::of_message::<Self>()
     }
 }
 

@@ -229,6 +229,10 @@ pub struct Message {
     pub constants: Vec<Constant>,
     /// The comment that opens the definition.
     pub doc: Vec<String>,
+    /// The interface file's text, lines joined by `\n` with no newline at the end
+    /// (as rosidl reports it in `TypeSource`); `None` for a type rosidl derives
+    /// from another file (`…_Request`, `…_Goal`, `…_SendGoal`, …).
+    pub source: Option<String>,
 }
 
 /// A service: its request and response, and the event message rosidl adds.
@@ -245,6 +249,10 @@ pub struct Service {
     pub event: Message,
     /// The comment that opens the definition.
     pub doc: Vec<String>,
+    /// The interface file's text, lines joined by `\n` with no newline at the end
+    /// (as rosidl reports it in `TypeSource`); `None` for a type rosidl derives
+    /// from another file (`…_Request`, `…_Goal`, `…_SendGoal`, …).
+    pub source: Option<String>,
 }
 
 /// An action: its goal, result and feedback, and the services and message
@@ -267,6 +275,10 @@ pub struct Action {
     pub feedback_message: Message,
     /// The comment that opens the definition.
     pub doc: Vec<String>,
+    /// The interface file's text, lines joined by `\n` with no newline at the end
+    /// (as rosidl reports it in `TypeSource`); `None` for a type rosidl derives
+    /// from another file (`…_Request`, `…_Goal`, `…_SendGoal`, …).
+    pub source: Option<String>,
 }
 
 /// One interface package.

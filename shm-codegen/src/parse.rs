@@ -118,7 +118,15 @@ fn files(dir: &Path, sub: &str, ext: &str) -> Result<Vec<(PathBuf, String)>, Err
 pub fn parse_message(text: &str, file: &Path, package: &str, name: &str) -> Result<Message, Error> {
     let ty = own_type(file, package, "msg", name)?;
     let lines: Vec<&str> = text.lines().collect();
-    parse_section(&lines, 0, file, ty)
+    let mut message = parse_section(&lines, 0, file, ty)?;
+    message.source = Some(source_text(text));
+    Ok(message)
+}
+
+/// A file's text as rosidl reports it: its lines joined by `\n`, no newline at
+/// the end.
+fn source_text(text: &str) -> String {
+    text.lines().collect::<Vec<_>>().join("\n")
 }
 
 /// Parse the text of `<package>/srv/<name>.srv`: request `---` response.
@@ -143,12 +151,14 @@ pub fn parse_service(text: &str, file: &Path, package: &str, name: &str) -> Resu
         own_type(file, package, "srv", &format!("{name}_Response"))?,
     )?;
     let doc = request.doc.clone();
-    Ok(service(
+    let mut service = service(
         own_type(file, package, "srv", name)?,
         request,
         response,
         doc,
-    ))
+    );
+    service.source = Some(source_text(text));
+    Ok(service)
 }
 
 /// Parse the text of `<package>/action/<name>.action`: goal `---` result `---`
@@ -197,6 +207,7 @@ pub fn parse_action(text: &str, file: &Path, package: &str, name: &str) -> Resul
         fields,
         constants: Vec::new(),
         doc: Vec::new(),
+        source: None,
     };
     let goal_id = || {
         field(
@@ -274,6 +285,7 @@ pub fn parse_action(text: &str, file: &Path, package: &str, name: &str) -> Resul
         get_result,
         feedback_message,
         doc,
+        source: Some(source_text(text)),
     })
 }
 
@@ -320,6 +332,7 @@ fn service(ty: TypeRef, request: Message, response: Message, doc: Vec<String>) -
         ],
         constants: Vec::new(),
         doc: vec![format!("An introspection event of `{}`.", ty.full_name())],
+        source: None,
     };
     Service {
         ty,
@@ -327,6 +340,7 @@ fn service(ty: TypeRef, request: Message, response: Message, doc: Vec<String>) -
         response,
         event,
         doc,
+        source: None,
     }
 }
 
@@ -396,6 +410,7 @@ fn parse_section(lines: &[&str], first: usize, file: &Path, ty: TypeRef) -> Resu
         fields: Vec::new(),
         constants: Vec::new(),
         doc: Vec::new(),
+        source: None,
     };
     // Comment lines not yet attached to anything.
     let mut pending: Vec<String> = Vec::new();

@@ -329,6 +329,7 @@ impl {krate}::RosService for {name} {{
     type Request = {name}_Request;
     type Response = {name}_Response;
     type Event = {name}_Event;
+    const SOURCE: {krate}::describe::TypeSource = {source};
 
     fn type_hash() -> &'static str {{
         static HASH: ::std::sync::OnceLock<::std::string::String> = ::std::sync::OnceLock::new();
@@ -339,6 +340,7 @@ impl {krate}::RosService for {name} {{
 ",
         full = s.ty.full_name(),
         dds = dds_name(&s.ty),
+        source = type_source(krate, "srv", s.source.as_deref()),
     );
 }
 
@@ -375,6 +377,7 @@ impl {krate}::RosAction for {name} {{
     type SendGoal = {name}_SendGoal;
     type GetResult = {name}_GetResult;
     type FeedbackMessage = {name}_FeedbackMessage;
+    const SOURCE: {krate}::describe::TypeSource = {source};
 
     fn send_goal_request(goal_id: {krate}::interface::GoalId, goal: {name}_Goal) -> {name}_SendGoal_Request {{
         let mut request = {name}_SendGoal_Request {{ goal_id: ::core::default::Default::default(), goal }};
@@ -434,7 +437,17 @@ impl {krate}::RosAction for {name} {{
 ",
         full = a.ty.full_name(),
         dds = dds_name(&a.ty),
+        source = type_source(krate, "action", a.source.as_deref()),
     );
+}
+
+/// The `TypeSource` constant of a service or action: its file, or implicit (an
+/// action's `SendGoal` and `GetResult`).
+fn type_source(krate: &str, encoding: &str, text: Option<&str>) -> String {
+    match text {
+        Some(text) => format!("{krate}::describe::TypeSource::file({encoding:?}, {text:?})"),
+        None => format!("{krate}::describe::TypeSource::IMPLICIT"),
+    }
 }
 
 fn dds_name(r: &TypeRef) -> String {
@@ -510,9 +523,17 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
     }
     // Owned forms can be built in place (loans); borrowing forms are read only.
     let loan = if form == Form::Borrowed { "" } else { ", loan" };
+    // The file's text is written once, on the owned form; the other forms name it.
+    let source = match (&m.source, form) {
+        (None, _) => ", source_encoding = \"implicit\"".to_owned(),
+        (Some(text), Form::Owned) => format!(", source = {text:?}"),
+        (Some(_), _) => {
+            format!(", source = <{owned} as {krate}::RosMessage>::SOURCE.raw_file_contents")
+        }
+    };
     let _ = writeln!(
         out,
-        "#[ros(type_name = \"{}\", crate = \"{krate}\"{loan})]",
+        "#[ros(type_name = \"{}\", crate = \"{krate}\"{loan}{source})]",
         m.ty.full_name()
     );
     if index.has(&m.ty, Property::Plain) {
@@ -536,6 +557,13 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
             let (ident, rename) = rust_ident(&f.name);
             if let Some(rename) = rename {
                 let _ = writeln!(out, "    #[ros(rename = \"{rename}\")]");
+            }
+            if let Some(default) = &f.default {
+                let _ = writeln!(
+                    out,
+                    "    #[ros(default_value = {:?})]",
+                    crate::python::description_default(default)
+                );
             }
             let _ = writeln!(
                 out,

@@ -17,6 +17,12 @@ pub struct ContainerAttrs {
     /// `loan`: also generate the `…Lens` / `…Mut` types and `InPlace`, to build
     /// the message in place.
     pub loan: Option<proc_macro2::Span>,
+    /// `source = "…"`: the text of the interface file the type comes from (a
+    /// string literal or any constant `&'static str` expression).
+    pub source: Option<syn::Expr>,
+    /// `source_encoding = "msg"`: what that file is (`msg` when only `source` is
+    /// given; `implicit` for a type derived from a `.srv` or `.action` file).
+    pub source_encoding: Option<LitStr>,
     /// An attribute failed to parse (so a missing name is not reported twice).
     pub malformed: bool,
 }
@@ -35,7 +41,13 @@ pub enum OctetKind {
 pub struct FieldAttrs {
     pub octet: Option<(OctetKind, proc_macro2::Span)>,
     pub rename: Option<LitStr>,
+    /// `default_value = "…"`: the default the interface file gives the field, as
+    /// rosidl writes it in the type description.
+    pub default_value: Option<LitStr>,
 }
+
+/// What `type_description_interfaces/TypeSource.encoding` holds for rosidl's files.
+const SOURCE_ENCODINGS: &[&str] = &["msg", "srv", "action", "idl", "implicit"];
 
 fn set_once<T>(cx: &Ctxt, meta: &ParseNestedMeta, slot: &mut Option<T>, value: T, name: &str) {
     if slot.is_some() {
@@ -67,7 +79,23 @@ impl ContainerAttrs {
                     }
                 } else if meta.path.is_ident("loan") {
                     out.loan = Some(syn::spanned::Spanned::span(&meta.path));
-                } else if meta.path.is_ident("char") || meta.path.is_ident("byte") || meta.path.is_ident("rename") {
+                } else if meta.path.is_ident("source") {
+                    let value: syn::Expr = meta.value()?.parse()?;
+                    set_once(cx, &meta, &mut out.source, value, "source");
+                } else if meta.path.is_ident("source_encoding") {
+                    let value: LitStr = meta.value()?.parse()?;
+                    if !SOURCE_ENCODINGS.contains(&value.value().as_str()) {
+                        cx.error_spanned_by(
+                            &value,
+                            "unknown source encoding: expected \"msg\", \"srv\", \"action\", \"idl\" or \"implicit\"",
+                        );
+                    }
+                    set_once(cx, &meta, &mut out.source_encoding, value, "source_encoding");
+                } else if meta.path.is_ident("char")
+                    || meta.path.is_ident("byte")
+                    || meta.path.is_ident("rename")
+                    || meta.path.is_ident("default_value")
+                {
                     cx.error_spanned_by(
                         &meta.path,
                         "this is a field attribute: put it on the field, not on the struct",
@@ -76,7 +104,7 @@ impl ContainerAttrs {
                 } else {
                     cx.error_spanned_by(
                         &meta.path,
-                        "unknown struct attribute: expected `type_name = \"pkg/msg/Name\"`, `package = \"pkg\"`, `crate = \"path\"` or `loan`",
+                        "unknown struct attribute: expected `type_name = \"pkg/msg/Name\"`, `package = \"pkg\"`, `crate = \"path\"`, `loan`, `source = \"…\"` or `source_encoding = \"msg\"`",
                     );
                     skip_value(&meta)?;
                 }
@@ -85,6 +113,14 @@ impl ContainerAttrs {
             if let Err(e) = result {
                 out.malformed = true;
                 cx.syn_error(e);
+            }
+        }
+        if let (Some(encoding), Some(source)) = (&out.source_encoding, &out.source) {
+            if encoding.value() == "implicit" {
+                cx.error_spanned_by(
+                    source,
+                    "an implicit type has no text of its own: remove `source`, or give the file's encoding",
+                );
             }
         }
         out
@@ -117,7 +153,22 @@ impl FieldAttrs {
                 } else if meta.path.is_ident("rename") {
                     let value: LitStr = meta.value()?.parse()?;
                     set_once(cx, &meta, &mut out.rename, value, "rename");
-                } else if meta.path.is_ident("type_name") || meta.path.is_ident("package") || meta.path.is_ident("crate") {
+                } else if meta.path.is_ident("default_value") {
+                    match meta.value()?.parse::<syn::Lit>()? {
+                        syn::Lit::Str(value) => {
+                            set_once(cx, &meta, &mut out.default_value, value, "default_value");
+                        }
+                        other => cx.error_spanned_by(
+                            &other,
+                            "write the default as rosidl prints it, in quotes: `default_value = \"3\"`, `\"1.0\"`, `\"True\"`, `\"(1, 2)\"`",
+                        ),
+                    }
+                } else if meta.path.is_ident("type_name")
+                    || meta.path.is_ident("package")
+                    || meta.path.is_ident("crate")
+                    || meta.path.is_ident("source")
+                    || meta.path.is_ident("source_encoding")
+                {
                     cx.error_spanned_by(
                         &meta.path,
                         "this is a struct attribute: put it on the struct, not on a field",
@@ -126,7 +177,7 @@ impl FieldAttrs {
                 } else {
                     cx.error_spanned_by(
                         &meta.path,
-                        "unknown field attribute: expected `byte`, `char` or `rename = \"ros_name\"`",
+                        "unknown field attribute: expected `byte`, `char`, `rename = \"ros_name\"` or `default_value = \"…\"`",
                     );
                     skip_value(&meta)?;
                 }

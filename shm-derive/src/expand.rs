@@ -4,7 +4,7 @@
 use proc_macro2::TokenStream;
 use quote::{quote, quote_spanned};
 use syn::spanned::Spanned;
-use syn::{GenericParam, Lifetime, LifetimeParam};
+use syn::{GenericParam, Lifetime, LifetimeParam, LitStr};
 
 use crate::ast::Container;
 use crate::attr::OctetKind;
@@ -140,10 +140,10 @@ pub fn expand(container: &Container) -> TokenStream {
     // --- description ------------------------------------------------------------
     let field_descriptions: Vec<TokenStream> = if empty {
         vec![quote! {
-            #krate::describe::Field {
-                name: "structure_needs_at_least_one_member",
-                field_type: #krate::describe::FieldType::scalar(#krate::describe::TypeId::Uint8),
-            }
+            #krate::describe::Field::new(
+                "structure_needs_at_least_one_member",
+                #krate::describe::FieldType::scalar(#krate::describe::TypeId::Uint8),
+            )
         }]
     } else {
         container
@@ -157,11 +157,16 @@ pub fn expand(container: &Container) -> TokenStream {
                     Some((OctetKind::Char, _)) => quote!(.as_char()),
                     None => quote!(),
                 };
+                let default_value = f
+                    .attrs
+                    .default_value
+                    .as_ref()
+                    .map(|value| quote!(.with_default_value(#value)));
                 quote! {
-                    #krate::describe::Field {
-                        name: #name,
-                        field_type: <#ty as #krate::RosType>::FIELD_TYPE #adjust,
-                    }
+                    #krate::describe::Field::new(
+                        #name,
+                        <#ty as #krate::RosType>::FIELD_TYPE #adjust,
+                    ) #default_value
                 }
             })
             .collect()
@@ -182,6 +187,26 @@ pub fn expand(container: &Container) -> TokenStream {
     });
 
     let in_place = crate::loan::expand(container, &krate);
+
+    let attrs = &container.attrs;
+    let source = match (&attrs.source_encoding, &attrs.source) {
+        (None, None) => quote!(),
+        (Some(encoding), None) if encoding.value() == "implicit" => quote! {
+            const SOURCE: #krate::describe::TypeSource = #krate::describe::TypeSource::IMPLICIT;
+        },
+        (encoding, text) => {
+            let encoding = encoding
+                .as_ref()
+                .map_or_else(|| "msg".to_owned(), LitStr::value);
+            let text = text
+                .as_ref()
+                .map_or_else(|| quote!(""), |text| quote!(#text));
+            quote! {
+                const SOURCE: #krate::describe::TypeSource =
+                    #krate::describe::TypeSource::file(#encoding, #text);
+            }
+        }
+    };
 
     quote! {
         #in_place
@@ -250,6 +275,7 @@ pub fn expand(container: &Container) -> TokenStream {
                 const TYPE_NAME: &'static str = #type_name;
                 const DDS_TYPE_NAME: &'static str = #dds_name;
                 const FIELDS: &'static [#krate::describe::Field] = &[ #(#field_descriptions),* ];
+                #source
 
                 fn type_hash() -> &'static str {
                     static HASH: #krate::__private::OnceLock<::std::string::String> =

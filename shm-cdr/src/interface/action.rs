@@ -1,7 +1,9 @@
 //! [`RosAction`]: an action type's goal, result, feedback and the services and
 //! message built from them.
 
-use crate::describe::{Field, FieldType, TypeDescription, TypeRegistry};
+use crate::describe::{
+    Field, FieldType, FullDescription, TypeDescription, TypeRegistry, TypeSource,
+};
 use crate::interface::RosService;
 use crate::{DecodeOwned, RosMessage, RosType};
 
@@ -110,32 +112,36 @@ pub trait RosAction: 'static {
     /// The goal id and feedback of a feedback message.
     fn feedback_message_parts(message: Self::FeedbackMessage) -> (GoalId, Self::Feedback);
 
+    /// The `.action` file the type was generated from
+    /// ([`TypeSource::NONE`] for a hand-written implementation).
+    const SOURCE: TypeSource = TypeSource::NONE;
+
     /// The type's own description, as rosidl hashes it.
     const FIELDS: &'static [Field] = &[
-        Field {
-            name: "goal",
-            field_type: FieldType::nested(<Self::Goal as RosMessage>::TYPE_NAME),
-        },
-        Field {
-            name: "result",
-            field_type: FieldType::nested(<Self::Result as RosMessage>::TYPE_NAME),
-        },
-        Field {
-            name: "feedback",
-            field_type: FieldType::nested(<Self::Feedback as RosMessage>::TYPE_NAME),
-        },
-        Field {
-            name: "send_goal_service",
-            field_type: FieldType::nested(<Self::SendGoal as RosService>::TYPE_NAME),
-        },
-        Field {
-            name: "get_result_service",
-            field_type: FieldType::nested(<Self::GetResult as RosService>::TYPE_NAME),
-        },
-        Field {
-            name: "feedback_message",
-            field_type: FieldType::nested(<Self::FeedbackMessage as RosMessage>::TYPE_NAME),
-        },
+        Field::new(
+            "goal",
+            FieldType::nested(<Self::Goal as RosMessage>::TYPE_NAME),
+        ),
+        Field::new(
+            "result",
+            FieldType::nested(<Self::Result as RosMessage>::TYPE_NAME),
+        ),
+        Field::new(
+            "feedback",
+            FieldType::nested(<Self::Feedback as RosMessage>::TYPE_NAME),
+        ),
+        Field::new(
+            "send_goal_service",
+            FieldType::nested(<Self::SendGoal as RosService>::TYPE_NAME),
+        ),
+        Field::new(
+            "get_result_service",
+            FieldType::nested(<Self::GetResult as RosService>::TYPE_NAME),
+        ),
+        Field::new(
+            "feedback_message",
+            FieldType::nested(<Self::FeedbackMessage as RosMessage>::TYPE_NAME),
+        ),
     ];
 
     /// The REP 2011 hash of the action, equal to rosidl's (generated code caches
@@ -143,11 +149,23 @@ pub trait RosAction: 'static {
     fn type_hash() -> &'static str;
 
     /// Register this action's description and every type it references.
+    /// The type's own description (referenced types excluded).
+    fn type_description() -> TypeDescription {
+        TypeDescription::new(Self::TYPE_NAME, Self::FIELDS, Self::SOURCE)
+    }
+
+    /// The action's description with every type it references, as its
+    /// type-description service reply carries it.
+    fn full_description() -> FullDescription
+    where
+        Self: Sized,
+    {
+        FullDescription::collect(Self::type_description(), Self::register_types)
+    }
+
+    /// Register this action's description and every type it references.
     fn register_types(registry: &mut TypeRegistry) {
-        let own = TypeDescription {
-            type_name: Self::TYPE_NAME,
-            fields: Self::FIELDS,
-        };
+        let own = Self::type_description();
         if registry.insert(own) {
             <Self::Goal as RosType>::register_types(registry);
             <Self::Result as RosType>::register_types(registry);
@@ -161,11 +179,5 @@ pub trait RosAction: 'static {
 
 /// Compute the RIHS01 hash of action `A` (what generated `type_hash` caches).
 pub fn compute_action_hash<A: RosAction>() -> String {
-    super::composite_type_hash(
-        TypeDescription {
-            type_name: A::TYPE_NAME,
-            fields: A::FIELDS,
-        },
-        A::register_types,
-    )
+    FullDescription::collect(A::type_description(), A::register_types).type_hash()
 }

@@ -12,20 +12,3 @@ mod service;
 
 pub use action::{compute_action_hash, GoalId, RequestOf, ResponseOf, RosAction, Stamp};
 pub use service::{compute_service_hash, RosService};
-
-use crate::describe::{rihs01_of_json, type_description_json, TypeDescription, TypeRegistry};
-
-/// The RIHS01 hash of a type made of other types (a service or an action): its own
-/// description, and every type `register` adds, sorted by name.
-pub(crate) fn composite_type_hash(
-    own: TypeDescription,
-    register: impl FnOnce(&mut TypeRegistry),
-) -> String {
-    let mut registry = TypeRegistry::default();
-    register(&mut registry);
-    let json = type_description_json(
-        &own,
-        registry.iter().filter(|d| d.type_name != own.type_name),
-    );
-    rihs01_of_json(&json)
-}

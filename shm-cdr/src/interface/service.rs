@@ -1,6 +1,8 @@
 //! [`RosService`]: a service type's request, response and event messages.
 
-use crate::describe::{Field, FieldType, TypeDescription, TypeRegistry};
+use crate::describe::{
+    Field, FieldType, FullDescription, TypeDescription, TypeRegistry, TypeSource,
+};
 use crate::{DecodeOwned, RosMessage, RosType};
 
 /// A ROS 2 service type, e.g. `std_srvs/srv/Trigger`: the messages a call
@@ -26,20 +28,24 @@ pub trait RosService: 'static {
     /// request and the response as sequences of at most one).
     type Event: RosMessage + DecodeOwned;
 
+    /// The `.srv` file the type was generated from
+    /// ([`TypeSource::NONE`] for a hand-written implementation).
+    const SOURCE: TypeSource = TypeSource::NONE;
+
     /// The type's own description, as rosidl hashes it.
     const FIELDS: &'static [Field] = &[
-        Field {
-            name: "request_message",
-            field_type: FieldType::nested(<Self::Request as RosMessage>::TYPE_NAME),
-        },
-        Field {
-            name: "response_message",
-            field_type: FieldType::nested(<Self::Response as RosMessage>::TYPE_NAME),
-        },
-        Field {
-            name: "event_message",
-            field_type: FieldType::nested(<Self::Event as RosMessage>::TYPE_NAME),
-        },
+        Field::new(
+            "request_message",
+            FieldType::nested(<Self::Request as RosMessage>::TYPE_NAME),
+        ),
+        Field::new(
+            "response_message",
+            FieldType::nested(<Self::Response as RosMessage>::TYPE_NAME),
+        ),
+        Field::new(
+            "event_message",
+            FieldType::nested(<Self::Event as RosMessage>::TYPE_NAME),
+        ),
     ];
 
     /// The REP 2011 hash of the service, covering request, response and event,
@@ -47,11 +53,23 @@ pub trait RosService: 'static {
     fn type_hash() -> &'static str;
 
     /// Register this service's description and every type it references.
+    /// The type's own description (referenced types excluded).
+    fn type_description() -> TypeDescription {
+        TypeDescription::new(Self::TYPE_NAME, Self::FIELDS, Self::SOURCE)
+    }
+
+    /// The service's description with every type it references, as its
+    /// type-description service reply carries it.
+    fn full_description() -> FullDescription
+    where
+        Self: Sized,
+    {
+        FullDescription::collect(Self::type_description(), Self::register_types)
+    }
+
+    /// Register this service's description and every type it references.
     fn register_types(registry: &mut TypeRegistry) {
-        let own = TypeDescription {
-            type_name: Self::TYPE_NAME,
-            fields: Self::FIELDS,
-        };
+        let own = Self::type_description();
         if registry.insert(own) {
             <Self::Request as RosType>::register_types(registry);
             <Self::Response as RosType>::register_types(registry);
@@ -62,11 +80,5 @@ pub trait RosService: 'static {
 
 /// Compute the RIHS01 hash of service `S` (what generated `type_hash` caches).
 pub fn compute_service_hash<S: RosService>() -> String {
-    super::composite_type_hash(
-        TypeDescription {
-            type_name: S::TYPE_NAME,
-            fields: S::FIELDS,
-        },
-        S::register_types,
-    )
+    FullDescription::collect(S::type_description(), S::register_types).type_hash()
 }

@@ -7,7 +7,12 @@ pub mod msg {
     /// `action_msgs/msg/GoalInfo` (from `msg/GoalInfo.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "action_msgs/msg/GoalInfo", crate = "crate", loan)]
+    #[ros(
+        type_name = "action_msgs/msg/GoalInfo",
+        crate = "crate",
+        loan,
+        source = "# Goal ID\nunique_identifier_msgs/UUID goal_id\n\n# Time when the goal was accepted\nbuiltin_interfaces/Time stamp"
+    )]
     #[repr(C)]
     pub struct GoalInfo {
         /// Goal ID
@@ -37,7 +42,12 @@ pub mod msg {
     /// `action_msgs/msg/GoalStatus` (from `msg/GoalStatus.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "action_msgs/msg/GoalStatus", crate = "crate", loan)]
+    #[ros(
+        type_name = "action_msgs/msg/GoalStatus",
+        crate = "crate",
+        loan,
+        source = "# An action goal can be in one of these states after it is accepted by an action\n# server.\n#\n# For more information, see http://design.ros2.org/articles/actions.html\n\n# Indicates status has not been properly set.\nint8 STATUS_UNKNOWN   = 0\n\n# The goal has been accepted and is awaiting execution.\nint8 STATUS_ACCEPTED  = 1\n\n# The goal is currently being executed by the action server.\nint8 STATUS_EXECUTING = 2\n\n# The client has requested that the goal be canceled and the action server has\n# accepted the cancel request.\nint8 STATUS_CANCELING = 3\n\n# The goal was achieved successfully by the action server.\nint8 STATUS_SUCCEEDED = 4\n\n# The goal was canceled after an external request from an action client.\nint8 STATUS_CANCELED  = 5\n\n# The goal was terminated by the action server without an external request.\nint8 STATUS_ABORTED   = 6\n\n# Goal info (contains ID and timestamp).\nGoalInfo goal_info\n\n# Action goal state-machine status.\nint8 status"
+    )]
     #[repr(C)]
     pub struct GoalStatus {
         /// Goal info (contains ID and timestamp).
@@ -80,7 +90,12 @@ pub mod msg {
     /// `action_msgs/msg/GoalStatusArray` (from `msg/GoalStatusArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "action_msgs/msg/GoalStatusArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "action_msgs/msg/GoalStatusArray",
+        crate = "crate",
+        loan,
+        source = "# An array of goal statuses.\nGoalStatus[] status_list"
+    )]
     pub struct GoalStatusArray {
         /// An array of goal statuses.
         pub status_list: ::std::vec::Vec<GoalStatus>,
@@ -96,7 +111,7 @@ pub mod msg {
 
     /// [`GoalStatusArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "action_msgs/msg/GoalStatusArray", crate = "crate")]
+    #[ros(type_name = "action_msgs/msg/GoalStatusArray", crate = "crate", source = <GoalStatusArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct GoalStatusArrayRef<'a> {
         /// An array of goal statuses.
         pub status_list: ::std::borrow::Cow<'a, [GoalStatus]>,
@@ -134,7 +149,8 @@ pub mod srv {
     #[ros(
         type_name = "action_msgs/srv/CancelGoal_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     #[repr(C)]
     pub struct CancelGoal_Request {
@@ -164,7 +180,8 @@ pub mod srv {
     #[ros(
         type_name = "action_msgs/srv/CancelGoal_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct CancelGoal_Response {
         /// Return code, see above definitions.
@@ -211,7 +228,11 @@ pub mod srv {
     ///
     /// [`CancelGoal_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "action_msgs/srv/CancelGoal_Response", crate = "crate")]
+    #[ros(
+        type_name = "action_msgs/srv/CancelGoal_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct CancelGoal_ResponseRef<'a> {
         /// Return code, see above definitions.
         pub return_code: i8,
@@ -237,7 +258,12 @@ pub mod srv {
     /// `action_msgs/srv/CancelGoal_Event` (from `srv/CancelGoal.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "action_msgs/srv/CancelGoal_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "action_msgs/srv/CancelGoal_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct CancelGoal_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -261,7 +287,11 @@ pub mod srv {
     ///
     /// [`CancelGoal_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "action_msgs/srv/CancelGoal_Event", crate = "crate")]
+    #[ros(
+        type_name = "action_msgs/srv/CancelGoal_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct CancelGoal_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -305,6 +335,7 @@ pub mod srv {
         type Request = CancelGoal_Request;
         type Response = CancelGoal_Response;
         type Event = CancelGoal_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# Cancel one or more goals with the following policy:\n#\n# - If the goal ID is zero and timestamp is zero, cancel all goals.\n# - If the goal ID is zero and timestamp is not zero, cancel all goals accepted\n#   at or before the timestamp.\n# - If the goal ID is not zero and timestamp is zero, cancel the goal with the\n#   given ID regardless of the time it was accepted.\n# - If the goal ID is not zero and timestamp is not zero, cancel the goal with\n#   the given ID and all goals accepted at or before the timestamp.\n\n# Goal info describing the goals to cancel, see above.\nGoalInfo goal_info\n---\n##\n## Return codes.\n##\n\n# Indicates the request was accepted without any errors.\n#\n# One or more goals have transitioned to the CANCELING state. The\n# goals_canceling list is not empty.\nint8 ERROR_NONE=0\n\n# Indicates the request was rejected.\n#\n# No goals have transitioned to the CANCELING state. The goals_canceling list is\n# empty.\nint8 ERROR_REJECTED=1\n\n# Indicates the requested goal ID does not exist.\n#\n# No goals have transitioned to the CANCELING state. The goals_canceling list is\n# empty.\nint8 ERROR_UNKNOWN_GOAL_ID=2\n\n# Indicates the goal is not cancelable because it is already in a terminal state.\n#\n# No goals have transitioned to the CANCELING state. The goals_canceling list is\n# empty.\nint8 ERROR_GOAL_TERMINATED=3\n\n# Return code, see above definitions.\nint8 return_code\n\n# Goals that accepted the cancel request.\nGoalInfo[] goals_canceling");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

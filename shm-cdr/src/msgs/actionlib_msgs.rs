@@ -7,7 +7,12 @@ pub mod msg {
     /// `actionlib_msgs/msg/GoalID` (from `msg/GoalID.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "actionlib_msgs/msg/GoalID", crate = "crate", loan)]
+    #[ros(
+        type_name = "actionlib_msgs/msg/GoalID",
+        crate = "crate",
+        loan,
+        source = "\n# The stamp should store the time at which this goal was requested.\n# It is used by an action server when it tries to preempt all\n# goals that were requested before a certain time\nbuiltin_interfaces/Time stamp\n\n# The id provides a way to associate feedback and\n# result message with specific goal requests. The id\n# specified must be unique.\nstring id"
+    )]
     pub struct GoalID {
         /// The stamp should store the time at which this goal was requested.
         /// It is used by an action server when it tries to preempt all
@@ -30,7 +35,7 @@ pub mod msg {
 
     /// [`GoalID`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "actionlib_msgs/msg/GoalID", crate = "crate")]
+    #[ros(type_name = "actionlib_msgs/msg/GoalID", crate = "crate", source = <GoalID as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct GoalIDRef<'a> {
         /// The stamp should store the time at which this goal was requested.
         /// It is used by an action server when it tries to preempt all
@@ -58,7 +63,12 @@ pub mod msg {
     /// `actionlib_msgs/msg/GoalStatus` (from `msg/GoalStatus.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "actionlib_msgs/msg/GoalStatus", crate = "crate", loan)]
+    #[ros(
+        type_name = "actionlib_msgs/msg/GoalStatus",
+        crate = "crate",
+        loan,
+        source = "GoalID goal_id\nuint8 status\nuint8 PENDING         = 0   # The goal has yet to be processed by the action server.\nuint8 ACTIVE          = 1   # The goal is currently being processed by the action server.\nuint8 PREEMPTED       = 2   # The goal received a cancel request after it started executing\n                            #   and has since completed its execution (Terminal State).\nuint8 SUCCEEDED       = 3   # The goal was achieved successfully by the action server\n                            #   (Terminal State).\nuint8 ABORTED         = 4   # The goal was aborted during execution by the action server due\n                            #    to some failure (Terminal State).\nuint8 REJECTED        = 5   # The goal was rejected by the action server without being processed,\n                            #    because the goal was unattainable or invalid (Terminal State).\nuint8 PREEMPTING      = 6   # The goal received a cancel request after it started executing\n                            #    and has not yet completed execution.\nuint8 RECALLING       = 7   # The goal received a cancel request before it started executing, but\n                            #    the action server has not yet confirmed that the goal is canceled.\nuint8 RECALLED        = 8   # The goal received a cancel request before it started executing\n                            #    and was successfully cancelled (Terminal State).\nuint8 LOST            = 9   # An action client can determine that a goal is LOST. This should not\n                            #    be sent over the wire by an action server.\n\n# Allow for the user to associate a string with GoalStatus for debugging.\nstring text"
+    )]
     pub struct GoalStatus {
         /// `actionlib_msgs/GoalID goal_id`
         pub goal_id: GoalID,
@@ -110,7 +120,7 @@ pub mod msg {
 
     /// [`GoalStatus`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "actionlib_msgs/msg/GoalStatus", crate = "crate")]
+    #[ros(type_name = "actionlib_msgs/msg/GoalStatus", crate = "crate", source = <GoalStatus as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct GoalStatusRef<'a> {
         /// `actionlib_msgs/GoalID goal_id`
         pub goal_id: GoalIDRef<'a>,
@@ -140,7 +150,8 @@ pub mod msg {
     #[ros(
         type_name = "actionlib_msgs/msg/GoalStatusArray",
         crate = "crate",
-        loan
+        loan,
+        source = "# Stores the statuses for goals that are currently being tracked\n# by an action server\nstd_msgs/Header header\nGoalStatus[] status_list"
     )]
     pub struct GoalStatusArray {
         /// Stores the statuses for goals that are currently being tracked
@@ -161,7 +172,7 @@ pub mod msg {
 
     /// [`GoalStatusArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "actionlib_msgs/msg/GoalStatusArray", crate = "crate")]
+    #[ros(type_name = "actionlib_msgs/msg/GoalStatusArray", crate = "crate", source = <GoalStatusArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct GoalStatusArrayRef<'a> {
         /// Stores the statuses for goals that are currently being tracked
         /// by an action server

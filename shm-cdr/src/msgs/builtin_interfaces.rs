@@ -11,7 +11,12 @@ pub mod msg {
     /// `builtin_interfaces/msg/Duration` (from `msg/Duration.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "builtin_interfaces/msg/Duration", crate = "crate", loan)]
+    #[ros(
+        type_name = "builtin_interfaces/msg/Duration",
+        crate = "crate",
+        loan,
+        source = "# Duration defines a period between two time points.\n# Messages of this datatype are of ROS Time following this design:\n# https://design.ros2.org/articles/clock_and_time.html\n\n# Seconds component, range is valid over any possible int32 value.\nint32 sec\n\n# Nanoseconds component in the range of [0, 1e9).\nuint32 nanosec"
+    )]
     #[repr(C)]
     pub struct Duration {
         /// Seconds component, range is valid over any possible int32 value.
@@ -39,7 +44,12 @@ pub mod msg {
     /// `builtin_interfaces/msg/Time` (from `msg/Time.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "builtin_interfaces/msg/Time", crate = "crate", loan)]
+    #[ros(
+        type_name = "builtin_interfaces/msg/Time",
+        crate = "crate",
+        loan,
+        source = "# This message communicates ROS Time defined here:\n# https://design.ros2.org/articles/clock_and_time.html\n\n# The seconds component, valid over all int32 values.\nint32 sec\n\n# The nanoseconds component, valid in the range [0, 1e9).\nuint32 nanosec"
+    )]
     #[repr(C)]
     pub struct Time {
         /// The seconds component, valid over all int32 values.

@@ -10,7 +10,8 @@ pub mod msg {
     #[ros(
         type_name = "diagnostic_msgs/msg/DiagnosticArray",
         crate = "crate",
-        loan
+        loan,
+        source = "# This message is used to send diagnostic information about the state of the robot.\nstd_msgs/Header header # for timestamp\nDiagnosticStatus[] status # an array of components being reported on"
     )]
     pub struct DiagnosticArray {
         /// This message is used to send diagnostic information about the state of the robot.
@@ -31,7 +32,7 @@ pub mod msg {
 
     /// [`DiagnosticArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "diagnostic_msgs/msg/DiagnosticArray", crate = "crate")]
+    #[ros(type_name = "diagnostic_msgs/msg/DiagnosticArray", crate = "crate", source = <DiagnosticArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct DiagnosticArrayRef<'a> {
         /// This message is used to send diagnostic information about the state of the robot.
         /// for timestamp
@@ -61,7 +62,8 @@ pub mod msg {
     #[ros(
         type_name = "diagnostic_msgs/msg/DiagnosticStatus",
         crate = "crate",
-        loan
+        loan,
+        source = "# This message holds the status of an individual component of the robot.\n\n# Possible levels of operations.\nbyte OK=0\nbyte WARN=1\nbyte ERROR=2\nbyte STALE=3\n\n# Level of operation enumerated above.\nbyte level\n# A description of the test/component reporting.\nstring name\n# A description of the status.\nstring message\n# A hardware unique string.\nstring hardware_id\n# An array of values associated with the status.\nKeyValue[] values\n"
     )]
     pub struct DiagnosticStatus {
         /// Level of operation enumerated above.
@@ -104,7 +106,7 @@ pub mod msg {
     ///
     /// [`DiagnosticStatus`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "diagnostic_msgs/msg/DiagnosticStatus", crate = "crate")]
+    #[ros(type_name = "diagnostic_msgs/msg/DiagnosticStatus", crate = "crate", source = <DiagnosticStatus as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct DiagnosticStatusRef<'a> {
         /// Level of operation enumerated above.
         #[ros(byte)]
@@ -138,7 +140,12 @@ pub mod msg {
     /// `diagnostic_msgs/msg/KeyValue` (from `msg/KeyValue.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "diagnostic_msgs/msg/KeyValue", crate = "crate", loan)]
+    #[ros(
+        type_name = "diagnostic_msgs/msg/KeyValue",
+        crate = "crate",
+        loan,
+        source = "# What to label this value when viewing.\nstring key\n# A value to track over time.\nstring value"
+    )]
     pub struct KeyValue {
         /// What to label this value when viewing.
         pub key: ::std::string::String,
@@ -157,7 +164,7 @@ pub mod msg {
 
     /// [`KeyValue`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "diagnostic_msgs/msg/KeyValue", crate = "crate")]
+    #[ros(type_name = "diagnostic_msgs/msg/KeyValue", crate = "crate", source = <KeyValue as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct KeyValueRef<'a> {
         /// What to label this value when viewing.
         pub key: ::std::borrow::Cow<'a, str>,
@@ -193,7 +200,8 @@ pub mod srv {
     #[ros(
         type_name = "diagnostic_msgs/srv/AddDiagnostics_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct AddDiagnostics_Request {
         /// The load_namespace parameter defines the namespace where parameters for the
@@ -227,7 +235,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "diagnostic_msgs/srv/AddDiagnostics_Request",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct AddDiagnostics_RequestRef<'a> {
         /// The load_namespace parameter defines the namespace where parameters for the
@@ -262,7 +271,8 @@ pub mod srv {
     #[ros(
         type_name = "diagnostic_msgs/srv/AddDiagnostics_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct AddDiagnostics_Response {
         /// True if diagnostic aggregator was updated with new diagnostics, False
@@ -287,7 +297,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "diagnostic_msgs/srv/AddDiagnostics_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct AddDiagnostics_ResponseRef<'a> {
         /// True if diagnostic aggregator was updated with new diagnostics, False
@@ -320,7 +331,8 @@ pub mod srv {
     #[ros(
         type_name = "diagnostic_msgs/srv/AddDiagnostics_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct AddDiagnostics_Event {
         /// What happened, when, and to which call.
@@ -347,7 +359,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "diagnostic_msgs/srv/AddDiagnostics_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct AddDiagnostics_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -387,6 +400,7 @@ pub mod srv {
         type Request = AddDiagnostics_Request;
         type Response = AddDiagnostics_Response;
         type Event = AddDiagnostics_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# This service is used as part of the process for loading analyzers at runtime,\n# and should be used by a loader script or program, not as a standalone service.\n# Information about dynamic addition of analyzers can be found at\n# http://wiki.ros.org/diagnostics/Tutorials/Adding%20Analyzers%20at%20Runtime\n\n# The load_namespace parameter defines the namespace where parameters for the\n# initialization of analyzers in the diagnostic aggregator have been loaded. The\n# value should be a global name (i.e. /my/name/space), not a relative\n# (my/name/space) or private (~my/name/space) name. Analyzers will not be added\n# if a non-global name is used. The call will also fail if the namespace\n# contains parameters that follow a namespace structure that does not conform to\n# that expected by the analyzer definitions. See\n# http://wiki.ros.org/diagnostics/Tutorials/Configuring%20Diagnostic%20Aggregators\n# and http://wiki.ros.org/diagnostics/Tutorials/Using%20the%20GenericAnalyzer\n# for examples of the structure of yaml files which are expected to have been\n# loaded into the namespace.\nstring load_namespace\n---\n\n# True if diagnostic aggregator was updated with new diagnostics, False\n# otherwise. A false return value means that either there is a bond in the\n# aggregator which already used the requested namespace, or the initialization\n# of analyzers failed.\nbool success\n\n# Message with additional information about the success or failure\nstring message");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -401,7 +415,8 @@ pub mod srv {
     #[ros(
         type_name = "diagnostic_msgs/srv/SelfTest_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SelfTest_Request;
 
@@ -421,7 +436,8 @@ pub mod srv {
     #[ros(
         type_name = "diagnostic_msgs/srv/SelfTest_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SelfTest_Response {
         /// `string id`
@@ -445,7 +461,11 @@ pub mod srv {
 
     /// [`SelfTest_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "diagnostic_msgs/srv/SelfTest_Response", crate = "crate")]
+    #[ros(
+        type_name = "diagnostic_msgs/srv/SelfTest_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct SelfTest_ResponseRef<'a> {
         /// `string id`
         pub id: ::std::borrow::Cow<'a, str>,
@@ -478,7 +498,8 @@ pub mod srv {
     #[ros(
         type_name = "diagnostic_msgs/srv/SelfTest_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SelfTest_Event {
         /// What happened, when, and to which call.
@@ -503,7 +524,11 @@ pub mod srv {
     ///
     /// [`SelfTest_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "diagnostic_msgs/srv/SelfTest_Event", crate = "crate")]
+    #[ros(
+        type_name = "diagnostic_msgs/srv/SelfTest_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct SelfTest_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -537,6 +562,10 @@ pub mod srv {
         type Request = SelfTest_Request;
         type Response = SelfTest_Response;
         type Event = SelfTest_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file(
+            "srv",
+            "---\nstring id\nbyte passed\nDiagnosticStatus[] status",
+        );
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

@@ -7,7 +7,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Accel` (from `msg/Accel.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Accel", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Accel",
+        crate = "crate",
+        loan,
+        source = "# This expresses acceleration in free space broken into its linear and angular parts.\nVector3  linear\nVector3  angular"
+    )]
     #[repr(C)]
     pub struct Accel {
         /// This expresses acceleration in free space broken into its linear and angular parts.
@@ -32,7 +37,12 @@ pub mod msg {
     /// `geometry_msgs/msg/AccelStamped` (from `msg/AccelStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/AccelStamped", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/AccelStamped",
+        crate = "crate",
+        loan,
+        source = "# An accel with reference coordinate frame and timestamp\nstd_msgs/Header header\nAccel accel"
+    )]
     pub struct AccelStamped {
         /// An accel with reference coordinate frame and timestamp
         pub header: super::super::std_msgs::msg::Header,
@@ -51,7 +61,7 @@ pub mod msg {
 
     /// [`AccelStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/AccelStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/AccelStamped", crate = "crate", source = <AccelStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct AccelStampedRef<'a> {
         /// An accel with reference coordinate frame and timestamp
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -80,7 +90,8 @@ pub mod msg {
     #[ros(
         type_name = "geometry_msgs/msg/AccelWithCovariance",
         crate = "crate",
-        loan
+        loan,
+        source = "# This expresses acceleration in free space with uncertainty.\n\nAccel accel\n\n# Row-major representation of the 6x6 covariance matrix\n# The orientation parameters use a fixed-axis representation.\n# In order, the parameters are:\n# (x, y, z, rotation about X axis, rotation about Y axis, rotation about Z axis)\nfloat64[36] covariance"
     )]
     #[repr(C)]
     pub struct AccelWithCovariance {
@@ -112,7 +123,8 @@ pub mod msg {
     #[ros(
         type_name = "geometry_msgs/msg/AccelWithCovarianceStamped",
         crate = "crate",
-        loan
+        loan,
+        source = "# This represents an estimated accel with reference coordinate frame and timestamp.\nstd_msgs/Header header\nAccelWithCovariance accel"
     )]
     pub struct AccelWithCovarianceStamped {
         /// This represents an estimated accel with reference coordinate frame and timestamp.
@@ -132,10 +144,7 @@ pub mod msg {
 
     /// [`AccelWithCovarianceStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "geometry_msgs/msg/AccelWithCovarianceStamped",
-        crate = "crate"
-    )]
+    #[ros(type_name = "geometry_msgs/msg/AccelWithCovarianceStamped", crate = "crate", source = <AccelWithCovarianceStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct AccelWithCovarianceStampedRef<'a> {
         /// This represents an estimated accel with reference coordinate frame and timestamp.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -159,7 +168,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Inertia` (from `msg/Inertia.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Inertia", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Inertia",
+        crate = "crate",
+        loan,
+        source = "# Mass [kg]\nfloat64 m\n\n# Center of mass [m]\ngeometry_msgs/Vector3 com\n\n# Inertia Tensor [kg-m^2]\n#     | ixx ixy ixz |\n# I = | ixy iyy iyz |\n#     | ixz iyz izz |\nfloat64 ixx\nfloat64 ixy\nfloat64 ixz\nfloat64 iyy\nfloat64 iyz\nfloat64 izz"
+    )]
     #[repr(C)]
     pub struct Inertia {
         /// Mass \[kg\]
@@ -207,7 +221,12 @@ pub mod msg {
     /// `geometry_msgs/msg/InertiaStamped` (from `msg/InertiaStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/InertiaStamped", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/InertiaStamped",
+        crate = "crate",
+        loan,
+        source = "# An Inertia with a time stamp and reference frame.\n\nstd_msgs/Header header\nInertia inertia"
+    )]
     pub struct InertiaStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -228,7 +247,7 @@ pub mod msg {
     ///
     /// [`InertiaStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/InertiaStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/InertiaStamped", crate = "crate", source = <InertiaStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct InertiaStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -252,7 +271,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Point` (from `msg/Point.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Point", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Point",
+        crate = "crate",
+        loan,
+        source = "# This contains the position of a point in free space\nfloat64 x\nfloat64 y\nfloat64 z"
+    )]
     #[repr(C)]
     pub struct Point {
         /// This contains the position of a point in free space
@@ -288,7 +312,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Point32` (from `msg/Point32.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Point32", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Point32",
+        crate = "crate",
+        loan,
+        source = "# This contains the position of a point in free space(with 32 bits of precision).\n# It is recommended to use Point wherever possible instead of Point32.\n#\n# This recommendation is to promote interoperability.\n#\n# This message is designed to take up less space when sending\n# lots of points at once, as in the case of a PointCloud.\n\nfloat32 x\nfloat32 y\nfloat32 z"
+    )]
     #[repr(C)]
     pub struct Point32 {
         /// `float32 x`
@@ -318,7 +347,12 @@ pub mod msg {
     /// `geometry_msgs/msg/PointStamped` (from `msg/PointStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PointStamped", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/PointStamped",
+        crate = "crate",
+        loan,
+        source = "# This represents a Point with reference coordinate frame and timestamp\n\nstd_msgs/Header header\nPoint point"
+    )]
     pub struct PointStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -339,7 +373,7 @@ pub mod msg {
     ///
     /// [`PointStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/PointStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/PointStamped", crate = "crate", source = <PointStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PointStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -365,7 +399,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Polygon` (from `msg/Polygon.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Polygon", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Polygon",
+        crate = "crate",
+        loan,
+        source = "# A specification of a polygon where the first and last points are assumed to be connected\n\nPoint32[] points"
+    )]
     pub struct Polygon {
         /// `geometry_msgs/Point32[] points`
         pub points: ::std::vec::Vec<Point32>,
@@ -383,7 +422,7 @@ pub mod msg {
     ///
     /// [`Polygon`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/Polygon", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Polygon", crate = "crate", source = <Polygon as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PolygonRef<'a> {
         /// `geometry_msgs/Point32[] points`
         pub points: ::std::borrow::Cow<'a, [Point32]>,
@@ -407,7 +446,12 @@ pub mod msg {
     /// `geometry_msgs/msg/PolygonInstance` (from `msg/PolygonInstance.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PolygonInstance", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/PolygonInstance",
+        crate = "crate",
+        loan,
+        source = "# A specification of a polygon where the first and last points are assumed to be connected\n# It includes a unique identification field for disambiguating multiple instances\n\ngeometry_msgs/Polygon polygon\nint64 id"
+    )]
     pub struct PolygonInstance {
         /// `geometry_msgs/Polygon polygon`
         pub polygon: Polygon,
@@ -429,7 +473,7 @@ pub mod msg {
     ///
     /// [`PolygonInstance`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/PolygonInstance", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/PolygonInstance", crate = "crate", source = <PolygonInstance as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PolygonInstanceRef<'a> {
         /// `geometry_msgs/Polygon polygon`
         pub polygon: PolygonRef<'a>,
@@ -459,7 +503,8 @@ pub mod msg {
     #[ros(
         type_name = "geometry_msgs/msg/PolygonInstanceStamped",
         crate = "crate",
-        loan
+        loan,
+        source = "# This represents a Polygon with reference coordinate frame and timestamp\n# It includes a unique identification field for disambiguating multiple instances\n\nstd_msgs/Header header\ngeometry_msgs/PolygonInstance polygon"
     )]
     pub struct PolygonInstanceStamped {
         /// `std_msgs/Header header`
@@ -482,10 +527,7 @@ pub mod msg {
     ///
     /// [`PolygonInstanceStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "geometry_msgs/msg/PolygonInstanceStamped",
-        crate = "crate"
-    )]
+    #[ros(type_name = "geometry_msgs/msg/PolygonInstanceStamped", crate = "crate", source = <PolygonInstanceStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PolygonInstanceStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -511,7 +553,12 @@ pub mod msg {
     /// `geometry_msgs/msg/PolygonStamped` (from `msg/PolygonStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PolygonStamped", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/PolygonStamped",
+        crate = "crate",
+        loan,
+        source = "# This represents a Polygon with reference coordinate frame and timestamp\n\nstd_msgs/Header header\nPolygon polygon"
+    )]
     pub struct PolygonStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -532,7 +579,7 @@ pub mod msg {
     ///
     /// [`PolygonStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/PolygonStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/PolygonStamped", crate = "crate", source = <PolygonStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PolygonStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -558,7 +605,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Pose` (from `msg/Pose.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Pose", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Pose",
+        crate = "crate",
+        loan,
+        source = "# A representation of pose in free space, composed of position and orientation.\n\nPoint position\nQuaternion orientation"
+    )]
     #[repr(C)]
     pub struct Pose {
         /// `geometry_msgs/Point position`
@@ -586,7 +638,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Pose2D` (from `msg/Pose2D.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Pose2D", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Pose2D",
+        crate = "crate",
+        loan,
+        source = "# Deprecated as of Foxy and will potentially be removed in any following release.\n# Please use the full 3D pose.\n\n# In general our recommendation is to use a full 3D representation of everything and for 2D specific applications make the appropriate projections into the plane for their calculations but optimally will preserve the 3D information during processing.\n\n# If we have parallel copies of 2D datatypes every UI and other pipeline will end up needing to have dual interfaces to plot everything. And you will end up with not being able to use 3D tools for 2D use cases even if they're completely valid, as you'd have to reimplement it with different inputs and outputs. It's not particularly hard to plot the 2D pose or compute the yaw error for the Pose message and there are already tools and libraries that can do this for you.# This expresses a position and orientation on a 2D manifold.\n\nfloat64 x\nfloat64 y\nfloat64 theta"
+    )]
     #[repr(C)]
     pub struct Pose2D {
         /// `float64 x`
@@ -616,7 +673,12 @@ pub mod msg {
     /// `geometry_msgs/msg/PoseArray` (from `msg/PoseArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PoseArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/PoseArray",
+        crate = "crate",
+        loan,
+        source = "# An array of poses with a header for global reference.\n\nstd_msgs/Header header\n\nPose[] poses"
+    )]
     pub struct PoseArray {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -637,7 +699,7 @@ pub mod msg {
     ///
     /// [`PoseArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/PoseArray", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/PoseArray", crate = "crate", source = <PoseArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PoseArrayRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -663,7 +725,12 @@ pub mod msg {
     /// `geometry_msgs/msg/PoseStamped` (from `msg/PoseStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/PoseStamped", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/PoseStamped",
+        crate = "crate",
+        loan,
+        source = "# A Pose with reference coordinate frame and timestamp\n\nstd_msgs/Header header\nPose pose"
+    )]
     pub struct PoseStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -684,7 +751,7 @@ pub mod msg {
     ///
     /// [`PoseStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/PoseStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/PoseStamped", crate = "crate", source = <PoseStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PoseStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -713,7 +780,8 @@ pub mod msg {
     #[ros(
         type_name = "geometry_msgs/msg/PoseWithCovariance",
         crate = "crate",
-        loan
+        loan,
+        source = "# This represents a pose in free space with uncertainty.\n\nPose pose\n\n# Row-major representation of the 6x6 covariance matrix\n# The orientation parameters use a fixed-axis representation.\n# In order, the parameters are:\n# (x, y, z, rotation about X axis, rotation about Y axis, rotation about Z axis)\nfloat64[36] covariance"
     )]
     #[repr(C)]
     pub struct PoseWithCovariance {
@@ -747,7 +815,8 @@ pub mod msg {
     #[ros(
         type_name = "geometry_msgs/msg/PoseWithCovarianceStamped",
         crate = "crate",
-        loan
+        loan,
+        source = "# This expresses an estimated pose with a reference coordinate frame and timestamp\n\nstd_msgs/Header header\nPoseWithCovariance pose"
     )]
     pub struct PoseWithCovarianceStamped {
         /// `std_msgs/Header header`
@@ -769,10 +838,7 @@ pub mod msg {
     ///
     /// [`PoseWithCovarianceStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "geometry_msgs/msg/PoseWithCovarianceStamped",
-        crate = "crate"
-    )]
+    #[ros(type_name = "geometry_msgs/msg/PoseWithCovarianceStamped", crate = "crate", source = <PoseWithCovarianceStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PoseWithCovarianceStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -798,16 +864,25 @@ pub mod msg {
     /// `geometry_msgs/msg/Quaternion` (from `msg/Quaternion.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Quaternion", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Quaternion",
+        crate = "crate",
+        loan,
+        source = "# This represents an orientation in free space in quaternion form.\n\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1"
+    )]
     #[repr(C)]
     pub struct Quaternion {
         /// `float64 x`
+        #[ros(default_value = "0.0")]
         pub x: f64,
         /// `float64 y`
+        #[ros(default_value = "0.0")]
         pub y: f64,
         /// `float64 z`
+        #[ros(default_value = "0.0")]
         pub z: f64,
         /// `float64 w`
+        #[ros(default_value = "1.0")]
         pub w: f64,
     }
 
@@ -834,7 +909,8 @@ pub mod msg {
     #[ros(
         type_name = "geometry_msgs/msg/QuaternionStamped",
         crate = "crate",
-        loan
+        loan,
+        source = "# This represents an orientation with reference coordinate frame and timestamp.\n\nstd_msgs/Header header\nQuaternion quaternion"
     )]
     pub struct QuaternionStamped {
         /// `std_msgs/Header header`
@@ -856,7 +932,7 @@ pub mod msg {
     ///
     /// [`QuaternionStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/QuaternionStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/QuaternionStamped", crate = "crate", source = <QuaternionStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct QuaternionStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -882,7 +958,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Transform` (from `msg/Transform.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Transform", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Transform",
+        crate = "crate",
+        loan,
+        source = "# This represents the transform between two coordinate frames in free space.\n\nVector3 translation\nQuaternion rotation"
+    )]
     #[repr(C)]
     pub struct Transform {
         /// `geometry_msgs/Vector3 translation`
@@ -921,7 +1002,8 @@ pub mod msg {
     #[ros(
         type_name = "geometry_msgs/msg/TransformStamped",
         crate = "crate",
-        loan
+        loan,
+        source = "# This expresses a transform from coordinate frame header.frame_id\n# to the coordinate frame child_frame_id at the time of header.stamp\n#\n# This message is mostly used by the\n# <a href=\"https://docs.ros.org/en/rolling/p/tf2/\">tf2</a> package.\n# See its documentation for more information.\n#\n# The child_frame_id is necessary in addition to the frame_id\n# in the Header to communicate the full reference for the transform\n# in a self contained message.\n\n# The frame id in the header is used as the reference frame of this transform.\nstd_msgs/Header header\n\n# The frame id of the child frame to which this transform points.\nstring child_frame_id\n\n# Translation and rotation in 3-dimensions of child_frame_id from header.frame_id.\nTransform transform"
     )]
     pub struct TransformStamped {
         /// The frame id in the header is used as the reference frame of this transform.
@@ -955,7 +1037,7 @@ pub mod msg {
     ///
     /// [`TransformStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/TransformStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/TransformStamped", crate = "crate", source = <TransformStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TransformStampedRef<'a> {
         /// The frame id in the header is used as the reference frame of this transform.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -984,7 +1066,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Twist` (from `msg/Twist.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Twist", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Twist",
+        crate = "crate",
+        loan,
+        source = "# This expresses velocity in free space broken into its linear and angular parts.\n\nVector3  linear\nVector3  angular"
+    )]
     #[repr(C)]
     pub struct Twist {
         /// `geometry_msgs/Vector3 linear`
@@ -1011,7 +1098,12 @@ pub mod msg {
     /// `geometry_msgs/msg/TwistStamped` (from `msg/TwistStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/TwistStamped", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/TwistStamped",
+        crate = "crate",
+        loan,
+        source = "# A twist with reference coordinate frame and timestamp\n\nstd_msgs/Header header\nTwist twist"
+    )]
     pub struct TwistStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -1032,7 +1124,7 @@ pub mod msg {
     ///
     /// [`TwistStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/TwistStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/TwistStamped", crate = "crate", source = <TwistStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TwistStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1061,7 +1153,8 @@ pub mod msg {
     #[ros(
         type_name = "geometry_msgs/msg/TwistWithCovariance",
         crate = "crate",
-        loan
+        loan,
+        source = "# This expresses velocity in free space with uncertainty.\n\nTwist twist\n\n# Row-major representation of the 6x6 covariance matrix\n# The orientation parameters use a fixed-axis representation.\n# In order, the parameters are:\n# (x, y, z, rotation about X axis, rotation about Y axis, rotation about Z axis)\nfloat64[36] covariance"
     )]
     #[repr(C)]
     pub struct TwistWithCovariance {
@@ -1095,7 +1188,8 @@ pub mod msg {
     #[ros(
         type_name = "geometry_msgs/msg/TwistWithCovarianceStamped",
         crate = "crate",
-        loan
+        loan,
+        source = "# This represents an estimated twist with reference coordinate frame and timestamp.\n\nstd_msgs/Header header\nTwistWithCovariance twist"
     )]
     pub struct TwistWithCovarianceStamped {
         /// `std_msgs/Header header`
@@ -1117,10 +1211,7 @@ pub mod msg {
     ///
     /// [`TwistWithCovarianceStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "geometry_msgs/msg/TwistWithCovarianceStamped",
-        crate = "crate"
-    )]
+    #[ros(type_name = "geometry_msgs/msg/TwistWithCovarianceStamped", crate = "crate", source = <TwistWithCovarianceStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TwistWithCovarianceStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1146,7 +1237,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Vector3` (from `msg/Vector3.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Vector3", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Vector3",
+        crate = "crate",
+        loan,
+        source = "# This represents a vector in free space.\n\n# This is semantically different than a point.\n# A vector is always anchored at the origin.\n# When a transform is applied to a vector, only the rotational component is applied.\n\nfloat64 x\nfloat64 y\nfloat64 z"
+    )]
     #[repr(C)]
     pub struct Vector3 {
         /// `float64 x`
@@ -1176,7 +1272,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Vector3Stamped` (from `msg/Vector3Stamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Vector3Stamped", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Vector3Stamped",
+        crate = "crate",
+        loan,
+        source = "# This represents a Vector3 with reference coordinate frame and timestamp\n\n# Note that this follows vector semantics with it always anchored at the origin,\n# so the rotational elements of a transform are the only parts applied when transforming.\n\nstd_msgs/Header header\nVector3 vector"
+    )]
     pub struct Vector3Stamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -1197,7 +1298,7 @@ pub mod msg {
     ///
     /// [`Vector3Stamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/Vector3Stamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/Vector3Stamped", crate = "crate", source = <Vector3Stamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct Vector3StampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1225,7 +1326,12 @@ pub mod msg {
     /// `geometry_msgs/msg/VelocityStamped` (from `msg/VelocityStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/VelocityStamped", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/VelocityStamped",
+        crate = "crate",
+        loan,
+        source = "# This expresses the timestamped velocity vector of a frame 'body_frame_id' in the reference frame 'reference_frame_id' expressed from arbitrary observation frame 'header.frame_id'.\n# - If the 'body_frame_id' and 'header.frame_id' are identical, the velocity is observed and defined in the local coordinates system of the body\n#   which is the usual use-case in mobile robotics and is also known as a body twist.\n\nstd_msgs/Header header\nstring body_frame_id\nstring reference_frame_id\nTwist velocity"
+    )]
     pub struct VelocityStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -1254,7 +1360,7 @@ pub mod msg {
     ///
     /// [`VelocityStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/VelocityStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/VelocityStamped", crate = "crate", source = <VelocityStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct VelocityStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1286,7 +1392,12 @@ pub mod msg {
     /// `geometry_msgs/msg/Wrench` (from `msg/Wrench.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/Wrench", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/Wrench",
+        crate = "crate",
+        loan,
+        source = "# This represents force in free space, separated into its linear and angular parts.\n\nVector3  force\nVector3  torque"
+    )]
     #[repr(C)]
     pub struct Wrench {
         /// `geometry_msgs/Vector3 force`
@@ -1313,7 +1424,12 @@ pub mod msg {
     /// `geometry_msgs/msg/WrenchStamped` (from `msg/WrenchStamped.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "geometry_msgs/msg/WrenchStamped", crate = "crate", loan)]
+    #[ros(
+        type_name = "geometry_msgs/msg/WrenchStamped",
+        crate = "crate",
+        loan,
+        source = "# A wrench with reference coordinate frame and timestamp\n\nstd_msgs/Header header\nWrench wrench"
+    )]
     pub struct WrenchStamped {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -1334,7 +1450,7 @@ pub mod msg {
     ///
     /// [`WrenchStamped`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "geometry_msgs/msg/WrenchStamped", crate = "crate")]
+    #[ros(type_name = "geometry_msgs/msg/WrenchStamped", crate = "crate", source = <WrenchStamped as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct WrenchStampedRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,

@@ -10,7 +10,12 @@ pub mod msg {
     /// `lifecycle_msgs/msg/State` (from `msg/State.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/msg/State", crate = "crate", loan)]
+    #[ros(
+        type_name = "lifecycle_msgs/msg/State",
+        crate = "crate",
+        loan,
+        source = "# Primary state definitions as depicted in:\n# http://design.ros2.org/articles/node_lifecycle.html\n\n# These are the primary states. State changes can only be requested when the\n# node is in one of these states.\n\n# Indicates state has not yet been set.\nuint8 PRIMARY_STATE_UNKNOWN = 0\n\n# This is the life cycle state the node is in immediately after being\n# instantiated.\nuint8 PRIMARY_STATE_UNCONFIGURED = 1\n\n# This state represents a node that is not currently performing any processing.\nuint8 PRIMARY_STATE_INACTIVE = 2\n\n# This is the main state of the node's life cycle. While in this state, the node\n# performs any processing, responds to service requests, reads and processes\n# data, produces output, etc.\nuint8 PRIMARY_STATE_ACTIVE = 3\n\n# The finalized state is the state in which the node ends immediately before\n# being destroyed.\nuint8 PRIMARY_STATE_FINALIZED = 4\n\n# Temporary intermediate states. When a transition is requested, the node\n# changes its state into one of these states.\n\n# In this transition state the node's onConfigure callback will be called to\n# allow the node to load its configuration and conduct any required setup.\nuint8 TRANSITION_STATE_CONFIGURING = 10\n\n# In this transition state the node's callback onCleanup will be called to clear\n# all state and return the node to a functionally equivalent state as when\n# first created.\nuint8 TRANSITION_STATE_CLEANINGUP = 11\n\n# In this transition state the callback onShutdown will be executed to do any\n# cleanup necessary before destruction.\nuint8 TRANSITION_STATE_SHUTTINGDOWN = 12\n\n# In this transition state the callback onActivate will be executed to do any\n# final preparations to start executing.\nuint8 TRANSITION_STATE_ACTIVATING = 13\n\n# In this transition state the callback onDeactivate will be executed to do any\n# cleanup to start executing, and reverse the onActivate changes.\nuint8 TRANSITION_STATE_DEACTIVATING = 14\n\n# This transition state is where any error may be cleaned up.\nuint8 TRANSITION_STATE_ERRORPROCESSING = 15\n\n# The state id value from the above definitions.\nuint8 id\n\n# A text label of the state.\nstring label"
+    )]
     pub struct State {
         /// The state id value from the above definitions.
         pub id: u8,
@@ -67,7 +72,7 @@ pub mod msg {
     ///
     /// [`State`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "lifecycle_msgs/msg/State", crate = "crate")]
+    #[ros(type_name = "lifecycle_msgs/msg/State", crate = "crate", source = <State as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct StateRef<'a> {
         /// The state id value from the above definitions.
         pub id: u8,
@@ -94,7 +99,12 @@ pub mod msg {
     /// `lifecycle_msgs/msg/Transition` (from `msg/Transition.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/msg/Transition", crate = "crate", loan)]
+    #[ros(
+        type_name = "lifecycle_msgs/msg/Transition",
+        crate = "crate",
+        loan,
+        source = "# Default values for transitions as described in:\n# http://design.ros2.org/articles/node_lifecycle.html\n\n# Reserved [0-9], publicly available transitions.\n# When a node is in one of these primary states, these transitions can be\n# invoked.\n\n# This transition will instantiate the node, but will not run any code beyond\n# the constructor.\nuint8 TRANSITION_CREATE = 0\n\n# The node's onConfigure callback will be called to allow the node to load its\n# configuration and conduct any required setup.\nuint8 TRANSITION_CONFIGURE = 1\n\n# The node's callback onCleanup will be called in this transition to allow the\n# node to load its configuration and conduct any required setup.\nuint8 TRANSITION_CLEANUP = 2\n\n# The node's callback onActivate will be executed to do any final preparations\n# to start executing.\nuint8 TRANSITION_ACTIVATE = 3\n\n# The node's callback onDeactivate will be executed to do any cleanup to start\n# executing, and reverse the onActivate changes.\nuint8 TRANSITION_DEACTIVATE = 4\n\n# This signals shutdown during an unconfigured state, the node's callback\n# onShutdown will be executed to do any cleanup necessary before destruction.\nuint8 TRANSITION_UNCONFIGURED_SHUTDOWN  = 5\n\n# This signals shutdown during an inactive state, the node's callback onShutdown\n# will be executed to do any cleanup necessary before destruction.\nuint8 TRANSITION_INACTIVE_SHUTDOWN = 6\n\n# This signals shutdown during an active state, the node's callback onShutdown\n# will be executed to do any cleanup necessary before destruction.\nuint8 TRANSITION_ACTIVE_SHUTDOWN = 7\n\n# This transition will simply cause the deallocation of the node.\nuint8 TRANSITION_DESTROY = 8\n\n# Reserved [10-69], private transitions\n# These transitions are not publicly available and cannot be invoked by a user.\n# The following transitions are implicitly invoked based on the callback\n# feedback of the intermediate transition states.\nuint8 TRANSITION_ON_CONFIGURE_SUCCESS = 10\nuint8 TRANSITION_ON_CONFIGURE_FAILURE = 11\nuint8 TRANSITION_ON_CONFIGURE_ERROR = 12\n\nuint8 TRANSITION_ON_CLEANUP_SUCCESS = 20\nuint8 TRANSITION_ON_CLEANUP_FAILURE = 21\nuint8 TRANSITION_ON_CLEANUP_ERROR = 22\n\nuint8 TRANSITION_ON_ACTIVATE_SUCCESS = 30\nuint8 TRANSITION_ON_ACTIVATE_FAILURE = 31\nuint8 TRANSITION_ON_ACTIVATE_ERROR = 32\n\nuint8 TRANSITION_ON_DEACTIVATE_SUCCESS = 40\nuint8 TRANSITION_ON_DEACTIVATE_FAILURE = 41\nuint8 TRANSITION_ON_DEACTIVATE_ERROR = 42\n\nuint8 TRANSITION_ON_SHUTDOWN_SUCCESS = 50\nuint8 TRANSITION_ON_SHUTDOWN_FAILURE = 51\nuint8 TRANSITION_ON_SHUTDOWN_ERROR = 52\n\nuint8 TRANSITION_ON_ERROR_SUCCESS = 60\nuint8 TRANSITION_ON_ERROR_FAILURE = 61\nuint8 TRANSITION_ON_ERROR_ERROR = 62\n\n# Reserved [90-99]. Transition callback success values.\n# These return values ought to be set as a return value for each callback.\n# Depending on which return value, the transition will be executed correctly or\n# fallback/error callbacks will be triggered.\n\n# The transition callback successfully performed its required functionality.\nuint8 TRANSITION_CALLBACK_SUCCESS = 97\n\n# The transition callback failed to perform its required functionality.\nuint8 TRANSITION_CALLBACK_FAILURE = 98\n\n# The transition callback encountered an error that requires special cleanup, if\n# possible.\nuint8 TRANSITION_CALLBACK_ERROR = 99\n\n##\n## Fields\n##\n\n# The transition id from above definitions.\nuint8 id\n\n# A text label of the transition.\nstring label"
+    )]
     pub struct Transition {
         /// The transition id from above definitions.
         pub id: u8,
@@ -191,7 +201,7 @@ pub mod msg {
     ///
     /// [`Transition`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "lifecycle_msgs/msg/Transition", crate = "crate")]
+    #[ros(type_name = "lifecycle_msgs/msg/Transition", crate = "crate", source = <Transition as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TransitionRef<'a> {
         /// The transition id from above definitions.
         pub id: u8,
@@ -218,7 +228,8 @@ pub mod msg {
     #[ros(
         type_name = "lifecycle_msgs/msg/TransitionDescription",
         crate = "crate",
-        loan
+        loan,
+        source = "# The transition id and label of this description.\nTransition transition\n\n# The current state from which this transition transitions.\nState start_state\n\n# The desired target state of this transition.\nState goal_state"
     )]
     pub struct TransitionDescription {
         /// The transition id and label of this description.
@@ -241,10 +252,7 @@ pub mod msg {
 
     /// [`TransitionDescription`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "lifecycle_msgs/msg/TransitionDescription",
-        crate = "crate"
-    )]
+    #[ros(type_name = "lifecycle_msgs/msg/TransitionDescription", crate = "crate", source = <TransitionDescription as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TransitionDescriptionRef<'a> {
         /// The transition id and label of this description.
         pub transition: TransitionRef<'a>,
@@ -274,7 +282,8 @@ pub mod msg {
     #[ros(
         type_name = "lifecycle_msgs/msg/TransitionEvent",
         crate = "crate",
-        loan
+        loan,
+        source = "# The time point at which this event occurred.\nuint64 timestamp\n\n# The id and label of this transition event.\nTransition transition\n\n# The starting state from which this event transitioned.\nState start_state\n\n# The end state of this transition event.\nState goal_state"
     )]
     pub struct TransitionEvent {
         /// The time point at which this event occurred.
@@ -300,7 +309,7 @@ pub mod msg {
 
     /// [`TransitionEvent`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "lifecycle_msgs/msg/TransitionEvent", crate = "crate")]
+    #[ros(type_name = "lifecycle_msgs/msg/TransitionEvent", crate = "crate", source = <TransitionEvent as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TransitionEventRef<'a> {
         /// The time point at which this event occurred.
         pub timestamp: u64,
@@ -337,7 +346,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/ChangeState_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct ChangeState_Request {
         /// The requested transition.
@@ -356,7 +366,11 @@ pub mod srv {
 
     /// [`ChangeState_Request`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "lifecycle_msgs/srv/ChangeState_Request", crate = "crate")]
+    #[ros(
+        type_name = "lifecycle_msgs/srv/ChangeState_Request",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct ChangeState_RequestRef<'a> {
         /// The requested transition.
         ///
@@ -382,7 +396,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/ChangeState_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct ChangeState_Response {
         /// Indicates whether the service was able to initiate the state transition
@@ -409,7 +424,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/ChangeState_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct ChangeState_Event {
         /// What happened, when, and to which call.
@@ -434,7 +450,11 @@ pub mod srv {
     ///
     /// [`ChangeState_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "lifecycle_msgs/srv/ChangeState_Event", crate = "crate")]
+    #[ros(
+        type_name = "lifecycle_msgs/srv/ChangeState_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct ChangeState_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -468,6 +488,7 @@ pub mod srv {
         type Request = ChangeState_Request;
         type Response = ChangeState_Response;
         type Event = ChangeState_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# The requested transition.\n#\n# This change state service will fail if the transition is not possible.\nTransition transition\n---\n\n# Indicates whether the service was able to initiate the state transition\nbool success");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -482,7 +503,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableStates_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetAvailableStates_Request;
 
@@ -502,7 +524,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableStates_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetAvailableStates_Response {
         /// Array of possible states that can be transitioned to.
@@ -521,7 +544,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableStates_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetAvailableStates_ResponseRef<'a> {
         /// Array of possible states that can be transitioned to.
@@ -548,7 +572,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableStates_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetAvailableStates_Event {
         /// What happened, when, and to which call.
@@ -575,7 +600,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableStates_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetAvailableStates_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -610,6 +636,7 @@ pub mod srv {
         type Request = GetAvailableStates_Request;
         type Response = GetAvailableStates_Response;
         type Event = GetAvailableStates_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "---\n# Array of possible states that can be transitioned to.\nState[] available_states");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -624,7 +651,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableTransitions_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetAvailableTransitions_Request;
 
@@ -644,7 +672,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableTransitions_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetAvailableTransitions_Response {
         /// An array of the possible start_state-goal_state transitions
@@ -664,7 +693,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableTransitions_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetAvailableTransitions_ResponseRef<'a> {
         /// An array of the possible start_state-goal_state transitions
@@ -692,7 +722,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableTransitions_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetAvailableTransitions_Event {
         /// What happened, when, and to which call.
@@ -719,7 +750,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "lifecycle_msgs/srv/GetAvailableTransitions_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetAvailableTransitions_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -754,6 +786,7 @@ pub mod srv {
         type Request = GetAvailableTransitions_Request;
         type Response = GetAvailableTransitions_Response;
         type Event = GetAvailableTransitions_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "---\n# An array of the possible start_state-goal_state transitions\nTransitionDescription[] available_transitions");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -768,7 +801,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/GetState_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetState_Request;
 
@@ -788,7 +822,8 @@ pub mod srv {
     #[ros(
         type_name = "lifecycle_msgs/srv/GetState_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetState_Response {
         /// The current state-machine state of the node.
@@ -805,7 +840,11 @@ pub mod srv {
 
     /// [`GetState_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "lifecycle_msgs/srv/GetState_Response", crate = "crate")]
+    #[ros(
+        type_name = "lifecycle_msgs/srv/GetState_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct GetState_ResponseRef<'a> {
         /// The current state-machine state of the node.
         pub current_state: super::super::lifecycle_msgs::msg::StateRef<'a>,
@@ -828,7 +867,12 @@ pub mod srv {
     /// `lifecycle_msgs/srv/GetState_Event` (from `srv/GetState.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "lifecycle_msgs/srv/GetState_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "lifecycle_msgs/srv/GetState_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct GetState_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -852,7 +896,11 @@ pub mod srv {
     ///
     /// [`GetState_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "lifecycle_msgs/srv/GetState_Event", crate = "crate")]
+    #[ros(
+        type_name = "lifecycle_msgs/srv/GetState_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct GetState_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -886,6 +934,10 @@ pub mod srv {
         type Request = GetState_Request;
         type Response = GetState_Response;
         type Event = GetState_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file(
+            "srv",
+            "---\n# The current state-machine state of the node.\nState current_state",
+        );
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

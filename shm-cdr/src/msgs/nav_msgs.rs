@@ -9,7 +9,12 @@ pub mod msg {
     /// `nav_msgs/msg/Goals` (from `msg/Goals.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/Goals", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/msg/Goals",
+        crate = "crate",
+        loan,
+        source = "# An array of navigation goals\n\n\n# This header will store the time at which the poses were computed (not to be confused with the stamps of the poses themselves)\n# In the case that individual poses do not have their frame_id set or their timetamp set they will use the default value here.\nstd_msgs/Header header\n\n# An array of goals to for navigation to achieve.\n# The goals should be executed in the order of the array.\n# The header and stamp are intended to be used for computing the position of the goals.\n# They may vary to support cases of goals that are moving with respect to the robot.\ngeometry_msgs/PoseStamped[] goals"
+    )]
     pub struct Goals {
         /// This header will store the time at which the poses were computed (not to be confused with the stamps of the poses themselves)
         /// In the case that individual poses do not have their frame_id set or their timetamp set they will use the default value here.
@@ -34,7 +39,7 @@ pub mod msg {
     ///
     /// [`Goals`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/msg/Goals", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/Goals", crate = "crate", source = <Goals as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct GoalsRef<'a> {
         /// This header will store the time at which the poses were computed (not to be confused with the stamps of the poses themselves)
         /// In the case that individual poses do not have their frame_id set or their timetamp set they will use the default value here.
@@ -64,7 +69,12 @@ pub mod msg {
     /// `nav_msgs/msg/GridCells` (from `msg/GridCells.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/GridCells", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/msg/GridCells",
+        crate = "crate",
+        loan,
+        source = "# An array of cells in a 2D grid\n\nstd_msgs/Header header\n\n# Width of each cell\nfloat32 cell_width\n\n# Height of each cell\nfloat32 cell_height\n\n# Each cell is represented by the Point at the center of the cell\ngeometry_msgs/Point[] cells"
+    )]
     pub struct GridCells {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -91,7 +101,7 @@ pub mod msg {
     ///
     /// [`GridCells`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/msg/GridCells", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/GridCells", crate = "crate", source = <GridCells as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct GridCellsRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -123,7 +133,12 @@ pub mod msg {
     /// `nav_msgs/msg/MapMetaData` (from `msg/MapMetaData.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/MapMetaData", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/msg/MapMetaData",
+        crate = "crate",
+        loan,
+        source = "# This hold basic information about the characteristics of the OccupancyGrid\n\n# The time at which the map was loaded\nbuiltin_interfaces/Time map_load_time\n\n# The map resolution [m/cell]\nfloat32 resolution\n\n# Map width [cells]\nuint32 width\n\n# Map height [cells]\nuint32 height\n\n# The origin of the map [m, m, rad].  This is the real-world pose of the\n# bottom left corner of cell (0,0) in the map.\ngeometry_msgs/Pose origin"
+    )]
     #[repr(C)]
     pub struct MapMetaData {
         /// The time at which the map was loaded
@@ -158,7 +173,12 @@ pub mod msg {
     /// `nav_msgs/msg/OccupancyGrid` (from `msg/OccupancyGrid.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/OccupancyGrid", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/msg/OccupancyGrid",
+        crate = "crate",
+        loan,
+        source = "# This represents a 2-D grid map\nstd_msgs/Header header\n\n# MetaData for the map\nMapMetaData info\n\n# The map data, in row-major order, starting with (0,0). \n# Cell (1, 0) will be listed second, representing the next cell in the x direction. \n# Cell (0, 1) will be at the index equal to info.width, followed by (1, 1).\n# The values inside are application dependent, but frequently, \n# 0 represents unoccupied, 1 represents definitely occupied, and\n# -1 represents unknown. \nint8[] data"
+    )]
     pub struct OccupancyGrid {
         /// This represents a 2-D grid map
         pub header: super::super::std_msgs::msg::Header,
@@ -185,7 +205,7 @@ pub mod msg {
 
     /// [`OccupancyGrid`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/msg/OccupancyGrid", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/OccupancyGrid", crate = "crate", source = <OccupancyGrid as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct OccupancyGridRef<'a> {
         /// This represents a 2-D grid map
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -221,7 +241,12 @@ pub mod msg {
     /// `nav_msgs/msg/Odometry` (from `msg/Odometry.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/Odometry", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/msg/Odometry",
+        crate = "crate",
+        loan,
+        source = "# This represents an estimate of a position and velocity in free space.\n# The pose in this message should be specified in the coordinate frame given by header.frame_id\n# The twist in this message should be specified in the coordinate frame given by the child_frame_id\n\n# Includes the frame id of the pose parent.\nstd_msgs/Header header\n\n# Frame id the pose points to. The twist is in this coordinate frame.\nstring child_frame_id\n\n# Estimated pose that is typically relative to a fixed world frame.\ngeometry_msgs/PoseWithCovariance pose\n\n# Estimated linear and angular velocity relative to child_frame_id.\ngeometry_msgs/TwistWithCovariance twist"
+    )]
     pub struct Odometry {
         /// Includes the frame id of the pose parent.
         pub header: super::super::std_msgs::msg::Header,
@@ -250,7 +275,7 @@ pub mod msg {
     ///
     /// [`Odometry`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/msg/Odometry", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/Odometry", crate = "crate", source = <Odometry as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct OdometryRef<'a> {
         /// Includes the frame id of the pose parent.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -282,7 +307,12 @@ pub mod msg {
     /// `nav_msgs/msg/Path` (from `msg/Path.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/msg/Path", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/msg/Path",
+        crate = "crate",
+        loan,
+        source = "# An array of poses that represents a Path for a robot to follow.\n\n# Indicates the frame_id of the path.\nstd_msgs/Header header\n\n# Array of poses to follow.\ngeometry_msgs/PoseStamped[] poses"
+    )]
     pub struct Path {
         /// Indicates the frame_id of the path.
         pub header: super::super::std_msgs::msg::Header,
@@ -303,7 +333,7 @@ pub mod msg {
     ///
     /// [`Path`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/msg/Path", crate = "crate")]
+    #[ros(type_name = "nav_msgs/msg/Path", crate = "crate", source = <Path as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PathRef<'a> {
         /// Indicates the frame_id of the path.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -333,7 +363,12 @@ pub mod srv {
     /// `nav_msgs/srv/GetMap_Request` (from `srv/GetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetMap_Request", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/GetMap_Request",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct GetMap_Request;
 
     impl ::core::default::Default for GetMap_Request {
@@ -349,7 +384,12 @@ pub mod srv {
     /// `nav_msgs/srv/GetMap_Response` (from `srv/GetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetMap_Response", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/GetMap_Response",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct GetMap_Response {
         /// The current map hosted by this map service.
         pub map: super::super::nav_msgs::msg::OccupancyGrid,
@@ -365,7 +405,11 @@ pub mod srv {
 
     /// [`GetMap_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/srv/GetMap_Response", crate = "crate")]
+    #[ros(
+        type_name = "nav_msgs/srv/GetMap_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct GetMap_ResponseRef<'a> {
         /// The current map hosted by this map service.
         pub map: super::super::nav_msgs::msg::OccupancyGridRef<'a>,
@@ -388,7 +432,12 @@ pub mod srv {
     /// `nav_msgs/srv/GetMap_Event` (from `srv/GetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetMap_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/GetMap_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct GetMap_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -412,7 +461,11 @@ pub mod srv {
     ///
     /// [`GetMap_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/srv/GetMap_Event", crate = "crate")]
+    #[ros(
+        type_name = "nav_msgs/srv/GetMap_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct GetMap_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -448,6 +501,7 @@ pub mod srv {
         type Request = GetMap_Request;
         type Response = GetMap_Response;
         type Event = GetMap_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# Get the map as a nav_msgs/OccupancyGrid\n---\n# The current map hosted by this map service.\nOccupancyGrid map");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -461,7 +515,12 @@ pub mod srv {
     /// `nav_msgs/srv/GetPlan_Request` (from `srv/GetPlan.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetPlan_Request", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/GetPlan_Request",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct GetPlan_Request {
         /// The start pose for the plan
         pub start: super::super::geometry_msgs::msg::PoseStamped,
@@ -486,7 +545,11 @@ pub mod srv {
     ///
     /// [`GetPlan_Request`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/srv/GetPlan_Request", crate = "crate")]
+    #[ros(
+        type_name = "nav_msgs/srv/GetPlan_Request",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct GetPlan_RequestRef<'a> {
         /// The start pose for the plan
         pub start: super::super::geometry_msgs::msg::PoseStampedRef<'a>,
@@ -514,7 +577,12 @@ pub mod srv {
     /// `nav_msgs/srv/GetPlan_Response` (from `srv/GetPlan.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetPlan_Response", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/GetPlan_Response",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct GetPlan_Response {
         /// Array of poses from start to goal if one was successfully found.
         pub plan: super::super::nav_msgs::msg::Path,
@@ -530,7 +598,11 @@ pub mod srv {
 
     /// [`GetPlan_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/srv/GetPlan_Response", crate = "crate")]
+    #[ros(
+        type_name = "nav_msgs/srv/GetPlan_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct GetPlan_ResponseRef<'a> {
         /// Array of poses from start to goal if one was successfully found.
         pub plan: super::super::nav_msgs::msg::PathRef<'a>,
@@ -553,7 +625,12 @@ pub mod srv {
     /// `nav_msgs/srv/GetPlan_Event` (from `srv/GetPlan.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/GetPlan_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/GetPlan_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct GetPlan_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -577,7 +654,11 @@ pub mod srv {
     ///
     /// [`GetPlan_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/srv/GetPlan_Event", crate = "crate")]
+    #[ros(
+        type_name = "nav_msgs/srv/GetPlan_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct GetPlan_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -613,6 +694,7 @@ pub mod srv {
         type Request = GetPlan_Request;
         type Response = GetPlan_Response;
         type Event = GetPlan_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# Get a plan from the current position to the goal Pose\n\n# The start pose for the plan\ngeometry_msgs/PoseStamped start\n\n# The final pose of the goal position\ngeometry_msgs/PoseStamped goal\n\n# If the goal is obstructed, how many meters the planner can\n# relax the constraint in x and y before failing.\nfloat32 tolerance\n---\n# Array of poses from start to goal if one was successfully found.\nPath plan");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -624,7 +706,12 @@ pub mod srv {
     /// `nav_msgs/srv/LoadMap_Request` (from `srv/LoadMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/LoadMap_Request", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/LoadMap_Request",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct LoadMap_Request {
         /// URL of map resource
         /// Can be an absolute path to a file: file:///path/to/maps/floor1.yaml
@@ -642,7 +729,11 @@ pub mod srv {
 
     /// [`LoadMap_Request`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/srv/LoadMap_Request", crate = "crate")]
+    #[ros(
+        type_name = "nav_msgs/srv/LoadMap_Request",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct LoadMap_RequestRef<'a> {
         /// URL of map resource
         /// Can be an absolute path to a file: file:///path/to/maps/floor1.yaml
@@ -665,7 +756,12 @@ pub mod srv {
     /// `nav_msgs/srv/LoadMap_Response` (from `srv/LoadMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/LoadMap_Response", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/LoadMap_Response",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct LoadMap_Response {
         /// Returned map is only valid if result equals RESULT_SUCCESS
         pub map: super::super::nav_msgs::msg::OccupancyGrid,
@@ -697,7 +793,11 @@ pub mod srv {
 
     /// [`LoadMap_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/srv/LoadMap_Response", crate = "crate")]
+    #[ros(
+        type_name = "nav_msgs/srv/LoadMap_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct LoadMap_ResponseRef<'a> {
         /// Returned map is only valid if result equals RESULT_SUCCESS
         pub map: super::super::nav_msgs::msg::OccupancyGridRef<'a>,
@@ -723,7 +823,12 @@ pub mod srv {
     /// `nav_msgs/srv/LoadMap_Event` (from `srv/LoadMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/LoadMap_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/LoadMap_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct LoadMap_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -747,7 +852,11 @@ pub mod srv {
     ///
     /// [`LoadMap_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/srv/LoadMap_Event", crate = "crate")]
+    #[ros(
+        type_name = "nav_msgs/srv/LoadMap_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct LoadMap_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -781,6 +890,7 @@ pub mod srv {
         type Request = LoadMap_Request;
         type Response = LoadMap_Response;
         type Event = LoadMap_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# URL of map resource\n# Can be an absolute path to a file: file:///path/to/maps/floor1.yaml\n# Or, relative to a ROS package: package://my_ros_package/maps/floor2.yaml\nstring map_url\n---\n# Result code definitions\nuint8 RESULT_SUCCESS=0\nuint8 RESULT_MAP_DOES_NOT_EXIST=1\nuint8 RESULT_INVALID_MAP_DATA=2\nuint8 RESULT_INVALID_MAP_METADATA=3\nuint8 RESULT_UNDEFINED_FAILURE=255\n\n# Returned map is only valid if result equals RESULT_SUCCESS\nnav_msgs/OccupancyGrid map\nuint8 result");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -794,7 +904,12 @@ pub mod srv {
     /// `nav_msgs/srv/SetMap_Request` (from `srv/SetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/SetMap_Request", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/SetMap_Request",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct SetMap_Request {
         /// Requested 2D map to be set.
         pub map: super::super::nav_msgs::msg::OccupancyGrid,
@@ -815,7 +930,11 @@ pub mod srv {
     ///
     /// [`SetMap_Request`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/srv/SetMap_Request", crate = "crate")]
+    #[ros(
+        type_name = "nav_msgs/srv/SetMap_Request",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct SetMap_RequestRef<'a> {
         /// Requested 2D map to be set.
         pub map: super::super::nav_msgs::msg::OccupancyGridRef<'a>,
@@ -839,7 +958,12 @@ pub mod srv {
     /// `nav_msgs/srv/SetMap_Response` (from `srv/SetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/SetMap_Response", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/SetMap_Response",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct SetMap_Response {
         /// True if the map was successfully set, false otherwise.
         pub success: bool,
@@ -862,7 +986,12 @@ pub mod srv {
     /// `nav_msgs/srv/SetMap_Event` (from `srv/SetMap.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "nav_msgs/srv/SetMap_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "nav_msgs/srv/SetMap_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct SetMap_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -886,7 +1015,11 @@ pub mod srv {
     ///
     /// [`SetMap_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "nav_msgs/srv/SetMap_Event", crate = "crate")]
+    #[ros(
+        type_name = "nav_msgs/srv/SetMap_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct SetMap_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -922,6 +1055,7 @@ pub mod srv {
         type Request = SetMap_Request;
         type Response = SetMap_Response;
         type Event = SetMap_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# Set a new map together with an initial pose\n\n# Requested 2D map to be set.\nnav_msgs/OccupancyGrid map\n\n# Estimated initial pose when setting new map.\ngeometry_msgs/PoseWithCovarianceStamped initial_pose\n---\n\n# True if the map was successfully set, false otherwise.\nbool success");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

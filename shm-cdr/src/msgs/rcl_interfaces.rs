@@ -12,7 +12,8 @@ pub mod msg {
     #[ros(
         type_name = "rcl_interfaces/msg/FloatingPointRange",
         crate = "crate",
-        loan
+        loan,
+        source = "# Represents bounds and a step value for a floating point typed parameter.\n\n# Start value for valid values, inclusive.\nfloat64 from_value\n\n# End value for valid values, inclusive.\nfloat64 to_value\n\n# Size of valid steps between the from and to bound.\n# \n# Step is considered to be a magnitude, therefore negative values are treated\n# the same as positive values, and a step value of zero implies a continuous\n# range of values.\n#\n# Ideally, the step would be less than or equal to the distance between the\n# bounds, as well as an even multiple of the distance between the bounds, but\n# neither are required.\n#\n# If the absolute value of the step is larger than or equal to the distance\n# between the two bounds, then the bounds will be the only valid values. e.g. if\n# the range is defined as {from_value: 1.0, to_value: 2.0, step: 5.0} then the\n# valid values will be 1.0 and 2.0.\n#\n# If the step is less than the distance between the bounds, but the distance is\n# not a multiple of the step, then the \"to\" bound will always be a valid value,\n# e.g. if the range is defined as {from_value: 2.0, to_value: 5.0, step: 2.0}\n# then the valid values will be 2.0, 4.0, and 5.0.\nfloat64 step"
     )]
     #[repr(C)]
     pub struct FloatingPointRange {
@@ -61,7 +62,12 @@ pub mod msg {
     /// `rcl_interfaces/msg/IntegerRange` (from `msg/IntegerRange.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "rcl_interfaces/msg/IntegerRange", crate = "crate", loan)]
+    #[ros(
+        type_name = "rcl_interfaces/msg/IntegerRange",
+        crate = "crate",
+        loan,
+        source = "# Represents bounds and a step value for an integer typed parameter.\n\n# Start value for valid values, inclusive.\nint64 from_value\n\n# End value for valid values, inclusive.\nint64 to_value\n\n# Size of valid steps between the from and to bound.\n#\n# A step value of zero implies a continuous range of values. Ideally, the step\n# would be less than or equal to the distance between the bounds, as well as an\n# even multiple of the distance between the bounds, but neither are required.\n#\n# If the absolute value of the step is larger than or equal to the distance\n# between the two bounds, then the bounds will be the only valid values. e.g. if\n# the range is defined as {from_value: 1, to_value: 2, step: 5} then the valid\n# values will be 1 and 2.\n# \n# If the step is less than the distance between the bounds, but the distance is\n# not a multiple of the step, then the \"to\" bound will always be a valid value,\n# e.g. if the range is defined as {from_value: 2, to_value: 5, step: 2} then\n# the valid values will be 2, 4, and 5.\nuint64 step"
+    )]
     #[repr(C)]
     pub struct IntegerRange {
         /// Start value for valid values, inclusive.
@@ -106,7 +112,8 @@ pub mod msg {
     #[ros(
         type_name = "rcl_interfaces/msg/ListParametersResult",
         crate = "crate",
-        loan
+        loan,
+        source = "# The resulting parameters under the given prefixes.\nstring[] names\n\n# The resulting prefixes under the given prefixes.\n# TODO(wjwwood): link to prefix definition and rules.\nstring[] prefixes"
     )]
     pub struct ListParametersResult {
         /// The resulting parameters under the given prefixes.
@@ -127,7 +134,7 @@ pub mod msg {
 
     /// [`ListParametersResult`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/msg/ListParametersResult", crate = "crate")]
+    #[ros(type_name = "rcl_interfaces/msg/ListParametersResult", crate = "crate", source = <ListParametersResult as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ListParametersResultRef<'a> {
         /// The resulting parameters under the given prefixes.
         pub names: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
@@ -165,7 +172,12 @@ pub mod msg {
     /// `rcl_interfaces/msg/Log` (from `msg/Log.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "rcl_interfaces/msg/Log", crate = "crate", loan)]
+    #[ros(
+        type_name = "rcl_interfaces/msg/Log",
+        crate = "crate",
+        loan,
+        source = "##\n## Severity level constants\n## \n## These logging levels follow the Python Standard\n## https://docs.python.org/3/library/logging.html#logging-levels\n## And are implemented in rcutils as well\n## https://github.com/ros2/rcutils/blob/35f29850064e0c33a4063cbc947ebbfeada11dba/include/rcutils/logging.h#L164-L172\n## This leaves space for other standard logging levels to be inserted in the middle in the future,\n## as well as custom user defined levels.\n## Since there are several other logging enumeration standard for different implementations,\n## other logging implementations may need to provide level mappings to match their internal implementations.\n##\n\n# Debug is for pedantic information, which is useful when debugging issues.\nuint8 DEBUG=10\n\n# Info is the standard informational level and is used to report expected\n# information.\nuint8 INFO=20\n\n# Warning is for information that may potentially cause issues or possibly unexpected\n# behavior.\nuint8 WARN=30\n\n# Error is for information that this node cannot resolve.\nuint8 ERROR=40\n\n# Information about a impending node shutdown.\nuint8 FATAL=50\n\n##\n## Fields\n##\n\n# Timestamp when this message was generated by the node.\nbuiltin_interfaces/Time stamp\n\n# Corresponding log level, see above definitions.\nuint8 level\n\n# The name representing the logger this message came from.\nstring name\n\n# The full log message.\nstring msg\n\n# The file the message came from.\nstring file\n\n# The function the message came from.\nstring function\n\n# The line in the file the message came from.\nuint32 line"
+    )]
     pub struct Log {
         /// Timestamp when this message was generated by the node.
         pub stamp: super::super::builtin_interfaces::msg::Time,
@@ -227,7 +239,7 @@ pub mod msg {
     ///
     /// [`Log`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/msg/Log", crate = "crate")]
+    #[ros(type_name = "rcl_interfaces/msg/Log", crate = "crate", source = <Log as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct LogRef<'a> {
         /// Timestamp when this message was generated by the node.
         pub stamp: super::super::builtin_interfaces::msg::Time,
@@ -268,7 +280,12 @@ pub mod msg {
     /// `rcl_interfaces/msg/LoggerLevel` (from `msg/LoggerLevel.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "rcl_interfaces/msg/LoggerLevel", crate = "crate", loan)]
+    #[ros(
+        type_name = "rcl_interfaces/msg/LoggerLevel",
+        crate = "crate",
+        loan,
+        source = "# All available logger levels; these correspond to the enum in rcutils/logger.h\n\nuint8 LOG_LEVEL_UNKNOWN = 0\nuint8 LOG_LEVEL_DEBUG = 10\nuint8 LOG_LEVEL_INFO = 20\nuint8 LOG_LEVEL_WARN = 30\nuint8 LOG_LEVEL_ERROR = 40\nuint8 LOG_LEVEL_FATAL = 50\n\n# The logger name.\nstring name\n\n# The logger level\nuint32 level"
+    )]
     pub struct LoggerLevel {
         /// The logger name.
         pub name: ::std::string::String,
@@ -304,7 +321,7 @@ pub mod msg {
     ///
     /// [`LoggerLevel`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/msg/LoggerLevel", crate = "crate")]
+    #[ros(type_name = "rcl_interfaces/msg/LoggerLevel", crate = "crate", source = <LoggerLevel as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct LoggerLevelRef<'a> {
         /// The logger name.
         pub name: ::std::borrow::Cow<'a, str>,
@@ -331,7 +348,12 @@ pub mod msg {
     /// `rcl_interfaces/msg/Parameter` (from `msg/Parameter.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "rcl_interfaces/msg/Parameter", crate = "crate", loan)]
+    #[ros(
+        type_name = "rcl_interfaces/msg/Parameter",
+        crate = "crate",
+        loan,
+        source = "# This is the message to communicate a parameter. It is an open struct with an enum in\n# the descriptor to select which value is active.\n\n# The full name of the parameter.\nstring name\n\n# The parameter's value which can be one of several types, see\n# `ParameterValue.msg` and `ParameterType.msg`.\nParameterValue value"
+    )]
     pub struct Parameter {
         /// The full name of the parameter.
         pub name: ::std::string::String,
@@ -354,7 +376,7 @@ pub mod msg {
     ///
     /// [`Parameter`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/msg/Parameter", crate = "crate")]
+    #[ros(type_name = "rcl_interfaces/msg/Parameter", crate = "crate", source = <Parameter as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ParameterRef<'a> {
         /// The full name of the parameter.
         pub name: ::std::borrow::Cow<'a, str>,
@@ -384,7 +406,8 @@ pub mod msg {
     #[ros(
         type_name = "rcl_interfaces/msg/ParameterDescriptor",
         crate = "crate",
-        loan
+        loan,
+        source = "# This is the message to communicate a parameter's descriptor.\n\n# The name of the parameter.\nstring name\n\n# Enum values are defined in the `ParameterType.msg` message.\nuint8 type\n\n# Description of the parameter, visible from introspection tools.\nstring description\n\n# Parameter constraints\n\n# Plain English description of additional constraints which cannot be expressed\n# with the available constraints, e.g. \"only prime numbers\".\n#\n# By convention, this should only be used to clarify constraints which cannot\n# be completely expressed with the parameter constraints below.\nstring additional_constraints\n\n# If 'true' then the value cannot change after it has been initialized.\nbool read_only false\n\n# If true, the parameter is allowed to change type.\nbool dynamic_typing false\n\n# If any of the following sequences are not empty, then the constraint inside of\n# them apply to this parameter.\n#\n# FloatingPointRange and IntegerRange are mutually exclusive.\n\n# FloatingPointRange consists of a from_value, a to_value, and a step.\nFloatingPointRange[<=1] floating_point_range\n\n# IntegerRange consists of a from_value, a to_value, and a step.\nIntegerRange[<=1] integer_range"
     )]
     pub struct ParameterDescriptor {
         /// The name of the parameter.
@@ -400,8 +423,10 @@ pub mod msg {
         /// be completely expressed with the parameter constraints below.
         pub additional_constraints: ::std::string::String,
         /// If 'true' then the value cannot change after it has been initialized.
+        #[ros(default_value = "False")]
         pub read_only: bool,
         /// If true, the parameter is allowed to change type.
+        #[ros(default_value = "False")]
         pub dynamic_typing: bool,
         /// FloatingPointRange consists of a from_value, a to_value, and a step.
         pub floating_point_range: crate::BoundedVec<FloatingPointRange, 1>,
@@ -428,7 +453,7 @@ pub mod msg {
     ///
     /// [`ParameterDescriptor`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/msg/ParameterDescriptor", crate = "crate")]
+    #[ros(type_name = "rcl_interfaces/msg/ParameterDescriptor", crate = "crate", source = <ParameterDescriptor as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ParameterDescriptorRef<'a> {
         /// The name of the parameter.
         pub name: ::std::borrow::Cow<'a, str>,
@@ -443,8 +468,10 @@ pub mod msg {
         /// be completely expressed with the parameter constraints below.
         pub additional_constraints: ::std::borrow::Cow<'a, str>,
         /// If 'true' then the value cannot change after it has been initialized.
+        #[ros(default_value = "False")]
         pub read_only: bool,
         /// If true, the parameter is allowed to change type.
+        #[ros(default_value = "False")]
         pub dynamic_typing: bool,
         /// FloatingPointRange consists of a from_value, a to_value, and a step.
         pub floating_point_range: crate::BoundedVec<FloatingPointRange, 1>,
@@ -478,7 +505,12 @@ pub mod msg {
     /// `rcl_interfaces/msg/ParameterEvent` (from `msg/ParameterEvent.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "rcl_interfaces/msg/ParameterEvent", crate = "crate", loan)]
+    #[ros(
+        type_name = "rcl_interfaces/msg/ParameterEvent",
+        crate = "crate",
+        loan,
+        source = "# This message contains a parameter event.\n# Because the parameter event was an atomic update, a specific parameter name\n# can only be in one of the three sets.\n\n# The time stamp when this parameter event occurred.\nbuiltin_interfaces/Time stamp\n\n# Fully qualified ROS path to node.\nstring node\n\n# New parameters that have been set for this node.\nParameter[] new_parameters\n\n# Parameters that have been changed during this event.\nParameter[] changed_parameters\n\n# Parameters that have been deleted during this event.\nParameter[] deleted_parameters"
+    )]
     pub struct ParameterEvent {
         /// The time stamp when this parameter event occurred.
         pub stamp: super::super::builtin_interfaces::msg::Time,
@@ -510,7 +542,7 @@ pub mod msg {
     ///
     /// [`ParameterEvent`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/msg/ParameterEvent", crate = "crate")]
+    #[ros(type_name = "rcl_interfaces/msg/ParameterEvent", crate = "crate", source = <ParameterEvent as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ParameterEventRef<'a> {
         /// The time stamp when this parameter event occurred.
         pub stamp: super::super::builtin_interfaces::msg::Time,
@@ -550,7 +582,8 @@ pub mod msg {
     #[ros(
         type_name = "rcl_interfaces/msg/ParameterEventDescriptors",
         crate = "crate",
-        loan
+        loan,
+        source = "# This message contains descriptors of a parameter event.\n# It was an atomic update.\n# A specific parameter name can only be in one of the three sets.\n\nParameterDescriptor[] new_parameters\nParameterDescriptor[] changed_parameters\nParameterDescriptor[] deleted_parameters"
     )]
     pub struct ParameterEventDescriptors {
         /// `rcl_interfaces/ParameterDescriptor[] new_parameters`
@@ -577,10 +610,7 @@ pub mod msg {
     ///
     /// [`ParameterEventDescriptors`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "rcl_interfaces/msg/ParameterEventDescriptors",
-        crate = "crate"
-    )]
+    #[ros(type_name = "rcl_interfaces/msg/ParameterEventDescriptors", crate = "crate", source = <ParameterEventDescriptors as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ParameterEventDescriptorsRef<'a> {
         /// `rcl_interfaces/ParameterDescriptor[] new_parameters`
         pub new_parameters: ::std::vec::Vec<ParameterDescriptorRef<'a>>,
@@ -609,7 +639,12 @@ pub mod msg {
     /// `rcl_interfaces/msg/ParameterType` (from `msg/ParameterType.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "rcl_interfaces/msg/ParameterType", crate = "crate", loan)]
+    #[ros(
+        type_name = "rcl_interfaces/msg/ParameterType",
+        crate = "crate",
+        loan,
+        source = "# These types correspond to the value that is set in the ParameterValue message.\n\n# Default value, which implies this is not a valid parameter.\nuint8 PARAMETER_NOT_SET=0\n\nuint8 PARAMETER_BOOL=1\nuint8 PARAMETER_INTEGER=2\nuint8 PARAMETER_DOUBLE=3\nuint8 PARAMETER_STRING=4\nuint8 PARAMETER_BYTE_ARRAY=5\nuint8 PARAMETER_BOOL_ARRAY=6\nuint8 PARAMETER_INTEGER_ARRAY=7\nuint8 PARAMETER_DOUBLE_ARRAY=8\nuint8 PARAMETER_STRING_ARRAY=9"
+    )]
     pub struct ParameterType;
 
     impl ParameterType {
@@ -653,7 +688,12 @@ pub mod msg {
     /// `rcl_interfaces/msg/ParameterValue` (from `msg/ParameterValue.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "rcl_interfaces/msg/ParameterValue", crate = "crate", loan)]
+    #[ros(
+        type_name = "rcl_interfaces/msg/ParameterValue",
+        crate = "crate",
+        loan,
+        source = "# Used to determine which of the next *_value fields are set.\n# ParameterType.PARAMETER_NOT_SET indicates that the parameter was not set\n# (if gotten) or is uninitialized.\n# Values are enumerated in `ParameterType.msg`.\n\n# The type of this parameter, which corresponds to the appropriate field below.\nuint8 type\n\n# \"Variant\" style storage of the parameter value. Only the value corresponding\n# the type field will have valid information.\n\n# Boolean value, can be either true or false.\nbool bool_value\n\n# Integer value ranging from -9,223,372,036,854,775,808 to\n# 9,223,372,036,854,775,807.\nint64 integer_value\n\n# A double precision floating point value following IEEE 754.\nfloat64 double_value\n\n# A textual value with no practical length limit.\nstring string_value\n\n# An array of bytes, used for non-textual information.\nbyte[] byte_array_value\n\n# An array of boolean values.\nbool[] bool_array_value\n\n# An array of 64-bit integer values.\nint64[] integer_array_value\n\n# An array of 64-bit floating point values.\nfloat64[] double_array_value\n\n# An array of string values.\nstring[] string_array_value"
+    )]
     pub struct ParameterValue {
         /// The type of this parameter, which corresponds to the appropriate field below.
         pub r#type: u8,
@@ -703,7 +743,7 @@ pub mod msg {
     ///
     /// [`ParameterValue`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/msg/ParameterValue", crate = "crate")]
+    #[ros(type_name = "rcl_interfaces/msg/ParameterValue", crate = "crate", source = <ParameterValue as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ParameterValueRef<'a> {
         /// The type of this parameter, which corresponds to the appropriate field below.
         pub r#type: u8,
@@ -756,7 +796,8 @@ pub mod msg {
     #[ros(
         type_name = "rcl_interfaces/msg/SetLoggerLevelsResult",
         crate = "crate",
-        loan
+        loan,
+        source = "# True when succeed, false when failed.\nbool successful\n\n# Reason why the setting was either successful or a failure.\nstring reason"
     )]
     pub struct SetLoggerLevelsResult {
         /// True when succeed, false when failed.
@@ -776,10 +817,7 @@ pub mod msg {
 
     /// [`SetLoggerLevelsResult`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "rcl_interfaces/msg/SetLoggerLevelsResult",
-        crate = "crate"
-    )]
+    #[ros(type_name = "rcl_interfaces/msg/SetLoggerLevelsResult", crate = "crate", source = <SetLoggerLevelsResult as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct SetLoggerLevelsResultRef<'a> {
         /// True when succeed, false when failed.
         pub successful: bool,
@@ -806,7 +844,8 @@ pub mod msg {
     #[ros(
         type_name = "rcl_interfaces/msg/SetParametersResult",
         crate = "crate",
-        loan
+        loan,
+        source = "# A true value of the same index indicates that the parameter was set\n# successfully. A false value indicates the change was rejected.\nbool successful\n\n# Reason why the setting was a failure. On success, the contents of this field\n# are undefined.  This should only be used for logging and user interfaces.\nstring reason"
     )]
     pub struct SetParametersResult {
         /// A true value of the same index indicates that the parameter was set
@@ -828,7 +867,7 @@ pub mod msg {
 
     /// [`SetParametersResult`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/msg/SetParametersResult", crate = "crate")]
+    #[ros(type_name = "rcl_interfaces/msg/SetParametersResult", crate = "crate", source = <SetParametersResult as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct SetParametersResultRef<'a> {
         /// A true value of the same index indicates that the parameter was set
         /// successfully. A false value indicates the change was rejected.
@@ -861,7 +900,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/DescribeParameters_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct DescribeParameters_Request {
         /// A list of parameters of which to get the descriptor.
@@ -880,7 +920,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/DescribeParameters_Request",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct DescribeParameters_RequestRef<'a> {
         /// A list of parameters of which to get the descriptor.
@@ -905,7 +946,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/DescribeParameters_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct DescribeParameters_Response {
         /// A list of the descriptors of all parameters requested in the same order
@@ -926,7 +968,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/DescribeParameters_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct DescribeParameters_ResponseRef<'a> {
         /// A list of the descriptors of all parameters requested in the same order
@@ -956,7 +999,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/DescribeParameters_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct DescribeParameters_Event {
         /// What happened, when, and to which call.
@@ -983,7 +1027,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/DescribeParameters_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct DescribeParameters_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -1018,6 +1063,7 @@ pub mod srv {
         type Request = DescribeParameters_Request;
         type Response = DescribeParameters_Response;
         type Event = DescribeParameters_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# A list of parameters of which to get the descriptor.\nstring[] names\n\n---\n# A list of the descriptors of all parameters requested in the same order\n# as they were requested. This list has the same length as the list of\n# parameters requested.\nParameterDescriptor[] descriptors");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -1032,7 +1078,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/GetLoggerLevels_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetLoggerLevels_Request {
         /// A list of logger names to get.
@@ -1051,7 +1098,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/GetLoggerLevels_Request",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetLoggerLevels_RequestRef<'a> {
         /// A list of logger names to get.
@@ -1076,7 +1124,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/GetLoggerLevels_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetLoggerLevels_Response {
         /// List of logger levels which is the same order as the provided names. If a
@@ -1096,7 +1145,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/GetLoggerLevels_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetLoggerLevels_ResponseRef<'a> {
         /// List of logger levels which is the same order as the provided names. If a
@@ -1124,7 +1174,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/GetLoggerLevels_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetLoggerLevels_Event {
         /// What happened, when, and to which call.
@@ -1151,7 +1202,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/GetLoggerLevels_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetLoggerLevels_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -1186,6 +1238,7 @@ pub mod srv {
         type Request = GetLoggerLevels_Request;
         type Response = GetLoggerLevels_Response;
         type Event = GetLoggerLevels_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# A list of logger names to get.\nstring[] names\n\n---\n# List of logger levels which is the same order as the provided names. If a\n# logger was not yet set, the value will have 'unknown' as the value.\nLoggerLevel[] levels");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -1200,7 +1253,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameterTypes_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetParameterTypes_Request {
         /// A list of parameter names.
@@ -1220,7 +1274,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameterTypes_Request",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetParameterTypes_RequestRef<'a> {
         /// A list of parameter names.
@@ -1246,7 +1301,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameterTypes_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetParameterTypes_Response {
         /// List of types which is the same length and order as the provided names.
@@ -1268,7 +1324,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameterTypes_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetParameterTypes_ResponseRef<'a> {
         /// List of types which is the same length and order as the provided names.
@@ -1298,7 +1355,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameterTypes_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetParameterTypes_Event {
         /// What happened, when, and to which call.
@@ -1325,7 +1383,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameterTypes_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetParameterTypes_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -1360,6 +1419,7 @@ pub mod srv {
         type Request = GetParameterTypes_Request;
         type Response = GetParameterTypes_Response;
         type Event = GetParameterTypes_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# A list of parameter names.\n# TODO(wjwwood): link to parameter naming rules.\nstring[] names\n\n---\n# List of types which is the same length and order as the provided names.\n#\n# The type enum is defined in ParameterType.msg. ParameterType.PARAMETER_NOT_SET\n# indicates that the parameter is not currently set.\nuint8[] types");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -1381,7 +1441,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameters_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetParameters_Request {
         /// A list of parameter names to get.
@@ -1407,7 +1468,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameters_Request",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetParameters_RequestRef<'a> {
         /// A list of parameter names to get.
@@ -1432,7 +1494,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameters_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetParameters_Response {
         /// List of values which is the same length and order as the provided names. If a
@@ -1453,7 +1516,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameters_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetParameters_ResponseRef<'a> {
         /// List of values which is the same length and order as the provided names. If a
@@ -1482,7 +1546,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/GetParameters_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetParameters_Event {
         /// What happened, when, and to which call.
@@ -1507,7 +1572,11 @@ pub mod srv {
     ///
     /// [`GetParameters_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/srv/GetParameters_Event", crate = "crate")]
+    #[ros(
+        type_name = "rcl_interfaces/srv/GetParameters_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct GetParameters_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -1548,6 +1617,7 @@ pub mod srv {
         type Request = GetParameters_Request;
         type Response = GetParameters_Response;
         type Event = GetParameters_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# TODO(wjwwood): Decide on the rules for grouping, nodes, and parameter \"names\"\n# in general, then link to that.\n#\n# For more information about parameters and naming rules, see:\n# https://design.ros2.org/articles/ros_parameters.html\n# https://github.com/ros2/design/pull/241\n\n# A list of parameter names to get.\nstring[] names\n\n---\n# List of values which is the same length and order as the provided names. If a\n# parameter was not yet set, the value will have PARAMETER_NOT_SET as the\n# type.\nParameterValue[] values");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -1562,7 +1632,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/ListParameters_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct ListParameters_Request {
         /// The list of parameter prefixes to query.
@@ -1591,7 +1662,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/ListParameters_Request",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct ListParameters_RequestRef<'a> {
         /// The list of parameter prefixes to query.
@@ -1621,7 +1693,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/ListParameters_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct ListParameters_Response {
         /// The list of parameter names and their prefixes.
@@ -1640,7 +1713,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/ListParameters_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct ListParameters_ResponseRef<'a> {
         /// The list of parameter names and their prefixes.
@@ -1667,7 +1741,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/ListParameters_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct ListParameters_Event {
         /// What happened, when, and to which call.
@@ -1692,7 +1767,11 @@ pub mod srv {
     ///
     /// [`ListParameters_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/srv/ListParameters_Event", crate = "crate")]
+    #[ros(
+        type_name = "rcl_interfaces/srv/ListParameters_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct ListParameters_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -1726,6 +1805,7 @@ pub mod srv {
         type Request = ListParameters_Request;
         type Response = ListParameters_Response;
         type Event = ListParameters_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# Recursively get parameters with unlimited depth.\nuint64 DEPTH_RECURSIVE=0\n\n# The list of parameter prefixes to query.\nstring[] prefixes\n\n# Relative depth from given prefixes to return.\n#\n# Use DEPTH_RECURSIVE to get the recursive parameters and prefixes for each prefix.\nuint64 depth\n\n---\n# The list of parameter names and their prefixes.\nListParametersResult result");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -1740,7 +1820,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/SetLoggerLevels_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetLoggerLevels_Request {
         /// A list of loggers to set.
@@ -1759,7 +1840,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/SetLoggerLevels_Request",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct SetLoggerLevels_RequestRef<'a> {
         /// A list of loggers to set.
@@ -1784,7 +1866,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/SetLoggerLevels_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetLoggerLevels_Response {
         /// Indicates whether setting each logger succeeded or not and why.
@@ -1803,7 +1886,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/SetLoggerLevels_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct SetLoggerLevels_ResponseRef<'a> {
         /// Indicates whether setting each logger succeeded or not and why.
@@ -1831,7 +1915,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/SetLoggerLevels_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetLoggerLevels_Event {
         /// What happened, when, and to which call.
@@ -1858,7 +1943,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/SetLoggerLevels_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct SetLoggerLevels_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -1893,6 +1979,7 @@ pub mod srv {
         type Request = SetLoggerLevels_Request;
         type Response = SetLoggerLevels_Response;
         type Event = SetLoggerLevels_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# A list of loggers to set.\nLoggerLevel[] levels\n\n---\n# Indicates whether setting each logger succeeded or not and why.\nSetLoggerLevelsResult[] results");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -1907,7 +1994,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/SetParameters_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetParameters_Request {
         /// A list of parameters to set.
@@ -1926,7 +2014,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/SetParameters_Request",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct SetParameters_RequestRef<'a> {
         /// A list of parameters to set.
@@ -1951,7 +2040,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/SetParameters_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetParameters_Response {
         /// Indicates whether setting each parameter succeeded or not and why.
@@ -1970,7 +2060,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/SetParameters_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct SetParameters_ResponseRef<'a> {
         /// Indicates whether setting each parameter succeeded or not and why.
@@ -1997,7 +2088,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/SetParameters_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetParameters_Event {
         /// What happened, when, and to which call.
@@ -2022,7 +2114,11 @@ pub mod srv {
     ///
     /// [`SetParameters_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "rcl_interfaces/srv/SetParameters_Event", crate = "crate")]
+    #[ros(
+        type_name = "rcl_interfaces/srv/SetParameters_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct SetParameters_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -2056,6 +2152,7 @@ pub mod srv {
         type Request = SetParameters_Request;
         type Response = SetParameters_Response;
         type Event = SetParameters_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# A list of parameters to set.\nParameter[] parameters\n\n---\n# Indicates whether setting each parameter succeeded or not and why.\nSetParametersResult[] results");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -2070,7 +2167,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/SetParametersAtomically_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetParametersAtomically_Request {
         /// A list of parameters to set atomically.
@@ -2091,7 +2189,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/SetParametersAtomically_Request",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct SetParametersAtomically_RequestRef<'a> {
         /// A list of parameters to set atomically.
@@ -2118,7 +2217,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/SetParametersAtomically_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetParametersAtomically_Response {
         /// Indicates whether setting all of the parameters succeeded or not and why.
@@ -2137,7 +2237,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/SetParametersAtomically_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct SetParametersAtomically_ResponseRef<'a> {
         /// Indicates whether setting all of the parameters succeeded or not and why.
@@ -2164,7 +2265,8 @@ pub mod srv {
     #[ros(
         type_name = "rcl_interfaces/srv/SetParametersAtomically_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetParametersAtomically_Event {
         /// What happened, when, and to which call.
@@ -2191,7 +2293,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "rcl_interfaces/srv/SetParametersAtomically_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct SetParametersAtomically_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -2226,6 +2329,7 @@ pub mod srv {
         type Request = SetParametersAtomically_Request;
         type Response = SetParametersAtomically_Response;
         type Event = SetParametersAtomically_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# A list of parameters to set atomically.\n#\n# This call will either set all values, or none of the values.\nParameter[] parameters\n\n---\n# Indicates whether setting all of the parameters succeeded or not and why.\nSetParametersResult result");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

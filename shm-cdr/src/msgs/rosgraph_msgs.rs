@@ -7,7 +7,12 @@ pub mod msg {
     /// `rosgraph_msgs/msg/Clock` (from `msg/Clock.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "rosgraph_msgs/msg/Clock", crate = "crate", loan)]
+    #[ros(
+        type_name = "rosgraph_msgs/msg/Clock",
+        crate = "crate",
+        loan,
+        source = "# This message communicates the current time.\n#\n# For more information, see https://design.ros2.org/articles/clock_and_time.html.\nbuiltin_interfaces/Time clock"
+    )]
     #[repr(C)]
     pub struct Clock {
         /// This message communicates the current time.

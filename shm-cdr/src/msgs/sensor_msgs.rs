@@ -12,7 +12,12 @@ pub mod msg {
     /// `sensor_msgs/msg/BatteryState` (from `msg/BatteryState.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/BatteryState", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/BatteryState",
+        crate = "crate",
+        loan,
+        source = "\n# Constants are chosen to match the enums in the linux kernel\n# defined in include/linux/power_supply.h as of version 3.7\n# The one difference is for style reasons the constants are\n# all uppercase not mixed case.\n\n# Power supply status constants\nuint8 POWER_SUPPLY_STATUS_UNKNOWN = 0\nuint8 POWER_SUPPLY_STATUS_CHARGING = 1\nuint8 POWER_SUPPLY_STATUS_DISCHARGING = 2\nuint8 POWER_SUPPLY_STATUS_NOT_CHARGING = 3\nuint8 POWER_SUPPLY_STATUS_FULL = 4\n\n# Power supply health constants\nuint8 POWER_SUPPLY_HEALTH_UNKNOWN = 0\nuint8 POWER_SUPPLY_HEALTH_GOOD = 1\nuint8 POWER_SUPPLY_HEALTH_OVERHEAT = 2\nuint8 POWER_SUPPLY_HEALTH_DEAD = 3\nuint8 POWER_SUPPLY_HEALTH_OVERVOLTAGE = 4\nuint8 POWER_SUPPLY_HEALTH_UNSPEC_FAILURE = 5\nuint8 POWER_SUPPLY_HEALTH_COLD = 6\nuint8 POWER_SUPPLY_HEALTH_WATCHDOG_TIMER_EXPIRE = 7\nuint8 POWER_SUPPLY_HEALTH_SAFETY_TIMER_EXPIRE = 8\n\n# Power supply technology (chemistry) constants\nuint8 POWER_SUPPLY_TECHNOLOGY_UNKNOWN = 0 # Unknown battery technology\nuint8 POWER_SUPPLY_TECHNOLOGY_NIMH = 1    # Nickel-Metal Hydride battery\nuint8 POWER_SUPPLY_TECHNOLOGY_LION = 2    # Lithium-ion battery\nuint8 POWER_SUPPLY_TECHNOLOGY_LIPO = 3    # Lithium Polymer battery\nuint8 POWER_SUPPLY_TECHNOLOGY_LIFE = 4    # Lithium Iron Phosphate battery\nuint8 POWER_SUPPLY_TECHNOLOGY_NICD = 5    # Nickel-Cadmium battery\nuint8 POWER_SUPPLY_TECHNOLOGY_LIMN = 6    # Lithium Manganese Dioxide battery\nuint8 POWER_SUPPLY_TECHNOLOGY_TERNARY = 7 # Ternary Lithium battery\nuint8 POWER_SUPPLY_TECHNOLOGY_VRLA = 8    # Valve Regulated Lead-Acid battery\n\nstd_msgs/Header  header\nfloat32 voltage          # Voltage in Volts (Mandatory)\nfloat32 temperature      # Temperature in Degrees Celsius (If unmeasured NaN)\nfloat32 current          # Negative when discharging (A)  (If unmeasured NaN)\nfloat32 charge           # Current charge in Ah  (If unmeasured NaN)\nfloat32 capacity         # Capacity in Ah (last full capacity)  (If unmeasured NaN)\nfloat32 design_capacity  # Capacity in Ah (design capacity)  (If unmeasured NaN)\nfloat32 percentage       # Charge percentage on 0 to 1 range  (If unmeasured NaN)\nuint8   power_supply_status     # The charging status as reported. Values defined above\nuint8   power_supply_health     # The battery health metric. Values defined above\nuint8   power_supply_technology # The battery chemistry. Values defined above\nbool    present          # True if the battery is present\n\nfloat32[] cell_voltage   # An array of individual cell voltages for each cell in the pack\n                         # If individual voltages unknown but number of cells known set each to NaN\nfloat32[] cell_temperature # An array of individual cell temperatures for each cell in the pack\n                           # If individual temperatures unknown but number of cells known set each to NaN\nstring location          # The location into which the battery is inserted. (slot number or plug)\nstring serial_number     # The best approximation of the battery serial number"
+    )]
     pub struct BatteryState {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -130,7 +135,7 @@ pub mod msg {
     ///
     /// [`BatteryState`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/BatteryState", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/BatteryState", crate = "crate", source = <BatteryState as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct BatteryStateRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -222,7 +227,12 @@ pub mod msg {
     /// `sensor_msgs/msg/CameraInfo` (from `msg/CameraInfo.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/CameraInfo", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/CameraInfo",
+        crate = "crate",
+        loan,
+        source = "# This message defines meta information for a camera. It should be in a\n# camera namespace on topic \"camera_info\" and accompanied by up to five\n# image topics named:\n#\n#   image_raw - raw data from the camera driver, possibly Bayer encoded\n#   image            - monochrome, distorted\n#   image_color      - color, distorted\n#   image_rect       - monochrome, rectified\n#   image_rect_color - color, rectified\n#\n# The image_pipeline contains packages (image_proc, stereo_image_proc)\n# for producing the four processed image topics from image_raw and\n# camera_info. The meaning of the camera parameters are described in\n# detail at http://www.ros.org/wiki/image_pipeline/CameraInfo.\n#\n# The image_geometry package provides a user-friendly interface to\n# common operations using this meta information. If you want to, e.g.,\n# project a 3d point into image coordinates, we strongly recommend\n# using image_geometry.\n#\n# If the camera is uncalibrated, the matrices D, K, R, P should be left\n# zeroed out. In particular, clients may assume that K[0] == 0.0\n# indicates an uncalibrated camera.\n\n#######################################################################\n#                     Image acquisition info                          #\n#######################################################################\n\n# Time of image acquisition, camera coordinate frame ID\nstd_msgs/Header header # Header timestamp should be acquisition time of image\n                             # Header frame_id should be optical frame of camera\n                             # origin of frame should be optical center of camera\n                             # +x should point to the right in the image\n                             # +y should point down in the image\n                             # +z should point into the plane of the image\n\n\n#######################################################################\n#                      Calibration Parameters                         #\n#######################################################################\n# These are fixed during camera calibration. Their values will be the #\n# same in all messages until the camera is recalibrated. Note that    #\n# self-calibrating systems may \"recalibrate\" frequently.              #\n#                                                                     #\n# The internal parameters can be used to warp a raw (distorted) image #\n# to:                                                                 #\n#   1. An undistorted image (requires D and K)                        #\n#   2. A rectified image (requires D, K, R)                           #\n# The projection matrix P projects 3D points into the rectified image.#\n#######################################################################\n\n# The image dimensions with which the camera was calibrated.\n# Normally this will be the full camera resolution in pixels.\nuint32 height\nuint32 width\n\n# The distortion model used. Supported models are listed in\n# sensor_msgs/distortion_models.hpp. For most cameras, \"plumb_bob\" - a\n# simple model of radial and tangential distortion - is sufficent.\nstring distortion_model\n\n# The distortion parameters, size depending on the distortion model.\n# For \"plumb_bob\", the 5 parameters are: (k1, k2, t1, t2, k3).\nfloat64[] d\n\n# Intrinsic camera matrix for the raw (distorted) images.\n#     [fx  0 cx]\n# K = [ 0 fy cy]\n#     [ 0  0  1]\n# Projects 3D points in the camera coordinate frame to 2D pixel\n# coordinates using the focal lengths (fx, fy) and principal point\n# (cx, cy).\nfloat64[9]  k # 3x3 row-major matrix\n\n# Rectification matrix (stereo cameras only)\n# A rotation matrix aligning the camera coordinate system to the ideal\n# stereo image plane so that epipolar lines in both stereo images are\n# parallel.\nfloat64[9]  r # 3x3 row-major matrix\n\n# Projection/camera matrix\n#     [fx'  0  cx' Tx]\n# P = [ 0  fy' cy' Ty]\n#     [ 0   0   1   0]\n# By convention, this matrix specifies the intrinsic (camera) matrix\n#  of the processed (rectified) image. That is, the left 3x3 portion\n#  is the normal camera intrinsic matrix for the rectified image.\n# It projects 3D points in the camera coordinate frame to 2D pixel\n#  coordinates using the focal lengths (fx', fy') and principal point\n#  (cx', cy') - these may differ from the values in K.\n# For monocular cameras, Tx = Ty = 0. Normally, monocular cameras will\n#  also have R = the identity and P[1:3,1:3] = K.\n# For a stereo pair, the fourth column [Tx Ty 0]' is related to the\n#  position of the optical center of the second camera in the first\n#  camera's frame. We assume Tz = 0 so both cameras are in the same\n#  stereo image plane. The first camera always has Tx = Ty = 0. For\n#  the right (second) camera of a horizontal stereo pair, Ty = 0 and\n#  Tx = -fx' * B, where B is the baseline between the cameras.\n# Given a 3D point [X Y Z]', the projection (x, y) of the point onto\n#  the rectified image is given by:\n#  [u v w]' = P * [X Y Z 1]'\n#         x = u / w\n#         y = v / w\n#  This holds for both images of a stereo pair.\nfloat64[12] p # 3x4 row-major matrix\n\n\n#######################################################################\n#                      Operational Parameters                         #\n#######################################################################\n# These define the image region actually captured by the camera       #\n# driver. Although they affect the geometry of the output image, they #\n# may be changed freely without recalibrating the camera.             #\n#######################################################################\n\n# Binning refers here to any camera setting which combines rectangular\n#  neighborhoods of pixels into larger \"super-pixels.\" It reduces the\n#  resolution of the output image to\n#  (width / binning_x) x (height / binning_y).\n# The default values binning_x = binning_y = 0 is considered the same\n#  as binning_x = binning_y = 1 (no subsampling).\nuint32 binning_x\nuint32 binning_y\n\n# Region of interest (subwindow of full camera resolution), given in\n#  full resolution (unbinned) image coordinates. A particular ROI\n#  always denotes the same window of pixels on the camera sensor,\n#  regardless of binning settings.\n# The default setting of roi (all values 0) is considered the same as\n#  full resolution (roi.width = width, roi.height = height).\nRegionOfInterest roi"
+    )]
     pub struct CameraInfo {
         /// Time of image acquisition, camera coordinate frame ID
         /// Header timestamp should be acquisition time of image
@@ -342,7 +352,7 @@ pub mod msg {
     ///
     /// [`CameraInfo`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/CameraInfo", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/CameraInfo", crate = "crate", source = <CameraInfo as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct CameraInfoRef<'a> {
         /// Time of image acquisition, camera coordinate frame ID
         /// Header timestamp should be acquisition time of image
@@ -460,7 +470,12 @@ pub mod msg {
     /// `sensor_msgs/msg/ChannelFloat32` (from `msg/ChannelFloat32.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/ChannelFloat32", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/ChannelFloat32",
+        crate = "crate",
+        loan,
+        source = "# This message is used by the PointCloud message to hold optional data\n# associated with each point in the cloud. The length of the values\n# array should be the same as the length of the points array in the\n# PointCloud, and each value should be associated with the corresponding\n# point.\n#\n# Channel names in existing practice include:\n#   \"u\", \"v\" - row and column (respectively) in the left stereo image.\n#              This is opposite to usual conventions but remains for\n#              historical reasons. The newer PointCloud2 message has no\n#              such problem.\n#   \"rgb\" - For point clouds produced by color stereo cameras. uint8\n#           (R,G,B) values packed into the least significant 24 bits,\n#           in order.\n#   \"intensity\" - laser or pixel intensity.\n#   \"distance\"\n\n# The channel name should give semantics of the channel (e.g.\n# \"intensity\" instead of \"value\").\nstring name\n\n# The values array should be 1-1 with the elements of the associated\n# PointCloud.\nfloat32[] values"
+    )]
     pub struct ChannelFloat32 {
         /// The channel name should give semantics of the channel (e.g.
         /// "intensity" instead of "value").
@@ -498,7 +513,7 @@ pub mod msg {
     ///
     /// [`ChannelFloat32`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/ChannelFloat32", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/ChannelFloat32", crate = "crate", source = <ChannelFloat32 as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ChannelFloat32Ref<'a> {
         /// The channel name should give semantics of the channel (e.g.
         /// "intensity" instead of "value").
@@ -526,7 +541,12 @@ pub mod msg {
     /// `sensor_msgs/msg/CompressedImage` (from `msg/CompressedImage.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/CompressedImage", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/CompressedImage",
+        crate = "crate",
+        loan,
+        source = "# This message contains a compressed image.\n\nstd_msgs/Header header # Header timestamp should be acquisition time of image\n                             # Header frame_id should be optical frame of camera\n                             # origin of frame should be optical center of cameara\n                             # +x should point to the right in the image\n                             # +y should point down in the image\n                             # +z should point into to plane of the image\n\nstring format                # Specifies the format of the data\n                             # Acceptable values differ by the image transport used:\n                             # - compressed_image_transport:\n                             #     ORIG_PIXFMT; CODEC compressed [COMPRESSED_PIXFMT]\n                             #   where:\n                             #   - ORIG_PIXFMT is pixel format of the raw image, i.e.\n                             #     the content of sensor_msgs/Image/encoding with\n                             #     values from include/sensor_msgs/image_encodings.h\n                             #   - CODEC is one of [jpeg, png, tiff]\n                             #   - COMPRESSED_PIXFMT is only appended for color images\n                             #     and is the pixel format used by the compression\n                             #     algorithm. Valid values for jpeg encoding are:\n                             #     [bgr8, rgb8]. Valid values for png encoding are:\n                             #     [bgr8, rgb8, bgr16, rgb16].\n                             #   If the field is empty or does not correspond to the\n                             #   above pattern, the image is treated as bgr8 or mono8\n                             #   jpeg image (depending on the number of channels).\n                             # - compressed_depth_image_transport:\n                             #     ORIG_PIXFMT; compressedDepth CODEC\n                             #   where:\n                             #   - ORIG_PIXFMT is pixel format of the raw image, i.e.\n                             #     the content of sensor_msgs/Image/encoding with\n                             #     values from include/sensor_msgs/image_encodings.h\n                             #     It is usually one of [16UC1, 32FC1].\n                             #   - CODEC is one of [png, rvl]\n                             #   If the field is empty or does not correspond to the\n                             #   above pattern, the image is treated as png image.\n                             # - Other image transports can store whatever values they\n                             #   need for successful decoding of the image. Refer to\n                             #   documentation of the other transports for details.\n\nuint8[] data                 # Compressed image buffer"
+    )]
     pub struct CompressedImage {
         /// Header timestamp should be acquisition time of image
         pub header: super::super::std_msgs::msg::Header,
@@ -550,7 +570,7 @@ pub mod msg {
     ///
     /// [`CompressedImage`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/CompressedImage", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/CompressedImage", crate = "crate", source = <CompressedImage as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct CompressedImageRef<'a> {
         /// Header timestamp should be acquisition time of image
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -583,7 +603,12 @@ pub mod msg {
     /// `sensor_msgs/msg/FluidPressure` (from `msg/FluidPressure.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/FluidPressure", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/FluidPressure",
+        crate = "crate",
+        loan,
+        source = "# Single pressure reading.  This message is appropriate for measuring the\n# pressure inside of a fluid (air, water, etc).  This also includes\n# atmospheric or barometric pressure.\n#\n# This message is not appropriate for force/pressure contact sensors.\n\nstd_msgs/Header header # timestamp of the measurement\n                             # frame_id is the location of the pressure sensor\n\nfloat64 fluid_pressure       # Absolute pressure reading in Pascals.\n\nfloat64 variance             # 0 is interpreted as variance unknown"
+    )]
     pub struct FluidPressure {
         /// timestamp of the measurement
         pub header: super::super::std_msgs::msg::Header,
@@ -611,7 +636,7 @@ pub mod msg {
     ///
     /// [`FluidPressure`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/FluidPressure", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/FluidPressure", crate = "crate", source = <FluidPressure as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct FluidPressureRef<'a> {
         /// timestamp of the measurement
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -652,7 +677,12 @@ pub mod msg {
     /// `sensor_msgs/msg/Illuminance` (from `msg/Illuminance.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Illuminance", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/Illuminance",
+        crate = "crate",
+        loan,
+        source = "# Single photometric illuminance measurement.  Light should be assumed to be\n# measured along the sensor's x-axis (the area of detection is the y-z plane).\n# The illuminance should have a 0 or positive value and be received with\n# the sensor's +X axis pointing toward the light source.\n#\n# Photometric illuminance is the measure of the human eye's sensitivity of the\n# intensity of light encountering or passing through a surface.\n#\n# All other Photometric and Radiometric measurements should not use this message.\n# This message cannot represent:\n#  - Luminous intensity (candela/light source output)\n#  - Luminance (nits/light output per area)\n#  - Irradiance (watt/area), etc.\n\nstd_msgs/Header header # timestamp is the time the illuminance was measured\n                             # frame_id is the location and direction of the reading\n\nfloat64 illuminance          # Measurement of the Photometric Illuminance in Lux.\n\nfloat64 variance             # 0 is interpreted as variance unknown"
+    )]
     pub struct Illuminance {
         /// timestamp is the time the illuminance was measured
         pub header: super::super::std_msgs::msg::Header,
@@ -688,7 +718,7 @@ pub mod msg {
     ///
     /// [`Illuminance`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/Illuminance", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Illuminance", crate = "crate", source = <Illuminance as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct IlluminanceRef<'a> {
         /// timestamp is the time the illuminance was measured
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -718,7 +748,12 @@ pub mod msg {
     /// `sensor_msgs/msg/Image` (from `msg/Image.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Image", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/Image",
+        crate = "crate",
+        loan,
+        source = "# This message contains an uncompressed image\n# (0, 0) is at top-left corner of image\n\nstd_msgs/Header header # Header timestamp should be acquisition time of image\n                             # Header frame_id should be optical frame of camera\n                             # origin of frame should be optical center of cameara\n                             # +x should point to the right in the image\n                             # +y should point down in the image\n                             # +z should point into to plane of the image\n                             # If the frame_id here and the frame_id of the CameraInfo\n                             # message associated with the image conflict\n                             # the behavior is undefined\n\nuint32 height                # image height, that is, number of rows\nuint32 width                 # image width, that is, number of columns\n\n# The legal values for encoding are in file include/sensor_msgs/image_encodings.hpp\n# If you want to standardize a new string format, join\n# ros-users@lists.ros.org and send an email proposing a new encoding.\n\nstring encoding       # Encoding of pixels -- channel meaning, ordering, size\n                      # taken from the list of strings in include/sensor_msgs/image_encodings.hpp\n\nuint8 is_bigendian    # is this data bigendian?\nuint32 step           # Full row length in bytes\nuint8[] data          # actual matrix data, size is (step * rows)"
+    )]
     pub struct Image {
         /// Header timestamp should be acquisition time of image
         pub header: super::super::std_msgs::msg::Header,
@@ -755,7 +790,7 @@ pub mod msg {
     ///
     /// [`Image`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/Image", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Image", crate = "crate", source = <Image as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ImageRef<'a> {
         /// Header timestamp should be acquisition time of image
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -808,7 +843,12 @@ pub mod msg {
     /// `sensor_msgs/msg/Imu` (from `msg/Imu.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Imu", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/Imu",
+        crate = "crate",
+        loan,
+        source = "# This is a message to hold data from an IMU (Inertial Measurement Unit)\n#\n# Accelerations should be in m/s^2 (not in g's), and rotational velocity should be in rad/sec\n#\n# If the covariance of the measurement is known, it should be filled in (if all you know is the\n# variance of each measurement, e.g. from the datasheet, just put those along the diagonal)\n# A covariance matrix of all zeros will be interpreted as \"covariance unknown\", and to use the\n# data a covariance will have to be assumed or gotten from some other source\n#\n# If you have no estimate for one of the data elements (e.g. your IMU doesn't produce an\n# orientation estimate), please set element 0 of the associated covariance matrix to -1\n# If you are interpreting this message, please check for a value of -1 in the first element of each\n# covariance matrix, and disregard the associated estimate.\n\nstd_msgs/Header header\n\ngeometry_msgs/Quaternion orientation\nfloat64[9] orientation_covariance # Row major about x, y, z axes\n\ngeometry_msgs/Vector3 angular_velocity\nfloat64[9] angular_velocity_covariance # Row major about x, y, z axes\n\ngeometry_msgs/Vector3 linear_acceleration\nfloat64[9] linear_acceleration_covariance # Row major x, y z"
+    )]
     pub struct Imu {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -862,7 +902,7 @@ pub mod msg {
     ///
     /// [`Imu`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/Imu", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Imu", crate = "crate", source = <Imu as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ImuRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -926,7 +966,12 @@ pub mod msg {
     /// `sensor_msgs/msg/JointState` (from `msg/JointState.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/JointState", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/JointState",
+        crate = "crate",
+        loan,
+        source = "# This is a message that holds data to describe the state of a set of torque controlled joints.\n#\n# The state of each joint (revolute or prismatic) is defined by:\n#  * the position of the joint (rad or m),\n#  * the velocity of the joint (rad/s or m/s) and\n#  * the effort that is applied in the joint (Nm or N).\n#\n# Each joint is uniquely identified by its name\n# The header specifies the time at which the joint states were recorded. All the joint states\n# in one message have to be recorded at the same time.\n#\n# This message consists of a multiple arrays, one for each part of the joint state.\n# The goal is to make each of the fields optional. When e.g. your joints have no\n# effort associated with them, you can leave the effort array empty.\n#\n# All arrays in this message should have the same size, or be empty.\n# This is the only way to uniquely associate the joint name with the correct\n# states.\n\nstd_msgs/Header header\n\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort"
+    )]
     pub struct JointState {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::Header,
@@ -973,7 +1018,7 @@ pub mod msg {
     ///
     /// [`JointState`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/JointState", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/JointState", crate = "crate", source = <JointState as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct JointStateRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1008,7 +1053,12 @@ pub mod msg {
     /// `sensor_msgs/msg/Joy` (from `msg/Joy.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Joy", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/Joy",
+        crate = "crate",
+        loan,
+        source = "# Reports the state of a joystick's axes and buttons.\n\n# The timestamp is the time at which data is received from the joystick.\nstd_msgs/Header header\n\n# The axes measurements from a joystick.\nfloat32[] axes\n\n# The buttons measurements from a joystick.\nint32[] buttons"
+    )]
     pub struct Joy {
         /// The timestamp is the time at which data is received from the joystick.
         pub header: super::super::std_msgs::msg::Header,
@@ -1032,7 +1082,7 @@ pub mod msg {
     ///
     /// [`Joy`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/Joy", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Joy", crate = "crate", source = <Joy as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct JoyRef<'a> {
         /// The timestamp is the time at which data is received from the joystick.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1059,7 +1109,12 @@ pub mod msg {
     /// `sensor_msgs/msg/JoyFeedback` (from `msg/JoyFeedback.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/JoyFeedback", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/JoyFeedback",
+        crate = "crate",
+        loan,
+        source = "# Declare of the type of feedback\nuint8 TYPE_LED    = 0\nuint8 TYPE_RUMBLE = 1\nuint8 TYPE_BUZZER = 2\n\nuint8 type\n\n# This will hold an id number for each type of each feedback.\n# Example, the first led would be id=0, the second would be id=1\nuint8 id\n\n# Intensity of the feedback, from 0.0 to 1.0, inclusive.  If device is\n# actually binary, driver should treat 0<=x<0.5 as off, 0.5<=x<=1 as on.\nfloat32 intensity"
+    )]
     #[repr(C)]
     pub struct JoyFeedback {
         /// `uint8 type`
@@ -1098,7 +1153,12 @@ pub mod msg {
     /// `sensor_msgs/msg/JoyFeedbackArray` (from `msg/JoyFeedbackArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/JoyFeedbackArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/JoyFeedbackArray",
+        crate = "crate",
+        loan,
+        source = "# This message publishes values for multiple feedback at once.\nJoyFeedback[] array"
+    )]
     pub struct JoyFeedbackArray {
         /// This message publishes values for multiple feedback at once.
         pub array: ::std::vec::Vec<JoyFeedback>,
@@ -1114,7 +1174,7 @@ pub mod msg {
 
     /// [`JoyFeedbackArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/JoyFeedbackArray", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/JoyFeedbackArray", crate = "crate", source = <JoyFeedbackArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct JoyFeedbackArrayRef<'a> {
         /// This message publishes values for multiple feedback at once.
         pub array: ::std::borrow::Cow<'a, [JoyFeedback]>,
@@ -1138,7 +1198,12 @@ pub mod msg {
     /// `sensor_msgs/msg/LaserEcho` (from `msg/LaserEcho.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/LaserEcho", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/LaserEcho",
+        crate = "crate",
+        loan,
+        source = "# This message is a submessage of MultiEchoLaserScan and is not intended\n# to be used separately.\n\nfloat32[] echoes  # Multiple values of ranges or intensities.\n                  # Each array represents data from the same angle increment."
+    )]
     pub struct LaserEcho {
         /// Multiple values of ranges or intensities.
         pub echoes: ::std::vec::Vec<f32>,
@@ -1157,7 +1222,7 @@ pub mod msg {
     ///
     /// [`LaserEcho`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/LaserEcho", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/LaserEcho", crate = "crate", source = <LaserEcho as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct LaserEchoRef<'a> {
         /// Multiple values of ranges or intensities.
         pub echoes: ::std::borrow::Cow<'a, [f32]>,
@@ -1184,7 +1249,12 @@ pub mod msg {
     /// `sensor_msgs/msg/LaserScan` (from `msg/LaserScan.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/LaserScan", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/LaserScan",
+        crate = "crate",
+        loan,
+        source = "# Single scan from a planar laser range-finder\n#\n# If you have another ranging device with different behavior (e.g. a sonar\n# array), please find or create a different message, since applications\n# will make fairly laser-specific assumptions about this data\n\nstd_msgs/Header header # timestamp in the header is the acquisition time of\n                             # the first ray in the scan.\n                             #\n                             # in frame frame_id, angles are measured around\n                             # the positive Z axis (counterclockwise, if Z is up)\n                             # with zero angle being forward along the x axis\n\nfloat32 angle_min            # start angle of the scan [rad]\nfloat32 angle_max            # end angle of the scan [rad]\nfloat32 angle_increment      # angular distance between measurements [rad]\n\nfloat32 time_increment       # time between measurements [seconds] - if your scanner\n                             # is moving, this will be used in interpolating position\n                             # of 3d points\nfloat32 scan_time            # time between scans [seconds]\n\nfloat32 range_min            # minimum range value [m]\nfloat32 range_max            # maximum range value [m]\n\nfloat32[] ranges             # range data [m]\n                             # (Note: values < range_min or > range_max should be discarded)\nfloat32[] intensities        # intensity data [device-specific units].  If your\n                             # device does not provide intensities, please leave\n                             # the array empty."
+    )]
     pub struct LaserScan {
         /// timestamp in the header is the acquisition time of
         pub header: super::super::std_msgs::msg::Header,
@@ -1236,7 +1306,7 @@ pub mod msg {
     ///
     /// [`LaserScan`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/LaserScan", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/LaserScan", crate = "crate", source = <LaserScan as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct LaserScanRef<'a> {
         /// timestamp in the header is the acquisition time of
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1296,7 +1366,12 @@ pub mod msg {
     /// `sensor_msgs/msg/MagneticField` (from `msg/MagneticField.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/MagneticField", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/MagneticField",
+        crate = "crate",
+        loan,
+        source = "# Measurement of the Magnetic Field vector at a specific location.\n#\n# If the covariance of the measurement is known, it should be filled in.\n# If all you know is the variance of each measurement, e.g. from the datasheet,\n# just put those along the diagonal.\n# A covariance matrix of all zeros will be interpreted as \"covariance unknown\",\n# and to use the data a covariance will have to be assumed or gotten from some\n# other source.\n\nstd_msgs/Header header               # timestamp is the time the\n                                           # field was measured\n                                           # frame_id is the location and orientation\n                                           # of the field measurement\n\ngeometry_msgs/Vector3 magnetic_field # x, y, and z components of the\n                                           # field vector in Tesla\n                                           # If your sensor does not output 3 axes,\n                                           # put NaNs in the components not reported.\n\nfloat64[9] magnetic_field_covariance       # Row major about x, y, z axes\n                                           # 0 is interpreted as variance unknown"
+    )]
     pub struct MagneticField {
         /// timestamp is the time the
         pub header: super::super::std_msgs::msg::Header,
@@ -1329,7 +1404,7 @@ pub mod msg {
     ///
     /// [`MagneticField`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/MagneticField", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/MagneticField", crate = "crate", source = <MagneticField as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MagneticFieldRef<'a> {
         /// timestamp is the time the
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1381,7 +1456,8 @@ pub mod msg {
     #[ros(
         type_name = "sensor_msgs/msg/MultiDOFJointState",
         crate = "crate",
-        loan
+        loan,
+        source = "# Representation of state for joints with multiple degrees of freedom,\n# following the structure of JointState which can only represent a single degree of freedom.\n#\n# It is assumed that a joint in a system corresponds to a transform that gets applied\n# along the kinematic chain. For example, a planar joint (as in URDF) is 3DOF (x, y, yaw)\n# and those 3DOF can be expressed as a transformation matrix, and that transformation\n# matrix can be converted back to (x, y, yaw)\n#\n# Each joint is uniquely identified by its name\n# The header specifies the time at which the joint states were recorded. All the joint states\n# in one message have to be recorded at the same time.\n#\n# This message consists of a multiple arrays, one for each part of the joint state.\n# The goal is to make each of the fields optional. When e.g. your joints have no\n# wrench associated with them, you can leave the wrench array empty.\n#\n# All arrays in this message should have the same size, or be empty.\n# This is the only way to uniquely associate the joint name with the correct\n# states.\n\nstd_msgs/Header header\n\nstring[] joint_names\ngeometry_msgs/Transform[] transforms\ngeometry_msgs/Twist[] twist\ngeometry_msgs/Wrench[] wrench"
     )]
     pub struct MultiDOFJointState {
         /// `std_msgs/Header header`
@@ -1430,7 +1506,7 @@ pub mod msg {
     ///
     /// [`MultiDOFJointState`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/MultiDOFJointState", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/MultiDOFJointState", crate = "crate", source = <MultiDOFJointState as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MultiDOFJointStateRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1472,7 +1548,8 @@ pub mod msg {
     #[ros(
         type_name = "sensor_msgs/msg/MultiEchoLaserScan",
         crate = "crate",
-        loan
+        loan,
+        source = "# Single scan from a multi-echo planar laser range-finder\n#\n# If you have another ranging device with different behavior (e.g. a sonar\n# array), please find or create a different message, since applications\n# will make fairly laser-specific assumptions about this data\n\nstd_msgs/Header header # timestamp in the header is the acquisition time of\n                             # the first ray in the scan.\n                             #\n                             # in frame frame_id, angles are measured around\n                             # the positive Z axis (counterclockwise, if Z is up)\n                             # with zero angle being forward along the x axis\n\nfloat32 angle_min            # start angle of the scan [rad]\nfloat32 angle_max            # end angle of the scan [rad]\nfloat32 angle_increment      # angular distance between measurements [rad]\n\nfloat32 time_increment       # time between measurements [seconds] - if your scanner\n                             # is moving, this will be used in interpolating position\n                             # of 3d points\nfloat32 scan_time            # time between scans [seconds]\n\nfloat32 range_min            # minimum range value [m]\nfloat32 range_max            # maximum range value [m]\n\nLaserEcho[] ranges           # range data [m]\n                             # (Note: NaNs, values < range_min or > range_max should be discarded)\n                             # +Inf measurements are out of range\n                             # -Inf measurements are too close to determine exact distance.\nLaserEcho[] intensities      # intensity data [device-specific units].  If your\n                             # device does not provide intensities, please leave\n                             # the array empty."
     )]
     pub struct MultiEchoLaserScan {
         /// timestamp in the header is the acquisition time of
@@ -1527,7 +1604,7 @@ pub mod msg {
     ///
     /// [`MultiEchoLaserScan`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/MultiEchoLaserScan", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/MultiEchoLaserScan", crate = "crate", source = <MultiEchoLaserScan as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MultiEchoLaserScanRef<'a> {
         /// timestamp in the header is the acquisition time of
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1584,7 +1661,12 @@ pub mod msg {
     /// `sensor_msgs/msg/NavSatFix` (from `msg/NavSatFix.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/NavSatFix", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/NavSatFix",
+        crate = "crate",
+        loan,
+        source = "# Navigation Satellite fix for any Global Navigation Satellite System\n#\n# Specified using the WGS 84 reference ellipsoid\n\n# header.stamp specifies the ROS time for this measurement (the\n#        corresponding satellite time may be reported using the\n#        sensor_msgs/TimeReference message).\n#\n# header.frame_id is the frame of reference reported by the satellite\n#        receiver, usually the location of the antenna.  This is a\n#        Euclidean frame relative to the vehicle, not a reference\n#        ellipsoid.\nstd_msgs/Header header\n\n# Satellite fix status information.\nNavSatStatus status\n\n# Latitude [degrees]. Positive is north of equator; negative is south.\nfloat64 latitude\n\n# Longitude [degrees]. Positive is east of prime meridian; negative is west.\nfloat64 longitude\n\n# Altitude [m]. Positive is above the WGS 84 ellipsoid\n# (quiet NaN if no altitude is available).\nfloat64 altitude\n\n# Position covariance [m^2] defined relative to a tangential plane\n# through the reported position. The components are East, North, and\n# Up (ENU), in row-major order.\n#\n# Beware: this coordinate system exhibits singularities at the poles.\nfloat64[9] position_covariance\n\n# If the covariance of the fix is known, fill it in completely. If the\n# GPS receiver provides the variance of each measurement, put them\n# along the diagonal. If only Dilution of Precision is available,\n# estimate an approximate covariance from that.\n\nuint8 COVARIANCE_TYPE_UNKNOWN = 0\nuint8 COVARIANCE_TYPE_APPROXIMATED = 1\nuint8 COVARIANCE_TYPE_DIAGONAL_KNOWN = 2\nuint8 COVARIANCE_TYPE_KNOWN = 3\n\nuint8 position_covariance_type"
+    )]
     pub struct NavSatFix {
         /// header.stamp specifies the ROS time for this measurement (the
         /// corresponding satellite time may be reported using the
@@ -1647,7 +1729,7 @@ pub mod msg {
     ///
     /// [`NavSatFix`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/NavSatFix", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/NavSatFix", crate = "crate", source = <NavSatFix as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct NavSatFixRef<'a> {
         /// header.stamp specifies the ROS time for this measurement (the
         /// corresponding satellite time may be reported using the
@@ -1706,10 +1788,16 @@ pub mod msg {
     /// `sensor_msgs/msg/NavSatStatus` (from `msg/NavSatStatus.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/NavSatStatus", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/NavSatStatus",
+        crate = "crate",
+        loan,
+        source = "# Navigation Satellite fix status for any Global Navigation Satellite System.\n#\n# Whether to output an augmented fix is determined by both the fix\n# type and the last time differential corrections were received.  A\n# fix is valid when status >= STATUS_FIX.\n\nint8 STATUS_UNKNOWN = -2        # status is not yet set\nint8 STATUS_NO_FIX =  -1        # unable to fix position\nint8 STATUS_FIX =      0        # unaugmented fix\nint8 STATUS_SBAS_FIX = 1        # with satellite-based augmentation\nint8 STATUS_GBAS_FIX = 2        # with ground-based augmentation\n\nint8 status -2 # STATUS_UNKNOWN\n\n# Bits defining which Global Navigation Satellite System signals were\n# used by the receiver.\n\nuint16 SERVICE_UNKNOWN = 0  # Remember service is a bitfield, so checking (service & SERVICE_UNKNOWN) will not work. Use == instead.\nuint16 SERVICE_GPS =     1\nuint16 SERVICE_GLONASS = 2\nuint16 SERVICE_COMPASS = 4      # includes BeiDou.\nuint16 SERVICE_GALILEO = 8\n\nuint16 service"
+    )]
     #[repr(C)]
     pub struct NavSatStatus {
         /// STATUS_UNKNOWN
+        #[ros(default_value = "-2")]
         pub status: i8,
         /// `uint16 service`
         pub service: u16,
@@ -1757,7 +1845,12 @@ pub mod msg {
     /// `sensor_msgs/msg/PointCloud` (from `msg/PointCloud.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/PointCloud", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/PointCloud",
+        crate = "crate",
+        loan,
+        source = "## THIS MESSAGE IS DEPRECATED AS OF FOXY\n## Please use sensor_msgs/PointCloud2\n\n# This message holds a collection of 3d points, plus optional additional\n# information about each point.\n\n# Time of sensor data acquisition, coordinate frame ID.\nstd_msgs/Header header\n\n# Array of 3d points. Each Point32 should be interpreted as a 3d point\n# in the frame given in the header.\ngeometry_msgs/Point32[] points\n\n# Each channel should have the same number of elements as points array,\n# and the data in each channel should correspond 1:1 with each point.\n# Channel names in common practice are listed in ChannelFloat32.msg.\nChannelFloat32[] channels"
+    )]
     pub struct PointCloud {
         /// Time of sensor data acquisition, coordinate frame ID.
         pub header: super::super::std_msgs::msg::Header,
@@ -1785,7 +1878,7 @@ pub mod msg {
     ///
     /// [`PointCloud`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/PointCloud", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/PointCloud", crate = "crate", source = <PointCloud as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PointCloudRef<'a> {
         /// Time of sensor data acquisition, coordinate frame ID.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1824,7 +1917,12 @@ pub mod msg {
     /// `sensor_msgs/msg/PointCloud2` (from `msg/PointCloud2.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/PointCloud2", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/PointCloud2",
+        crate = "crate",
+        loan,
+        source = "# This message holds a collection of N-dimensional points, which may\n# contain additional information such as normals, intensity, etc. The\n# point data is stored as a binary blob, its layout described by the\n# contents of the \"fields\" array.\n#\n# The point cloud data may be organized 2d (image-like) or 1d (unordered).\n# Point clouds organized as 2d images may be produced by camera depth sensors\n# such as stereo or time-of-flight.\n\n# Time of sensor data acquisition, and the coordinate frame ID (for 3d points).\nstd_msgs/Header header\n\n# 2D structure of the point cloud. If the cloud is unordered, height is\n# 1 and width is the length of the point cloud.\nuint32 height\nuint32 width\n\n# Describes the channels and their layout in the binary data blob.\nPointField[] fields\n\nbool    is_bigendian # Is this data bigendian?\nuint32  point_step   # Length of a point in bytes\nuint32  row_step     # Length of a row in bytes\nuint8[] data         # Actual point data, size is (row_step*height)\n\nbool is_dense        # True if there are no invalid points"
+    )]
     pub struct PointCloud2 {
         /// Time of sensor data acquisition, and the coordinate frame ID (for 3d points).
         pub header: super::super::std_msgs::msg::Header,
@@ -1874,7 +1972,7 @@ pub mod msg {
     ///
     /// [`PointCloud2`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/PointCloud2", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/PointCloud2", crate = "crate", source = <PointCloud2 as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PointCloud2Ref<'a> {
         /// Time of sensor data acquisition, and the coordinate frame ID (for 3d points).
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -1920,7 +2018,12 @@ pub mod msg {
     /// `sensor_msgs/msg/PointField` (from `msg/PointField.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/PointField", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/PointField",
+        crate = "crate",
+        loan,
+        source = "# This message holds the description of one point entry in the\n# PointCloud2 message format.\nuint8 INT8    = 1\nuint8 UINT8   = 2\nuint8 INT16   = 3\nuint8 UINT16  = 4\nuint8 INT32   = 5\nuint8 UINT32  = 6\nuint8 FLOAT32 = 7\nuint8 FLOAT64 = 8\n\n# Common PointField names are x, y, z, intensity, rgb, rgba\nstring name      # Name of field\nuint32 offset    # Offset from start of point struct\nuint8  datatype  # Datatype enumeration, see above\nuint32 count     # How many elements in the field"
+    )]
     pub struct PointField {
         /// Common PointField names are x, y, z, intensity, rgb, rgba
         /// Name of field
@@ -1966,7 +2069,7 @@ pub mod msg {
 
     /// [`PointField`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/PointField", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/PointField", crate = "crate", source = <PointField as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PointFieldRef<'a> {
         /// Common PointField names are x, y, z, intensity, rgb, rgba
         /// Name of field
@@ -2007,7 +2110,12 @@ pub mod msg {
     /// `sensor_msgs/msg/Range` (from `msg/Range.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Range", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/Range",
+        crate = "crate",
+        loan,
+        source = "# Single range reading from an active ranger that emits energy and reports\n# one range reading that is valid along an arc at the distance measured.\n# This message is  not appropriate for laser scanners. See the LaserScan\n# message if you are working with a laser scanner.\n#\n# This message also can represent a fixed-distance (binary) ranger.  This\n# sensor will have min_range===max_range===distance of detection.\n# These sensors follow REP 117 and will output -Inf if the object is detected\n# and +Inf if the object is outside of the detection range.\n\nstd_msgs/Header header # timestamp in the header is the time the ranger\n                             # returned the distance reading\n\n# Radiation type enums\n# If you want a value added to this list, send an email to the ros-users list\nuint8 ULTRASOUND=0\nuint8 INFRARED=1\n\nuint8 radiation_type    # the type of radiation used by the sensor\n                        # (sound, IR, etc) [enum]\n\nfloat32 field_of_view   # the size of the arc that the distance reading is\n                        # valid for [rad]\n                        # the object causing the range reading may have\n                        # been anywhere within -field_of_view/2 and\n                        # field_of_view/2 at the measured range.\n                        # 0 angle corresponds to the x-axis of the sensor.\n\nfloat32 min_range       # minimum range value [m]\nfloat32 max_range       # maximum range value [m]\n                        # Fixed distance rangers require min_range==max_range\n\nfloat32 range           # range data [m]\n                        # (Note: values < range_min or > range_max should be discarded)\n                        # Fixed distance rangers only output -Inf or +Inf.\n                        # -Inf represents a detection within fixed distance.\n                        # (Detection too close to the sensor to quantify)\n                        # +Inf represents no detection within the fixed distance.\n                        # (Object out of range)\n\nfloat32 variance        # variance of the range sensor\n                        # 0 is interpreted as variance unknown"
+    )]
     pub struct Range {
         /// timestamp in the header is the time the ranger
         pub header: super::super::std_msgs::msg::Header,
@@ -2059,7 +2167,7 @@ pub mod msg {
     ///
     /// [`Range`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/Range", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Range", crate = "crate", source = <Range as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct RangeRef<'a> {
         /// timestamp in the header is the time the ranger
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -2105,7 +2213,12 @@ pub mod msg {
     /// `sensor_msgs/msg/RegionOfInterest` (from `msg/RegionOfInterest.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/RegionOfInterest", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/RegionOfInterest",
+        crate = "crate",
+        loan,
+        source = "# This message is used to specify a region of interest within an image.\n#\n# When used to specify the ROI setting of the camera when the image was\n# taken, the height and width fields should either match the height and\n# width fields for the associated image; or height = width = 0\n# indicates that the full resolution image was captured.\n\nuint32 x_offset  # Leftmost pixel of the ROI\n                 # (0 if the ROI includes the left edge of the image)\nuint32 y_offset  # Topmost pixel of the ROI\n                 # (0 if the ROI includes the top edge of the image)\nuint32 height    # Height of ROI\nuint32 width     # Width of ROI\n\n# True if a distinct rectified ROI should be calculated from the \"raw\"\n# ROI in this message. Typically this should be False if the full image\n# is captured (ROI not used), and True if a subwindow is captured (ROI\n# used).\nbool do_rectify"
+    )]
     pub struct RegionOfInterest {
         /// Leftmost pixel of the ROI
         pub x_offset: u32,
@@ -2147,7 +2260,12 @@ pub mod msg {
     /// `sensor_msgs/msg/RelativeHumidity` (from `msg/RelativeHumidity.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/RelativeHumidity", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/RelativeHumidity",
+        crate = "crate",
+        loan,
+        source = "# Single reading from a relative humidity sensor.\n# Defines the ratio of partial pressure of water vapor to the saturated vapor\n# pressure at a temperature.\n\nstd_msgs/Header header # timestamp of the measurement\n                             # frame_id is the location of the humidity sensor\n\nfloat64 relative_humidity    # Expression of the relative humidity\n                             # from 0.0 to 1.0.\n                             # 0.0 is no partial pressure of water vapor\n                             # 1.0 represents partial pressure of saturation\n\nfloat64 variance             # 0 is interpreted as variance unknown"
+    )]
     pub struct RelativeHumidity {
         /// timestamp of the measurement
         pub header: super::super::std_msgs::msg::Header,
@@ -2173,7 +2291,7 @@ pub mod msg {
     ///
     /// [`RelativeHumidity`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/RelativeHumidity", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/RelativeHumidity", crate = "crate", source = <RelativeHumidity as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct RelativeHumidityRef<'a> {
         /// timestamp of the measurement
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -2202,7 +2320,12 @@ pub mod msg {
     /// `sensor_msgs/msg/Temperature` (from `msg/Temperature.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/Temperature", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/Temperature",
+        crate = "crate",
+        loan,
+        source = "# Single temperature reading.\n\nstd_msgs/Header header # timestamp is the time the temperature was measured\n                             # frame_id is the location of the temperature reading\n\nfloat64 temperature          # Measurement of the Temperature in Degrees Celsius.\n\nfloat64 variance             # 0 is interpreted as variance unknown."
+    )]
     pub struct Temperature {
         /// timestamp is the time the temperature was measured
         pub header: super::super::std_msgs::msg::Header,
@@ -2226,7 +2349,7 @@ pub mod msg {
     ///
     /// [`Temperature`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/Temperature", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/Temperature", crate = "crate", source = <Temperature as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TemperatureRef<'a> {
         /// timestamp is the time the temperature was measured
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -2255,7 +2378,12 @@ pub mod msg {
     /// `sensor_msgs/msg/TimeReference` (from `msg/TimeReference.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "sensor_msgs/msg/TimeReference", crate = "crate", loan)]
+    #[ros(
+        type_name = "sensor_msgs/msg/TimeReference",
+        crate = "crate",
+        loan,
+        source = "# Measurement from an external time source not actively synchronized with the system clock.\n\nstd_msgs/Header header      # stamp is system time for which measurement was valid\n                                  # frame_id is not used\n\nbuiltin_interfaces/Time time_ref  # corresponding time from this external source\nstring source                     # (optional) name of time source"
+    )]
     pub struct TimeReference {
         /// stamp is system time for which measurement was valid
         pub header: super::super::std_msgs::msg::Header,
@@ -2279,7 +2407,7 @@ pub mod msg {
     ///
     /// [`TimeReference`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/TimeReference", crate = "crate")]
+    #[ros(type_name = "sensor_msgs/msg/TimeReference", crate = "crate", source = <TimeReference as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TimeReferenceRef<'a> {
         /// stamp is system time for which measurement was valid
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -2321,7 +2449,8 @@ pub mod srv {
     #[ros(
         type_name = "sensor_msgs/srv/SetCameraInfo_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetCameraInfo_Request {
         /// The camera_info to store
@@ -2346,7 +2475,11 @@ pub mod srv {
     ///
     /// [`SetCameraInfo_Request`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/srv/SetCameraInfo_Request", crate = "crate")]
+    #[ros(
+        type_name = "sensor_msgs/srv/SetCameraInfo_Request",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct SetCameraInfo_RequestRef<'a> {
         /// The camera_info to store
         pub camera_info: super::super::sensor_msgs::msg::CameraInfoRef<'a>,
@@ -2370,7 +2503,8 @@ pub mod srv {
     #[ros(
         type_name = "sensor_msgs/srv/SetCameraInfo_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetCameraInfo_Response {
         /// True if the call succeeded
@@ -2390,7 +2524,11 @@ pub mod srv {
 
     /// [`SetCameraInfo_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/srv/SetCameraInfo_Response", crate = "crate")]
+    #[ros(
+        type_name = "sensor_msgs/srv/SetCameraInfo_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct SetCameraInfo_ResponseRef<'a> {
         /// True if the call succeeded
         pub success: bool,
@@ -2419,7 +2557,8 @@ pub mod srv {
     #[ros(
         type_name = "sensor_msgs/srv/SetCameraInfo_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct SetCameraInfo_Event {
         /// What happened, when, and to which call.
@@ -2444,7 +2583,11 @@ pub mod srv {
     ///
     /// [`SetCameraInfo_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/srv/SetCameraInfo_Event", crate = "crate")]
+    #[ros(
+        type_name = "sensor_msgs/srv/SetCameraInfo_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct SetCameraInfo_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -2486,6 +2629,7 @@ pub mod srv {
         type Request = SetCameraInfo_Request;
         type Response = SetCameraInfo_Response;
         type Event = SetCameraInfo_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# This service requests that a camera stores the given CameraInfo as that\n# camera's calibration information.\n#\n# The width and height in the camera_info field should match what the\n# camera is currently outputting on its camera_info topic, and the camera\n# will assume that the region of the imager that is being referred to is\n# the region that the camera is currently capturing.\n\nsensor_msgs/CameraInfo camera_info # The camera_info to store\n---\nbool success                             # True if the call succeeded\nstring status_message                    # Used to give details about success");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

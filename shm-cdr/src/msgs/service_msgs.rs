@@ -7,7 +7,12 @@ pub mod msg {
     /// `service_msgs/msg/ServiceEventInfo` (from `msg/ServiceEventInfo.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "service_msgs/msg/ServiceEventInfo", crate = "crate", loan)]
+    #[ros(
+        type_name = "service_msgs/msg/ServiceEventInfo",
+        crate = "crate",
+        loan,
+        source = "uint8 REQUEST_SENT = 0\nuint8 REQUEST_RECEIVED = 1\nuint8 RESPONSE_SENT = 2\nuint8 RESPONSE_RECEIVED = 3\n\n# The type of event this message represents\nuint8 event_type\n\n# Timestamp for when the event occurred (sent or received time)\nbuiltin_interfaces/Time stamp\n\n# Unique identifier for the client that sent the service request\n# Note, this is only unique for the current session.\n# The size here has to match the size of rmw_dds_common/msg/Gid,\n# but unfortunately we cannot use that message directly due to a\n# circular dependency.\nchar[16] client_gid\n\n# Sequence number for the request\n# Combined with the client ID, this creates a unique ID for the service transaction\nint64 sequence_number"
+    )]
     #[repr(C)]
     pub struct ServiceEventInfo {
         /// The type of event this message represents

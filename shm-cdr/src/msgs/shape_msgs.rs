@@ -9,7 +9,12 @@ pub mod msg {
     /// `shape_msgs/msg/Mesh` (from `msg/Mesh.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "shape_msgs/msg/Mesh", crate = "crate", loan)]
+    #[ros(
+        type_name = "shape_msgs/msg/Mesh",
+        crate = "crate",
+        loan,
+        source = "# Definition of a mesh.\n\n# List of triangles; the index values refer to positions in vertices[].\nMeshTriangle[] triangles\n\n# The actual vertices that make up the mesh.\ngeometry_msgs/Point[] vertices"
+    )]
     pub struct Mesh {
         /// List of triangles; the index values refer to positions in vertices\[\].
         pub triangles: ::std::vec::Vec<MeshTriangle>,
@@ -30,7 +35,7 @@ pub mod msg {
     ///
     /// [`Mesh`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "shape_msgs/msg/Mesh", crate = "crate")]
+    #[ros(type_name = "shape_msgs/msg/Mesh", crate = "crate", source = <Mesh as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MeshRef<'a> {
         /// List of triangles; the index values refer to positions in vertices\[\].
         pub triangles: ::std::borrow::Cow<'a, [MeshTriangle]>,
@@ -56,7 +61,12 @@ pub mod msg {
     /// `shape_msgs/msg/MeshTriangle` (from `msg/MeshTriangle.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "shape_msgs/msg/MeshTriangle", crate = "crate", loan)]
+    #[ros(
+        type_name = "shape_msgs/msg/MeshTriangle",
+        crate = "crate",
+        loan,
+        source = "# Definition of a triangle's vertices.\n\nuint32[3] vertex_indices"
+    )]
     #[repr(C)]
     pub struct MeshTriangle {
         /// `uint32[3] vertex_indices`
@@ -78,7 +88,12 @@ pub mod msg {
     /// `shape_msgs/msg/Plane` (from `msg/Plane.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "shape_msgs/msg/Plane", crate = "crate", loan)]
+    #[ros(
+        type_name = "shape_msgs/msg/Plane",
+        crate = "crate",
+        loan,
+        source = "# Representation of a plane, using the plane equation ax + by + cz + d = 0.\n#\n# a := coef[0]\n# b := coef[1]\n# c := coef[2]\n# d := coef[3]\nfloat64[4] coef"
+    )]
     #[repr(C)]
     pub struct Plane {
         /// Representation of a plane, using the plane equation ax + by + cz + d = 0.
@@ -108,7 +123,12 @@ pub mod msg {
     /// `shape_msgs/msg/SolidPrimitive` (from `msg/SolidPrimitive.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "shape_msgs/msg/SolidPrimitive", crate = "crate", loan)]
+    #[ros(
+        type_name = "shape_msgs/msg/SolidPrimitive",
+        crate = "crate",
+        loan,
+        source = "# Defines box, sphere, cylinder, cone and prism.\n# All shapes are defined to have their bounding boxes centered around 0,0,0.\n\nuint8 BOX=1\nuint8 SPHERE=2\nuint8 CYLINDER=3\nuint8 CONE=4\nuint8 PRISM=5\n\n# The type of the shape\nuint8 type\n\n# The dimensions of the shape\nfloat64[<=3] dimensions  # At no point will dimensions have a length > 3.\n\n# The meaning of the shape dimensions: each constant defines the index in the 'dimensions' array.\n\n# For type BOX, the X, Y, and Z dimensions are the length of the corresponding sides of the box.\nuint8 BOX_X=0\nuint8 BOX_Y=1\nuint8 BOX_Z=2\n\n# For the SPHERE type, only one component is used, and it gives the radius of the sphere.\nuint8 SPHERE_RADIUS=0\n\n# For the CYLINDER and CONE types, the center line is oriented along the Z axis.\n# Therefore the CYLINDER_HEIGHT (CONE_HEIGHT) component of dimensions gives the\n# height of the cylinder (cone).\n# The CYLINDER_RADIUS (CONE_RADIUS) component of dimensions gives the radius of\n# the base of the cylinder (cone).\n# Cone and cylinder primitives are defined to be circular. The tip of the cone\n# is pointing up, along +Z axis.\n\nuint8 CYLINDER_HEIGHT=0\nuint8 CYLINDER_RADIUS=1\n\nuint8 CONE_HEIGHT=0\nuint8 CONE_RADIUS=1\n\n# For the type PRISM, the center line is oriented along Z axis.\n# The PRISM_HEIGHT component of dimensions gives the\n# height of the prism.\n# The polygon defines the Z axis centered base of the prism.\n# The prism is constructed by extruding the base in +Z and -Z\n# directions by half of the PRISM_HEIGHT\n# Only x and y fields of the points are used in the polygon.\n# Points of the polygon are ordered counter-clockwise.\n\nuint8 PRISM_HEIGHT=0\ngeometry_msgs/Polygon polygon"
+    )]
     pub struct SolidPrimitive {
         /// The type of the shape
         pub r#type: u8,
@@ -165,7 +185,7 @@ pub mod msg {
     ///
     /// [`SolidPrimitive`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "shape_msgs/msg/SolidPrimitive", crate = "crate")]
+    #[ros(type_name = "shape_msgs/msg/SolidPrimitive", crate = "crate", source = <SolidPrimitive as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct SolidPrimitiveRef<'a> {
         /// The type of the shape
         pub r#type: u8,

@@ -12,7 +12,12 @@ pub mod msg {
     /// `std_msgs/msg/Bool` (from `msg/Bool.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Bool", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Bool",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nbool data"
+    )]
     pub struct Bool {
         /// `bool data`
         pub data: bool,
@@ -38,7 +43,12 @@ pub mod msg {
     /// `std_msgs/msg/Byte` (from `msg/Byte.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Byte", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Byte",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nbyte data"
+    )]
     #[repr(C)]
     pub struct Byte {
         /// `byte data`
@@ -66,7 +76,12 @@ pub mod msg {
     /// `std_msgs/msg/ByteMultiArray` (from `msg/ByteMultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/ByteMultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/ByteMultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nbyte[]            data          # array of data"
+    )]
     pub struct ByteMultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -91,7 +106,7 @@ pub mod msg {
     ///
     /// [`ByteMultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/ByteMultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/ByteMultiArray", crate = "crate", source = <ByteMultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ByteMultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
@@ -121,7 +136,12 @@ pub mod msg {
     /// `std_msgs/msg/Char` (from `msg/Char.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Char", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Char",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nchar data"
+    )]
     #[repr(C)]
     pub struct Char {
         /// `char data`
@@ -144,7 +164,12 @@ pub mod msg {
     /// `std_msgs/msg/ColorRGBA` (from `msg/ColorRGBA.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/ColorRGBA", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/ColorRGBA",
+        crate = "crate",
+        loan,
+        source = "float32 r\nfloat32 g\nfloat32 b\nfloat32 a"
+    )]
     #[repr(C)]
     pub struct ColorRGBA {
         /// `float32 r`
@@ -175,7 +200,7 @@ pub mod msg {
     /// `std_msgs/msg/Empty` (from `msg/Empty.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Empty", crate = "crate", loan)]
+    #[ros(type_name = "std_msgs/msg/Empty", crate = "crate", loan, source = "")]
     pub struct Empty;
 
     impl ::core::default::Default for Empty {
@@ -196,7 +221,12 @@ pub mod msg {
     /// `std_msgs/msg/Float32` (from `msg/Float32.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Float32", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Float32",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nfloat32 data"
+    )]
     #[repr(C)]
     pub struct Float32 {
         /// `float32 data`
@@ -223,7 +253,12 @@ pub mod msg {
     /// `std_msgs/msg/Float32MultiArray` (from `msg/Float32MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Float32MultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Float32MultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nfloat32[]         data          # array of data"
+    )]
     pub struct Float32MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -247,7 +282,7 @@ pub mod msg {
     ///
     /// [`Float32MultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/Float32MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Float32MultiArray", crate = "crate", source = <Float32MultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct Float32MultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
@@ -276,7 +311,12 @@ pub mod msg {
     /// `std_msgs/msg/Float64` (from `msg/Float64.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Float64", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Float64",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nfloat64 data"
+    )]
     #[repr(C)]
     pub struct Float64 {
         /// `float64 data`
@@ -303,7 +343,12 @@ pub mod msg {
     /// `std_msgs/msg/Float64MultiArray` (from `msg/Float64MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Float64MultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Float64MultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nfloat64[]         data          # array of data"
+    )]
     pub struct Float64MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -327,7 +372,7 @@ pub mod msg {
     ///
     /// [`Float64MultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/Float64MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Float64MultiArray", crate = "crate", source = <Float64MultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct Float64MultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
@@ -355,7 +400,12 @@ pub mod msg {
     /// `std_msgs/msg/Header` (from `msg/Header.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Header", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Header",
+        crate = "crate",
+        loan,
+        source = "# Standard metadata for higher-level stamped data types.\n# This is generally used to communicate timestamped data\n# in a particular coordinate frame.\n\n# Two-integer timestamp that is expressed as seconds and nanoseconds.\nbuiltin_interfaces/Time stamp\n\n# Transform frame with which this data is associated.\nstring frame_id"
+    )]
     pub struct Header {
         /// Two-integer timestamp that is expressed as seconds and nanoseconds.
         pub stamp: super::super::builtin_interfaces::msg::Time,
@@ -378,7 +428,7 @@ pub mod msg {
     ///
     /// [`Header`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/Header", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Header", crate = "crate", source = <Header as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct HeaderRef<'a> {
         /// Two-integer timestamp that is expressed as seconds and nanoseconds.
         pub stamp: super::super::builtin_interfaces::msg::Time,
@@ -407,7 +457,12 @@ pub mod msg {
     /// `std_msgs/msg/Int16` (from `msg/Int16.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int16", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Int16",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nint16 data"
+    )]
     #[repr(C)]
     pub struct Int16 {
         /// `int16 data`
@@ -434,7 +489,12 @@ pub mod msg {
     /// `std_msgs/msg/Int16MultiArray` (from `msg/Int16MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int16MultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Int16MultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nint16[]           data          # array of data"
+    )]
     pub struct Int16MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -458,7 +518,7 @@ pub mod msg {
     ///
     /// [`Int16MultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/Int16MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int16MultiArray", crate = "crate", source = <Int16MultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct Int16MultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
@@ -487,7 +547,12 @@ pub mod msg {
     /// `std_msgs/msg/Int32` (from `msg/Int32.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int32", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Int32",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nint32 data"
+    )]
     #[repr(C)]
     pub struct Int32 {
         /// `int32 data`
@@ -514,7 +579,12 @@ pub mod msg {
     /// `std_msgs/msg/Int32MultiArray` (from `msg/Int32MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int32MultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Int32MultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nint32[]           data          # array of data"
+    )]
     pub struct Int32MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -538,7 +608,7 @@ pub mod msg {
     ///
     /// [`Int32MultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/Int32MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int32MultiArray", crate = "crate", source = <Int32MultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct Int32MultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
@@ -567,7 +637,12 @@ pub mod msg {
     /// `std_msgs/msg/Int64` (from `msg/Int64.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int64", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Int64",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nint64 data"
+    )]
     #[repr(C)]
     pub struct Int64 {
         /// `int64 data`
@@ -594,7 +669,12 @@ pub mod msg {
     /// `std_msgs/msg/Int64MultiArray` (from `msg/Int64MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int64MultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Int64MultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nint64[]           data          # array of data"
+    )]
     pub struct Int64MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -618,7 +698,7 @@ pub mod msg {
     ///
     /// [`Int64MultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/Int64MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int64MultiArray", crate = "crate", source = <Int64MultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct Int64MultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
@@ -647,7 +727,12 @@ pub mod msg {
     /// `std_msgs/msg/Int8` (from `msg/Int8.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int8", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Int8",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nint8 data"
+    )]
     #[repr(C)]
     pub struct Int8 {
         /// `int8 data`
@@ -674,7 +759,12 @@ pub mod msg {
     /// `std_msgs/msg/Int8MultiArray` (from `msg/Int8MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/Int8MultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/Int8MultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nint8[]            data          # array of data"
+    )]
     pub struct Int8MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -698,7 +788,7 @@ pub mod msg {
     ///
     /// [`Int8MultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/Int8MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/Int8MultiArray", crate = "crate", source = <Int8MultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct Int8MultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
@@ -727,7 +817,12 @@ pub mod msg {
     /// `std_msgs/msg/MultiArrayDimension` (from `msg/MultiArrayDimension.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/MultiArrayDimension", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/MultiArrayDimension",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nstring label   # label of given dimension\nuint32 size    # size of given dimension (in type units)\nuint32 stride  # stride of given dimension"
+    )]
     pub struct MultiArrayDimension {
         /// label of given dimension
         pub label: ::std::string::String,
@@ -754,7 +849,7 @@ pub mod msg {
     ///
     /// [`MultiArrayDimension`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/MultiArrayDimension", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/MultiArrayDimension", crate = "crate", source = <MultiArrayDimension as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MultiArrayDimensionRef<'a> {
         /// label of given dimension
         pub label: ::std::borrow::Cow<'a, str>,
@@ -786,7 +881,12 @@ pub mod msg {
     /// `std_msgs/msg/MultiArrayLayout` (from `msg/MultiArrayLayout.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/MultiArrayLayout", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/MultiArrayLayout",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# The multiarray declares a generic multi-dimensional array of a\n# particular data type.  Dimensions are ordered from outer most\n# to inner most.\n#\n# Accessors should ALWAYS be written in terms of dimension stride\n# and specified outer-most dimension first.\n#\n# multiarray(i,j,k) = data[data_offset + dim_stride[1]*i + dim_stride[2]*j + k]\n#\n# A standard, 3-channel 640x480 image with interleaved color channels\n# would be specified as:\n#\n# dim[0].label  = \"height\"\n# dim[0].size   = 480\n# dim[0].stride = 3*640*480 = 921600  (note dim[0] stride is just size of image)\n# dim[1].label  = \"width\"\n# dim[1].size   = 640\n# dim[1].stride = 3*640 = 1920\n# dim[2].label  = \"channel\"\n# dim[2].size   = 3\n# dim[2].stride = 3\n#\n# multiarray(i,j,k) refers to the ith row, jth column, and kth channel.\n\nMultiArrayDimension[] dim # Array of dimension properties\nuint32 data_offset        # padding bytes at front of data"
+    )]
     pub struct MultiArrayLayout {
         /// Array of dimension properties
         pub dim: ::std::vec::Vec<MultiArrayDimension>,
@@ -810,7 +910,7 @@ pub mod msg {
     ///
     /// [`MultiArrayLayout`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/MultiArrayLayout", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/MultiArrayLayout", crate = "crate", source = <MultiArrayLayout as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MultiArrayLayoutRef<'a> {
         /// Array of dimension properties
         pub dim: ::std::vec::Vec<MultiArrayDimensionRef<'a>>,
@@ -839,7 +939,12 @@ pub mod msg {
     /// `std_msgs/msg/String` (from `msg/String.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/String", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/String",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nstring data"
+    )]
     pub struct String {
         /// `string data`
         pub data: ::std::string::String,
@@ -860,7 +965,7 @@ pub mod msg {
     ///
     /// [`String`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/String", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/String", crate = "crate", source = <String as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct StringRef<'a> {
         /// `string data`
         pub data: ::std::borrow::Cow<'a, str>,
@@ -886,7 +991,12 @@ pub mod msg {
     /// `std_msgs/msg/UInt16` (from `msg/UInt16.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt16", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/UInt16",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nuint16 data"
+    )]
     #[repr(C)]
     pub struct UInt16 {
         /// `uint16 data`
@@ -913,7 +1023,12 @@ pub mod msg {
     /// `std_msgs/msg/UInt16MultiArray` (from `msg/UInt16MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt16MultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/UInt16MultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nuint16[]            data        # array of data"
+    )]
     pub struct UInt16MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -937,7 +1052,7 @@ pub mod msg {
     ///
     /// [`UInt16MultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/UInt16MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt16MultiArray", crate = "crate", source = <UInt16MultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct UInt16MultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
@@ -966,7 +1081,12 @@ pub mod msg {
     /// `std_msgs/msg/UInt32` (from `msg/UInt32.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt32", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/UInt32",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nuint32 data"
+    )]
     #[repr(C)]
     pub struct UInt32 {
         /// `uint32 data`
@@ -993,7 +1113,12 @@ pub mod msg {
     /// `std_msgs/msg/UInt32MultiArray` (from `msg/UInt32MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt32MultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/UInt32MultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nuint32[]          data          # array of data"
+    )]
     pub struct UInt32MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -1017,7 +1142,7 @@ pub mod msg {
     ///
     /// [`UInt32MultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/UInt32MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt32MultiArray", crate = "crate", source = <UInt32MultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct UInt32MultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
@@ -1046,7 +1171,12 @@ pub mod msg {
     /// `std_msgs/msg/UInt64` (from `msg/UInt64.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt64", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/UInt64",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nuint64 data"
+    )]
     #[repr(C)]
     pub struct UInt64 {
         /// `uint64 data`
@@ -1073,7 +1203,12 @@ pub mod msg {
     /// `std_msgs/msg/UInt64MultiArray` (from `msg/UInt64MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt64MultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/UInt64MultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nuint64[]          data          # array of data"
+    )]
     pub struct UInt64MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -1097,7 +1232,7 @@ pub mod msg {
     ///
     /// [`UInt64MultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/UInt64MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt64MultiArray", crate = "crate", source = <UInt64MultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct UInt64MultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,
@@ -1126,7 +1261,12 @@ pub mod msg {
     /// `std_msgs/msg/UInt8` (from `msg/UInt8.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt8", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/UInt8",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\nuint8 data"
+    )]
     #[repr(C)]
     pub struct UInt8 {
         /// `uint8 data`
@@ -1153,7 +1293,12 @@ pub mod msg {
     /// `std_msgs/msg/UInt8MultiArray` (from `msg/UInt8MultiArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_msgs/msg/UInt8MultiArray", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_msgs/msg/UInt8MultiArray",
+        crate = "crate",
+        loan,
+        source = "# This was originally provided as an example message.\n# It is deprecated as of Foxy\n# It is recommended to create your own semantically meaningful message.\n# However if you would like to continue using this please use the equivalent in example_msgs.\n\n# Please look at the MultiArrayLayout message definition for\n# documentation on all multiarrays.\n\nMultiArrayLayout  layout        # specification of data layout\nuint8[]           data          # array of data"
+    )]
     pub struct UInt8MultiArray {
         /// specification of data layout
         pub layout: MultiArrayLayout,
@@ -1177,7 +1322,7 @@ pub mod msg {
     ///
     /// [`UInt8MultiArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/UInt8MultiArray", crate = "crate")]
+    #[ros(type_name = "std_msgs/msg/UInt8MultiArray", crate = "crate", source = <UInt8MultiArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct UInt8MultiArrayRef<'a> {
         /// specification of data layout
         pub layout: MultiArrayLayoutRef<'a>,

@@ -7,7 +7,12 @@ pub mod srv {
     /// `std_srvs/srv/Empty_Request` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Empty_Request", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_srvs/srv/Empty_Request",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Empty_Request;
 
     impl ::core::default::Default for Empty_Request {
@@ -23,7 +28,12 @@ pub mod srv {
     /// `std_srvs/srv/Empty_Response` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Empty_Response", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_srvs/srv/Empty_Response",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Empty_Response;
 
     impl ::core::default::Default for Empty_Response {
@@ -41,7 +51,12 @@ pub mod srv {
     /// `std_srvs/srv/Empty_Event` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Empty_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_srvs/srv/Empty_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Empty_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -75,6 +90,7 @@ pub mod srv {
         type Request = Empty_Request;
         type Response = Empty_Response;
         type Event = Empty_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "---");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -86,7 +102,12 @@ pub mod srv {
     /// `std_srvs/srv/SetBool_Request` (from `srv/SetBool.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/SetBool_Request", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_srvs/srv/SetBool_Request",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct SetBool_Request {
         /// e.g. for hardware enabling / disabling
         pub data: bool,
@@ -107,7 +128,12 @@ pub mod srv {
     /// `std_srvs/srv/SetBool_Response` (from `srv/SetBool.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/SetBool_Response", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_srvs/srv/SetBool_Response",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct SetBool_Response {
         /// indicate successful run of triggered service
         pub success: bool,
@@ -126,7 +152,11 @@ pub mod srv {
 
     /// [`SetBool_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_srvs/srv/SetBool_Response", crate = "crate")]
+    #[ros(
+        type_name = "std_srvs/srv/SetBool_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct SetBool_ResponseRef<'a> {
         /// indicate successful run of triggered service
         pub success: bool,
@@ -152,7 +182,12 @@ pub mod srv {
     /// `std_srvs/srv/SetBool_Event` (from `srv/SetBool.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/SetBool_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_srvs/srv/SetBool_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct SetBool_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -176,7 +211,11 @@ pub mod srv {
     ///
     /// [`SetBool_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_srvs/srv/SetBool_Event", crate = "crate")]
+    #[ros(
+        type_name = "std_srvs/srv/SetBool_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct SetBool_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -210,6 +249,7 @@ pub mod srv {
         type Request = SetBool_Request;
         type Response = SetBool_Response;
         type Event = SetBool_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "bool data # e.g. for hardware enabling / disabling\n---\nbool success   # indicate successful run of triggered service\nstring message # informational, e.g. for error messages");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -221,7 +261,12 @@ pub mod srv {
     /// `std_srvs/srv/Trigger_Request` (from `srv/Trigger.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Trigger_Request", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_srvs/srv/Trigger_Request",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Trigger_Request;
 
     impl ::core::default::Default for Trigger_Request {
@@ -237,7 +282,12 @@ pub mod srv {
     /// `std_srvs/srv/Trigger_Response` (from `srv/Trigger.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Trigger_Response", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_srvs/srv/Trigger_Response",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Trigger_Response {
         /// indicate successful run of triggered service
         pub success: bool,
@@ -256,7 +306,11 @@ pub mod srv {
 
     /// [`Trigger_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_srvs/srv/Trigger_Response", crate = "crate")]
+    #[ros(
+        type_name = "std_srvs/srv/Trigger_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct Trigger_ResponseRef<'a> {
         /// indicate successful run of triggered service
         pub success: bool,
@@ -282,7 +336,12 @@ pub mod srv {
     /// `std_srvs/srv/Trigger_Event` (from `srv/Trigger.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "std_srvs/srv/Trigger_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "std_srvs/srv/Trigger_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Trigger_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -306,7 +365,11 @@ pub mod srv {
     ///
     /// [`Trigger_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_srvs/srv/Trigger_Event", crate = "crate")]
+    #[ros(
+        type_name = "std_srvs/srv/Trigger_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct Trigger_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -340,6 +403,7 @@ pub mod srv {
         type Request = Trigger_Request;
         type Response = Trigger_Response;
         type Event = Trigger_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "---\nbool success   # indicate successful run of triggered service\nstring message # informational, e.g. for error messages");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

@@ -7,7 +7,12 @@ pub mod msg {
     /// `stereo_msgs/msg/DisparityImage` (from `msg/DisparityImage.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "stereo_msgs/msg/DisparityImage", crate = "crate", loan)]
+    #[ros(
+        type_name = "stereo_msgs/msg/DisparityImage",
+        crate = "crate",
+        loan,
+        source = "# Separate header for compatibility with current TimeSynchronizer.\n# Likely to be removed in a later release, use image.header instead.\nstd_msgs/Header header\n\n# Floating point disparity image. The disparities are pre-adjusted for any\n# x-offset between the principal points of the two cameras (in the case\n# that they are verged). That is: d = x_l - x_r - (cx_l - cx_r)\nsensor_msgs/Image image\n\n# Stereo geometry. For disparity d, the depth from the camera is Z = fT/d.\nfloat32 f # Focal length, pixels\nfloat32 t # Baseline, world units\n\n# Subwindow of (potentially) valid disparity values.\nsensor_msgs/RegionOfInterest valid_window\n\n# The range of disparities searched.\n# In the disparity image, any disparity less than min_disparity is invalid.\n# The disparity search range defines the horopter, or 3D volume that the\n# stereo algorithm can \"see\". Points with Z outside of:\n#     Z_min = fT / max_disparity\n#     Z_max = fT / min_disparity\n# could not be found.\nfloat32 min_disparity\nfloat32 max_disparity\n\n# Smallest allowed disparity increment. The smallest achievable depth range\n# resolution is delta_Z = (Z^2/fT)*delta_d.\nfloat32 delta_d"
+    )]
     pub struct DisparityImage {
         /// Separate header for compatibility with current TimeSynchronizer.
         /// Likely to be removed in a later release, use image.header instead.
@@ -55,7 +60,7 @@ pub mod msg {
 
     /// [`DisparityImage`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "stereo_msgs/msg/DisparityImage", crate = "crate")]
+    #[ros(type_name = "stereo_msgs/msg/DisparityImage", crate = "crate", source = <DisparityImage as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct DisparityImageRef<'a> {
         /// Separate header for compatibility with current TimeSynchronizer.
         /// Likely to be removed in a later release, use image.header instead.

@@ -7,7 +7,12 @@ pub mod action {
     /// `test_msgs/action/Fibonacci_Goal` (from `action/Fibonacci.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/action/Fibonacci_Goal", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/action/Fibonacci_Goal",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     #[repr(C)]
     pub struct Fibonacci_Goal {
         /// goal definition
@@ -29,7 +34,12 @@ pub mod action {
     /// `test_msgs/action/Fibonacci_Result` (from `action/Fibonacci.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/action/Fibonacci_Result", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/action/Fibonacci_Result",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Fibonacci_Result {
         /// result definition
         pub sequence: ::std::vec::Vec<i32>,
@@ -45,7 +55,11 @@ pub mod action {
 
     /// [`Fibonacci_Result`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/action/Fibonacci_Result", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/action/Fibonacci_Result",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct Fibonacci_ResultRef<'a> {
         /// result definition
         pub sequence: ::std::borrow::Cow<'a, [i32]>,
@@ -69,7 +83,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/Fibonacci_Feedback",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct Fibonacci_Feedback {
         /// feedback
@@ -86,7 +101,11 @@ pub mod action {
 
     /// [`Fibonacci_Feedback`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/action/Fibonacci_Feedback", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/action/Fibonacci_Feedback",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct Fibonacci_FeedbackRef<'a> {
         /// feedback
         pub sequence: ::std::borrow::Cow<'a, [i32]>,
@@ -110,7 +129,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/Fibonacci_SendGoal_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     #[repr(C)]
     pub struct Fibonacci_SendGoal_Request {
@@ -139,7 +159,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/Fibonacci_SendGoal_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct Fibonacci_SendGoal_Response {
         /// Whether the server accepted the goal.
@@ -169,7 +190,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/Fibonacci_SendGoal_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct Fibonacci_SendGoal_Event {
         /// What happened, when, and to which call.
@@ -206,6 +228,7 @@ pub mod action {
         type Request = Fibonacci_SendGoal_Request;
         type Response = Fibonacci_SendGoal_Response;
         type Event = Fibonacci_SendGoal_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::IMPLICIT;
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -220,7 +243,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/Fibonacci_GetResult_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     #[repr(C)]
     pub struct Fibonacci_GetResult_Request {
@@ -246,7 +270,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/Fibonacci_GetResult_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct Fibonacci_GetResult_Response {
         /// The goal's final status (`action_msgs/msg/GoalStatus`).
@@ -268,7 +293,8 @@ pub mod action {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "test_msgs/action/Fibonacci_GetResult_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct Fibonacci_GetResult_ResponseRef<'a> {
         /// The goal's final status (`action_msgs/msg/GoalStatus`).
@@ -298,7 +324,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/Fibonacci_GetResult_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct Fibonacci_GetResult_Event {
         /// What happened, when, and to which call.
@@ -325,7 +352,8 @@ pub mod action {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "test_msgs/action/Fibonacci_GetResult_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct Fibonacci_GetResult_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -362,6 +390,7 @@ pub mod action {
         type Request = Fibonacci_GetResult_Request;
         type Response = Fibonacci_GetResult_Response;
         type Event = Fibonacci_GetResult_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::IMPLICIT;
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -376,7 +405,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/Fibonacci_FeedbackMessage",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct Fibonacci_FeedbackMessage {
         /// The goal's unique id.
@@ -398,7 +428,8 @@ pub mod action {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "test_msgs/action/Fibonacci_FeedbackMessage",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct Fibonacci_FeedbackMessageRef<'a> {
         /// The goal's unique id.
@@ -433,6 +464,7 @@ pub mod action {
         type SendGoal = Fibonacci_SendGoal;
         type GetResult = Fibonacci_GetResult;
         type FeedbackMessage = Fibonacci_FeedbackMessage;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("action", "#goal definition\nint32 order\n---\n#result definition\nint32[] sequence\n---\n#feedback\nint32[] sequence");
 
         fn send_goal_request(
             goal_id: crate::interface::GoalId,
@@ -533,7 +565,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/NestedMessage_Goal",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct NestedMessage_Goal {
         /// goal definition
@@ -564,7 +597,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/NestedMessage_Result",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct NestedMessage_Result {
         /// result definition
@@ -595,7 +629,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/NestedMessage_Feedback",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct NestedMessage_Feedback {
         /// feedback
@@ -626,7 +661,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/NestedMessage_SendGoal_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct NestedMessage_SendGoal_Request {
         /// The goal's unique id.
@@ -654,7 +690,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/NestedMessage_SendGoal_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct NestedMessage_SendGoal_Response {
         /// Whether the server accepted the goal.
@@ -684,7 +721,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/NestedMessage_SendGoal_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct NestedMessage_SendGoal_Event {
         /// What happened, when, and to which call.
@@ -721,6 +759,7 @@ pub mod action {
         type Request = NestedMessage_SendGoal_Request;
         type Response = NestedMessage_SendGoal_Response;
         type Event = NestedMessage_SendGoal_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::IMPLICIT;
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -735,7 +774,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/NestedMessage_GetResult_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     #[repr(C)]
     pub struct NestedMessage_GetResult_Request {
@@ -761,7 +801,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/NestedMessage_GetResult_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct NestedMessage_GetResult_Response {
         /// The goal's final status (`action_msgs/msg/GoalStatus`).
@@ -791,7 +832,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/NestedMessage_GetResult_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct NestedMessage_GetResult_Event {
         /// What happened, when, and to which call.
@@ -828,6 +870,7 @@ pub mod action {
         type Request = NestedMessage_GetResult_Request;
         type Response = NestedMessage_GetResult_Response;
         type Event = NestedMessage_GetResult_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::IMPLICIT;
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -842,7 +885,8 @@ pub mod action {
     #[ros(
         type_name = "test_msgs/action/NestedMessage_FeedbackMessage",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct NestedMessage_FeedbackMessage {
         /// The goal's unique id.
@@ -877,6 +921,7 @@ pub mod action {
         type SendGoal = NestedMessage_SendGoal;
         type GetResult = NestedMessage_GetResult;
         type FeedbackMessage = NestedMessage_FeedbackMessage;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("action", "# goal definition\nBuiltins nested_field_no_pkg\ntest_msgs/BasicTypes nested_field\nbuiltin_interfaces/Time nested_different_pkg\n---\n# result definition\nBuiltins nested_field_no_pkg\ntest_msgs/BasicTypes nested_field\nbuiltin_interfaces/Time nested_different_pkg\n---\n# feedback\nBuiltins nested_field_no_pkg\ntest_msgs/BasicTypes nested_field\nbuiltin_interfaces/Time nested_different_pkg");
 
         fn send_goal_request(
             goal_id: crate::interface::GoalId,
@@ -980,7 +1025,12 @@ pub mod msg {
     /// `test_msgs/msg/Arrays` (from `msg/Arrays.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Arrays", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/Arrays",
+        crate = "crate",
+        loan,
+        source = "# Arrays of different types\nbool[3] bool_values\nbyte[3] byte_values\nchar[3] char_values\nfloat32[3] float32_values\nfloat64[3] float64_values\nint8[3] int8_values\nuint8[3] uint8_values\nint16[3] int16_values\nuint16[3] uint16_values\nint32[3] int32_values\nuint32[3] uint32_values\nint64[3] int64_values\nuint64[3] uint64_values\nstring[3] string_values\nBasicTypes[3] basic_types_values\nConstants[3] constants_values\nDefaults[3] defaults_values\nbool[3] bool_values_default [false, true, false]\nbyte[3] byte_values_default [0, 1, 255]\nchar[3] char_values_default [0, 1, 127]\nfloat32[3] float32_values_default [1.125, 0.0, -1.125]\nfloat64[3] float64_values_default [3.1415, 0.0, -3.1415]\nint8[3] int8_values_default [0, 127, -128]\nuint8[3] uint8_values_default [0, 1, 255]\nint16[3] int16_values_default [0, 32767, -32768]\nuint16[3] uint16_values_default [0, 1, 65535]\nint32[3] int32_values_default [0, 2147483647, -2147483648]\nuint32[3] uint32_values_default [0, 1, 4294967295]\nint64[3] int64_values_default [0, 9223372036854775807, -9223372036854775808]\nuint64[3] uint64_values_default [0, 1, 18446744073709551615]\nstring[3] string_values_default [\"\", \"max value\", \"min value\"]\n# Regression test: check alignment of basic field after an array field is correct\nint32 alignment_check"
+    )]
     pub struct Arrays {
         /// Arrays of different types
         pub bool_values: [bool; 3],
@@ -1019,34 +1069,48 @@ pub mod msg {
         /// `test_msgs/Defaults[3] defaults_values`
         pub defaults_values: [Defaults; 3],
         /// `bool[3] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: [bool; 3],
         /// `byte[3] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: [u8; 3],
         /// `char[3] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: [u8; 3],
         /// `float32[3] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: [f32; 3],
         /// `float64[3] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: [f64; 3],
         /// `int8[3] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: [i8; 3],
         /// `uint8[3] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: [u8; 3],
         /// `int16[3] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: [i16; 3],
         /// `uint16[3] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: [u16; 3],
         /// `int32[3] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: [i32; 3],
         /// `uint32[3] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: [u32; 3],
         /// `int64[3] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: [i64; 3],
         /// `uint64[3] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: [u64; 3],
         /// `string[3] string_values_default`
+        #[ros(default_value = "('', 'max value', 'min value')")]
         pub string_values_default: [::std::string::String; 3],
         /// Regression test: check alignment of basic field after an array field is correct
         pub alignment_check: i32,
@@ -1097,7 +1161,7 @@ pub mod msg {
 
     /// [`Arrays`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/msg/Arrays", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/Arrays", crate = "crate", source = <Arrays as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ArraysRef<'a> {
         /// Arrays of different types
         pub bool_values: [bool; 3],
@@ -1136,34 +1200,48 @@ pub mod msg {
         /// `test_msgs/Defaults[3] defaults_values`
         pub defaults_values: [Defaults; 3],
         /// `bool[3] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: [bool; 3],
         /// `byte[3] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: [u8; 3],
         /// `char[3] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: [u8; 3],
         /// `float32[3] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: [f32; 3],
         /// `float64[3] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: [f64; 3],
         /// `int8[3] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: [i8; 3],
         /// `uint8[3] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: [u8; 3],
         /// `int16[3] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: [i16; 3],
         /// `uint16[3] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: [u16; 3],
         /// `int32[3] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: [i32; 3],
         /// `uint32[3] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: [u32; 3],
         /// `int64[3] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: [i64; 3],
         /// `uint64[3] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: [u64; 3],
         /// `string[3] string_values_default`
+        #[ros(default_value = "('', 'max value', 'min value')")]
         pub string_values_default: [::std::borrow::Cow<'a, str>; 3],
         /// Regression test: check alignment of basic field after an array field is correct
         pub alignment_check: i32,
@@ -1219,7 +1297,12 @@ pub mod msg {
     /// `test_msgs/msg/BasicTypes` (from `msg/BasicTypes.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/BasicTypes", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/BasicTypes",
+        crate = "crate",
+        loan,
+        source = "bool bool_value\nbyte byte_value\nchar char_value\nfloat32 float32_value\nfloat64 float64_value\nint8 int8_value\nuint8 uint8_value\nint16 int16_value\nuint16 uint16_value\nint32 int32_value\nuint32 uint32_value\nint64 int64_value\nuint64 uint64_value"
+    )]
     pub struct BasicTypes {
         /// `bool bool_value`
         pub bool_value: bool,
@@ -1281,7 +1364,8 @@ pub mod msg {
     #[ros(
         type_name = "test_msgs/msg/BoundedPlainSequences",
         crate = "crate",
-        loan
+        loan,
+        source = "# Bounded sequences of different POD types\nbool[<=3] bool_values\nbyte[<=3] byte_values\nchar[<=3] char_values\nfloat32[<=3] float32_values\nfloat64[<=3] float64_values\nint8[<=3] int8_values\nuint8[<=3] uint8_values\nint16[<=3] int16_values\nuint16[<=3] uint16_values\nint32[<=3] int32_values\nuint32[<=3] uint32_values\nint64[<=3] int64_values\nuint64[<=3] uint64_values\nBasicTypes[<=3] basic_types_values\nConstants[<=3] constants_values\nDefaults[<=3] defaults_values\nbool[<=3] bool_values_default [false, true, false]\nbyte[<=3] byte_values_default [0, 1, 255]\nchar[<=3] char_values_default [0, 1, 127]\nfloat32[<=3] float32_values_default [1.125, 0.0, -1.125]\nfloat64[<=3] float64_values_default [3.1415, 0.0, -3.1415]\nint8[<=3] int8_values_default [0, 127, -128]\nuint8[<=3] uint8_values_default [0, 1, 255]\nint16[<=3] int16_values_default [0, 32767, -32768]\nuint16[<=3] uint16_values_default [0, 1, 65535]\nint32[<=3] int32_values_default [0, 2147483647, -2147483648]\nuint32[<=3] uint32_values_default [0, 1, 4294967295]\nint64[<=3] int64_values_default [0, 9223372036854775807, -9223372036854775808]\nuint64[<=3] uint64_values_default [0, 1, 18446744073709551615]\n# Regression test: check alignment of basic field after a sequence field is correct\nint32 alignment_check"
     )]
     pub struct BoundedPlainSequences {
         /// Bounded sequences of different POD types
@@ -1319,32 +1403,45 @@ pub mod msg {
         /// `test_msgs/Defaults[<=3] defaults_values`
         pub defaults_values: crate::BoundedVec<Defaults, 3>,
         /// `bool[<=3] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: crate::BoundedVec<bool, 3>,
         /// `byte[<=3] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: crate::BoundedVec<u8, 3>,
         /// `char[<=3] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: crate::BoundedVec<u8, 3>,
         /// `float32[<=3] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: crate::BoundedVec<f32, 3>,
         /// `float64[<=3] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: crate::BoundedVec<f64, 3>,
         /// `int8[<=3] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: crate::BoundedVec<i8, 3>,
         /// `uint8[<=3] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: crate::BoundedVec<u8, 3>,
         /// `int16[<=3] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: crate::BoundedVec<i16, 3>,
         /// `uint16[<=3] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: crate::BoundedVec<u16, 3>,
         /// `int32[<=3] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: crate::BoundedVec<i32, 3>,
         /// `uint32[<=3] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: crate::BoundedVec<u32, 3>,
         /// `int64[<=3] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: crate::BoundedVec<i64, 3>,
         /// `uint64[<=3] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: crate::BoundedVec<u64, 3>,
         /// Regression test: check alignment of basic field after a sequence field is correct
         pub alignment_check: i32,
@@ -1406,7 +1503,12 @@ pub mod msg {
     /// `test_msgs/msg/BoundedSequences` (from `msg/BoundedSequences.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/BoundedSequences", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/BoundedSequences",
+        crate = "crate",
+        loan,
+        source = "# Bounded sequences of different types\nbool[<=3] bool_values\nbyte[<=3] byte_values\nchar[<=3] char_values\nfloat32[<=3] float32_values\nfloat64[<=3] float64_values\nint8[<=3] int8_values\nuint8[<=3] uint8_values\nint16[<=3] int16_values\nuint16[<=3] uint16_values\nint32[<=3] int32_values\nuint32[<=3] uint32_values\nint64[<=3] int64_values\nuint64[<=3] uint64_values\nstring[<=3] string_values\nBasicTypes[<=3] basic_types_values\nConstants[<=3] constants_values\nDefaults[<=3] defaults_values\nbool[<=3] bool_values_default [false, true, false]\nbyte[<=3] byte_values_default [0, 1, 255]\nchar[<=3] char_values_default [0, 1, 127]\nfloat32[<=3] float32_values_default [1.125, 0.0, -1.125]\nfloat64[<=3] float64_values_default [3.1415, 0.0, -3.1415]\nint8[<=3] int8_values_default [0, 127, -128]\nuint8[<=3] uint8_values_default [0, 1, 255]\nint16[<=3] int16_values_default [0, 32767, -32768]\nuint16[<=3] uint16_values_default [0, 1, 65535]\nint32[<=3] int32_values_default [0, 2147483647, -2147483648]\nuint32[<=3] uint32_values_default [0, 1, 4294967295]\nint64[<=3] int64_values_default [0, 9223372036854775807, -9223372036854775808]\nuint64[<=3] uint64_values_default [0, 1, 18446744073709551615]\nstring[<=3] string_values_default [\"\", \"max value\", \"min value\"]\n# Regression test: check alignment of basic field after a sequence field is correct\nint32 alignment_check"
+    )]
     pub struct BoundedSequences {
         /// Bounded sequences of different types
         pub bool_values: crate::BoundedVec<bool, 3>,
@@ -1445,34 +1547,48 @@ pub mod msg {
         /// `test_msgs/Defaults[<=3] defaults_values`
         pub defaults_values: crate::BoundedVec<Defaults, 3>,
         /// `bool[<=3] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: crate::BoundedVec<bool, 3>,
         /// `byte[<=3] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: crate::BoundedVec<u8, 3>,
         /// `char[<=3] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: crate::BoundedVec<u8, 3>,
         /// `float32[<=3] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: crate::BoundedVec<f32, 3>,
         /// `float64[<=3] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: crate::BoundedVec<f64, 3>,
         /// `int8[<=3] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: crate::BoundedVec<i8, 3>,
         /// `uint8[<=3] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: crate::BoundedVec<u8, 3>,
         /// `int16[<=3] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: crate::BoundedVec<i16, 3>,
         /// `uint16[<=3] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: crate::BoundedVec<u16, 3>,
         /// `int32[<=3] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: crate::BoundedVec<i32, 3>,
         /// `uint32[<=3] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: crate::BoundedVec<u32, 3>,
         /// `int64[<=3] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: crate::BoundedVec<i64, 3>,
         /// `uint64[<=3] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: crate::BoundedVec<u64, 3>,
         /// `string[<=3] string_values_default`
+        #[ros(default_value = "('', 'max value', 'min value')")]
         pub string_values_default: crate::BoundedVec<::std::string::String, 3>,
         /// Regression test: check alignment of basic field after a sequence field is correct
         pub alignment_check: i32,
@@ -1535,7 +1651,7 @@ pub mod msg {
 
     /// [`BoundedSequences`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/msg/BoundedSequences", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/BoundedSequences", crate = "crate", source = <BoundedSequences as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct BoundedSequencesRef<'a> {
         /// Bounded sequences of different types
         pub bool_values: crate::BoundedVec<bool, 3>,
@@ -1574,34 +1690,48 @@ pub mod msg {
         /// `test_msgs/Defaults[<=3] defaults_values`
         pub defaults_values: crate::BoundedVec<Defaults, 3>,
         /// `bool[<=3] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: crate::BoundedVec<bool, 3>,
         /// `byte[<=3] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: crate::BoundedVec<u8, 3>,
         /// `char[<=3] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: crate::BoundedVec<u8, 3>,
         /// `float32[<=3] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: crate::BoundedVec<f32, 3>,
         /// `float64[<=3] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: crate::BoundedVec<f64, 3>,
         /// `int8[<=3] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: crate::BoundedVec<i8, 3>,
         /// `uint8[<=3] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: crate::BoundedVec<u8, 3>,
         /// `int16[<=3] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: crate::BoundedVec<i16, 3>,
         /// `uint16[<=3] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: crate::BoundedVec<u16, 3>,
         /// `int32[<=3] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: crate::BoundedVec<i32, 3>,
         /// `uint32[<=3] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: crate::BoundedVec<u32, 3>,
         /// `int64[<=3] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: crate::BoundedVec<i64, 3>,
         /// `uint64[<=3] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: crate::BoundedVec<u64, 3>,
         /// `string[<=3] string_values_default`
+        #[ros(default_value = "('', 'max value', 'min value')")]
         pub string_values_default: crate::BoundedVec<::std::borrow::Cow<'a, str>, 3>,
         /// Regression test: check alignment of basic field after a sequence field is correct
         pub alignment_check: i32,
@@ -1669,7 +1799,12 @@ pub mod msg {
     /// `test_msgs/msg/Builtins` (from `msg/Builtins.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Builtins", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/Builtins",
+        crate = "crate",
+        loan,
+        source = "builtin_interfaces/Duration duration_value\nbuiltin_interfaces/Time time_value"
+    )]
     #[repr(C)]
     pub struct Builtins {
         /// `builtin_interfaces/Duration duration_value`
@@ -1694,7 +1829,12 @@ pub mod msg {
     /// `test_msgs/msg/Constants` (from `msg/Constants.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Constants", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/Constants",
+        crate = "crate",
+        loan,
+        source = "bool BOOL_CONST=true\nbyte BYTE_CONST=50\nchar CHAR_CONST=100\nfloat32 FLOAT32_CONST=1.125\nfloat64 FLOAT64_CONST=1.125\nint8 INT8_CONST=-50\nuint8 UINT8_CONST=200\nint16 INT16_CONST=-1000\nuint16 UINT16_CONST=2000\nint32 INT32_CONST=-30000\nuint32 UINT32_CONST=60000\nint64 INT64_CONST=-40000000\nuint64 UINT64_CONST=50000000"
+    )]
     pub struct Constants;
 
     impl Constants {
@@ -1739,35 +1879,53 @@ pub mod msg {
     /// `test_msgs/msg/Defaults` (from `msg/Defaults.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Defaults", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/Defaults",
+        crate = "crate",
+        loan,
+        source = "bool bool_value true\nbyte byte_value 50\nchar char_value 100\nfloat32 float32_value 1.125\nfloat64 float64_value 1.125\nint8 int8_value -50\nuint8 uint8_value 200\nint16 int16_value -1000\nuint16 uint16_value 2000\nint32 int32_value -30000\nuint32 uint32_value 60000\nint64 int64_value -40000000\nuint64 uint64_value 50000000"
+    )]
     pub struct Defaults {
         /// `bool bool_value`
+        #[ros(default_value = "True")]
         pub bool_value: bool,
         /// `byte byte_value`
         #[ros(byte)]
+        #[ros(default_value = "50")]
         pub byte_value: u8,
         /// `char char_value`
         #[ros(char)]
+        #[ros(default_value = "100")]
         pub char_value: u8,
         /// `float32 float32_value`
+        #[ros(default_value = "1.125")]
         pub float32_value: f32,
         /// `float64 float64_value`
+        #[ros(default_value = "1.125")]
         pub float64_value: f64,
         /// `int8 int8_value`
+        #[ros(default_value = "-50")]
         pub int8_value: i8,
         /// `uint8 uint8_value`
+        #[ros(default_value = "200")]
         pub uint8_value: u8,
         /// `int16 int16_value`
+        #[ros(default_value = "-1000")]
         pub int16_value: i16,
         /// `uint16 uint16_value`
+        #[ros(default_value = "2000")]
         pub uint16_value: u16,
         /// `int32 int32_value`
+        #[ros(default_value = "-30000")]
         pub int32_value: i32,
         /// `uint32 uint32_value`
+        #[ros(default_value = "60000")]
         pub uint32_value: u32,
         /// `int64 int64_value`
+        #[ros(default_value = "-40000000")]
         pub int64_value: i64,
         /// `uint64 uint64_value`
+        #[ros(default_value = "50000000")]
         pub uint64_value: u64,
     }
 
@@ -1798,7 +1956,7 @@ pub mod msg {
     /// `test_msgs/msg/Empty` (from `msg/Empty.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Empty", crate = "crate", loan)]
+    #[ros(type_name = "test_msgs/msg/Empty", crate = "crate", loan, source = "")]
     pub struct Empty;
 
     impl ::core::default::Default for Empty {
@@ -1814,7 +1972,12 @@ pub mod msg {
     /// `test_msgs/msg/MultiNested` (from `msg/MultiNested.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/MultiNested", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/MultiNested",
+        crate = "crate",
+        loan,
+        source = "# Mulitple levels of nested messages\nArrays[3] array_of_arrays\nBoundedSequences[3] array_of_bounded_sequences\nUnboundedSequences[3] array_of_unbounded_sequences\nArrays[<=3] bounded_sequence_of_arrays\nBoundedSequences[<=3] bounded_sequence_of_bounded_sequences\nUnboundedSequences[<=3] bounded_sequence_of_unbounded_sequences\nArrays[] unbounded_sequence_of_arrays\nBoundedSequences[] unbounded_sequence_of_bounded_sequences\nUnboundedSequences[] unbounded_sequence_of_unbounded_sequences"
+    )]
     pub struct MultiNested {
         /// Mulitple levels of nested messages
         pub array_of_arrays: [Arrays; 3],
@@ -1858,7 +2021,7 @@ pub mod msg {
 
     /// [`MultiNested`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/msg/MultiNested", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/MultiNested", crate = "crate", source = <MultiNested as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MultiNestedRef<'a> {
         /// Mulitple levels of nested messages
         pub array_of_arrays: [ArraysRef<'a>; 3],
@@ -1908,7 +2071,12 @@ pub mod msg {
     /// `test_msgs/msg/Nested` (from `msg/Nested.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Nested", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/Nested",
+        crate = "crate",
+        loan,
+        source = "BasicTypes basic_types_value"
+    )]
     pub struct Nested {
         /// `test_msgs/BasicTypes basic_types_value`
         pub basic_types_value: BasicTypes,
@@ -1929,31 +2097,46 @@ pub mod msg {
     /// `test_msgs/msg/Strings` (from `msg/Strings.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/Strings", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/Strings",
+        crate = "crate",
+        loan,
+        source = "string string_value\nstring string_value_default1 \"Hello world!\"\nstring string_value_default2 \"Hello'world!\"\nstring string_value_default3 'Hello\"world!'\nstring string_value_default4 'Hello\\'world!'\nstring string_value_default5 \"Hello\\\"world!\"\nstring STRING_CONST=\"Hello world!\"\nstring<=22 bounded_string_value\nstring<=22 bounded_string_value_default1 \"Hello world!\"\nstring<=22 bounded_string_value_default2 \"Hello'world!\"\nstring<=22 bounded_string_value_default3 'Hello\"world!'\nstring<=22 bounded_string_value_default4 'Hello\\'world!'\nstring<=22 bounded_string_value_default5 \"Hello\\\"world!\""
+    )]
     pub struct Strings {
         /// `string string_value`
         pub string_value: ::std::string::String,
         /// `string string_value_default1`
+        #[ros(default_value = "Hello world!")]
         pub string_value_default1: ::std::string::String,
         /// `string string_value_default2`
+        #[ros(default_value = "Hello'world!")]
         pub string_value_default2: ::std::string::String,
         /// `string string_value_default3`
+        #[ros(default_value = "Hello\"world!")]
         pub string_value_default3: ::std::string::String,
         /// `string string_value_default4`
+        #[ros(default_value = "Hello'world!")]
         pub string_value_default4: ::std::string::String,
         /// `string string_value_default5`
+        #[ros(default_value = "Hello\"world!")]
         pub string_value_default5: ::std::string::String,
         /// `string<=22 bounded_string_value`
         pub bounded_string_value: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default1`
+        #[ros(default_value = "Hello world!")]
         pub bounded_string_value_default1: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default2`
+        #[ros(default_value = "Hello'world!")]
         pub bounded_string_value_default2: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default3`
+        #[ros(default_value = "Hello\"world!")]
         pub bounded_string_value_default3: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default4`
+        #[ros(default_value = "Hello'world!")]
         pub bounded_string_value_default4: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default5`
+        #[ros(default_value = "Hello\"world!")]
         pub bounded_string_value_default5: crate::BoundedString<22>,
     }
 
@@ -1983,31 +2166,41 @@ pub mod msg {
 
     /// [`Strings`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/msg/Strings", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/Strings", crate = "crate", source = <Strings as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct StringsRef<'a> {
         /// `string string_value`
         pub string_value: ::std::borrow::Cow<'a, str>,
         /// `string string_value_default1`
+        #[ros(default_value = "Hello world!")]
         pub string_value_default1: ::std::borrow::Cow<'a, str>,
         /// `string string_value_default2`
+        #[ros(default_value = "Hello'world!")]
         pub string_value_default2: ::std::borrow::Cow<'a, str>,
         /// `string string_value_default3`
+        #[ros(default_value = "Hello\"world!")]
         pub string_value_default3: ::std::borrow::Cow<'a, str>,
         /// `string string_value_default4`
+        #[ros(default_value = "Hello'world!")]
         pub string_value_default4: ::std::borrow::Cow<'a, str>,
         /// `string string_value_default5`
+        #[ros(default_value = "Hello\"world!")]
         pub string_value_default5: ::std::borrow::Cow<'a, str>,
         /// `string<=22 bounded_string_value`
         pub bounded_string_value: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default1`
+        #[ros(default_value = "Hello world!")]
         pub bounded_string_value_default1: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default2`
+        #[ros(default_value = "Hello'world!")]
         pub bounded_string_value_default2: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default3`
+        #[ros(default_value = "Hello\"world!")]
         pub bounded_string_value_default3: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default4`
+        #[ros(default_value = "Hello'world!")]
         pub bounded_string_value_default4: crate::BoundedString<22>,
         /// `string<=22 bounded_string_value_default5`
+        #[ros(default_value = "Hello\"world!")]
         pub bounded_string_value_default5: crate::BoundedString<22>,
     }
 
@@ -2037,7 +2230,12 @@ pub mod msg {
     /// `test_msgs/msg/UnboundedSequences` (from `msg/UnboundedSequences.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/UnboundedSequences", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/UnboundedSequences",
+        crate = "crate",
+        loan,
+        source = "# Unbounded sequences of different types\nbool[] bool_values\nbyte[] byte_values\nchar[] char_values\nfloat32[] float32_values\nfloat64[] float64_values\nint8[] int8_values\nuint8[] uint8_values\nint16[] int16_values\nuint16[] uint16_values\nint32[] int32_values\nuint32[] uint32_values\nint64[] int64_values\nuint64[] uint64_values\nstring[] string_values\nBasicTypes[] basic_types_values\nConstants[] constants_values\nDefaults[] defaults_values\nbool[] bool_values_default [false, true, false]\nbyte[] byte_values_default [0, 1, 255]\nchar[] char_values_default [0, 1, 127]\nfloat32[] float32_values_default [1.125, 0.0, -1.125]\nfloat64[] float64_values_default [3.1415, 0.0, -3.1415]\nint8[] int8_values_default [0, 127, -128]\nuint8[] uint8_values_default [0, 1, 255]\nint16[] int16_values_default [0, 32767, -32768]\nuint16[] uint16_values_default [0, 1, 65535]\nint32[] int32_values_default [0, 2147483647, -2147483648]\nuint32[] uint32_values_default [0, 1, 4294967295]\nint64[] int64_values_default [0, 9223372036854775807, -9223372036854775808]\nuint64[] uint64_values_default [0, 1, 18446744073709551615]\nstring[] string_values_default [\"\", \"max value\", \"min value\"]\n# Regression test: check alignment of basic field after a sequence field is correct\nint32 alignment_check"
+    )]
     pub struct UnboundedSequences {
         /// Unbounded sequences of different types
         pub bool_values: ::std::vec::Vec<bool>,
@@ -2076,34 +2274,48 @@ pub mod msg {
         /// `test_msgs/Defaults[] defaults_values`
         pub defaults_values: ::std::vec::Vec<Defaults>,
         /// `bool[] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: ::std::vec::Vec<bool>,
         /// `byte[] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: ::std::vec::Vec<u8>,
         /// `char[] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: ::std::vec::Vec<u8>,
         /// `float32[] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: ::std::vec::Vec<f32>,
         /// `float64[] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: ::std::vec::Vec<f64>,
         /// `int8[] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: ::std::vec::Vec<i8>,
         /// `uint8[] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: ::std::vec::Vec<u8>,
         /// `int16[] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: ::std::vec::Vec<i16>,
         /// `uint16[] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: ::std::vec::Vec<u16>,
         /// `int32[] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: ::std::vec::Vec<i32>,
         /// `uint32[] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: ::std::vec::Vec<u32>,
         /// `int64[] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: ::std::vec::Vec<i64>,
         /// `uint64[] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: ::std::vec::Vec<u64>,
         /// `string[] string_values_default`
+        #[ros(default_value = "('', 'max value', 'min value')")]
         pub string_values_default: ::std::vec::Vec<::std::string::String>,
         /// Regression test: check alignment of basic field after a sequence field is correct
         pub alignment_check: i32,
@@ -2154,7 +2366,7 @@ pub mod msg {
 
     /// [`UnboundedSequences`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/msg/UnboundedSequences", crate = "crate")]
+    #[ros(type_name = "test_msgs/msg/UnboundedSequences", crate = "crate", source = <UnboundedSequences as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct UnboundedSequencesRef<'a> {
         /// Unbounded sequences of different types
         pub bool_values: ::std::vec::Vec<bool>,
@@ -2193,34 +2405,48 @@ pub mod msg {
         /// `test_msgs/Defaults[] defaults_values`
         pub defaults_values: ::std::vec::Vec<Defaults>,
         /// `bool[] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: ::std::vec::Vec<bool>,
         /// `byte[] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: &'a [u8],
         /// `char[] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: &'a [u8],
         /// `float32[] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: ::std::borrow::Cow<'a, [f32]>,
         /// `float64[] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: ::std::borrow::Cow<'a, [f64]>,
         /// `int8[] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: ::std::borrow::Cow<'a, [i8]>,
         /// `uint8[] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: &'a [u8],
         /// `int16[] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: ::std::borrow::Cow<'a, [i16]>,
         /// `uint16[] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: ::std::borrow::Cow<'a, [u16]>,
         /// `int32[] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: ::std::borrow::Cow<'a, [i32]>,
         /// `uint32[] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: ::std::borrow::Cow<'a, [u32]>,
         /// `int64[] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: ::std::borrow::Cow<'a, [i64]>,
         /// `uint64[] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: ::std::borrow::Cow<'a, [u64]>,
         /// `string[] string_values_default`
+        #[ros(default_value = "('', 'max value', 'min value')")]
         pub string_values_default: ::std::vec::Vec<::std::borrow::Cow<'a, str>>,
         /// Regression test: check alignment of basic field after a sequence field is correct
         pub alignment_check: i32,
@@ -2290,15 +2516,23 @@ pub mod msg {
     /// `test_msgs/msg/WStrings` (from `msg/WStrings.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/msg/WStrings", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/msg/WStrings",
+        crate = "crate",
+        loan,
+        source = "wstring wstring_value\nwstring wstring_value_default1 \"Hello world!\"\nwstring wstring_value_default2 \"Hellö wörld!\"\nwstring wstring_value_default3 \"ハローワールド\"\n#wstring WSTRING_CONST=\"Hello world!\"\n#wstring<=22 bounded_wstring_value\n#wstring<=22 bounded_wstring_value_default1 \"Hello world!\"\nwstring[3] array_of_wstrings\nwstring[<=3] bounded_sequence_of_wstrings\nwstring[] unbounded_sequence_of_wstrings"
+    )]
     pub struct WStrings {
         /// `wstring wstring_value`
         pub wstring_value: crate::WString,
         /// `wstring wstring_value_default1`
+        #[ros(default_value = "Hello world!")]
         pub wstring_value_default1: crate::WString,
         /// `wstring wstring_value_default2`
+        #[ros(default_value = "Hellö wörld!")]
         pub wstring_value_default2: crate::WString,
         /// `wstring wstring_value_default3`
+        #[ros(default_value = "ハローワールド")]
         pub wstring_value_default3: crate::WString,
         /// wstring WSTRING_CONST="Hello world!"
         /// wstring\<=22 bounded_wstring_value
@@ -2335,7 +2569,12 @@ pub mod srv {
     /// `test_msgs/srv/Arrays_Request` (from `srv/Arrays.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Arrays_Request", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/srv/Arrays_Request",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Arrays_Request {
         /// `bool[3] bool_values`
         pub bool_values: [bool; 3],
@@ -2374,34 +2613,48 @@ pub mod srv {
         /// `test_msgs/Defaults[3] defaults_values`
         pub defaults_values: [super::super::test_msgs::msg::Defaults; 3],
         /// `bool[3] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: [bool; 3],
         /// `byte[3] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: [u8; 3],
         /// `char[3] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: [u8; 3],
         /// `float32[3] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: [f32; 3],
         /// `float64[3] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: [f64; 3],
         /// `int8[3] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: [i8; 3],
         /// `uint8[3] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: [u8; 3],
         /// `int16[3] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: [i16; 3],
         /// `uint16[3] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: [u16; 3],
         /// `int32[3] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: [i32; 3],
         /// `uint32[3] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: [u32; 3],
         /// `int64[3] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: [i64; 3],
         /// `uint64[3] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: [u64; 3],
         /// `string[3] string_values_default`
+        #[ros(default_value = "('', 'max value', 'min value')")]
         pub string_values_default: [::std::string::String; 3],
     }
 
@@ -2449,7 +2702,11 @@ pub mod srv {
 
     /// [`Arrays_Request`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/srv/Arrays_Request", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/srv/Arrays_Request",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct Arrays_RequestRef<'a> {
         /// `bool[3] bool_values`
         pub bool_values: [bool; 3],
@@ -2488,34 +2745,48 @@ pub mod srv {
         /// `test_msgs/Defaults[3] defaults_values`
         pub defaults_values: [super::super::test_msgs::msg::Defaults; 3],
         /// `bool[3] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: [bool; 3],
         /// `byte[3] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: [u8; 3],
         /// `char[3] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: [u8; 3],
         /// `float32[3] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: [f32; 3],
         /// `float64[3] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: [f64; 3],
         /// `int8[3] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: [i8; 3],
         /// `uint8[3] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: [u8; 3],
         /// `int16[3] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: [i16; 3],
         /// `uint16[3] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: [u16; 3],
         /// `int32[3] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: [i32; 3],
         /// `uint32[3] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: [u32; 3],
         /// `int64[3] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: [i64; 3],
         /// `uint64[3] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: [u64; 3],
         /// `string[3] string_values_default`
+        #[ros(default_value = "('', 'max value', 'min value')")]
         pub string_values_default: [::std::borrow::Cow<'a, str>; 3],
     }
 
@@ -2568,7 +2839,12 @@ pub mod srv {
     /// `test_msgs/srv/Arrays_Response` (from `srv/Arrays.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Arrays_Response", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/srv/Arrays_Response",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Arrays_Response {
         /// `bool[3] bool_values`
         pub bool_values: [bool; 3],
@@ -2607,34 +2883,48 @@ pub mod srv {
         /// `test_msgs/Defaults[3] defaults_values`
         pub defaults_values: [super::super::test_msgs::msg::Defaults; 3],
         /// `bool[3] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: [bool; 3],
         /// `byte[3] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: [u8; 3],
         /// `char[3] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: [u8; 3],
         /// `float32[3] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: [f32; 3],
         /// `float64[3] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: [f64; 3],
         /// `int8[3] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: [i8; 3],
         /// `uint8[3] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: [u8; 3],
         /// `int16[3] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: [i16; 3],
         /// `uint16[3] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: [u16; 3],
         /// `int32[3] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: [i32; 3],
         /// `uint32[3] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: [u32; 3],
         /// `int64[3] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: [i64; 3],
         /// `uint64[3] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: [u64; 3],
         /// `string[3] string_values_default`
+        #[ros(default_value = "('', 'max value', 'min value')")]
         pub string_values_default: [::std::string::String; 3],
     }
 
@@ -2682,7 +2972,11 @@ pub mod srv {
 
     /// [`Arrays_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/srv/Arrays_Response", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/srv/Arrays_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct Arrays_ResponseRef<'a> {
         /// `bool[3] bool_values`
         pub bool_values: [bool; 3],
@@ -2721,34 +3015,48 @@ pub mod srv {
         /// `test_msgs/Defaults[3] defaults_values`
         pub defaults_values: [super::super::test_msgs::msg::Defaults; 3],
         /// `bool[3] bool_values_default`
+        #[ros(default_value = "(False, True, False)")]
         pub bool_values_default: [bool; 3],
         /// `byte[3] byte_values_default`
         #[ros(byte)]
+        #[ros(default_value = "(0, 1, 255)")]
         pub byte_values_default: [u8; 3],
         /// `char[3] char_values_default`
         #[ros(char)]
+        #[ros(default_value = "(0, 1, 127)")]
         pub char_values_default: [u8; 3],
         /// `float32[3] float32_values_default`
+        #[ros(default_value = "(1.125, 0.0, -1.125)")]
         pub float32_values_default: [f32; 3],
         /// `float64[3] float64_values_default`
+        #[ros(default_value = "(3.1415, 0.0, -3.1415)")]
         pub float64_values_default: [f64; 3],
         /// `int8[3] int8_values_default`
+        #[ros(default_value = "(0, 127, -128)")]
         pub int8_values_default: [i8; 3],
         /// `uint8[3] uint8_values_default`
+        #[ros(default_value = "(0, 1, 255)")]
         pub uint8_values_default: [u8; 3],
         /// `int16[3] int16_values_default`
+        #[ros(default_value = "(0, 32767, -32768)")]
         pub int16_values_default: [i16; 3],
         /// `uint16[3] uint16_values_default`
+        #[ros(default_value = "(0, 1, 65535)")]
         pub uint16_values_default: [u16; 3],
         /// `int32[3] int32_values_default`
+        #[ros(default_value = "(0, 2147483647, -2147483648)")]
         pub int32_values_default: [i32; 3],
         /// `uint32[3] uint32_values_default`
+        #[ros(default_value = "(0, 1, 4294967295)")]
         pub uint32_values_default: [u32; 3],
         /// `int64[3] int64_values_default`
+        #[ros(default_value = "(0, 9223372036854775807, -9223372036854775808)")]
         pub int64_values_default: [i64; 3],
         /// `uint64[3] uint64_values_default`
+        #[ros(default_value = "(0, 1, 18446744073709551615)")]
         pub uint64_values_default: [u64; 3],
         /// `string[3] string_values_default`
+        #[ros(default_value = "('', 'max value', 'min value')")]
         pub string_values_default: [::std::borrow::Cow<'a, str>; 3],
     }
 
@@ -2803,7 +3111,12 @@ pub mod srv {
     /// `test_msgs/srv/Arrays_Event` (from `srv/Arrays.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Arrays_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/srv/Arrays_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Arrays_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -2827,7 +3140,11 @@ pub mod srv {
     ///
     /// [`Arrays_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/srv/Arrays_Event", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/srv/Arrays_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct Arrays_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -2861,6 +3178,7 @@ pub mod srv {
         type Request = Arrays_Request;
         type Response = Arrays_Response;
         type Event = Arrays_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "bool[3] bool_values\nbyte[3] byte_values\nchar[3] char_values\nfloat32[3] float32_values\nfloat64[3] float64_values\nint8[3] int8_values\nuint8[3] uint8_values\nint16[3] int16_values\nuint16[3] uint16_values\nint32[3] int32_values\nuint32[3] uint32_values\nint64[3] int64_values\nuint64[3] uint64_values\nstring[3] string_values\nBasicTypes[3] basic_types_values\nConstants[3] constants_values\nDefaults[3] defaults_values\nbool[3] bool_values_default [false, true, false]\nbyte[3] byte_values_default [0, 1, 255]\nchar[3] char_values_default [0, 1, 127]\nfloat32[3] float32_values_default [1.125, 0.0, -1.125]\nfloat64[3] float64_values_default [3.1415, 0.0, -3.1415]\nint8[3] int8_values_default [0, 127, -128]\nuint8[3] uint8_values_default [0, 1, 255]\nint16[3] int16_values_default [0, 32767, -32768]\nuint16[3] uint16_values_default [0, 1, 65535]\nint32[3] int32_values_default [0, 2147483647, -2147483648]\nuint32[3] uint32_values_default [0, 1, 4294967295]\nint64[3] int64_values_default [0, 9223372036854775807, -9223372036854775808]\nuint64[3] uint64_values_default [0, 1, 18446744073709551615]\nstring[3] string_values_default [\"\", \"max value\", \"min value\"]\n---\nbool[3] bool_values\nbyte[3] byte_values\nchar[3] char_values\nfloat32[3] float32_values\nfloat64[3] float64_values\nint8[3] int8_values\nuint8[3] uint8_values\nint16[3] int16_values\nuint16[3] uint16_values\nint32[3] int32_values\nuint32[3] uint32_values\nint64[3] int64_values\nuint64[3] uint64_values\nstring[3] string_values\nBasicTypes[3] basic_types_values\nConstants[3] constants_values\nDefaults[3] defaults_values\nbool[3] bool_values_default [false, true, false]\nbyte[3] byte_values_default [0, 1, 255]\nchar[3] char_values_default [0, 1, 127]\nfloat32[3] float32_values_default [1.125, 0.0, -1.125]\nfloat64[3] float64_values_default [3.1415, 0.0, -3.1415]\nint8[3] int8_values_default [0, 127, -128]\nuint8[3] uint8_values_default [0, 1, 255]\nint16[3] int16_values_default [0, 32767, -32768]\nuint16[3] uint16_values_default [0, 1, 65535]\nint32[3] int32_values_default [0, 2147483647, -2147483648]\nuint32[3] uint32_values_default [0, 1, 4294967295]\nint64[3] int64_values_default [0, 9223372036854775807, -9223372036854775808]\nuint64[3] uint64_values_default [0, 1, 18446744073709551615]\nstring[3] string_values_default [\"\", \"max value\", \"min value\"]");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -2872,7 +3190,12 @@ pub mod srv {
     /// `test_msgs/srv/BasicTypes_Request` (from `srv/BasicTypes.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/BasicTypes_Request", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/srv/BasicTypes_Request",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct BasicTypes_Request {
         /// `bool bool_value`
         pub bool_value: bool,
@@ -2929,7 +3252,11 @@ pub mod srv {
 
     /// [`BasicTypes_Request`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/srv/BasicTypes_Request", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/srv/BasicTypes_Request",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct BasicTypes_RequestRef<'a> {
         /// `bool bool_value`
         pub bool_value: bool,
@@ -2991,7 +3318,12 @@ pub mod srv {
     /// `test_msgs/srv/BasicTypes_Response` (from `srv/BasicTypes.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/BasicTypes_Response", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/srv/BasicTypes_Response",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct BasicTypes_Response {
         /// `bool bool_value`
         pub bool_value: bool,
@@ -3048,7 +3380,11 @@ pub mod srv {
 
     /// [`BasicTypes_Response`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/srv/BasicTypes_Response", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/srv/BasicTypes_Response",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct BasicTypes_ResponseRef<'a> {
         /// `bool bool_value`
         pub bool_value: bool,
@@ -3112,7 +3448,12 @@ pub mod srv {
     /// `test_msgs/srv/BasicTypes_Event` (from `srv/BasicTypes.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/BasicTypes_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/srv/BasicTypes_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct BasicTypes_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -3136,7 +3477,11 @@ pub mod srv {
     ///
     /// [`BasicTypes_Event`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "test_msgs/srv/BasicTypes_Event", crate = "crate")]
+    #[ros(
+        type_name = "test_msgs/srv/BasicTypes_Event",
+        crate = "crate",
+        source_encoding = "implicit"
+    )]
     pub struct BasicTypes_EventRef<'a> {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -3170,6 +3515,7 @@ pub mod srv {
         type Request = BasicTypes_Request;
         type Response = BasicTypes_Response;
         type Event = BasicTypes_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "bool bool_value\nbyte byte_value\nchar char_value\nfloat32 float32_value\nfloat64 float64_value\nint8 int8_value\nuint8 uint8_value\nint16 int16_value\nuint16 uint16_value\nint32 int32_value\nuint32 uint32_value\nint64 int64_value\nuint64 uint64_value\nstring string_value\n---\nbool bool_value\nbyte byte_value\nchar char_value\nfloat32 float32_value\nfloat64 float64_value\nint8 int8_value\nuint8 uint8_value\nint16 int16_value\nuint16 uint16_value\nint32 int32_value\nuint32 uint32_value\nint64 int64_value\nuint64 uint64_value\nstring string_value");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =
@@ -3181,7 +3527,12 @@ pub mod srv {
     /// `test_msgs/srv/Empty_Request` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Empty_Request", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/srv/Empty_Request",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Empty_Request;
 
     impl ::core::default::Default for Empty_Request {
@@ -3197,7 +3548,12 @@ pub mod srv {
     /// `test_msgs/srv/Empty_Response` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Empty_Response", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/srv/Empty_Response",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Empty_Response;
 
     impl ::core::default::Default for Empty_Response {
@@ -3215,7 +3571,12 @@ pub mod srv {
     /// `test_msgs/srv/Empty_Event` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "test_msgs/srv/Empty_Event", crate = "crate", loan)]
+    #[ros(
+        type_name = "test_msgs/srv/Empty_Event",
+        crate = "crate",
+        loan,
+        source_encoding = "implicit"
+    )]
     pub struct Empty_Event {
         /// What happened, when, and to which call.
         pub info: super::super::service_msgs::msg::ServiceEventInfo,
@@ -3249,6 +3610,7 @@ pub mod srv {
         type Request = Empty_Request;
         type Response = Empty_Response;
         type Event = Empty_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "---");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

@@ -7,7 +7,12 @@ pub mod msg {
     /// `tf2_msgs/msg/TF2Error` (from `msg/TF2Error.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "tf2_msgs/msg/TF2Error", crate = "crate", loan)]
+    #[ros(
+        type_name = "tf2_msgs/msg/TF2Error",
+        crate = "crate",
+        loan,
+        source = "# tf2_msgs/msg/TF2Error, exported from rosbags' ros2_jazzy type store.\nuint8 NO_ERROR=0\nuint8 LOOKUP_ERROR=1\nuint8 CONNECTIVITY_ERROR=2\nuint8 EXTRAPOLATION_ERROR=3\nuint8 INVALID_ARGUMENT_ERROR=4\nuint8 TIMEOUT_ERROR=5\nuint8 TRANSFORM_ERROR=6\nuint8 error\nstring error_string"
+    )]
     pub struct TF2Error {
         /// `uint8 error`
         pub error: u8,
@@ -43,7 +48,7 @@ pub mod msg {
 
     /// [`TF2Error`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "tf2_msgs/msg/TF2Error", crate = "crate")]
+    #[ros(type_name = "tf2_msgs/msg/TF2Error", crate = "crate", source = <TF2Error as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TF2ErrorRef<'a> {
         /// `uint8 error`
         pub error: u8,
@@ -67,7 +72,12 @@ pub mod msg {
     /// `tf2_msgs/msg/TFMessage` (from `msg/TFMessage.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "tf2_msgs/msg/TFMessage", crate = "crate", loan)]
+    #[ros(
+        type_name = "tf2_msgs/msg/TFMessage",
+        crate = "crate",
+        loan,
+        source = "# tf2_msgs/msg/TFMessage, exported from rosbags' ros2_jazzy type store.\ngeometry_msgs/TransformStamped[] transforms"
+    )]
     pub struct TFMessage {
         /// tf2_msgs/msg/TFMessage, exported from rosbags' ros2_jazzy type store.
         pub transforms: ::std::vec::Vec<super::super::geometry_msgs::msg::TransformStamped>,
@@ -83,7 +93,7 @@ pub mod msg {
 
     /// [`TFMessage`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "tf2_msgs/msg/TFMessage", crate = "crate")]
+    #[ros(type_name = "tf2_msgs/msg/TFMessage", crate = "crate", source = <TFMessage as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TFMessageRef<'a> {
         /// tf2_msgs/msg/TFMessage, exported from rosbags' ros2_jazzy type store.
         pub transforms: ::std::vec::Vec<super::super::geometry_msgs::msg::TransformStampedRef<'a>>,

@@ -10,7 +10,8 @@ pub mod msg {
     #[ros(
         type_name = "trajectory_msgs/msg/JointTrajectory",
         crate = "crate",
-        loan
+        loan,
+        source = "# The header is used to specify the coordinate frame and the reference time for\n# the trajectory durations\nstd_msgs/Header header\n\n# The names of the active joints in each trajectory point. These names are\n# ordered and must correspond to the values in each trajectory point.\nstring[] joint_names\n\n# Array of trajectory points, which describe the positions, velocities,\n# accelerations and/or efforts of the joints at each time point.\nJointTrajectoryPoint[] points"
     )]
     pub struct JointTrajectory {
         /// The header is used to specify the coordinate frame and the reference time for
@@ -36,7 +37,7 @@ pub mod msg {
 
     /// [`JointTrajectory`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "trajectory_msgs/msg/JointTrajectory", crate = "crate")]
+    #[ros(type_name = "trajectory_msgs/msg/JointTrajectory", crate = "crate", source = <JointTrajectory as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct JointTrajectoryRef<'a> {
         /// The header is used to specify the coordinate frame and the reference time for
         /// the trajectory durations
@@ -73,7 +74,8 @@ pub mod msg {
     #[ros(
         type_name = "trajectory_msgs/msg/JointTrajectoryPoint",
         crate = "crate",
-        loan
+        loan,
+        source = "# Each trajectory point specifies either positions[, velocities[, accelerations]]\n# or positions[, effort] for the trajectory to be executed.\n# All specified values are in the same order as the joint names in JointTrajectory.msg.\n\n# Single DOF joint positions for each joint relative to their \"0\" position.\n# The units depend on the specific joint type: radians for revolute or\n# continuous joints, and meters for prismatic joints.\nfloat64[] positions\n\n# The rate of change in position of each joint. Units are joint type dependent.\n# Radians/second for revolute or continuous joints, and meters/second for\n# prismatic joints.\nfloat64[] velocities\n\n# Rate of change in velocity of each joint. Units are joint type dependent.\n# Radians/second^2 for revolute or continuous joints, and meters/second^2 for\n# prismatic joints.\nfloat64[] accelerations\n\n# The torque or the force to be applied at each joint. For revolute/continuous\n# joints effort denotes a torque in newton-meters. For prismatic joints, effort\n# denotes a force in newtons.\nfloat64[] effort\n\n# Desired time from the trajectory start to arrive at this trajectory point.\nbuiltin_interfaces/Duration time_from_start"
     )]
     pub struct JointTrajectoryPoint {
         /// Single DOF joint positions for each joint relative to their "0" position.
@@ -114,10 +116,7 @@ pub mod msg {
     ///
     /// [`JointTrajectoryPoint`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "trajectory_msgs/msg/JointTrajectoryPoint",
-        crate = "crate"
-    )]
+    #[ros(type_name = "trajectory_msgs/msg/JointTrajectoryPoint", crate = "crate", source = <JointTrajectoryPoint as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct JointTrajectoryPointRef<'a> {
         /// Single DOF joint positions for each joint relative to their "0" position.
         /// The units depend on the specific joint type: radians for revolute or
@@ -161,7 +160,8 @@ pub mod msg {
     #[ros(
         type_name = "trajectory_msgs/msg/MultiDOFJointTrajectory",
         crate = "crate",
-        loan
+        loan,
+        source = "# The header is used to specify the coordinate frame and the reference time for the trajectory durations\nstd_msgs/Header header\n\n# A representation of a multi-dof joint trajectory (each point is a transformation)\n# Each point along the trajectory will include an array of positions/velocities/accelerations\n# that has the same length as the array of joint names, and has the same order of joints as \n# the joint names array.\n\nstring[] joint_names\nMultiDOFJointTrajectoryPoint[] points"
     )]
     pub struct MultiDOFJointTrajectory {
         /// The header is used to specify the coordinate frame and the reference time for the trajectory durations
@@ -184,10 +184,7 @@ pub mod msg {
 
     /// [`MultiDOFJointTrajectory`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "trajectory_msgs/msg/MultiDOFJointTrajectory",
-        crate = "crate"
-    )]
+    #[ros(type_name = "trajectory_msgs/msg/MultiDOFJointTrajectory", crate = "crate", source = <MultiDOFJointTrajectory as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MultiDOFJointTrajectoryRef<'a> {
         /// The header is used to specify the coordinate frame and the reference time for the trajectory durations
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -217,7 +214,8 @@ pub mod msg {
     #[ros(
         type_name = "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint",
         crate = "crate",
-        loan
+        loan,
+        source = "# Each multi-dof joint can specify a transform (up to 6 DOF).\ngeometry_msgs/Transform[] transforms\n\n# There can be a velocity specified for the origin of the joint.\ngeometry_msgs/Twist[] velocities\n\n# There can be an acceleration specified for the origin of the joint.\ngeometry_msgs/Twist[] accelerations\n\n# Desired time from the trajectory start to arrive at this trajectory point.\nbuiltin_interfaces/Duration time_from_start"
     )]
     pub struct MultiDOFJointTrajectoryPoint {
         /// Each multi-dof joint can specify a transform (up to 6 DOF).
@@ -243,10 +241,7 @@ pub mod msg {
 
     /// [`MultiDOFJointTrajectoryPoint`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint",
-        crate = "crate"
-    )]
+    #[ros(type_name = "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint", crate = "crate", source = <MultiDOFJointTrajectoryPoint as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MultiDOFJointTrajectoryPointRef<'a> {
         /// Each multi-dof joint can specify a transform (up to 6 DOF).
         pub transforms: ::std::borrow::Cow<'a, [super::super::geometry_msgs::msg::Transform]>,

@@ -12,7 +12,8 @@ pub mod msg {
     #[ros(
         type_name = "type_description_interfaces/msg/Field",
         crate = "crate",
-        loan
+        loan,
+        source = "# Represents a single field in a type.\n\n# Name of the field.\nstring name\n# Type of the field, including details about the type like length, nested name, etc.\nFieldType type\n# Literal default value of the field as a string, as it appeared in the original\n# message description file, whether that be .msg/.srv/.action or .idl.\nstring default_value"
     )]
     pub struct Field {
         /// Name of the field.
@@ -38,7 +39,7 @@ pub mod msg {
     ///
     /// [`Field`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "type_description_interfaces/msg/Field", crate = "crate")]
+    #[ros(type_name = "type_description_interfaces/msg/Field", crate = "crate", source = <Field as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct FieldRef<'a> {
         /// Name of the field.
         pub name: ::std::borrow::Cow<'a, str>,
@@ -71,10 +72,12 @@ pub mod msg {
     #[ros(
         type_name = "type_description_interfaces/msg/FieldType",
         crate = "crate",
-        loan
+        loan,
+        source = "# Represents the type of a field and related meta-data.\n\n# A constant for each type supported according to:\n#   http://design.ros2.org/articles/legacy_interface_definition.html\n# and:\n#   http://design.ros2.org/articles/idl_interface_definition.html\n# Order is loosely coupled to the order of appearance in the IDL 4.2 spec:\n#  https://www.omg.org/spec/IDL/4.2\n\n# Layout of constants across the 0-255 decimal values in the uint8:\n#\n# - 000    : Reserved for \"not set\"\n# - 001-048: Primitive types, strings, and reserved space for future primitive types\n# - 049-096: Fixed sized array of primitive and string types\n# - 097-144: Bounded Sequences of primitive and string types\n# - 145-192: Unbounded Sequences of primitive and string types\n# - 193-255: Reserved space for future array/sequence-like types\n\nuint8 FIELD_TYPE_NOT_SET = 0\n\n# Nested type defined in other .msg/.idl files.\nuint8 FIELD_TYPE_NESTED_TYPE = 1\n\n# Integer Types\nuint8 FIELD_TYPE_INT8 = 2\nuint8 FIELD_TYPE_UINT8 = 3\nuint8 FIELD_TYPE_INT16 = 4\nuint8 FIELD_TYPE_UINT16 = 5\nuint8 FIELD_TYPE_INT32 = 6\nuint8 FIELD_TYPE_UINT32 = 7\nuint8 FIELD_TYPE_INT64 = 8\nuint8 FIELD_TYPE_UINT64 = 9\n\n# Floating-Point Types\nuint8 FIELD_TYPE_FLOAT = 10\nuint8 FIELD_TYPE_DOUBLE = 11\nuint8 FIELD_TYPE_LONG_DOUBLE = 12\n\n# Char and WChar Types\nuint8 FIELD_TYPE_CHAR = 13\nuint8 FIELD_TYPE_WCHAR = 14\n\n# Boolean Type\nuint8 FIELD_TYPE_BOOLEAN = 15\n\n# Byte/Octet Type\nuint8 FIELD_TYPE_BYTE = 16\n\n# String Types\nuint8 FIELD_TYPE_STRING = 17\nuint8 FIELD_TYPE_WSTRING = 18\n\n# Fixed String Types\nuint8 FIELD_TYPE_FIXED_STRING = 19\nuint8 FIELD_TYPE_FIXED_WSTRING = 20\n\n# Bounded String Types\nuint8 FIELD_TYPE_BOUNDED_STRING = 21\nuint8 FIELD_TYPE_BOUNDED_WSTRING = 22\n\n# Fixed Sized Array Types\nuint8 FIELD_TYPE_NESTED_TYPE_ARRAY = 49\nuint8 FIELD_TYPE_INT8_ARRAY = 50\nuint8 FIELD_TYPE_UINT8_ARRAY = 51\nuint8 FIELD_TYPE_INT16_ARRAY = 52\nuint8 FIELD_TYPE_UINT16_ARRAY = 53\nuint8 FIELD_TYPE_INT32_ARRAY = 54\nuint8 FIELD_TYPE_UINT32_ARRAY = 55\nuint8 FIELD_TYPE_INT64_ARRAY = 56\nuint8 FIELD_TYPE_UINT64_ARRAY = 57\nuint8 FIELD_TYPE_FLOAT_ARRAY = 58\nuint8 FIELD_TYPE_DOUBLE_ARRAY = 59\nuint8 FIELD_TYPE_LONG_DOUBLE_ARRAY = 60\nuint8 FIELD_TYPE_CHAR_ARRAY = 61\nuint8 FIELD_TYPE_WCHAR_ARRAY = 62\nuint8 FIELD_TYPE_BOOLEAN_ARRAY = 63\nuint8 FIELD_TYPE_BYTE_ARRAY = 64\nuint8 FIELD_TYPE_STRING_ARRAY = 65\nuint8 FIELD_TYPE_WSTRING_ARRAY = 66\nuint8 FIELD_TYPE_FIXED_STRING_ARRAY = 67\nuint8 FIELD_TYPE_FIXED_WSTRING_ARRAY = 68\nuint8 FIELD_TYPE_BOUNDED_STRING_ARRAY = 69\nuint8 FIELD_TYPE_BOUNDED_WSTRING_ARRAY = 70\n\n# Bounded Sequence Types\nuint8 FIELD_TYPE_NESTED_TYPE_BOUNDED_SEQUENCE = 97\nuint8 FIELD_TYPE_INT8_BOUNDED_SEQUENCE = 98\nuint8 FIELD_TYPE_UINT8_BOUNDED_SEQUENCE = 99\nuint8 FIELD_TYPE_INT16_BOUNDED_SEQUENCE = 100\nuint8 FIELD_TYPE_UINT16_BOUNDED_SEQUENCE = 101\nuint8 FIELD_TYPE_INT32_BOUNDED_SEQUENCE = 102\nuint8 FIELD_TYPE_UINT32_BOUNDED_SEQUENCE = 103\nuint8 FIELD_TYPE_INT64_BOUNDED_SEQUENCE = 104\nuint8 FIELD_TYPE_UINT64_BOUNDED_SEQUENCE = 105\nuint8 FIELD_TYPE_FLOAT_BOUNDED_SEQUENCE = 106\nuint8 FIELD_TYPE_DOUBLE_BOUNDED_SEQUENCE = 107\nuint8 FIELD_TYPE_LONG_DOUBLE_BOUNDED_SEQUENCE = 108\nuint8 FIELD_TYPE_CHAR_BOUNDED_SEQUENCE = 109\nuint8 FIELD_TYPE_WCHAR_BOUNDED_SEQUENCE = 110\nuint8 FIELD_TYPE_BOOLEAN_BOUNDED_SEQUENCE = 111\nuint8 FIELD_TYPE_BYTE_BOUNDED_SEQUENCE = 112\nuint8 FIELD_TYPE_STRING_BOUNDED_SEQUENCE = 113\nuint8 FIELD_TYPE_WSTRING_BOUNDED_SEQUENCE = 114\nuint8 FIELD_TYPE_FIXED_STRING_BOUNDED_SEQUENCE = 115\nuint8 FIELD_TYPE_FIXED_WSTRING_BOUNDED_SEQUENCE = 116\nuint8 FIELD_TYPE_BOUNDED_STRING_BOUNDED_SEQUENCE = 117\nuint8 FIELD_TYPE_BOUNDED_WSTRING_BOUNDED_SEQUENCE = 118\n\n# Unbounded Sequence Types\nuint8 FIELD_TYPE_NESTED_TYPE_UNBOUNDED_SEQUENCE = 145\nuint8 FIELD_TYPE_INT8_UNBOUNDED_SEQUENCE = 146\nuint8 FIELD_TYPE_UINT8_UNBOUNDED_SEQUENCE = 147\nuint8 FIELD_TYPE_INT16_UNBOUNDED_SEQUENCE = 148\nuint8 FIELD_TYPE_UINT16_UNBOUNDED_SEQUENCE = 149\nuint8 FIELD_TYPE_INT32_UNBOUNDED_SEQUENCE = 150\nuint8 FIELD_TYPE_UINT32_UNBOUNDED_SEQUENCE = 151\nuint8 FIELD_TYPE_INT64_UNBOUNDED_SEQUENCE = 152\nuint8 FIELD_TYPE_UINT64_UNBOUNDED_SEQUENCE = 153\nuint8 FIELD_TYPE_FLOAT_UNBOUNDED_SEQUENCE = 154\nuint8 FIELD_TYPE_DOUBLE_UNBOUNDED_SEQUENCE = 155\nuint8 FIELD_TYPE_LONG_DOUBLE_UNBOUNDED_SEQUENCE = 156\nuint8 FIELD_TYPE_CHAR_UNBOUNDED_SEQUENCE = 157\nuint8 FIELD_TYPE_WCHAR_UNBOUNDED_SEQUENCE = 158\nuint8 FIELD_TYPE_BOOLEAN_UNBOUNDED_SEQUENCE = 159\nuint8 FIELD_TYPE_BYTE_UNBOUNDED_SEQUENCE = 160\nuint8 FIELD_TYPE_STRING_UNBOUNDED_SEQUENCE = 161\nuint8 FIELD_TYPE_WSTRING_UNBOUNDED_SEQUENCE = 162\nuint8 FIELD_TYPE_FIXED_STRING_UNBOUNDED_SEQUENCE = 163\nuint8 FIELD_TYPE_FIXED_WSTRING_UNBOUNDED_SEQUENCE = 164\nuint8 FIELD_TYPE_BOUNDED_STRING_UNBOUNDED_SEQUENCE = 165\nuint8 FIELD_TYPE_BOUNDED_WSTRING_UNBOUNDED_SEQUENCE = 166\n\n# Identifying number for the type of the field, using one of the above constants.\nuint8 type_id 0\n\n# Only used when the type is an array or a bounded sequence.\n# In the case of an array, this is the fixed capacity of the array.\n# In the case of a bounded sequence, this is the maximum capacity of the sequence.\n# In all other cases this field is unused.\nuint64 capacity\n\n# Only used when the type is a fixed or bounded string/wstring, or a array/sequence of those.\n# In the case of a fixed string/wstring, it is the fixed length of the string.\n# In the case of a bounded string/wstring, it is the maximum capacity of the string.\n# In the case of an array/sequence of fixed string/wstring, it is the fixed length of the strings.\n# In the case of an array/sequence of bounded string/wstring, it is the maximum capacity of the strings.\n# It is not currently possible to have different string capacities per element in the array/sequence.\nuint64 string_capacity\n\n# Only used when the type is a nested type or array/sequence of nested types.\n# This is limited to 255 characters.\n# TODO(wjwwood): this 255 character limit was chosen due to this being the limit\n#   for DDSI-RTPS based middlewares, which is the most commonly used right now.\n#   We lack a ROS 2 specific limit in our design documents, but we should update\n#   this and/or link to the design doc when that is available.\nstring<=255 nested_type_name"
     )]
     pub struct FieldType {
         /// Identifying number for the type of the field, using one of the above constants.
+        #[ros(default_value = "0")]
         pub type_id: u8,
         /// Only used when the type is an array or a bounded sequence.
         /// In the case of an array, this is the fixed capacity of the array.
@@ -301,7 +304,8 @@ pub mod msg {
     #[ros(
         type_name = "type_description_interfaces/msg/IndividualTypeDescription",
         crate = "crate",
-        loan
+        loan,
+        source = "# Represents a single type, without the types it references, if any.\n\n# Name of the type.\n# This is limited to 255 characters.\n# TODO(wjwwood): this 255 character limit was chosen due to this being the limit\n#   for DDSI-RTPS based middlewares, which is the most commonly used right now.\n#   We lack a ROS 2 specific limit in our design documents, but we should update\n#   this and/or link to the design doc when that is available.\nstring<=255 type_name\n# Fields of the type.\nField[] fields"
     )]
     pub struct IndividualTypeDescription {
         /// Name of the type.
@@ -328,10 +332,7 @@ pub mod msg {
     ///
     /// [`IndividualTypeDescription`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "type_description_interfaces/msg/IndividualTypeDescription",
-        crate = "crate"
-    )]
+    #[ros(type_name = "type_description_interfaces/msg/IndividualTypeDescription", crate = "crate", source = <IndividualTypeDescription as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct IndividualTypeDescriptionRef<'a> {
         /// Name of the type.
         /// This is limited to 255 characters.
@@ -365,7 +366,8 @@ pub mod msg {
     #[ros(
         type_name = "type_description_interfaces/msg/KeyValue",
         crate = "crate",
-        loan
+        loan,
+        source = "# Represents an arbitrary key-value pair for application-specific information.\n\nstring key\nstring value"
     )]
     pub struct KeyValue {
         /// `string key`
@@ -387,10 +389,7 @@ pub mod msg {
     ///
     /// [`KeyValue`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "type_description_interfaces/msg/KeyValue",
-        crate = "crate"
-    )]
+    #[ros(type_name = "type_description_interfaces/msg/KeyValue", crate = "crate", source = <KeyValue as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct KeyValueRef<'a> {
         /// `string key`
         pub key: ::std::borrow::Cow<'a, str>,
@@ -419,7 +418,8 @@ pub mod msg {
     #[ros(
         type_name = "type_description_interfaces/msg/TypeDescription",
         crate = "crate",
-        loan
+        loan,
+        source = "# Represents a complete type description, including the type itself as well as the types it references.\n\n# Description of the type.\nIndividualTypeDescription type_description\n# Descriptions of all referenced types, recursively.\nIndividualTypeDescription[] referenced_type_descriptions"
     )]
     pub struct TypeDescription {
         /// Description of the type.
@@ -441,10 +441,7 @@ pub mod msg {
     ///
     /// [`TypeDescription`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "type_description_interfaces/msg/TypeDescription",
-        crate = "crate"
-    )]
+    #[ros(type_name = "type_description_interfaces/msg/TypeDescription", crate = "crate", source = <TypeDescription as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TypeDescriptionRef<'a> {
         /// Description of the type.
         pub type_description: IndividualTypeDescriptionRef<'a>,
@@ -473,7 +470,8 @@ pub mod msg {
     #[ros(
         type_name = "type_description_interfaces/msg/TypeSource",
         crate = "crate",
-        loan
+        loan,
+        source = "# Represents the original source of a ROS 2 interface definition.\n\n# ROS interface type name, in PACKAGE/NAMESPACE/TYPENAME format.\nstring type_name\n\n# The type of the original source file, typically matching the file extension.\n# Well-known encodings: \"idl\", \"msg\", \"srv\", \"action\", \"dynamic\", \"implicit\".\n# \"dynamic\" specifies a type created programmatically by a user, thus having no source.\n# \"implicit\" specifies a type created automatically as a subtype of a\n# complex type (service or action) - such as the request message for a service.\n# Implicit types will have no contents, the full source will be available on the parent srv/action.\nstring encoding\n\n# Dumped contents of the interface definition source file.\n# If `encoding` is \"dynamic\" or \"implicit\", this field will be empty.\nstring raw_file_contents"
     )]
     pub struct TypeSource {
         /// ROS interface type name, in PACKAGE/NAMESPACE/TYPENAME format.
@@ -504,10 +502,7 @@ pub mod msg {
     ///
     /// [`TypeSource`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "type_description_interfaces/msg/TypeSource",
-        crate = "crate"
-    )]
+    #[ros(type_name = "type_description_interfaces/msg/TypeSource", crate = "crate", source = <TypeSource as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct TypeSourceRef<'a> {
         /// ROS interface type name, in PACKAGE/NAMESPACE/TYPENAME format.
         pub type_name: ::std::borrow::Cow<'a, str>,
@@ -547,7 +542,8 @@ pub mod srv {
     #[ros(
         type_name = "type_description_interfaces/srv/GetTypeDescription_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetTypeDescription_Request {
         /// ROS interface type name, in PACKAGE/NAMESPACE/TYPENAME format.
@@ -555,6 +551,7 @@ pub mod srv {
         /// REP-2011 RIHS hash string.
         pub type_hash: ::std::string::String,
         /// Whether to return the original idl/msg/etc. source file(s) in the response.
+        #[ros(default_value = "True")]
         pub include_type_sources: bool,
     }
 
@@ -572,7 +569,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "type_description_interfaces/srv/GetTypeDescription_Request",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetTypeDescription_RequestRef<'a> {
         /// ROS interface type name, in PACKAGE/NAMESPACE/TYPENAME format.
@@ -580,6 +578,7 @@ pub mod srv {
         /// REP-2011 RIHS hash string.
         pub type_hash: ::std::borrow::Cow<'a, str>,
         /// Whether to return the original idl/msg/etc. source file(s) in the response.
+        #[ros(default_value = "True")]
         pub include_type_sources: bool,
     }
 
@@ -603,7 +602,8 @@ pub mod srv {
     #[ros(
         type_name = "type_description_interfaces/srv/GetTypeDescription_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetTypeDescription_Response {
         /// True if the type description information is available and populated in the response.
@@ -643,7 +643,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "type_description_interfaces/srv/GetTypeDescription_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetTypeDescription_ResponseRef<'a> {
         /// True if the type description information is available and populated in the response.
@@ -692,7 +693,8 @@ pub mod srv {
     #[ros(
         type_name = "type_description_interfaces/srv/GetTypeDescription_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetTypeDescription_Event {
         /// What happened, when, and to which call.
@@ -719,7 +721,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "type_description_interfaces/srv/GetTypeDescription_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetTypeDescription_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -755,6 +758,7 @@ pub mod srv {
         type Request = GetTypeDescription_Request;
         type Response = GetTypeDescription_Response;
         type Event = GetTypeDescription_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "# ROS interface type name, in PACKAGE/NAMESPACE/TYPENAME format.\nstring type_name\n\n# REP-2011 RIHS hash string.\nstring type_hash\n\n# Whether to return the original idl/msg/etc. source file(s) in the response.\nbool include_type_sources true\n---\n# True if the type description information is available and populated in the response.\n# If false, all other fields except `failure_reason` are considered undefined.\nbool successful\n# If `successful` is false, contains a reason for failure.\n# If `successful` is true, this is left empty.\nstring failure_reason\n\n# The parsed type description which can be used programmatically.\nTypeDescription type_description\n\n# A list containing the interface definition source text of the requested type,\n# plus all types it recursively depends on.\n# Each source text is a copy of the original contents of the\n# .msg, .srv, .action, .idl, or other file if it exists, including comments and whitespace.\n# Sources can be matched with IndividualTypeDescriptions by their `type_name`.\n# The `encoding` field of each entry informs how to interpret its contents.\nTypeSource[] type_sources\n\n# Key-value pairs of extra information.\nKeyValue[] extra_information");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

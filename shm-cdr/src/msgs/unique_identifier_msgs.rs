@@ -12,7 +12,12 @@ pub mod msg {
     /// `unique_identifier_msgs/msg/UUID` (from `msg/UUID.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "unique_identifier_msgs/msg/UUID", crate = "crate", loan)]
+    #[ros(
+        type_name = "unique_identifier_msgs/msg/UUID",
+        crate = "crate",
+        loan,
+        source = "# A universally unique identifier (UUID).\n#\n#  http://en.wikipedia.org/wiki/Universally_unique_identifier\n#  http://tools.ietf.org/html/rfc4122.html\n\nuint8[16] uuid"
+    )]
     #[repr(C)]
     pub struct UUID {
         /// `uint8[16] uuid`

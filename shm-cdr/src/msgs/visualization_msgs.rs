@@ -10,7 +10,8 @@ pub mod msg {
     #[ros(
         type_name = "visualization_msgs/msg/ImageMarker",
         crate = "crate",
-        loan
+        loan,
+        source = "int32 CIRCLE=0\nint32 LINE_STRIP=1\nint32 LINE_LIST=2\nint32 POLYGON=3\nint32 POINTS=4\n\nint32 ADD=0\nint32 REMOVE=1\n\nstd_msgs/Header header\n# Namespace which is used with the id to form a unique id.\nstring ns\n# Unique id within the namespace.\nint32 id\n# One of the above types, e.g. CIRCLE, LINE_STRIP, etc.\nint32 type\n# Either ADD or REMOVE.\nint32 action\n# Two-dimensional coordinate position, in pixel-coordinates.\ngeometry_msgs/Point position\n# The scale of the object, e.g. the diameter for a CIRCLE.\nfloat32 scale\n# The outline color of the marker.\nstd_msgs/ColorRGBA outline_color\n# Whether or not to fill in the shape with color.\nuint8 filled\n# Fill color; in the range: [0.0-1.0]\nstd_msgs/ColorRGBA fill_color\n# How long the object should last before being automatically deleted.\n# 0 indicates forever.\nbuiltin_interfaces/Duration lifetime\n\n# Coordinates in 2D in pixel coords. Used for LINE_STRIP, LINE_LIST, POINTS, etc.\ngeometry_msgs/Point[] points\n# The color for each line, point, etc. in the points field.\nstd_msgs/ColorRGBA[] outline_colors"
     )]
     pub struct ImageMarker {
         /// `std_msgs/Header header`
@@ -81,7 +82,7 @@ pub mod msg {
 
     /// [`ImageMarker`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "visualization_msgs/msg/ImageMarker", crate = "crate")]
+    #[ros(type_name = "visualization_msgs/msg/ImageMarker", crate = "crate", source = <ImageMarker as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ImageMarkerRef<'a> {
         /// `std_msgs/Header header`
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -142,7 +143,8 @@ pub mod msg {
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarker",
         crate = "crate",
-        loan
+        loan,
+        source = "# Time/frame info.\n# If header.time is set to 0, the marker will be retransformed into\n# its frame on each timestep. You will receive the pose feedback\n# in the same frame.\n# Otherwise, you might receive feedback in a different frame.\n# For rviz, this will be the current 'fixed frame' set by the user.\nstd_msgs/Header header\n\n# Initial pose. Also, defines the pivot point for rotations.\ngeometry_msgs/Pose pose\n\n# Identifying string. Must be globally unique in\n# the topic that this message is sent through.\nstring name\n\n# Short description (< 40 characters).\nstring description\n\n# Scale to be used for default controls (default=1).\nfloat32 scale\n\n# All menu and submenu entries associated with this marker.\nMenuEntry[] menu_entries\n\n# List of controls displayed for this marker.\nInteractiveMarkerControl[] controls"
     )]
     pub struct InteractiveMarker {
         /// Time/frame info.
@@ -183,10 +185,7 @@ pub mod msg {
 
     /// [`InteractiveMarker`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "visualization_msgs/msg/InteractiveMarker",
-        crate = "crate"
-    )]
+    #[ros(type_name = "visualization_msgs/msg/InteractiveMarker", crate = "crate", source = <InteractiveMarker as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct InteractiveMarkerRef<'a> {
         /// Time/frame info.
         /// If header.time is set to 0, the marker will be retransformed into
@@ -236,7 +235,8 @@ pub mod msg {
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarkerControl",
         crate = "crate",
-        loan
+        loan,
+        source = "# Represents a control that is to be displayed together with an interactive marker\n\n# Identifying string for this control.\n# You need to assign a unique value to this to receive feedback from the GUI\n# on what actions the user performs on this control (e.g. a button click).\nstring name\n\n\n# Defines the local coordinate frame (relative to the pose of the parent\n# interactive marker) in which is being rotated and translated.\n# Default: Identity\ngeometry_msgs/Quaternion orientation\n\n\n# Orientation mode: controls how orientation changes.\n# INHERIT: Follow orientation of interactive marker\n# FIXED: Keep orientation fixed at initial state\n# VIEW_FACING: Align y-z plane with screen (x: forward, y:left, z:up).\nuint8 INHERIT = 0\nuint8 FIXED = 1\nuint8 VIEW_FACING = 2\n\nuint8 orientation_mode\n\n# Interaction mode for this control\n#\n# NONE: This control is only meant for visualization; no context menu.\n# MENU: Like NONE, but right-click menu is active.\n# BUTTON: Element can be left-clicked.\n# MOVE_AXIS: Translate along local x-axis.\n# MOVE_PLANE: Translate in local y-z plane.\n# ROTATE_AXIS: Rotate around local x-axis.\n# MOVE_ROTATE: Combines MOVE_PLANE and ROTATE_AXIS.\nuint8 NONE = 0\nuint8 MENU = 1\nuint8 BUTTON = 2\nuint8 MOVE_AXIS = 3\nuint8 MOVE_PLANE = 4\nuint8 ROTATE_AXIS = 5\nuint8 MOVE_ROTATE = 6\n# \"3D\" interaction modes work with the mouse+SHIFT+CTRL or with 3D cursors.\n# MOVE_3D: Translate freely in 3D space.\n# ROTATE_3D: Rotate freely in 3D space about the origin of parent frame.\n# MOVE_ROTATE_3D: Full 6-DOF freedom of translation and rotation about the cursor origin.\nuint8 MOVE_3D = 7\nuint8 ROTATE_3D = 8\nuint8 MOVE_ROTATE_3D = 9\n\nuint8 interaction_mode\n\n\n# If true, the contained markers will also be visible\n# when the gui is not in interactive mode.\nbool always_visible\n\n\n# Markers to be displayed as custom visual representation.\n# Leave this empty to use the default control handles.\n#\n# Note:\n# - The markers can be defined in an arbitrary coordinate frame,\n#   but will be transformed into the local frame of the interactive marker.\n# - If the header of a marker is empty, its pose will be interpreted as\n#   relative to the pose of the parent interactive marker.\nMarker[] markers\n\n\n# In VIEW_FACING mode, set this to true if you don't want the markers\n# to be aligned with the camera view point. The markers will show up\n# as in INHERIT mode.\nbool independent_marker_orientation\n\n\n# Short description (< 40 characters) of what this control does,\n# e.g. \"Move the robot\".\n# Default: A generic description based on the interaction mode\nstring description"
     )]
     pub struct InteractiveMarkerControl {
         /// Identifying string for this control.
@@ -335,10 +335,7 @@ pub mod msg {
     ///
     /// [`InteractiveMarkerControl`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "visualization_msgs/msg/InteractiveMarkerControl",
-        crate = "crate"
-    )]
+    #[ros(type_name = "visualization_msgs/msg/InteractiveMarkerControl", crate = "crate", source = <InteractiveMarkerControl as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct InteractiveMarkerControlRef<'a> {
         /// Identifying string for this control.
         /// You need to assign a unique value to this to receive feedback from the GUI
@@ -399,7 +396,8 @@ pub mod msg {
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarkerFeedback",
         crate = "crate",
-        loan
+        loan,
+        source = "# Time/frame info.\nstd_msgs/Header header\n\n# Identifying string. Must be unique in the topic namespace.\nstring client_id\n\n# Feedback message sent back from the GUI, e.g.\n# when the status of an interactive marker was modified by the user.\n\n# Specifies which interactive marker and control this message refers to\nstring marker_name\nstring control_name\n\n# Type of the event\n# KEEP_ALIVE: sent while dragging to keep up control of the marker\n# MENU_SELECT: a menu entry has been selected\n# BUTTON_CLICK: a button control has been clicked\n# POSE_UPDATE: the pose has been changed using one of the controls\nuint8 KEEP_ALIVE = 0\nuint8 POSE_UPDATE = 1\nuint8 MENU_SELECT = 2\nuint8 BUTTON_CLICK = 3\n\nuint8 MOUSE_DOWN = 4\nuint8 MOUSE_UP = 5\n\nuint8 event_type\n\n# Current pose of the marker\n# Note: Has to be valid for all feedback types.\ngeometry_msgs/Pose pose\n\n# Contains the ID of the selected menu entry\n# Only valid for MENU_SELECT events.\nuint32 menu_entry_id\n\n# If event_type is BUTTON_CLICK, MOUSE_DOWN, or MOUSE_UP, mouse_point\n# may contain the 3 dimensional position of the event on the\n# control.  If it does, mouse_point_valid will be true.  mouse_point\n# will be relative to the frame listed in the header.\ngeometry_msgs/Point mouse_point\nbool mouse_point_valid"
     )]
     pub struct InteractiveMarkerFeedback {
         /// Time/frame info.
@@ -464,10 +462,7 @@ pub mod msg {
 
     /// [`InteractiveMarkerFeedback`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "visualization_msgs/msg/InteractiveMarkerFeedback",
-        crate = "crate"
-    )]
+    #[ros(type_name = "visualization_msgs/msg/InteractiveMarkerFeedback", crate = "crate", source = <InteractiveMarkerFeedback as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct InteractiveMarkerFeedbackRef<'a> {
         /// Time/frame info.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -520,7 +515,8 @@ pub mod msg {
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarkerInit",
         crate = "crate",
-        loan
+        loan,
+        source = "# Identifying string. Must be unique in the topic namespace\n# that this server works on.\nstring server_id\n\n# Sequence number.\n# The client will use this to detect if it has missed a subsequent\n# update.  Every update message will have the same sequence number as\n# an init message.  Clients will likely want to unsubscribe from the\n# init topic after a successful initialization to avoid receiving\n# duplicate data.\nuint64 seq_num\n\n# All markers.\nInteractiveMarker[] markers"
     )]
     pub struct InteractiveMarkerInit {
         /// Identifying string. Must be unique in the topic namespace
@@ -549,10 +545,7 @@ pub mod msg {
 
     /// [`InteractiveMarkerInit`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "visualization_msgs/msg/InteractiveMarkerInit",
-        crate = "crate"
-    )]
+    #[ros(type_name = "visualization_msgs/msg/InteractiveMarkerInit", crate = "crate", source = <InteractiveMarkerInit as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct InteractiveMarkerInitRef<'a> {
         /// Identifying string. Must be unique in the topic namespace
         /// that this server works on.
@@ -588,7 +581,8 @@ pub mod msg {
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarkerPose",
         crate = "crate",
-        loan
+        loan,
+        source = "\n# Time/frame info.\nstd_msgs/Header header\n\n# Initial pose. Also, defines the pivot point for rotations.\ngeometry_msgs/Pose pose\n\n# Identifying string. Must be globally unique in\n# the topic that this message is sent through.\nstring name"
     )]
     pub struct InteractiveMarkerPose {
         /// Time/frame info.
@@ -612,10 +606,7 @@ pub mod msg {
 
     /// [`InteractiveMarkerPose`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "visualization_msgs/msg/InteractiveMarkerPose",
-        crate = "crate"
-    )]
+    #[ros(type_name = "visualization_msgs/msg/InteractiveMarkerPose", crate = "crate", source = <InteractiveMarkerPose as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct InteractiveMarkerPoseRef<'a> {
         /// Time/frame info.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -646,7 +637,8 @@ pub mod msg {
     #[ros(
         type_name = "visualization_msgs/msg/InteractiveMarkerUpdate",
         crate = "crate",
-        loan
+        loan,
+        source = "\n# Identifying string. Must be unique in the topic namespace\n# that this server works on.\nstring server_id\n\n# Sequence number.\n# The client will use this to detect if it has missed an update.\nuint64 seq_num\n\n# Type holds the purpose of this message.  It must be one of UPDATE or KEEP_ALIVE.\n# UPDATE: Incremental update to previous state.\n#         The sequence number must be 1 higher than for\n#         the previous update.\n# KEEP_ALIVE: Indicates the that the server is still living.\n#             The sequence number does not increase.\n#             No payload data should be filled out (markers, poses, or erases).\nuint8 KEEP_ALIVE = 0\nuint8 UPDATE = 1\n\nuint8 type\n\n# Note: No guarantees on the order of processing.\n#       Contents must be kept consistent by sender.\n\n# Markers to be added or updated\nInteractiveMarker[] markers\n\n# Poses of markers that should be moved\nInteractiveMarkerPose[] poses\n\n# Names of markers to be erased\nstring[] erases"
     )]
     pub struct InteractiveMarkerUpdate {
         /// Identifying string. Must be unique in the topic namespace
@@ -693,10 +685,7 @@ pub mod msg {
 
     /// [`InteractiveMarkerUpdate`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "visualization_msgs/msg/InteractiveMarkerUpdate",
-        crate = "crate"
-    )]
+    #[ros(type_name = "visualization_msgs/msg/InteractiveMarkerUpdate", crate = "crate", source = <InteractiveMarkerUpdate as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct InteractiveMarkerUpdateRef<'a> {
         /// Identifying string. Must be unique in the topic namespace
         /// that this server works on.
@@ -740,7 +729,12 @@ pub mod msg {
     /// `visualization_msgs/msg/Marker` (from `msg/Marker.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "visualization_msgs/msg/Marker", crate = "crate", loan)]
+    #[ros(
+        type_name = "visualization_msgs/msg/Marker",
+        crate = "crate",
+        loan,
+        source = "# See:\n#  - http://www.ros.org/wiki/rviz/DisplayTypes/Marker\n#  - http://www.ros.org/wiki/rviz/Tutorials/Markers%3A%20Basic%20Shapes\n#\n# for more information on using this message with rviz.\n\nint32 ARROW=0\nint32 CUBE=1\nint32 SPHERE=2\nint32 CYLINDER=3\nint32 LINE_STRIP=4\nint32 LINE_LIST=5\nint32 CUBE_LIST=6\nint32 SPHERE_LIST=7\nint32 POINTS=8\nint32 TEXT_VIEW_FACING=9\nint32 MESH_RESOURCE=10\nint32 TRIANGLE_LIST=11\nint32 ARROW_STRIP=12\n\nint32 ADD=0\nint32 MODIFY=0\nint32 DELETE=2\nint32 DELETEALL=3\n\n# Header for timestamp and frame id.\nstd_msgs/Header header\n# Namespace in which to place the object.\n# Used in conjunction with id to create a unique name for the object.\nstring ns\n# Object ID used in conjunction with the namespace for manipulating and deleting the object later.\nint32 id\n# Type of object.\nint32 type\n# Action to take; one of:\n#  - 0 add/modify an object\n#  - 1 (deprecated)\n#  - 2 deletes an object (with the given ns and id)\n#  - 3 deletes all objects (or those with the given ns if any)\nint32 action\n# Pose of the object with respect the frame_id specified in the header.\ngeometry_msgs/Pose pose\n# Scale of the object; 1,1,1 means default (usually 1 meter square).\ngeometry_msgs/Vector3 scale\n# Color of the object; in the range: [0.0-1.0]\nstd_msgs/ColorRGBA color\n# How long the object should last before being automatically deleted.\n# 0 indicates forever.\nbuiltin_interfaces/Duration lifetime\n# If this marker should be frame-locked, i.e. retransformed into its frame every timestep.\nbool frame_locked\n\n# Only used if the type specified has some use for them (eg. POINTS, LINE_STRIP, ARROW_STRIP, etc.)\ngeometry_msgs/Point[] points\n# Only used if the type specified has some use for them (eg. POINTS, LINE_STRIP, etc.)\n# The number of colors provided must either be 0 or equal to the number of points provided.\n# NOTE: alpha is not yet used\nstd_msgs/ColorRGBA[] colors\n\n# Texture resource is a special URI that can either reference a texture file in\n# a format acceptable to (resource retriever)[https://docs.ros.org/en/rolling/p/resource_retriever/]\n# or an embedded texture via a string matching the format:\n#   \"embedded://texture_name\"\nstring texture_resource\n# An image to be loaded into the rendering engine as the texture for this marker.\n# This will be used iff texture_resource is set to embedded.\nsensor_msgs/CompressedImage texture\n# Location of each vertex within the texture; in the range: [0.0-1.0]\nUVCoordinate[] uv_coordinates\n\n# Only used for text markers\nstring text\n\n# Only used for MESH_RESOURCE markers.\n# Similar to texture_resource, mesh_resource uses resource retriever to load a mesh.\n# Optionally, a mesh file can be sent in-message via the mesh_file field. If doing so,\n# use the following format for mesh_resource:\n#   \"embedded://mesh_name\"\nstring mesh_resource\nMeshFile mesh_file\nbool mesh_use_embedded_materials"
+    )]
     pub struct Marker {
         /// Header for timestamp and frame id.
         pub header: super::super::std_msgs::msg::Header,
@@ -869,7 +863,7 @@ pub mod msg {
     ///
     /// [`Marker`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "visualization_msgs/msg/Marker", crate = "crate")]
+    #[ros(type_name = "visualization_msgs/msg/Marker", crate = "crate", source = <Marker as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MarkerRef<'a> {
         /// Header for timestamp and frame id.
         pub header: super::super::std_msgs::msg::HeaderRef<'a>,
@@ -963,7 +957,8 @@ pub mod msg {
     #[ros(
         type_name = "visualization_msgs/msg/MarkerArray",
         crate = "crate",
-        loan
+        loan,
+        source = "Marker[] markers"
     )]
     pub struct MarkerArray {
         /// `visualization_msgs/Marker[] markers`
@@ -980,7 +975,7 @@ pub mod msg {
 
     /// [`MarkerArray`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "visualization_msgs/msg/MarkerArray", crate = "crate")]
+    #[ros(type_name = "visualization_msgs/msg/MarkerArray", crate = "crate", source = <MarkerArray as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MarkerArrayRef<'a> {
         /// `visualization_msgs/Marker[] markers`
         pub markers: ::std::vec::Vec<MarkerRef<'a>>,
@@ -1032,7 +1027,12 @@ pub mod msg {
     /// `visualization_msgs/msg/MenuEntry` (from `msg/MenuEntry.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "visualization_msgs/msg/MenuEntry", crate = "crate", loan)]
+    #[ros(
+        type_name = "visualization_msgs/msg/MenuEntry",
+        crate = "crate",
+        loan,
+        source = "# MenuEntry message.\n#\n# Each InteractiveMarker message has an array of MenuEntry messages.\n# A collection of MenuEntries together describe a\n# menu/submenu/subsubmenu/etc tree, though they are stored in a flat\n# array.  The tree structure is represented by giving each menu entry\n# an ID number and a \"parent_id\" field.  Top-level entries are the\n# ones with parent_id = 0.  Menu entries are ordered within their\n# level the same way they are ordered in the containing array.  Parent\n# entries must appear before their children.\n#\n# Example:\n# - id = 3\n#   parent_id = 0\n#   title = \"fun\"\n# - id = 2\n#   parent_id = 0\n#   title = \"robot\"\n# - id = 4\n#   parent_id = 2\n#   title = \"pr2\"\n# - id = 5\n#   parent_id = 2\n#   title = \"turtle\"\n#\n# Gives a menu tree like this:\n#  - fun\n#  - robot\n#    - pr2\n#    - turtle\n\n# ID is a number for each menu entry.  Must be unique within the\n# control, and should never be 0.\nuint32 id\n\n# ID of the parent of this menu entry, if it is a submenu.  If this\n# menu entry is a top-level entry, set parent_id to 0.\nuint32 parent_id\n\n# menu / entry title\nstring title\n\n# Arguments to command indicated by command_type (below)\nstring command\n\n# Command_type stores the type of response desired when this menu\n# entry is clicked.\n# FEEDBACK: send an InteractiveMarkerFeedback message with menu_entry_id set to this entry's id.\n# ROSRUN: execute \"rosrun\" with arguments given in the command field (above).\n# ROSLAUNCH: execute \"roslaunch\" with arguments given in the command field (above).\nuint8 FEEDBACK=0\nuint8 ROSRUN=1\nuint8 ROSLAUNCH=2\nuint8 command_type"
+    )]
     pub struct MenuEntry {
         /// ID is a number for each menu entry.  Must be unique within the
         /// control, and should never be 0.
@@ -1106,7 +1106,7 @@ pub mod msg {
     ///
     /// [`MenuEntry`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "visualization_msgs/msg/MenuEntry", crate = "crate")]
+    #[ros(type_name = "visualization_msgs/msg/MenuEntry", crate = "crate", source = <MenuEntry as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MenuEntryRef<'a> {
         /// ID is a number for each menu entry.  Must be unique within the
         /// control, and should never be 0.
@@ -1143,7 +1143,12 @@ pub mod msg {
     /// `visualization_msgs/msg/MeshFile` (from `msg/MeshFile.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
     #[cfg_attr(feature = "arbitrary", derive(arbitrary::Arbitrary))]
-    #[ros(type_name = "visualization_msgs/msg/MeshFile", crate = "crate", loan)]
+    #[ros(
+        type_name = "visualization_msgs/msg/MeshFile",
+        crate = "crate",
+        loan,
+        source = "# Used to send raw mesh files.\n\n# The filename is used for both debug purposes and to provide a file extension\n# for whatever parser is used.\nstring filename\n\n# This stores the raw text of the mesh file.\nuint8[] data"
+    )]
     pub struct MeshFile {
         /// The filename is used for both debug purposes and to provide a file extension
         /// for whatever parser is used.
@@ -1165,7 +1170,7 @@ pub mod msg {
     ///
     /// [`MeshFile`] borrowing its strings and byte sequences from the input it is decoded from: same type, same bytes, same hash.
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "visualization_msgs/msg/MeshFile", crate = "crate")]
+    #[ros(type_name = "visualization_msgs/msg/MeshFile", crate = "crate", source = <MeshFile as crate::RosMessage>::SOURCE.raw_file_contents)]
     pub struct MeshFileRef<'a> {
         /// The filename is used for both debug purposes and to provide a file extension
         /// for whatever parser is used.
@@ -1193,7 +1198,8 @@ pub mod msg {
     #[ros(
         type_name = "visualization_msgs/msg/UVCoordinate",
         crate = "crate",
-        loan
+        loan,
+        source = "# Location of the pixel as a ratio of the width of a 2D texture.\n# Values should be in range: [0.0-1.0].\nfloat32 u\nfloat32 v"
     )]
     #[repr(C)]
     pub struct UVCoordinate {
@@ -1227,7 +1233,8 @@ pub mod srv {
     #[ros(
         type_name = "visualization_msgs/srv/GetInteractiveMarkers_Request",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetInteractiveMarkers_Request;
 
@@ -1247,7 +1254,8 @@ pub mod srv {
     #[ros(
         type_name = "visualization_msgs/srv/GetInteractiveMarkers_Response",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetInteractiveMarkers_Response {
         /// Sequence number.
@@ -1272,7 +1280,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "visualization_msgs/srv/GetInteractiveMarkers_Response",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetInteractiveMarkers_ResponseRef<'a> {
         /// Sequence number.
@@ -1306,7 +1315,8 @@ pub mod srv {
     #[ros(
         type_name = "visualization_msgs/srv/GetInteractiveMarkers_Event",
         crate = "crate",
-        loan
+        loan,
+        source_encoding = "implicit"
     )]
     pub struct GetInteractiveMarkers_Event {
         /// What happened, when, and to which call.
@@ -1333,7 +1343,8 @@ pub mod srv {
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
     #[ros(
         type_name = "visualization_msgs/srv/GetInteractiveMarkers_Event",
-        crate = "crate"
+        crate = "crate",
+        source_encoding = "implicit"
     )]
     pub struct GetInteractiveMarkers_EventRef<'a> {
         /// What happened, when, and to which call.
@@ -1368,6 +1379,7 @@ pub mod srv {
         type Request = GetInteractiveMarkers_Request;
         type Response = GetInteractiveMarkers_Response;
         type Event = GetInteractiveMarkers_Event;
+        const SOURCE: crate::describe::TypeSource = crate::describe::TypeSource::file("srv", "---\n# Sequence number.\n# Set to the sequence number of the latest update message\n# at the time the server received the request.\n# Clients use this to detect if any updates were missed.\nuint64 sequence_number\n\n# All interactive markers provided by the server.\nInteractiveMarker[] markers");
 
         fn type_hash() -> &'static str {
             static HASH: ::std::sync::OnceLock<::std::string::String> =

@@ -8,11 +8,7 @@ pub mod msg {
     ///
     /// [`CompressedImage`](::shm_cdr::msgs::sensor_msgs::msg::CompressedImage) with its own byte sequences as [`ShmBytes`](crate::ShmBytes), which a publisher splices into the message without a copy when they sit in shared memory: same type, same bytes, same hash. `From<CompressedImage>` moves the fields over.
     #[derive(::shm_cdr::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(
-        type_name = "sensor_msgs/msg/CompressedImage",
-        crate = "::shm_cdr",
-        loan
-    )]
+    #[ros(type_name = "sensor_msgs/msg/CompressedImage", crate = "::shm_cdr", loan, source = <::shm_cdr::msgs::sensor_msgs::msg::CompressedImage as ::shm_cdr::RosMessage>::SOURCE.raw_file_contents)]
     pub struct CompressedImageShm {
         /// Header timestamp should be acquisition time of image
         pub header: ::shm_cdr::msgs::std_msgs::msg::Header,
@@ -49,7 +45,7 @@ pub mod msg {
     ///
     /// [`Image`](::shm_cdr::msgs::sensor_msgs::msg::Image) with its own byte sequences as [`ShmBytes`](crate::ShmBytes), which a publisher splices into the message without a copy when they sit in shared memory: same type, same bytes, same hash. `From<Image>` moves the fields over.
     #[derive(::shm_cdr::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/Image", crate = "::shm_cdr", loan)]
+    #[ros(type_name = "sensor_msgs/msg/Image", crate = "::shm_cdr", loan, source = <::shm_cdr::msgs::sensor_msgs::msg::Image as ::shm_cdr::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ImageShm {
         /// Header timestamp should be acquisition time of image
         pub header: ::shm_cdr::msgs::std_msgs::msg::Header,
@@ -106,7 +102,7 @@ pub mod msg {
     ///
     /// [`PointCloud2`](::shm_cdr::msgs::sensor_msgs::msg::PointCloud2) with its own byte sequences as [`ShmBytes`](crate::ShmBytes), which a publisher splices into the message without a copy when they sit in shared memory: same type, same bytes, same hash. `From<PointCloud2>` moves the fields over.
     #[derive(::shm_cdr::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "sensor_msgs/msg/PointCloud2", crate = "::shm_cdr", loan)]
+    #[ros(type_name = "sensor_msgs/msg/PointCloud2", crate = "::shm_cdr", loan, source = <::shm_cdr::msgs::sensor_msgs::msg::PointCloud2 as ::shm_cdr::RosMessage>::SOURCE.raw_file_contents)]
     pub struct PointCloud2Shm {
         /// Time of sensor data acquisition, and the coordinate frame ID (for 3d points).
         pub header: ::shm_cdr::msgs::std_msgs::msg::Header,

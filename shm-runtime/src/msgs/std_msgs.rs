@@ -11,7 +11,7 @@ pub mod msg {
     ///
     /// [`ByteMultiArray`](::shm_cdr::msgs::std_msgs::msg::ByteMultiArray) with its own byte sequences as [`ShmBytes`](crate::ShmBytes), which a publisher splices into the message without a copy when they sit in shared memory: same type, same bytes, same hash. `From<ByteMultiArray>` moves the fields over.
     #[derive(::shm_cdr::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/ByteMultiArray", crate = "::shm_cdr", loan)]
+    #[ros(type_name = "std_msgs/msg/ByteMultiArray", crate = "::shm_cdr", loan, source = <::shm_cdr::msgs::std_msgs::msg::ByteMultiArray as ::shm_cdr::RosMessage>::SOURCE.raw_file_contents)]
     pub struct ByteMultiArrayShm {
         /// specification of data layout
         pub layout: ::shm_cdr::msgs::std_msgs::msg::MultiArrayLayout,
@@ -45,7 +45,7 @@ pub mod msg {
     ///
     /// [`UInt8MultiArray`](::shm_cdr::msgs::std_msgs::msg::UInt8MultiArray) with its own byte sequences as [`ShmBytes`](crate::ShmBytes), which a publisher splices into the message without a copy when they sit in shared memory: same type, same bytes, same hash. `From<UInt8MultiArray>` moves the fields over.
     #[derive(::shm_cdr::RosMessage, Debug, Clone, PartialEq)]
-    #[ros(type_name = "std_msgs/msg/UInt8MultiArray", crate = "::shm_cdr", loan)]
+    #[ros(type_name = "std_msgs/msg/UInt8MultiArray", crate = "::shm_cdr", loan, source = <::shm_cdr::msgs::std_msgs::msg::UInt8MultiArray as ::shm_cdr::RosMessage>::SOURCE.raw_file_contents)]
     pub struct UInt8MultiArrayShm {
         /// specification of data layout
         pub layout: ::shm_cdr::msgs::std_msgs::msg::MultiArrayLayout,
