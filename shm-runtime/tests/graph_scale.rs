@@ -21,7 +21,8 @@ use zenoh::{Config, Session, Wait};
 const TIMEOUT: Duration = Duration::from_secs(20);
 
 /// Nodes on `session`, each with a publisher on `/rosout` and on `/chatter`,
-/// a subscriber and a service: five tokens per node.
+/// a subscriber and a service, and the `~/get_type_description` service every
+/// node has: six tokens per node.
 struct System {
     nodes: Vec<RosNode>,
     endpoints: Vec<Box<dyn std::any::Any>>,
@@ -73,7 +74,7 @@ fn sees_all(cache: &GraphCache, prefix: &str, count: usize) -> bool {
 }
 
 #[test]
-fn a_cache_follows_400_nodes_and_2000_tokens_coming_and_going_with_an_event_for_each() {
+fn a_cache_follows_400_nodes_and_2400_tokens_coming_and_going_with_an_event_for_each() {
     let (a, b, _) = loopback_sessions();
     let observer = common::node(&b, "observer");
     let cache = observer.graph_cache().unwrap();
@@ -84,11 +85,12 @@ fn a_cache_follows_400_nodes_and_2000_tokens_coming_and_going_with_an_event_for_
     let started = Instant::now();
     let system = system(&a, "node", 400);
     assert!(sees_all(&cache, "node", 400), "not all 400 nodes seen");
-    println!("400 nodes, 2000 tokens seen in {:?}", started.elapsed());
+    println!("400 nodes, 2400 tokens seen in {:?}", started.elapsed());
     let graph = cache.snapshot();
-    assert_eq!(graph.len(), before + 2000);
-    assert_eq!(graph.count(EntityKind::ServiceServer), 400);
-    assert_eq!(graph.node_endpoints("/node_17").len(), 4);
+    assert_eq!(graph.len(), before + 2400);
+    // Two per node, and the observer's own `~/get_type_description`.
+    assert_eq!(graph.count(EntityKind::ServiceServer), 801);
+    assert_eq!(graph.node_endpoints("/node_17").len(), 5);
     assert_eq!(graph.unreadable().len(), 0);
     // Every node shares the session's cache.
     assert_eq!(
@@ -133,7 +135,7 @@ fn a_cache_follows_400_nodes_and_2000_tokens_coming_and_going_with_an_event_for_
     let mut appeared = HashSet::new();
     let mut left = HashSet::new();
     let deadline = Instant::now() + TIMEOUT;
-    while left.len() < 1000 && Instant::now() < deadline {
+    while left.len() < 1200 && Instant::now() < deadline {
         match events.recv_timeout(Duration::from_secs(1)) {
             Some(GraphEvent::Appeared(e)) if e.node_name.starts_with("node_") => {
                 assert!(
@@ -150,7 +152,7 @@ fn a_cache_follows_400_nodes_and_2000_tokens_coming_and_going_with_an_event_for_
             _ => {}
         }
     }
-    assert_eq!((appeared.len(), left.len()), (2000, 1000));
+    assert_eq!((appeared.len(), left.len()), (2400, 1200));
     assert_eq!(events.missed(), 0);
     drop(kept);
 }
@@ -264,10 +266,10 @@ fn through_a_router_a_late_joiner_sees_300_nodes_and_follows_them_leaving() {
         "the routed nodes stayed on the graph"
     );
     let deadline = Instant::now() + TIMEOUT;
-    while *left.lock().unwrap() < 1500 && Instant::now() < deadline {
+    while *left.lock().unwrap() < 1800 && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(10));
     }
-    assert_eq!(*left.lock().unwrap(), 1500);
+    assert_eq!(*left.lock().unwrap(), 1800);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -288,9 +290,14 @@ async fn a_program_awaits_a_node_and_streams_the_changes() {
         .await
         .unwrap()
         .unwrap();
-    let appeared = tokio::time::timeout(TIMEOUT, events.next()).await.unwrap();
-    assert!(matches!(appeared, Some(GraphEvent::Appeared(e)) if e.node_fqn() == "/late"));
+    // The node and its `~/get_type_description` service appear, then leave.
+    for _ in 0..2 {
+        let appeared = tokio::time::timeout(TIMEOUT, events.next()).await.unwrap();
+        assert!(matches!(appeared, Some(GraphEvent::Appeared(e)) if e.node_fqn() == "/late"));
+    }
     drop(node);
-    let left = tokio::time::timeout(TIMEOUT, events.next()).await.unwrap();
-    assert!(matches!(left, Some(GraphEvent::Left(e)) if e.node_fqn() == "/late"));
+    for _ in 0..2 {
+        let left = tokio::time::timeout(TIMEOUT, events.next()).await.unwrap();
+        assert!(matches!(left, Some(GraphEvent::Left(e)) if e.node_fqn() == "/late"));
+    }
 }

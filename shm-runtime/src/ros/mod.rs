@@ -11,3 +11,4 @@ pub mod rmw;
 pub(crate) mod rosout;
 pub mod service;
 pub mod time;
+pub(crate) mod type_description;

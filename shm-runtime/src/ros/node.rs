@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use shm_cdr::interface::{RosAction, RosService};
+use shm_cdr::msgs::type_description_interfaces::srv::GetTypeDescription;
 use shm_cdr::RosMessage;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::{Resolvable, Session, Wait};
@@ -21,6 +22,7 @@ use crate::ros::parameters::{
 use crate::ros::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
 use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
 use crate::ros::time::{Clock, RosTime, Timer};
+use crate::ros::type_description::{TypeCache, TypeUse};
 use crate::transport::limits::check_key_expr;
 use crate::transport::pool::ShmContext;
 use crate::transport::publisher::{PublisherBuilder, RmwPublisher};
@@ -36,6 +38,10 @@ const RMW_ZENOH_DEFAULT_DEPTH: NonZeroUsize = match NonZeroUsize::new(42) {
 /// The parameter every ROS node has, switching its clock to `/clock`.
 const USE_SIM_TIME: &str = "use_sim_time";
 
+/// The parameter rclcpp and rclpy read at startup to leave
+/// `~/get_type_description` out.
+const START_TYPE_DESCRIPTION_SERVICE: &str = "start_type_description_service";
+
 /// Entity ids are unique per process, hence per session as rmw_zenoh requires.
 static NEXT_ENTITY_ID: AtomicU64 = AtomicU64::new(0);
 
@@ -49,6 +55,9 @@ pub struct RosNode {
     graph: std::sync::Mutex<Option<GraphCache>>,
     clock: Clock,
     parameters: std::sync::Mutex<Option<Arc<ParameterServer>>>,
+    /// The types the node's entities use, for `~/get_type_description`.
+    types: Arc<TypeCache>,
+    type_description_service: Option<Box<dyn std::any::Any + Send + Sync>>,
     /// Initial parameter values from the command line, for this node.
     overrides: Vec<(String, ParameterValue)>,
     _token: LivelinessToken,
@@ -75,6 +84,7 @@ impl RosNode {
             shm: None,
             remaps: Remaps::default(),
             use_sim_time: false,
+            type_description_service: true,
             overrides: ParameterOverrides::default(),
             invalid: None,
             invalid_override: None,
@@ -123,6 +133,7 @@ impl RosNode {
             gid: Gid::from_token(&token),
             token,
             liveliness: None,
+            _type_use: self.types.register(T::type_hash(), T::full_description),
         });
         builder
     }
@@ -142,7 +153,14 @@ impl RosNode {
         topic: &str,
         qos: Qos,
     ) -> SubscriberBuilder<'_, T> {
-        node_subscriber(&self.session, &self.info, &self.remaps, topic, qos)
+        node_subscriber(
+            &self.session,
+            &self.info,
+            &self.remaps,
+            &self.types,
+            topic,
+            qos,
+        )
     }
 
     /// A server of service `S` on `service` (e.g. `"/trigger"`, resolved like a
@@ -166,6 +184,7 @@ impl RosNode {
         );
         builder.gid = Some(Gid::from_token(&token));
         builder.token = Some(token);
+        builder.type_use = Some(self.types.register(S::type_hash(), S::full_description));
         builder.invalid = invalid;
         builder.shm.inherited = self.shm.clone();
         builder.history = match qos.history {
@@ -193,6 +212,7 @@ impl RosNode {
             service_key_expr::<S>(self.info.domain_id, &service),
             token,
         );
+        builder.type_use = Some(self.types.register(S::type_hash(), S::full_description));
         builder.invalid = invalid;
         builder.shm.inherited = self.shm.clone();
         builder
@@ -433,11 +453,35 @@ impl RosNode {
 
     /// What switches this node's clock between system and simulated time,
     /// apart from the node (for the `use_sim_time` parameter).
+    /// Count a use of a type in the node's type-description cache, while the
+    /// returned guard lives (an action server or client uses its action type,
+    /// as rcl_action registers it).
+    pub(crate) fn register_type(
+        &self,
+        hash: &str,
+        describe: impl FnOnce() -> shm_cdr::describe::FullDescription,
+    ) -> TypeUse {
+        self.types.register(hash, describe)
+    }
+
+    /// `~/get_type_description`, answering from the node's type cache.
+    fn start_type_description_service(
+        &self,
+    ) -> zenoh::Result<Box<dyn std::any::Any + Send + Sync>> {
+        let types = self.types.clone();
+        let server = self
+            .declare_service::<GetTypeDescription>("~/get_type_description")
+            .handler(move |request| types.answer(&request))
+            .wait()?;
+        Ok(Box::new(server))
+    }
+
     fn sim_time_switch(&self) -> SimTimeSwitch {
         SimTimeSwitch {
             session: self.session.clone(),
             info: self.info.clone(),
             remaps: self.remaps.clone(),
+            types: self.types.clone(),
             clock: self.clock.clone(),
         }
     }
@@ -471,6 +515,7 @@ fn node_subscriber<'s, T: RosMessage>(
     session: &'s Session,
     info: &NodeInfo,
     remaps: &Remaps,
+    types: &Arc<TypeCache>,
     topic: &str,
     qos: Qos,
 ) -> SubscriberBuilder<'s, T> {
@@ -490,6 +535,7 @@ fn node_subscriber<'s, T: RosMessage>(
     };
     builder.liveliness =
         Some(info.topic_token::<T>(entity_id, EntityKind::Subscriber, &topic, &qos));
+    builder.type_use = Some(types.register(T::type_hash(), T::full_description));
     builder
 }
 
@@ -499,6 +545,7 @@ pub(crate) struct SimTimeSwitch {
     session: Session,
     info: NodeInfo,
     remaps: Remaps,
+    types: Arc<TypeCache>,
     clock: Clock,
 }
 
@@ -516,6 +563,7 @@ impl SimTimeSwitch {
             &self.session,
             &self.info,
             &self.remaps,
+            &self.types,
             "/clock",
             crate::ros::time::CLOCK_QOS,
         )
@@ -542,6 +590,7 @@ pub struct RosNodeBuilder<'a> {
     shm: Option<ShmContext>,
     remaps: Remaps,
     use_sim_time: bool,
+    type_description_service: bool,
     overrides: ParameterOverrides,
     /// The first rule or argument that did not parse: reported by `build`.
     invalid: Option<NameError>,
@@ -567,6 +616,15 @@ impl RosNodeBuilder<'_> {
     /// [`RosNode::set_use_sim_time`]).
     pub fn use_sim_time(mut self, on: bool) -> Self {
         self.use_sim_time = on;
+        self
+    }
+
+    /// Whether the node serves `~/get_type_description` (default: yes, as
+    /// rclcpp and rclpy nodes do; `-p start_type_description_service:=false`
+    /// among the node's [`ros_args`](Self::ros_args) turns it off too). Tools
+    /// such as `ros2 topic echo` ask it for the types they were not built with.
+    pub fn type_description_service(mut self, on: bool) -> Self {
+        self.type_description_service = on;
         self
     }
 
@@ -657,8 +715,17 @@ impl RosNodeBuilder<'_> {
             graph: std::sync::Mutex::default(),
             clock: Clock::new(),
             parameters: std::sync::Mutex::default(),
+            types: Arc::default(),
+            type_description_service: None,
             _token: token,
         };
+        let mut node = node;
+        let service_off = node.overrides.iter().any(|(name, value)| {
+            name == START_TYPE_DESCRIPTION_SERVICE && *value == ParameterValue::Bool(false)
+        });
+        if self.type_description_service && !service_off {
+            node.type_description_service = Some(node.start_type_description_service()?);
+        }
         let sim_override = node
             .overrides
             .iter()

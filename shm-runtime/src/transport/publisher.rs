@@ -18,6 +18,7 @@ use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, MissDetectionConfig};
 
 use crate::ros::rmw::{Attachment, Durability, Gid, History, Qos, Reliability};
+use crate::ros::type_description::TypeUse;
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
@@ -178,6 +179,8 @@ pub(crate) struct RmwPublisher {
     pub(crate) gid: Gid,
     pub(crate) token: String,
     pub(crate) liveliness: Option<LivelinessToken>,
+    /// The message type, in the node's type-description cache while this lives.
+    pub(crate) _type_use: TypeUse,
 }
 
 /// Builder of a [`RosPublisher`]; resolve with `.wait()` or `.await`.

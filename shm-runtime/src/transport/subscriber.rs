@@ -24,6 +24,7 @@ use crate::ros::rmw::{
     counterpart_tokens_key_expr, Attachment, AttachmentError, Durability, EntityKind,
     History as RmwHistory, Qos, Reliability,
 };
+use crate::ros::type_description::TypeUse;
 use crate::transport::executor::{Callback, Dispatch, Executor};
 use crate::transport::limits::check_key_expr;
 use crate::transport::queue::{sample_type, Queue, TypeCheck, DEFAULT_MAX_QUEUED_BYTES};
@@ -37,6 +38,9 @@ pub struct SubscriberBuilder<'a, T> {
     pub(crate) key_expr: String,
     /// rmw_zenoh liveliness token (`MS`) to declare, for node subscribers.
     pub(crate) liveliness: Option<String>,
+    /// The message type in the node's type-description cache, for node
+    /// subscribers.
+    pub(crate) type_use: Option<TypeUse>,
     pub(crate) history: History,
     pub(crate) max_queued_bytes: usize,
     pub(crate) qos: Qos,
@@ -53,6 +57,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
             session,
             key_expr,
             liveliness: None,
+            type_use: None,
             history: History::KeepAll,
             max_queued_bytes: DEFAULT_MAX_QUEUED_BYTES,
             qos: Qos::default(),
@@ -177,6 +182,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
         Ok(Announced {
             _rmw: rmw,
             _receiver: receiver,
+            _type_use: self.type_use.clone(),
         })
     }
 
@@ -266,6 +272,7 @@ impl<T: RosMessage> IntoFuture for SubscriberBuilder<'_, T> {
 struct Announced {
     _rmw: Option<LivelinessToken>,
     _receiver: ReceiverMark,
+    _type_use: Option<TypeUse>,
 }
 
 /// How long a recovering subscriber waits for a publisher's cache to answer

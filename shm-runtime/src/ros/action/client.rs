@@ -18,6 +18,7 @@ use super::state::GoalStatus;
 use super::{part_name, ActionError, GoalId, Stamp};
 use crate::ros::rmw::Qos;
 use crate::ros::service::{ServiceClient, NO_TIMEOUT};
+use crate::ros::type_description::TypeUse;
 use crate::{CallbackSubscriber, RosNode, RosSample};
 
 /// How long `send_goal` and `cancel` wait for the server by default (Zenoh's
@@ -54,6 +55,7 @@ impl<'a, A: RosAction> ActionClientBuilder<'a, A> {
     fn build(self) -> zenoh::Result<ActionClient<A>> {
         let node = self.node;
         let name = node.resolve_topic_name(&self.name)?;
+        let type_use = node.register_type(A::type_hash(), A::full_description);
         let send_goal = node
             .declare_client::<A::SendGoal>(&part_name(&name, "send_goal"))
             .timeout(self.timeout)
@@ -100,6 +102,7 @@ impl<'a, A: RosAction> ActionClientBuilder<'a, A> {
                 goals,
                 _feedback: feedback,
                 _status: status,
+                _type_use: type_use,
             }),
         })
     }
@@ -204,6 +207,7 @@ struct Inner<A: RosAction> {
     goals: Arc<Goals<A>>,
     _feedback: CallbackSubscriber<A::FeedbackMessage>,
     _status: CallbackSubscriber<wire::GoalStatusArray>,
+    _type_use: TypeUse,
 }
 
 /// An action client: send goals, then follow each through its

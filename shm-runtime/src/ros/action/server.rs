@@ -16,6 +16,7 @@ use super::state::{transition, GoalEvent, GoalStatus};
 use super::{part_name, ActionError, GoalId, Stamp};
 use crate::ros::rmw::Qos;
 use crate::ros::service::{CallbackServiceServer, ServiceRequest};
+use crate::ros::type_description::TypeUse;
 use crate::transport::publisher::{now_ns, PublishOutcome};
 use crate::{RosNode, RosPublisher};
 
@@ -102,6 +103,7 @@ impl<'a, A: RosAction> ActionServerBuilder<'a, A> {
     fn build(self) -> zenoh::Result<ActionServer<A>> {
         let node = self.node;
         let name = node.resolve_topic_name(&self.name)?;
+        let type_use = node.register_type(A::type_hash(), A::full_description);
         let status = node
             .declare_publisher_with_qos::<wire::GoalStatusArray>(
                 &part_name(&name, "status"),
@@ -172,6 +174,7 @@ impl<'a, A: RosAction> ActionServerBuilder<'a, A> {
             _send_goal: send_goal,
             _cancel_goal: cancel_goal,
             _get_result: get_result,
+            _type_use: type_use,
         })
     }
 }
@@ -454,6 +457,7 @@ pub struct ActionServer<A: RosAction> {
     _send_goal: CallbackServiceServer<A::SendGoal>,
     _cancel_goal: CallbackServiceServer<CancelGoal>,
     _get_result: CallbackServiceServer<A::GetResult>,
+    _type_use: TypeUse,
 }
 
 impl<A: RosAction> fmt::Debug for ActionServer<A> {

@@ -20,6 +20,7 @@ use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
 
 use crate::ros::rmw::{Attachment, AttachmentError, Gid};
+use crate::ros::type_description::TypeUse;
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, ShmPolicy};
@@ -96,6 +97,8 @@ pub struct ServiceClientBuilder<'a, S> {
     pub(crate) key_expr: String,
     pub(crate) token: String,
     pub(crate) gid: Gid,
+    /// The service type in the node's type-description cache.
+    pub(crate) type_use: Option<TypeUse>,
     pub(crate) shm: ShmSettings,
     pub(crate) timeout: Duration,
     /// A name that failed to resolve: reported by `build`.
@@ -110,6 +113,7 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
             key_expr,
             gid: Gid::from_token(&token),
             token,
+            type_use: None,
             shm: ShmSettings::default(),
             timeout: DEFAULT_TIMEOUT,
             invalid: None,
@@ -176,6 +180,7 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
             timeout: self.timeout,
             request_encoding,
             _token: token,
+            _type_use: self.type_use,
             service: PhantomData,
         })
     }
@@ -214,6 +219,7 @@ pub struct ServiceClient<S> {
     timeout: Duration,
     request_encoding: Encoding,
     _token: LivelinessToken,
+    _type_use: Option<TypeUse>,
     service: PhantomData<fn() -> S>,
 }
 

@@ -20,6 +20,7 @@ use zenoh::{Resolvable, Session, Wait};
 
 use super::error_reply_text;
 use crate::ros::rmw::{Attachment, Gid};
+use crate::ros::type_description::TypeUse;
 use crate::transport::executor::{Callback, Dispatch, Executor};
 use crate::transport::inline_limit::{self, InlineLimit};
 use crate::transport::limits::check_key_expr;
@@ -37,6 +38,8 @@ pub struct ServiceServerBuilder<'a, S> {
     pub(crate) key_expr: String,
     pub(crate) token: Option<String>,
     pub(crate) gid: Option<Gid>,
+    /// The service type in the node's type-description cache.
+    pub(crate) type_use: Option<TypeUse>,
     pub(crate) shm: ShmSettings,
     pub(crate) history: History,
     /// A name that failed to resolve: reported by `build`.
@@ -51,6 +54,7 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
             key_expr,
             token: None,
             gid: None,
+            type_use: None,
             shm: ShmSettings::default(),
             history: History::KeepAll,
             invalid: None,
@@ -167,6 +171,7 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
             response_encoding,
             malformed: AtomicU64::new(0),
             dropped: AtomicU64::new(0),
+            _type_use: self.type_use.clone(),
         };
         Ok((Arc::new(shared), token))
     }
@@ -258,6 +263,7 @@ struct Shared {
     response_encoding: Encoding,
     malformed: AtomicU64,
     dropped: AtomicU64,
+    _type_use: Option<TypeUse>,
 }
 
 /// A service server that queues requests until the application takes them;
