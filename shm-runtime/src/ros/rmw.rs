@@ -474,8 +474,9 @@ impl NodeInfo {
 /// The key expression of the liveliness tokens of every `kind` endpoint with
 /// the same domain, name, type and type hash as endpoint token `token`,
 /// whoever declared them, whatever their QoS: e.g. the publishers (`MP`) a
-/// subscriber's `MS` token can match. `None` if `token` is not an endpoint
-/// token.
+/// subscriber's `MS` token can match, with or without the buffer backends
+/// rmw_zenoh_cpp on Rolling appends after the QoS. `None` if `token` is not an
+/// endpoint token.
 pub fn counterpart_tokens_key_expr(token: &str, kind: EntityKind) -> Option<String> {
     // @ros2_lv/<domain>/<zid>/<nid>/<eid>/<kind>/<enclave>/<ns>/<node>/<name>/<type>/<hash>/<qos>
     let parts: Vec<&str> = token.split('/').collect();
@@ -483,7 +484,7 @@ pub fn counterpart_tokens_key_expr(token: &str, kind: EntityKind) -> Option<Stri
         return None;
     };
     Some(format!(
-        "{root}/{domain}/*/*/*/{}/*/*/*/{name}/{type_name}/{hash}/*",
+        "{root}/{domain}/*/*/*/{}/*/*/*/{name}/{type_name}/{hash}/**",
         kind.as_str()
     ))
 }
@@ -599,6 +600,28 @@ mod tests {
             node.node_token(),
             "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/0/NN/%/%/talker"
         );
+    }
+
+    #[test]
+    fn counterparts_are_found_with_or_without_rolling_backends() {
+        use zenoh::key_expr::KeyExpr;
+        let subscriber = "@ros2_lv/0/ab/1/2/MS/%/%/n/%image/sensor_msgs::msg::dds_::Image_/RIHS01_00/::,10:,:,:,,";
+        let Some(pattern) = counterpart_tokens_key_expr(subscriber, EntityKind::Publisher) else {
+            panic!("an endpoint token has counterparts");
+        };
+        let pattern = KeyExpr::try_from(pattern).unwrap();
+        let publisher = "@ros2_lv/0/cd/3/4/MP/%/%/m/%image/sensor_msgs::msg::dds_::Image_/RIHS01_00/:1:,1:,:,:,,";
+        for token in [
+            publisher.to_owned(),
+            format!("{publisher}/backends:cuda,cpu"),
+        ] {
+            assert!(
+                pattern.intersects(&KeyExpr::try_from(token.as_str()).unwrap()),
+                "{token}"
+            );
+        }
+        let other_topic = publisher.replace("%image", "%depth");
+        assert!(!pattern.intersects(&KeyExpr::try_from(other_topic.as_str()).unwrap()));
     }
 
     #[test]

@@ -77,7 +77,16 @@ pub struct Endpoint {
     pub type_hash: String,
     /// QoS, with rmw_zenoh_cpp's defaults where the token leaves a field empty.
     pub qos: Qos,
+    /// The buffer backends the endpoint announces (`cpu`, `cuda`, …): rmw_zenoh_cpp
+    /// on Rolling adds them, as a last `backends:…` field, to the tokens of
+    /// endpoints whose type has buffer fields (ros2/rmw_zenoh#930). Empty
+    /// otherwise.
+    pub backends: Vec<String>,
 }
+
+/// How rmw_zenoh_cpp on Rolling starts the field listing an endpoint's buffer
+/// backends.
+const BACKENDS_FIELD: &str = "backends:";
 
 /// `%` back to `/` (see [`crate::ros::rmw::mangle_name`]).
 fn demangle(name: &str) -> String {
@@ -157,9 +166,22 @@ impl Entity {
         let rest = token
             .strip_prefix("@ros2_lv/")
             .ok_or(error("does not start with @ros2_lv/"))?;
-        let parts: Vec<&str> = rest.split('/').collect();
+        let mut parts: Vec<&str> = rest.split('/').collect();
+        // Rolling's optional last field of an endpoint: its buffer backends.
+        let backends = match parts.last().and_then(|p| p.strip_prefix(BACKENDS_FIELD)) {
+            Some(list) if parts.len() == 13 => {
+                parts.pop();
+                list.split(',')
+                    .filter(|b| !b.is_empty())
+                    .map(str::to_owned)
+                    .collect()
+            }
+            _ => Vec::new(),
+        };
         if parts.len() != 8 && parts.len() != 12 {
-            return Err(error("has neither 8 (node) nor 12 (endpoint) fields"));
+            return Err(error(
+                "has neither 8 (node) nor 12 or 13 (endpoint, with backends) fields",
+            ));
         }
         let number = |s: &str| s.parse().map_err(|_| error("an id is not a number"));
         let kind = EntityKind::from_token_field(parts[4]).ok_or(error("unknown entity kind"))?;
@@ -172,6 +194,7 @@ impl Entity {
                     .ok_or(error("type is not pkg::kind::dds_::Name_"))?,
                 type_hash: parts[10].to_owned(),
                 qos: parse_qos(parts[11]).ok_or(error("QoS is not rmw_zenoh's"))?,
+                backends,
             }),
             _ => return Err(error("an endpoint token without topic fields")),
         };
@@ -516,6 +539,30 @@ mod tests {
             (EntityKind::Node, "/listener".into())
         );
         assert!(node.endpoint.is_none());
+        assert!(t.backends.is_empty());
+    }
+
+    /// rmw_zenoh_cpp on Rolling (ros2/rmw_zenoh#930) appends the buffer
+    /// backends to the tokens of endpoints whose type has buffer fields.
+    #[test]
+    fn rolling_tokens_with_buffer_backends_are_read() {
+        let plain = "@ros2_lv/0/ab/1/2/MS/%/%/n/%image/sensor_msgs::msg::dds_::Image_/RIHS01_00/::,10:,:,:,,";
+        let with_backends = format!("{plain}/backends:cuda,cpu");
+        let e = Entity::parse(&with_backends).unwrap();
+        let t = e.endpoint.as_ref().unwrap();
+        assert_eq!(t.backends, ["cuda", "cpu"]);
+        assert_eq!(t.name, "/image");
+        assert_eq!(t.type_name, "sensor_msgs/msg/Image");
+        assert_eq!(Entity::parse(plain).unwrap().endpoint.unwrap().qos, t.qos);
+        // The GID is still the hash of the whole token.
+        assert_eq!(e.gid, Gid::from_token(&with_backends));
+        // Only an endpoint's 13th field may list backends.
+        for token in [
+            format!("{plain}/cuda"),
+            "@ros2_lv/0/ab/3/3/NN/%/%/n/backends:cpu".to_owned(),
+        ] {
+            assert!(Entity::parse(&token).is_err(), "{token}");
+        }
     }
 
     #[test]
