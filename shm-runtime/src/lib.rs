@@ -35,7 +35,7 @@ pub mod prelude;
 mod ros;
 mod transport;
 
-pub use ros::{action, graph, lifecycle, names, parameters, rmw, service, time};
+pub use ros::{action, graph, lifecycle, log_levels, names, parameters, rmw, service, time};
 
 pub use logging::{init_logging, DEFAULT_LOG_FILTER};
 pub use ros::node::{RosNode, RosNodeBuilder};

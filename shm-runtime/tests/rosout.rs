@@ -1,6 +1,7 @@
 //! `/rosout`: `tracing` events of the application reach the topic as
 //! `rcl_interfaces/msg/Log`, under the node's logger name, with level,
-//! message and fields, file, module and line, on rclcpp's QoS.
+//! message and fields, file, module and line, on rclcpp's QoS; those the
+//! node's logger level admits.
 
 mod common;
 
@@ -8,6 +9,7 @@ use std::time::Duration;
 
 use common::loopback_sessions;
 use shm_cdr::msgs::rcl_interfaces::msg::Log;
+use shm_runtime::log_levels::{self, LogLevel};
 use shm_runtime::rmw::Qos;
 use shm_runtime::RosNode;
 use tracing_subscriber::prelude::*;
@@ -39,7 +41,12 @@ fn tracing_events_reach_rosout_as_rcl_log_messages() {
         tracing::info!(speed = 1.5, "moving");
         tracing::warn!("careful");
         tracing::error!(target: "zenoh::transport", "not published: Zenoh's own");
+        tracing::debug!("not published: below the default level, INFO");
+        // A level for the node's logger's parent applies to it.
+        log_levels::set_logger_level("demo", LogLevel::Debug);
         tracing::debug!(id = "x7", "details");
+        log_levels::set_logger_level("demo.talker", LogLevel::Warn);
+        tracing::info!("not published: below the node's own level");
     });
 
     let mut logs = Vec::new();

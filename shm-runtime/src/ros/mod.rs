@@ -4,6 +4,7 @@
 pub mod action;
 pub mod graph;
 pub mod lifecycle;
+pub mod log_levels;
 pub mod names;
 pub(crate) mod node;
 pub mod parameters;

@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use shm_cdr::interface::{RosAction, RosService};
+use shm_cdr::msgs::rcl_interfaces::srv::{GetLoggerLevels, SetLoggerLevels};
 use shm_cdr::msgs::type_description_interfaces::srv::GetTypeDescription;
 use shm_cdr::RosMessage;
 use zenoh::liveliness::LivelinessToken;
@@ -14,6 +15,7 @@ use zenoh::{Resolvable, Session, Wait};
 
 use crate::ros::action::{ActionClientBuilder, ActionServerBuilder};
 use crate::ros::graph::{Graph, GraphCache};
+use crate::ros::log_levels::{self, LogLevel};
 use crate::ros::names::{self, NameError, NameKind, RemapRule, Remaps};
 use crate::ros::parameters::{
     OverrideError, ParameterClient, ParameterDescriptor, ParameterError, ParameterOverrides,
@@ -58,6 +60,7 @@ pub struct RosNode {
     /// The types the node's entities use, for `~/get_type_description`.
     types: Arc<TypeCache>,
     type_description_service: Option<Box<dyn std::any::Any + Send + Sync>>,
+    logger_services: Option<Box<dyn std::any::Any + Send + Sync>>,
     /// Initial parameter values from the command line, for this node.
     overrides: Vec<(String, ParameterValue)>,
     _token: LivelinessToken,
@@ -85,9 +88,12 @@ impl RosNode {
             remaps: Remaps::default(),
             use_sim_time: false,
             type_description_service: true,
+            logger_service: false,
+            log_levels: Vec::new(),
             overrides: ParameterOverrides::default(),
             invalid: None,
             invalid_override: None,
+            invalid_log_level: None,
         }
     }
 
@@ -476,6 +482,19 @@ impl RosNode {
         Ok(Box::new(server))
     }
 
+    /// `~/get_logger_levels` and `~/set_logger_levels`.
+    fn start_logger_services(&self) -> zenoh::Result<Box<dyn std::any::Any + Send + Sync>> {
+        let get = self
+            .declare_service::<GetLoggerLevels>("~/get_logger_levels")
+            .handler(|request| log_levels::get_levels(&request))
+            .wait()?;
+        let set = self
+            .declare_service::<SetLoggerLevels>("~/set_logger_levels")
+            .handler(|request| log_levels::set_levels(&request))
+            .wait()?;
+        Ok(Box::new((get, set)))
+    }
+
     fn sim_time_switch(&self) -> SimTimeSwitch {
         SimTimeSwitch {
             session: self.session.clone(),
@@ -591,10 +610,13 @@ pub struct RosNodeBuilder<'a> {
     remaps: Remaps,
     use_sim_time: bool,
     type_description_service: bool,
+    logger_service: bool,
+    log_levels: Vec<(String, LogLevel)>,
     overrides: ParameterOverrides,
     /// The first rule or argument that did not parse: reported by `build`.
     invalid: Option<NameError>,
     invalid_override: Option<OverrideError>,
+    invalid_log_level: Option<String>,
 }
 
 impl RosNodeBuilder<'_> {
@@ -628,6 +650,15 @@ impl RosNodeBuilder<'_> {
         self
     }
 
+    /// Whether the node serves `~/get_logger_levels` and `~/set_logger_levels`
+    /// (`rcl_interfaces`), which read and change the process's
+    /// [logger levels](crate::log_levels) (default: no, as rclcpp's and rclpy's
+    /// `enable_logger_service`).
+    pub fn logger_service(mut self, on: bool) -> Self {
+        self.logger_service = on;
+        self
+    }
+
     /// The shared-memory pool the node's publishers use by default.
     pub fn shm(mut self, context: &ShmContext) -> Self {
         self.shm = Some(context.clone());
@@ -650,10 +681,13 @@ impl RosNodeBuilder<'_> {
         self
     }
 
-    /// Take the remapping rules of a command line's ROS arguments (e.g.
-    /// `std::env::args()` of a node started by `ros2 run … --ros-args -r
-    /// chatter:=talk -r __ns:=/robot1` or by a launch file); see
-    /// [`names::ros_args_remaps`].
+    /// Take a command line's ROS arguments (e.g. `std::env::args()` of a node
+    /// started by `ros2 run … --ros-args -r chatter:=talk -r __ns:=/robot1` or
+    /// by a launch file): the remapping rules (see
+    /// [`names::ros_args_remaps`]), the parameter values (`-p`,
+    /// `--params-file`) and the [logger levels](crate::log_levels)
+    /// (`--log-level`, applied to the whole process when the node is
+    /// declared, as rcl applies them at init).
     pub fn ros_args<I, S>(mut self, args: I) -> Self
     where
         I: IntoIterator<Item = S>,
@@ -670,6 +704,12 @@ impl RosNodeBuilder<'_> {
             Ok(overrides) => self.overrides.extend(overrides),
             Err(e) => {
                 self.invalid_override.get_or_insert(e);
+            }
+        }
+        match log_levels::from_ros_args(&args) {
+            Ok(levels) => self.log_levels.extend(levels),
+            Err(reason) => {
+                self.invalid_log_level.get_or_insert(reason);
             }
         }
         self
@@ -689,6 +729,13 @@ impl RosNodeBuilder<'_> {
         }
         if let Some(invalid) = self.invalid_override {
             return Err(invalid.into());
+        }
+        if let Some(invalid) = self.invalid_log_level {
+            return Err(invalid.into());
+        }
+        // Process-wide, as rcl applies them at init.
+        for (name, level) in &self.log_levels {
+            log_levels::set_logger_level(name, *level);
         }
         names::validate_node_name(&self.name)?;
         // As rcl: the name first, then the namespace rules of the renamed node.
@@ -717,6 +764,7 @@ impl RosNodeBuilder<'_> {
             parameters: std::sync::Mutex::default(),
             types: Arc::default(),
             type_description_service: None,
+            logger_services: None,
             _token: token,
         };
         let mut node = node;
@@ -725,6 +773,9 @@ impl RosNodeBuilder<'_> {
         });
         if self.type_description_service && !service_off {
             node.type_description_service = Some(node.start_type_description_service()?);
+        }
+        if self.logger_service {
+            node.logger_services = Some(node.start_logger_services()?);
         }
         let sim_override = node
             .overrides

@@ -13,6 +13,7 @@ use tracing::{Event, Level, Subscriber};
 use tracing_subscriber::layer::{Context, Layer};
 use zenoh::Wait;
 
+use crate::ros::log_levels::effective_logger_level;
 use crate::ros::node::RosNode;
 use crate::ros::rmw::Qos;
 
@@ -30,7 +31,9 @@ pub(crate) const ROSOUT_QOS: Qos =
 /// logs as `demo.talker`), with the event's level, message and fields, file,
 /// module and line, on rclcpp's QoS (reliable, transient local, the last
 /// 1000, a lifespan of 10 s), as rclcpp's logging does. Made by
-/// [`RosNode::rosout_layer`].
+/// [`RosNode::rosout_layer`]. It publishes what the node's logger admits: its
+/// [effective level](crate::log_levels::effective_logger_level), `INFO` unless
+/// `--log-level` or `~/set_logger_levels` changed it.
 ///
 /// Events are handed to a thread of the layer's own, which publishes them:
 /// logging never waits for the network, and what does not fit its queue of
@@ -151,6 +154,10 @@ impl<S: Subscriber> Layer<S> for RosoutLayer {
         if metadata.target().starts_with("zenoh") {
             return;
         }
+        let level = ros_level(metadata.level());
+        if !effective_logger_level(&self.name).admits(level) {
+            return;
+        }
         let mut text = Text::default();
         event.record(&mut text);
         let now = SystemTime::now()
@@ -161,7 +168,7 @@ impl<S: Subscriber> Layer<S> for RosoutLayer {
                 sec: i32::try_from(now.as_secs()).unwrap_or(i32::MAX),
                 nanosec: now.subsec_nanos(),
             },
-            level: ros_level(metadata.level()),
+            level,
             name: self.name.clone(),
             msg: text.message + &text.fields,
             file: metadata.file().unwrap_or_default().to_owned(),
