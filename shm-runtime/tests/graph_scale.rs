@@ -20,9 +20,20 @@ use zenoh::{Config, Session, Wait};
 
 const TIMEOUT: Duration = Duration::from_secs(20);
 
+/// The endpoints [`system`] declares on each node.
+const EXPLICIT: usize = 4;
+/// What every node declares itself: the six parameter services,
+/// `~/get_type_description` and the `/parameter_events` publisher.
+const AUTOMATIC: usize = 8;
+/// The services among them.
+const AUTOMATIC_SERVICES: usize = 7;
+/// A node's tokens: its own, the automatic and the explicit endpoints.
+const TOKENS_PER_NODE: usize = 1 + AUTOMATIC + EXPLICIT;
+
 /// Nodes on `session`, each with a publisher on `/rosout` and on `/chatter`,
-/// a subscriber and a service, and the `~/get_type_description` service every
-/// node has: six tokens per node.
+/// a subscriber and a service ([`EXPLICIT`]), besides what every node
+/// declares ([`AUTOMATIC`]): [`TOKENS_PER_NODE`] in all, as many as an
+/// rclcpp node with a few endpoints.
 struct System {
     nodes: Vec<RosNode>,
     endpoints: Vec<Box<dyn std::any::Any>>,
@@ -74,7 +85,7 @@ fn sees_all(cache: &GraphCache, prefix: &str, count: usize) -> bool {
 }
 
 #[test]
-fn a_cache_follows_400_nodes_and_2400_tokens_coming_and_going_with_an_event_for_each() {
+fn a_cache_follows_400_nodes_and_their_5200_tokens_coming_and_going_with_an_event_for_each() {
     let (a, b, _) = loopback_sessions();
     let observer = common::node(&b, "observer");
     let cache = observer.graph_cache().unwrap();
@@ -85,12 +96,19 @@ fn a_cache_follows_400_nodes_and_2400_tokens_coming_and_going_with_an_event_for_
     let started = Instant::now();
     let system = system(&a, "node", 400);
     assert!(sees_all(&cache, "node", 400), "not all 400 nodes seen");
-    println!("400 nodes, 2400 tokens seen in {:?}", started.elapsed());
+    println!(
+        "400 nodes, {} tokens seen in {:?}",
+        400 * TOKENS_PER_NODE,
+        started.elapsed()
+    );
     let graph = cache.snapshot();
-    assert_eq!(graph.len(), before + 2400);
-    // Two per node, and the observer's own `~/get_type_description`.
-    assert_eq!(graph.count(EntityKind::ServiceServer), 801);
-    assert_eq!(graph.node_endpoints("/node_17").len(), 5);
+    assert_eq!(graph.len(), before + 400 * TOKENS_PER_NODE);
+    // Each node's and the observer's automatic ones, and each node's `~/reset`.
+    assert_eq!(
+        graph.count(EntityKind::ServiceServer),
+        401 * AUTOMATIC_SERVICES + 400
+    );
+    assert_eq!(graph.node_endpoints("/node_17").len(), AUTOMATIC + EXPLICIT);
     assert_eq!(graph.unreadable().len(), 0);
     // Every node shares the session's cache.
     assert_eq!(
@@ -108,7 +126,7 @@ fn a_cache_follows_400_nodes_and_2400_tokens_coming_and_going_with_an_event_for_
     } = system;
     let mut kept = Vec::new();
     for (i, node) in nodes.into_iter().enumerate() {
-        let own: Vec<_> = endpoints.drain(..4).collect();
+        let own: Vec<_> = endpoints.drain(..EXPLICIT).collect();
         if i % 2 == 0 {
             drop(own);
             drop(node);
@@ -135,7 +153,7 @@ fn a_cache_follows_400_nodes_and_2400_tokens_coming_and_going_with_an_event_for_
     let mut appeared = HashSet::new();
     let mut left = HashSet::new();
     let deadline = Instant::now() + TIMEOUT;
-    while left.len() < 1200 && Instant::now() < deadline {
+    while left.len() < 200 * TOKENS_PER_NODE && Instant::now() < deadline {
         match events.recv_timeout(Duration::from_secs(1)) {
             Some(GraphEvent::Appeared(e)) if e.node_name.starts_with("node_") => {
                 assert!(
@@ -152,7 +170,10 @@ fn a_cache_follows_400_nodes_and_2400_tokens_coming_and_going_with_an_event_for_
             _ => {}
         }
     }
-    assert_eq!((appeared.len(), left.len()), (2400, 1200));
+    assert_eq!(
+        (appeared.len(), left.len()),
+        (400 * TOKENS_PER_NODE, 200 * TOKENS_PER_NODE)
+    );
     assert_eq!(events.missed(), 0);
     drop(kept);
 }
@@ -266,10 +287,10 @@ fn through_a_router_a_late_joiner_sees_300_nodes_and_follows_them_leaving() {
         "the routed nodes stayed on the graph"
     );
     let deadline = Instant::now() + TIMEOUT;
-    while *left.lock().unwrap() < 1800 && Instant::now() < deadline {
+    while *left.lock().unwrap() < 300 * TOKENS_PER_NODE && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(10));
     }
-    assert_eq!(*left.lock().unwrap(), 1800);
+    assert_eq!(*left.lock().unwrap(), 300 * TOKENS_PER_NODE);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -290,13 +311,13 @@ async fn a_program_awaits_a_node_and_streams_the_changes() {
         .await
         .unwrap()
         .unwrap();
-    // The node and its `~/get_type_description` service appear, then leave.
-    for _ in 0..2 {
+    // The node and what it declares itself appear, then leave.
+    for _ in 0..1 + AUTOMATIC {
         let appeared = tokio::time::timeout(TIMEOUT, events.next()).await.unwrap();
         assert!(matches!(appeared, Some(GraphEvent::Appeared(e)) if e.node_fqn() == "/late"));
     }
     drop(node);
-    for _ in 0..2 {
+    for _ in 0..1 + AUTOMATIC {
         let left = tokio::time::timeout(TIMEOUT, events.next()).await.unwrap();
         assert!(matches!(left, Some(GraphEvent::Left(e)) if e.node_fqn() == "/late"));
     }

@@ -249,7 +249,15 @@ fn a_parameter_client_reads_and_sets_another_nodes_parameters() {
     let driver = tool.parameter_client("/robot/driver").unwrap();
     assert!(driver.wait_for_services(TIMEOUT));
     let listed = driver.list(&[], 0).unwrap();
-    assert_eq!(listed.names, ["use_sim_time", "limits.speed", "frame"]);
+    assert_eq!(
+        listed.names,
+        [
+            "use_sim_time",
+            "start_type_description_service",
+            "limits.speed",
+            "frame"
+        ]
+    );
     assert_eq!(listed.prefixes, ["limits"]);
     assert_eq!(
         driver.get(&["frame", "limits.speed"]).unwrap(),

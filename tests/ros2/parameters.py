@@ -11,8 +11,9 @@ sets). Our node is asked over Zenoh with rclpy's serialization and rmw_zenoh's
 conventions; rclpy's node through its own service callbacks. The replies must be
 equal, and so must the `/parameter_events` both publish for the sets.
 
-Known differences, left out of the comparison: rclpy declares
-`start_type_description_service` on every node; and for a parameter that was never
+The parameters every node declares (`use_sim_time`,
+`start_type_description_service`) are listed and described as well. Known
+difference, left out of the comparison: for a parameter that was never
 declared, rclpy's reason reads "Invalid access to undeclared parameter(s): []"
 (its list comes out empty), ours names the parameter.
 
@@ -33,7 +34,6 @@ from rclpy.serialization import deserialize_message
 from rmw_zenoh import call, free_port, gid_of, open_session, rosidl_hash
 
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples") / "interop_parameters"
-AUTO = {"start_type_description_service"}
 failures = []
 
 
@@ -94,6 +94,9 @@ QUESTIONS = [
     ("get_parameter_types", GetParameterTypes, GetParameterTypes.Request(names=["missing"])),
     ("describe_parameters", DescribeParameters, DescribeParameters.Request(names=["speed", "count", "frame", "any"])),
     ("describe_parameters", DescribeParameters, DescribeParameters.Request(names=["count", "missing"])),
+    ("describe_parameters", DescribeParameters,
+     DescribeParameters.Request(names=["start_type_description_service", "use_sim_time"])),
+    ("get_parameters", GetParameters, GetParameters.Request(names=["start_type_description_service"])),
     ("set_parameters", SetParameters, SetParameters.Request(parameters=[
         p("speed", D, 2.0), p("speed", D, 11.0), p("speed", D, 2.2), p("speed", D, 10.0), p("speed", D, 1e-9),
         p("speed", D, 7.5), p("speed", S, "fast"), p("count", I, 6), p("count", I, 3), p("count", I, -2),
@@ -119,12 +122,6 @@ def ask_rclpy(node, service, srv_type, request):
         "set_parameters_atomically": node._parameter_service._set_parameters_atomically_callback,
     }[service]
     return callback(request, srv_type.Response())
-
-
-def without_auto(service, response):
-    if service == "list_parameters":
-        response.result.names = [n for n in response.result.names if n not in AUTO]
-    return response
 
 
 def main():
@@ -154,7 +151,7 @@ def main():
     compared = 0
     for seq, (service, srv_type, request) in enumerate(QUESTIONS, start=1):
         ours = ask_ours(service, srv_type, request, seq)
-        theirs = without_auto(service, ask_rclpy(reference, service, srv_type, request))
+        theirs = ask_rclpy(reference, service, srv_type, request)
         if check(ours is not None, f"{service}: no reply from our node"):
             compared += check(ours == theirs, f"{service} {request}:\n  ours   {ours}\n  rclpy  {theirs}")
     for service, srv_type, request in UNDECLARED:

@@ -88,6 +88,7 @@ impl RosNode {
             remaps: Remaps::default(),
             use_sim_time: false,
             type_description_service: true,
+            parameter_services: true,
             logger_service: false,
             log_levels: Vec::new(),
             overrides: ParameterOverrides::default(),
@@ -240,7 +241,7 @@ impl RosNode {
     }
 
     /// The node's parameters, their six services and `/parameter_events`,
-    /// started on first use.
+    /// started with the node or on first use.
     fn parameter_server(&self) -> Result<Arc<ParameterServer>, ParameterError> {
         let mut server = self.parameters.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(server) = server.as_ref() {
@@ -610,6 +611,7 @@ pub struct RosNodeBuilder<'a> {
     remaps: Remaps,
     use_sim_time: bool,
     type_description_service: bool,
+    parameter_services: bool,
     logger_service: bool,
     log_levels: Vec<(String, LogLevel)>,
     overrides: ParameterOverrides,
@@ -647,6 +649,17 @@ impl RosNodeBuilder<'_> {
     /// such as `ros2 topic echo` ask it for the types they were not built with.
     pub fn type_description_service(mut self, on: bool) -> Self {
         self.type_description_service = on;
+        self
+    }
+
+    /// Whether the node starts its parameters when it is declared (default:
+    /// yes, as rclcpp's `start_parameter_services`): the six parameter
+    /// services, `/parameter_events`, and the parameters every rclcpp and rclpy
+    /// node has (`use_sim_time`, `start_type_description_service`), so that
+    /// `ros2 param list` finds any node. Without it they start when the node
+    /// first declares or sets a parameter.
+    pub fn parameter_services(mut self, on: bool) -> Self {
+        self.parameter_services = on;
         self
     }
 
@@ -771,8 +784,18 @@ impl RosNodeBuilder<'_> {
         let service_off = node.overrides.iter().any(|(name, value)| {
             name == START_TYPE_DESCRIPTION_SERVICE && *value == ParameterValue::Bool(false)
         });
-        if self.type_description_service && !service_off {
+        let type_description = self.type_description_service && !service_off;
+        if type_description {
             node.type_description_service = Some(node.start_type_description_service()?);
+        }
+        if self.parameter_services {
+            // rclpy's and rclcpp's read-only record of whether the service runs.
+            node.declare_parameter_with(
+                START_TYPE_DESCRIPTION_SERVICE,
+                type_description,
+                ParameterDescriptor::new("If enabled, start the ~/get_type_description service.")
+                    .read_only(),
+            )?;
         }
         if self.logger_service {
             node.logger_services = Some(node.start_logger_services()?);

@@ -64,7 +64,8 @@ fn pairs(parameters: &[Parameter]) -> Vec<(String, ParameterValue)> {
         .collect()
 }
 
-/// A node's parameters with their services, started on first use.
+/// A node's parameters with their services, started with the node (or, with
+/// `parameter_services(false)`, on first use).
 pub(crate) struct ParameterServer {
     shared: Arc<Shared>,
     _services: Vec<Box<dyn Any + Send + Sync>>,
