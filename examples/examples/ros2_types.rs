@@ -13,7 +13,9 @@
 //! bytes after the end) into the owned type, re-encodes them, and checks that the
 //! size function is exact, that the borrowing `…Ref` form decodes to the same
 //! bytes (and is the type's `BorrowedForm`), and that decoding into a kept value of
-//! an earlier message gives them too.
+//! an earlier message gives them too, and that the run-time type built from
+//! the type's description (`shm_cdr::dynamic`) decodes the input and encodes
+//! the same bytes, with the same hash.
 
 use std::collections::HashMap;
 use std::io::{BufRead, Write};
@@ -44,7 +46,38 @@ fn owned<T: RosMessage + DecodeOwned + Default>(
     if shm_cdr::to_vec(&kept).map_err(|e| e.to_string())? != out {
         return Err("decode_into differs from decode".into());
     }
+    dynamic::<T>(input, &out)?;
     Ok(out)
+}
+
+/// The same input read by the run-time type built from `T`'s description:
+/// it must encode to the generated type's bytes, sized exactly, and its hash
+/// must be `T`'s.
+fn dynamic<T: RosMessage>(input: &[u8], out: &[u8]) -> Result<(), String> {
+    let ty = shm_cdr::dynamic::DynamicType::from_description(&T::full_description())
+        .map_err(|e| format!("dynamic type: {e}"))?;
+    if ty.type_hash() != T::type_hash() {
+        return Err(format!(
+            "dynamic type hash {} != {}",
+            ty.type_hash(),
+            T::type_hash()
+        ));
+    }
+    let message = ty
+        .decode(input)
+        .map_err(|e| format!("dynamic decode: {e}"))?;
+    let bytes = shm_cdr::to_vec(&message).map_err(|e| format!("dynamic encode: {e}"))?;
+    if bytes != out {
+        return Err("the dynamic message encodes differently".into());
+    }
+    if shm_cdr::encoded_size(&message) != bytes.len() {
+        return Err(format!(
+            "dynamic encoded_size {} but {} bytes written",
+            shm_cdr::encoded_size(&message),
+            bytes.len()
+        ));
+    }
+    Ok(())
 }
 
 /// [`owned`], then the borrowing form `R` must decode the input to the same bytes.

@@ -102,6 +102,7 @@ pub mod docs {
         Introduction = "../../docs/src/introduction.md",
         Messages = "../../docs/src/messages.md",
         Interfaces = "../../docs/src/interfaces.md",
+        Dynamic = "../../docs/src/dynamic.md",
         SharedMemory = "../../docs/src/shared-memory.md",
         Nodes = "../../docs/src/nodes.md",
         ZenohConfig = "../../docs/src/zenoh-config.md",

@@ -450,28 +450,63 @@ octet_types!(u8, i8);
 #[cfg(feature = "bytes")]
 impl OctetType for bytes::Bytes {}
 
+/// One field as a type description states it, whoever holds the description.
+pub(crate) struct DescribedField<'a> {
+    pub(crate) name: &'a str,
+    pub(crate) type_id: u8,
+    pub(crate) capacity: u64,
+    pub(crate) string_capacity: u64,
+    pub(crate) nested_type_name: &'a str,
+    pub(crate) default_value: &'a str,
+}
+
+impl<'a> DescribedField<'a> {
+    fn of(field: &'a Field) -> Self {
+        let t = &field.field_type;
+        Self {
+            name: field.name,
+            type_id: t.type_id(),
+            capacity: t.capacity() as u64,
+            string_capacity: t.string_capacity as u64,
+            nested_type_name: t.nested_type_name,
+            default_value: field.default_value,
+        }
+    }
+}
+
 fn write_type_description(out: &mut String, description: &TypeDescription, defaults: bool) {
-    // Names are validated ASCII identifiers, so no JSON escaping is needed for
-    // them; default values may hold any text.
-    let _ = write!(
+    write_individual_json(
         out,
-        "{{\"type_name\": \"{}\", \"fields\": [",
-        description.type_name
+        description.type_name,
+        description.fields.iter().map(DescribedField::of),
+        defaults,
     );
-    for (i, field) in description.fields.iter().enumerate() {
+}
+
+/// One `IndividualTypeDescription` as rosidl writes it for the hash (or, with
+/// `defaults`, with default values).
+pub(crate) fn write_individual_json<'a>(
+    out: &mut String,
+    type_name: &str,
+    fields: impl Iterator<Item = DescribedField<'a>>,
+    defaults: bool,
+) {
+    out.push_str("{\"type_name\": ");
+    write_json_string(out, type_name);
+    out.push_str(", \"fields\": [");
+    for (i, field) in fields.enumerate() {
         if i > 0 {
             out.push_str(", ");
         }
-        let t = &field.field_type;
+        out.push_str("{\"name\": ");
+        write_json_string(out, field.name);
         let _ = write!(
             out,
-            "{{\"name\": \"{}\", \"type\": {{\"type_id\": {}, \"capacity\": {}, \"string_capacity\": {}, \"nested_type_name\": \"{}\"}}",
-            field.name,
-            t.type_id(),
-            t.capacity(),
-            t.string_capacity,
-            t.nested_type_name
+            ", \"type\": {{\"type_id\": {}, \"capacity\": {}, \"string_capacity\": {}, \"nested_type_name\": ",
+            field.type_id, field.capacity, field.string_capacity,
         );
+        write_json_string(out, field.nested_type_name);
+        out.push('}');
         if defaults {
             out.push_str(", \"default_value\": ");
             write_json_string(out, field.default_value);

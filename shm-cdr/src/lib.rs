@@ -31,6 +31,7 @@ use std::marker::PhantomData;
 mod bounded;
 mod decode;
 pub mod describe;
+pub mod dynamic;
 mod encode;
 mod endian;
 mod error;

@@ -2,7 +2,8 @@
 """Print the README table from criterion's results (run `cargo bench -p
 shm-cdr-tests --bench cdr` first): the median of every benchmark, and for the
 byte-moving operations the throughput and the ratio to a memcpy of the same
-number of bytes measured in the same run."""
+number of bytes measured in the same run. With `--bench dynamic` run too, a
+second table: run-time typed messages against the generated code."""
 import json
 import pathlib
 import sys
@@ -40,3 +41,21 @@ for group in groups:
         ns, _ = median(group, op)
         cells.append(fmt_time(ns))
     print(f"| {group} | {size:,} | " + " | ".join(cells) + " |")
+
+
+dynamic_groups = ["dynamic PointCloud2 1MiB", "dynamic JointState 40"]
+if any(median(g, "dynamic_decode")[0] for g in dynamic_groups):
+    print()
+    print("| message | generated decode (borrowed) | dynamic decode | generated encode_into | dynamic encode_into |")
+    print("|---|---:|---:|---:|---:|")
+    for group in dynamic_groups:
+        cells = []
+        for generated, dynamic in (("generated_decode_borrowed", "dynamic_decode"),
+                                   ("generated_encode_into", "dynamic_encode_into")):
+            g, _ = median(group, generated)
+            d, _ = median(group, dynamic)
+            if g is None or d is None:
+                cells += ["—", "—"]
+                continue
+            cells += [fmt_time(g), f"{fmt_time(d)} (**{d / g:.2f}×**)"]
+        print(f"| {group.removeprefix('dynamic ')} | " + " | ".join(cells) + " |")

@@ -126,6 +126,30 @@ pub mod fuzzing {
         assert_eq!(bytes.len(), shm_cdr::encoded_size(&value));
     }
 
+    /// Decode `data` as `T` and as the run-time type built from `T`'s
+    /// description: both must fail, or both succeed and encode the same bytes,
+    /// the dynamic message sized exactly.
+    fn decode_dynamic_as<T>(data: &[u8])
+    where
+        T: shm_cdr::DecodeOwned + RosMessage,
+    {
+        let ty = shm_cdr::dynamic::DynamicType::from_description(&T::full_description())
+            .expect("every generated type is a valid dynamic type");
+        let generated = from_bytes::<T>(data).map(|v| shm_cdr::to_vec(&v));
+        let dynamic = ty.decode(data);
+        match (generated, dynamic) {
+            (Ok(Ok(expected)), Ok(message)) => {
+                let bytes =
+                    shm_cdr::to_vec(&message).expect("a decoded dynamic message re-encodes");
+                assert_eq!(bytes, expected, "{}: dynamic bytes differ", T::TYPE_NAME);
+                assert_eq!(bytes.len(), shm_cdr::encoded_size(&message));
+            }
+            (Err(_), Err(_)) | (Ok(Err(_)), _) => {}
+            (Ok(_), Err(e)) => panic!("{}: only the dynamic decoder refused: {e}", T::TYPE_NAME),
+            (Err(e), Ok(_)) => panic!("{}: only the generated decoder refused: {e}", T::TYPE_NAME),
+        }
+    }
+
     /// Target `decode`: arbitrary bytes into several message types, owned and
     /// borrowed. Must never panic, hang or over-allocate.
     pub fn decode(data: &[u8]) {
@@ -165,11 +189,14 @@ pub mod fuzzing {
     {
         decode_as::<T>(data);
         decode_borrowed_as::<T::Ref<'_>>(data);
+        decode_dynamic_as::<T>(data);
         let mut u = arbitrary::Unstructured::new(data);
         if let Ok(msg) = T::arbitrary(&mut u) {
             if let Err(why) = check_roundtrip(&msg) {
                 panic!("{why}");
             }
+            let bytes = shm_cdr::to_vec(&msg).expect("an arbitrary value encodes");
+            decode_dynamic_as::<T>(&bytes);
             if let Err(why) = shm_cdr::testing::check_in_place(&msg) {
                 panic!("in place: {why}");
             }

@@ -91,5 +91,5 @@ mod array;
 mod bytes;
 mod primitive;
 mod sequence;
-mod string;
-mod wstring;
+pub(crate) mod string;
+pub(crate) mod wstring;

@@ -13,7 +13,7 @@ use crate::layout::{align_up, as_uninit};
 use crate::loan::{Carver, InPlace, InPlaceElement, LoanError, StrSlot};
 
 #[inline(always)]
-fn string_end(start: usize, len: usize) -> usize {
+pub(crate) fn string_end(start: usize, len: usize) -> usize {
     align_up(start, 4) + 4 + len + 1
 }
 
@@ -91,7 +91,10 @@ fn put_string<B: ByteOrder>(out: &mut [MaybeUninit<u8>], s: &str) -> Result<(), 
 }
 
 #[inline]
-fn write_string<B: ByteOrder>(w: &mut Writer<'_, B>, s: &str) -> Result<(), EncodeError> {
+pub(crate) fn write_string<B: ByteOrder>(
+    w: &mut Writer<'_, B>,
+    s: &str,
+) -> Result<(), EncodeError> {
     // One bounds check for prefix, contents and NUL together.
     put_string::<B>(w.aligned_slot_uninit(4, 4 + s.len() + 1)?, s)
 }

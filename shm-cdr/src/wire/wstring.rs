@@ -14,11 +14,11 @@ fn utf16_len(s: &str) -> usize {
     s.chars().map(char::len_utf16).sum()
 }
 
-fn wstring_end(start: usize, s: &str) -> usize {
+pub(crate) fn wstring_end(start: usize, s: &str) -> usize {
     align_up(start, 4) + 4 + 4 * utf16_len(s)
 }
 
-fn write_wstring<B: ByteOrder>(
+pub(crate) fn write_wstring<B: ByteOrder>(
     w: &mut Writer<'_, B>,
     s: &str,
     bound: Option<usize>,
@@ -44,7 +44,7 @@ fn write_wstring<B: ByteOrder>(
     Ok(())
 }
 
-fn read_wstring<B: ByteOrder>(
+pub(crate) fn read_wstring<B: ByteOrder>(
     r: &mut Reader<'_, B>,
     bound: Option<usize>,
 ) -> Result<String, DecodeError> {

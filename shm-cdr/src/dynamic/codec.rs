@@ -1,0 +1,330 @@
+//! Reading and writing [`Message`]s: the same readers and writers the generated
+//! types use, chosen per field at run time, with the same checks (every length
+//! checked against the input before anything is allocated, bounds enforced both
+//! ways, padding zeroed).
+
+use std::borrow::Cow;
+
+use super::model::{DynamicType, Element};
+use super::value::{Message, Value};
+use crate::decode::{CdrDecode, Reader};
+use crate::describe::Container;
+use crate::encode::{CdrEncode, Writer};
+use crate::endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
+use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
+use crate::layout::align_up;
+use crate::wire::string::{string_end, write_string};
+use crate::wire::wstring::{read_wstring, write_wstring, wstring_end};
+
+/// The member rosidl gives a message with no fields.
+const EMPTY_MESSAGE_MEMBER: &str = "structure_needs_at_least_one_member";
+
+impl DynamicType {
+    /// Decode a CDR payload (encapsulation header included) as this type,
+    /// borrowing strings, byte and number arrays from `bytes` where the
+    /// generated types would (bytes after the message are ignored, as
+    /// rclpy's and Fast-CDR's readers ignore them).
+    pub fn decode<'de>(&self, bytes: &'de [u8]) -> Result<Message<'de>, DecodeError> {
+        self.decode_from(bytes, false)
+    }
+
+    /// [`decode`](Self::decode) for input other processes may write (shared
+    /// memory): strings are copied before they are checked.
+    pub fn decode_shared<'de>(&self, bytes: &'de [u8]) -> Result<Message<'de>, DecodeError> {
+        self.decode_from(bytes, true)
+    }
+
+    fn decode_from<'de>(
+        &self,
+        bytes: &'de [u8],
+        shared: bool,
+    ) -> Result<Message<'de>, DecodeError> {
+        let body = bytes.get(4..).unwrap_or_default();
+        match crate::read_header(bytes)? {
+            Endianness::Little => {
+                let r = Reader::<LittleEndian>::new(body);
+                self.decode_message(&mut if shared { r.shared() } else { r }, 0)
+            }
+            Endianness::Big => {
+                let r = Reader::<BigEndian>::new(body);
+                self.decode_message(&mut if shared { r.shared() } else { r }, 0)
+            }
+        }
+    }
+
+    /// Read one message of struct `index` at the reader's position.
+    pub fn decode_message<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        index: usize,
+    ) -> Result<Message<'de>, DecodeError> {
+        let def = &self.inner.structs[index];
+        let mut values = Vec::with_capacity(def.fields.len());
+        for field in &def.fields {
+            values.push(self.decode_field(r, field.element, field.container)?);
+        }
+        // rosidl's placeholder member of an empty message carries no value:
+        // read as 0 whatever the byte, as the generated types read it.
+        if let [field] = def.fields.as_slice() {
+            if field.name == EMPTY_MESSAGE_MEMBER {
+                values[0] = Value::U8(0);
+            }
+        }
+        Ok(Message {
+            ty: self.clone(),
+            index,
+            values,
+        })
+    }
+
+    fn decode_field<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        element: Element,
+        container: Container,
+    ) -> Result<Value<'de>, DecodeError> {
+        let n = match container {
+            Container::Single => return self.decode_single(r, element),
+            Container::Array(n) => {
+                // No count on the wire: check the input holds them before reading.
+                let min = element.min_wire_size(&self.inner.structs);
+                let needed = n.saturating_mul(min);
+                if needed > r.remaining() {
+                    return Err(r.error_at(
+                        r.position(),
+                        DecodeErrorKind::UnexpectedEof {
+                            needed,
+                            remaining: r.remaining(),
+                        },
+                    ));
+                }
+                n
+            }
+            Container::BoundedSequence(bound) => {
+                let at = r.position();
+                let n = r.read_count(element.min_wire_size(&self.inner.structs))?;
+                if n > bound {
+                    return Err(r.error_at(at, DecodeErrorKind::BoundExceeded { len: n, bound }));
+                }
+                n
+            }
+            Container::Sequence => r.read_count(element.min_wire_size(&self.inner.structs))?,
+        };
+        Ok(match element {
+            Element::Bool => Value::Bools(bool::decode_vec(r, n)?),
+            Element::Byte | Element::Char | Element::U8 => Value::U8s(u8::decode_cow_slice(r, n)?),
+            Element::I8 => Value::I8s(i8::decode_cow_slice(r, n)?),
+            Element::I16 => Value::I16s(i16::decode_cow_slice(r, n)?),
+            Element::U16 => Value::U16s(u16::decode_cow_slice(r, n)?),
+            Element::I32 => Value::I32s(i32::decode_cow_slice(r, n)?),
+            Element::U32 => Value::U32s(u32::decode_cow_slice(r, n)?),
+            Element::I64 => Value::I64s(i64::decode_cow_slice(r, n)?),
+            Element::U64 => Value::U64s(u64::decode_cow_slice(r, n)?),
+            Element::F32 => Value::F32s(f32::decode_cow_slice(r, n)?),
+            Element::F64 => Value::F64s(f64::decode_cow_slice(r, n)?),
+            Element::String(bound) => {
+                let mut out = Vec::with_capacity(n);
+                for _ in 0..n {
+                    out.push(decode_string(r, bound)?);
+                }
+                Value::Strings(out)
+            }
+            Element::WString(bound) => {
+                let mut out = Vec::with_capacity(n);
+                for _ in 0..n {
+                    out.push(read_wstring(r, bound)?);
+                }
+                Value::WStrings(out)
+            }
+            Element::Message(index) => {
+                let mut out = Vec::with_capacity(n);
+                for _ in 0..n {
+                    out.push(self.decode_message(r, index)?);
+                }
+                Value::Messages(out)
+            }
+        })
+    }
+
+    fn decode_single<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        element: Element,
+    ) -> Result<Value<'de>, DecodeError> {
+        Ok(match element {
+            Element::Bool => Value::Bool(bool::decode(r)?),
+            Element::Byte | Element::Char | Element::U8 => Value::U8(u8::decode(r)?),
+            Element::I8 => Value::I8(i8::decode(r)?),
+            Element::I16 => Value::I16(i16::decode(r)?),
+            Element::U16 => Value::U16(u16::decode(r)?),
+            Element::I32 => Value::I32(i32::decode(r)?),
+            Element::U32 => Value::U32(u32::decode(r)?),
+            Element::I64 => Value::I64(i64::decode(r)?),
+            Element::U64 => Value::U64(u64::decode(r)?),
+            Element::F32 => Value::F32(f32::decode(r)?),
+            Element::F64 => Value::F64(f64::decode(r)?),
+            Element::String(bound) => Value::String(decode_string(r, bound)?),
+            Element::WString(bound) => Value::WString(read_wstring(r, bound)?),
+            Element::Message(index) => Value::Message(self.decode_message(r, index)?),
+        })
+    }
+}
+
+fn decode_string<'de, B: ByteOrder>(
+    r: &mut Reader<'de, B>,
+    bound: Option<usize>,
+) -> Result<Cow<'de, str>, DecodeError> {
+    let at = r.position();
+    let s = Cow::<str>::decode(r)?;
+    match bound {
+        Some(bound) if s.len() > bound => Err(r.error_at(
+            at,
+            DecodeErrorKind::BoundExceeded {
+                len: s.len(),
+                bound,
+            },
+        )),
+        _ => Ok(s),
+    }
+}
+
+/// A message's size and bytes follow its values; [`Message::set`] keeps each
+/// value of its field's kind, so the two always agree.
+impl CdrEncode for Message<'_> {
+    fn encoded_end(&self, start: usize) -> usize {
+        let def = self.def();
+        def.fields
+            .iter()
+            .zip(&self.values)
+            .fold(start, |pos, (field, value)| {
+                let counted = !matches!(field.container, Container::Array(_) | Container::Single);
+                value_end(value, pos, counted)
+            })
+    }
+
+    fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
+        let def = self.def();
+        for (field, value) in def.fields.iter().zip(&self.values) {
+            encode_value(w, field.element, field.container, value)?;
+        }
+        Ok(())
+    }
+}
+
+/// The position after `value` at `start`; `counted` for a sequence, whose
+/// elements follow a count (an array's do not).
+fn value_end(value: &Value<'_>, start: usize, counted: bool) -> usize {
+    let first = if counted {
+        align_up(start, 4) + 4
+    } else {
+        start
+    };
+    fn elements<T: CdrEncode>(items: &[T], first: usize) -> usize {
+        T::slice_encoded_end(items, first)
+    }
+    match value {
+        Value::Bool(v) => v.encoded_end(start),
+        Value::U8(v) => v.encoded_end(start),
+        Value::I8(v) => v.encoded_end(start),
+        Value::I16(v) => v.encoded_end(start),
+        Value::U16(v) => v.encoded_end(start),
+        Value::I32(v) => v.encoded_end(start),
+        Value::U32(v) => v.encoded_end(start),
+        Value::I64(v) => v.encoded_end(start),
+        Value::U64(v) => v.encoded_end(start),
+        Value::F32(v) => v.encoded_end(start),
+        Value::F64(v) => v.encoded_end(start),
+        Value::String(s) => string_end(start, s.len()),
+        Value::WString(s) => wstring_end(start, s),
+        Value::Message(m) => m.encoded_end(start),
+        Value::Bools(v) => elements(v, first),
+        Value::U8s(v) => elements(v, first),
+        Value::I8s(v) => elements(v, first),
+        Value::I16s(v) => elements(v, first),
+        Value::U16s(v) => elements(v, first),
+        Value::I32s(v) => elements(v, first),
+        Value::U32s(v) => elements(v, first),
+        Value::I64s(v) => elements(v, first),
+        Value::U64s(v) => elements(v, first),
+        Value::F32s(v) => elements(v, first),
+        Value::F64s(v) => elements(v, first),
+        Value::Strings(v) => v.iter().fold(first, |pos, s| string_end(pos, s.len())),
+        Value::WStrings(v) => v.iter().fold(first, |pos, s| wstring_end(pos, s)),
+        Value::Messages(v) => v.iter().fold(first, |pos, m| m.encoded_end(pos)),
+    }
+}
+
+fn write_count<B: ByteOrder>(
+    w: &mut Writer<'_, B>,
+    container: Container,
+    len: usize,
+) -> Result<(), EncodeError> {
+    match container {
+        Container::Array(_) | Container::Single => Ok(()),
+        Container::BoundedSequence(bound) if len > bound => {
+            Err(EncodeError::new(EncodeErrorKind::BoundExceeded {
+                len,
+                bound,
+            }))
+        }
+        Container::BoundedSequence(_) | Container::Sequence => w.write_len(len),
+    }
+}
+
+fn encode_value<B: ByteOrder>(
+    w: &mut Writer<'_, B>,
+    element: Element,
+    container: Container,
+    value: &Value<'_>,
+) -> Result<(), EncodeError> {
+    if let Some(len) = value.len() {
+        write_count(w, container, len)?;
+    }
+    let bound = match element {
+        Element::String(b) | Element::WString(b) => b,
+        _ => None,
+    };
+    let check_str = |len: usize| match bound {
+        Some(bound) if len > bound => Err(EncodeError::new(EncodeErrorKind::BoundExceeded {
+            len,
+            bound,
+        })),
+        _ => Ok(()),
+    };
+    match value {
+        Value::Bool(v) => v.encode(w),
+        Value::U8(v) => v.encode(w),
+        Value::I8(v) => v.encode(w),
+        Value::I16(v) => v.encode(w),
+        Value::U16(v) => v.encode(w),
+        Value::I32(v) => v.encode(w),
+        Value::U32(v) => v.encode(w),
+        Value::I64(v) => v.encode(w),
+        Value::U64(v) => v.encode(w),
+        Value::F32(v) => v.encode(w),
+        Value::F64(v) => v.encode(w),
+        Value::String(s) => {
+            check_str(s.len())?;
+            write_string(w, s)
+        }
+        Value::WString(s) => write_wstring(w, s, bound),
+        Value::Message(m) => m.encode(w),
+        Value::Bools(v) => bool::encode_slice(v, w),
+        Value::U8s(v) => u8::encode_slice(v, w),
+        Value::I8s(v) => i8::encode_slice(v, w),
+        Value::I16s(v) => i16::encode_slice(v, w),
+        Value::U16s(v) => u16::encode_slice(v, w),
+        Value::I32s(v) => i32::encode_slice(v, w),
+        Value::U32s(v) => u32::encode_slice(v, w),
+        Value::I64s(v) => i64::encode_slice(v, w),
+        Value::U64s(v) => u64::encode_slice(v, w),
+        Value::F32s(v) => f32::encode_slice(v, w),
+        Value::F64s(v) => f64::encode_slice(v, w),
+        Value::Strings(v) => v.iter().try_for_each(|s| {
+            check_str(s.len())?;
+            write_string(w, s)
+        }),
+        Value::WStrings(v) => v.iter().try_for_each(|s| write_wstring(w, s, bound)),
+        Value::Messages(v) => v.iter().try_for_each(|m| m.encode(w)),
+    }
+}

@@ -1,0 +1,173 @@
+//! Default values as a type description writes them (Python's `str()` of the
+//! value: `1.5`, `True`, `(0, 127, -128)`, `('', 'a b')`, a string as its
+//! text) read back into [`Value`]s.
+
+use std::borrow::Cow;
+
+use super::model::Element;
+use super::value::Value;
+use crate::describe::Container;
+
+/// The value `text` gives a field of `element` in `container`; `None` if it
+/// is empty or not a value of that field (the field then starts at zero).
+pub(crate) fn parse(element: Element, container: Container, text: &str) -> Option<Value<'static>> {
+    if text.is_empty() {
+        return None;
+    }
+    if container == Container::Single {
+        return match element {
+            Element::String(_) => Some(Value::String(Cow::Owned(text.to_owned()))),
+            Element::WString(_) => Some(Value::WString(text.to_owned())),
+            _ => scalar(element, text),
+        };
+    }
+    let inner = text.strip_prefix('(')?.strip_suffix(')')?;
+    let items = split_tuple(inner)?;
+    let value = match element {
+        Element::String(_) => Value::Strings(
+            items
+                .iter()
+                .map(|i| python_str(i).map(Cow::Owned))
+                .collect::<Option<_>>()?,
+        ),
+        Element::WString(_) => {
+            Value::WStrings(items.iter().map(|i| python_str(i)).collect::<Option<_>>()?)
+        }
+        Element::Message(_) => return None,
+        _ => {
+            let values: Vec<Value<'static>> = items
+                .iter()
+                .map(|i| scalar(element, i))
+                .collect::<Option<_>>()?;
+            collect(element, values)?
+        }
+    };
+    let len = value.len().unwrap_or(0);
+    match container {
+        Container::Array(n) if len != n => None,
+        Container::BoundedSequence(n) if len > n => None,
+        _ => Some(value),
+    }
+}
+
+fn scalar(element: Element, text: &str) -> Option<Value<'static>> {
+    Some(match element {
+        Element::Bool => match text {
+            "True" => Value::Bool(true),
+            "False" => Value::Bool(false),
+            _ => return None,
+        },
+        Element::Byte | Element::Char | Element::U8 => Value::U8(text.parse().ok()?),
+        Element::I8 => Value::I8(text.parse().ok()?),
+        Element::I16 => Value::I16(text.parse().ok()?),
+        Element::U16 => Value::U16(text.parse().ok()?),
+        Element::I32 => Value::I32(text.parse().ok()?),
+        Element::U32 => Value::U32(text.parse().ok()?),
+        Element::I64 => Value::I64(text.parse().ok()?),
+        Element::U64 => Value::U64(text.parse().ok()?),
+        Element::F32 => Value::F32(text.parse().ok()?),
+        Element::F64 => Value::F64(text.parse().ok()?),
+        _ => return None,
+    })
+}
+
+/// Scalars gathered into the array value of their element.
+fn collect(element: Element, values: Vec<Value<'static>>) -> Option<Value<'static>> {
+    macro_rules! gather {
+        ($variant:ident, $many:ident) => {
+            Value::$many(Cow::Owned(
+                values
+                    .into_iter()
+                    .map(|v| match v {
+                        Value::$variant(x) => Some(x),
+                        _ => None,
+                    })
+                    .collect::<Option<Vec<_>>>()?,
+            ))
+        };
+    }
+    Some(match element {
+        Element::Bool => Value::Bools(
+            values
+                .into_iter()
+                .map(|v| match v {
+                    Value::Bool(x) => Some(x),
+                    _ => None,
+                })
+                .collect::<Option<Vec<_>>>()?,
+        ),
+        Element::Byte | Element::Char | Element::U8 => gather!(U8, U8s),
+        Element::I8 => gather!(I8, I8s),
+        Element::I16 => gather!(I16, I16s),
+        Element::U16 => gather!(U16, U16s),
+        Element::I32 => gather!(I32, I32s),
+        Element::U32 => gather!(U32, U32s),
+        Element::I64 => gather!(I64, I64s),
+        Element::U64 => gather!(U64, U64s),
+        Element::F32 => gather!(F32, F32s),
+        Element::F64 => gather!(F64, F64s),
+        _ => return None,
+    })
+}
+
+/// The items of a Python tuple's inside, split at commas outside quotes.
+fn split_tuple(inner: &str) -> Option<Vec<&str>> {
+    let mut items = Vec::new();
+    let mut quote = None;
+    let mut escaped = false;
+    let mut start = 0;
+    for (i, c) in inner.char_indices() {
+        match quote {
+            Some(q) => {
+                if escaped {
+                    escaped = false;
+                } else if c == '\\' {
+                    escaped = true;
+                } else if c == q {
+                    quote = None;
+                }
+            }
+            None => match c {
+                '\'' | '"' => quote = Some(c),
+                ',' => {
+                    items.push(inner[start..i].trim());
+                    start = i + 1;
+                }
+                _ => {}
+            },
+        }
+    }
+    if quote.is_some() {
+        return None;
+    }
+    let last = inner[start..].trim();
+    if !last.is_empty() {
+        items.push(last);
+    }
+    Some(items)
+}
+
+/// A Python string literal (`'a'`, `"it's"`, with backslash escapes) read.
+fn python_str(literal: &str) -> Option<String> {
+    let quote = literal.chars().next().filter(|c| *c == '\'' || *c == '"')?;
+    let body = literal.strip_prefix(quote)?.strip_suffix(quote)?;
+    let mut out = String::with_capacity(body.len());
+    let mut chars = body.chars();
+    while let Some(c) = chars.next() {
+        if c != '\\' {
+            out.push(c);
+            continue;
+        }
+        match chars.next()? {
+            'n' => out.push('\n'),
+            't' => out.push('\t'),
+            'r' => out.push('\r'),
+            'x' => {
+                let hex: String = chars.by_ref().take(2).collect();
+                out.push(char::from_u32(u32::from_str_radix(&hex, 16).ok()?)?);
+            }
+            other => out.push(other),
+        }
+    }
+    Some(out)
+}

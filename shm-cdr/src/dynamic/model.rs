@@ -1,0 +1,448 @@
+//! The run-time type model: message types and their fields, checked once when
+//! built so that decoding and encoding never meet an inconsistent type.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::sync::Arc;
+
+use crate::describe::{self, Container, DescribedField, FullDescription, TypeId};
+
+/// What one element of a field is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Element {
+    /// `bool`.
+    Bool,
+    /// `byte` (IDL `octet`).
+    Byte,
+    /// IDL `char` (8 bits).
+    Char,
+    /// `int8`.
+    I8,
+    /// `uint8` (and .msg `char`).
+    U8,
+    /// `int16`.
+    I16,
+    /// `uint16`.
+    U16,
+    /// `int32`.
+    I32,
+    /// `uint32`.
+    U32,
+    /// `int64`.
+    I64,
+    /// `uint64`.
+    U64,
+    /// `float32`.
+    F32,
+    /// `float64`.
+    F64,
+    /// `string`, or `string<=N` with a bound in bytes.
+    String(Option<usize>),
+    /// `wstring`, or `wstring<=N` with a bound in UTF-16 code units.
+    WString(Option<usize>),
+    /// A nested message: an index into [`DynamicType::structs`].
+    Message(usize),
+}
+
+impl Element {
+    /// The fewest bytes one element takes on the wire (for length checks).
+    pub(crate) fn min_wire_size(self, structs: &[StructDef]) -> usize {
+        match self {
+            Self::Bool | Self::Byte | Self::Char | Self::I8 | Self::U8 => 1,
+            Self::I16 | Self::U16 => 2,
+            Self::I32 | Self::U32 | Self::F32 | Self::String(_) | Self::WString(_) => 4,
+            Self::I64 | Self::U64 | Self::F64 => 8,
+            Self::Message(i) => structs.get(i).map_or(1, |s| s.min_wire_size),
+        }
+    }
+}
+
+/// One field of a message type.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FieldDef {
+    /// The field's name.
+    pub name: String,
+    /// Its element.
+    pub element: Element,
+    /// Single, array or sequence.
+    pub container: Container,
+    /// The default value as the description gives it (Python's `str()`), or
+    /// empty.
+    pub default_value: String,
+    /// The description's `type_id`, `capacity`, `string_capacity` and nested
+    /// type name, kept for the hash.
+    described: (u8, u64, u64, String),
+}
+
+/// One message type.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct StructDef {
+    /// `pkg/msg/Name`.
+    pub name: String,
+    /// Its fields, in order.
+    pub fields: Vec<FieldDef>,
+    /// The fewest bytes a value takes on the wire (at least 1).
+    min_wire_size: usize,
+}
+
+impl StructDef {
+    /// The index of the field called `name`.
+    pub fn field_index(&self, name: &str) -> Option<usize> {
+        self.fields.iter().position(|f| f.name == name)
+    }
+}
+
+/// A message type known at run time: the type and every type it references,
+/// each checked (every nested name resolves, no type contains itself, every
+/// field kind is one CDR can carry). Cheap to clone.
+///
+/// ```
+/// use shm_cdr::dynamic::DynamicType;
+/// use shm_cdr::msgs::geometry_msgs::Pose;
+/// use shm_cdr::RosMessage;
+///
+/// let pose = DynamicType::from_description(&Pose::full_description())?;
+/// assert_eq!(pose.name(), "geometry_msgs/msg/Pose");
+/// assert_eq!(pose.type_hash(), Pose::type_hash());
+/// # Ok::<(), shm_cdr::dynamic::TypeError>(())
+/// ```
+#[derive(Clone, PartialEq, Eq)]
+pub struct DynamicType {
+    pub(crate) inner: Arc<Types>,
+}
+
+#[derive(PartialEq, Eq)]
+pub(crate) struct Types {
+    /// The root first, then the referenced types sorted by name.
+    pub(crate) structs: Vec<StructDef>,
+}
+
+impl fmt::Debug for DynamicType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("DynamicType")
+            .field("name", &self.name())
+            .field("types", &self.inner.structs.len())
+            .finish()
+    }
+}
+
+/// Why a description cannot be a [`DynamicType`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TypeError {
+    /// The type the problem is in.
+    pub type_name: String,
+    /// The field, if the problem is in one.
+    pub field: Option<String>,
+    /// What is wrong.
+    pub reason: String,
+}
+
+impl fmt::Display for TypeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.field {
+            Some(field) => write!(f, "{}.{field}: {}", self.type_name, self.reason),
+            None => write!(f, "{}: {}", self.type_name, self.reason),
+        }
+    }
+}
+
+impl std::error::Error for TypeError {}
+
+impl DynamicType {
+    /// The type described by `description` (e.g. `T::full_description()` of a
+    /// compiled type).
+    pub fn from_description(description: &FullDescription) -> Result<Self, TypeError> {
+        let all = std::iter::once(&description.own).chain(&description.referenced);
+        Self::build(all.map(|d| {
+            (
+                d.type_name,
+                d.fields
+                    .iter()
+                    .map(|f| DescribedField {
+                        name: f.name,
+                        type_id: f.field_type.type_id(),
+                        capacity: f.field_type.capacity() as u64,
+                        string_capacity: f.field_type.string_capacity as u64,
+                        nested_type_name: f.field_type.nested_type_name,
+                        default_value: f.default_value,
+                    })
+                    .collect::<Vec<_>>(),
+            )
+        }))
+    }
+
+    /// The type a `type_description_interfaces/msg/TypeDescription` describes:
+    /// what a node's `~/get_type_description` returns.
+    #[cfg(feature = "type_description_interfaces")]
+    pub fn from_type_description_msg(
+        description: &crate::msgs::type_description_interfaces::msg::TypeDescription,
+    ) -> Result<Self, TypeError> {
+        let all = std::iter::once(&description.type_description)
+            .chain(&description.referenced_type_descriptions);
+        Self::build(all.map(|d| {
+            (
+                d.type_name.as_str(),
+                d.fields
+                    .iter()
+                    .map(|f| DescribedField {
+                        name: &f.name,
+                        type_id: f.r#type.type_id,
+                        capacity: f.r#type.capacity,
+                        string_capacity: f.r#type.string_capacity,
+                        nested_type_name: f.r#type.nested_type_name.as_str(),
+                        default_value: &f.default_value,
+                    })
+                    .collect::<Vec<_>>(),
+            )
+        }))
+    }
+
+    /// Build from (type name, fields) pairs, the root first.
+    pub(crate) fn build<'a>(
+        types: impl Iterator<Item = (&'a str, Vec<DescribedField<'a>>)>,
+    ) -> Result<Self, TypeError> {
+        let types: Vec<(&str, Vec<DescribedField<'_>>)> = types.collect();
+        let mut index: HashMap<&str, usize> = HashMap::new();
+        for (i, (name, _)) in types.iter().enumerate() {
+            if index.insert(name, i).is_some() {
+                return Err(TypeError {
+                    type_name: (*name).to_owned(),
+                    field: None,
+                    reason: "described twice".into(),
+                });
+            }
+        }
+        let mut structs = Vec::with_capacity(types.len());
+        for (name, fields) in &types {
+            let error = |field: &str, reason: String| TypeError {
+                type_name: (*name).to_owned(),
+                field: Some(field.to_owned()),
+                reason,
+            };
+            if fields.is_empty() {
+                return Err(TypeError {
+                    type_name: (*name).to_owned(),
+                    field: None,
+                    reason:
+                        "no fields (an empty message lists `structure_needs_at_least_one_member`)"
+                            .into(),
+                });
+            }
+            let mut defs = Vec::with_capacity(fields.len());
+            for f in fields {
+                let (element, container) = field_kind(f, &index).map_err(|r| error(f.name, r))?;
+                defs.push(FieldDef {
+                    name: f.name.to_owned(),
+                    element,
+                    container,
+                    default_value: f.default_value.to_owned(),
+                    described: (
+                        f.type_id,
+                        f.capacity,
+                        f.string_capacity,
+                        f.nested_type_name.to_owned(),
+                    ),
+                });
+            }
+            structs.push(StructDef {
+                name: (*name).to_owned(),
+                fields: defs,
+                min_wire_size: 1,
+            });
+        }
+        let order = nesting_order(&structs)?;
+        // Sizes from the innermost types out.
+        for &i in &order {
+            let size = structs[i]
+                .fields
+                .iter()
+                .map(|f| match f.container {
+                    Container::Single => f.element.min_wire_size(&structs),
+                    Container::Array(n) => n.saturating_mul(f.element.min_wire_size(&structs)),
+                    Container::BoundedSequence(_) | Container::Sequence => 4,
+                })
+                .fold(0usize, usize::saturating_add);
+            structs[i].min_wire_size = size.max(1);
+        }
+        Ok(Self {
+            inner: Arc::new(Types { structs }),
+        })
+    }
+
+    /// `pkg/msg/Name` of the type.
+    pub fn name(&self) -> &str {
+        &self.root().name
+    }
+
+    /// The type itself.
+    pub fn root(&self) -> &StructDef {
+        &self.inner.structs[0]
+    }
+
+    /// The type, then every type it references, sorted by name.
+    pub fn structs(&self) -> &[StructDef] {
+        &self.inner.structs
+    }
+
+    /// The REP 2011 hash of the type, computed from this model as rosidl
+    /// computes it.
+    pub fn type_hash(&self) -> String {
+        let mut out = String::with_capacity(1024);
+        out.push_str("{\"type_description\": ");
+        self.write_json(&mut out, 0);
+        out.push_str(", \"referenced_type_descriptions\": [");
+        let mut rest: Vec<usize> = (1..self.inner.structs.len()).collect();
+        rest.sort_by(|&a, &b| self.inner.structs[a].name.cmp(&self.inner.structs[b].name));
+        // Only what the root reaches enters the hash.
+        let reached = self.reached_from_root();
+        let mut first = true;
+        for i in rest.into_iter().filter(|i| reached[*i]) {
+            if !first {
+                out.push_str(", ");
+            }
+            first = false;
+            self.write_json(&mut out, i);
+        }
+        out.push_str("]}");
+        describe::rihs01_of_json(&out)
+    }
+
+    fn write_json(&self, out: &mut String, i: usize) {
+        let def = &self.inner.structs[i];
+        describe::write_individual_json(
+            out,
+            &def.name,
+            def.fields.iter().map(|f| DescribedField {
+                name: &f.name,
+                type_id: f.described.0,
+                capacity: f.described.1,
+                string_capacity: f.described.2,
+                nested_type_name: &f.described.3,
+                default_value: &f.default_value,
+            }),
+            false,
+        );
+    }
+
+    fn reached_from_root(&self) -> Vec<bool> {
+        let structs = &self.inner.structs;
+        let mut reached = vec![false; structs.len()];
+        let mut todo = vec![0];
+        while let Some(i) = todo.pop() {
+            if std::mem::replace(&mut reached[i], true) {
+                continue;
+            }
+            for f in &structs[i].fields {
+                if let Element::Message(j) = f.element {
+                    todo.push(j);
+                }
+            }
+        }
+        reached
+    }
+}
+
+/// The element and container of a described field, or why it has none.
+fn field_kind(
+    f: &DescribedField<'_>,
+    index: &HashMap<&str, usize>,
+) -> Result<(Element, Container), String> {
+    let (base, container) = match f.type_id {
+        0 => return Err("type_id 0 (not set)".into()),
+        id @ 1..=48 => (id, Container::Single),
+        id @ 49..=96 => (id - 48, Container::Array(count(f.capacity)?)),
+        id @ 97..=144 => (id - 96, Container::BoundedSequence(count(f.capacity)?)),
+        id @ 145..=192 => (id - 144, Container::Sequence),
+        id => return Err(format!("unknown type_id {id}")),
+    };
+    let bound = || count(f.string_capacity);
+    let element = match base {
+        x if x == TypeId::Nested as u8 => match index.get(f.nested_type_name) {
+            Some(&i) => Element::Message(i),
+            None => {
+                return Err(format!(
+                    "nested type `{}` is not among the described types",
+                    f.nested_type_name
+                ))
+            }
+        },
+        x if x == TypeId::Int8 as u8 => Element::I8,
+        x if x == TypeId::Uint8 as u8 => Element::U8,
+        x if x == TypeId::Int16 as u8 => Element::I16,
+        x if x == TypeId::Uint16 as u8 => Element::U16,
+        x if x == TypeId::Int32 as u8 => Element::I32,
+        x if x == TypeId::Uint32 as u8 => Element::U32,
+        x if x == TypeId::Int64 as u8 => Element::I64,
+        x if x == TypeId::Uint64 as u8 => Element::U64,
+        x if x == TypeId::Float32 as u8 => Element::F32,
+        x if x == TypeId::Float64 as u8 => Element::F64,
+        x if x == TypeId::Char as u8 => Element::Char,
+        x if x == TypeId::Boolean as u8 => Element::Bool,
+        x if x == TypeId::Byte as u8 => Element::Byte,
+        x if x == TypeId::String as u8 => Element::String(None),
+        x if x == TypeId::WString as u8 => Element::WString(None),
+        x if x == TypeId::BoundedString as u8 => Element::String(Some(bound()?)),
+        x if x == TypeId::BoundedWString as u8 => Element::WString(Some(bound()?)),
+        12 => return Err("long double (type_id 12) has no CDR mapping in ROS 2".into()),
+        14 => return Err("wchar (type_id 14) is not supported".into()),
+        19 | 20 => return Err("fixed-size strings (IDL) are not supported".into()),
+        x => return Err(format!("unknown element type_id {x}")),
+    };
+    Ok((element, container))
+}
+
+fn count(n: u64) -> Result<usize, String> {
+    usize::try_from(n).map_err(|_| format!("capacity {n} does not fit this machine"))
+}
+
+/// The types in an order where each comes after every type it nests; an error
+/// if a type contains itself (which no message can: its size would be
+/// unbounded, and a decoder would recurse without end).
+fn nesting_order(structs: &[StructDef]) -> Result<Vec<usize>, TypeError> {
+    #[derive(Clone, Copy, PartialEq)]
+    enum Mark {
+        New,
+        Open,
+        Done,
+    }
+    let mut marks = vec![Mark::New; structs.len()];
+    let mut order = Vec::with_capacity(structs.len());
+    for start in 0..structs.len() {
+        if marks[start] != Mark::New {
+            continue;
+        }
+        // Iterative depth-first search: (type, next field to look at).
+        let mut stack = vec![(start, 0usize)];
+        marks[start] = Mark::Open;
+        while let Some(&mut (i, ref mut next)) = stack.last_mut() {
+            let fields = &structs[i].fields;
+            if let Some(f) = fields.get(*next) {
+                *next += 1;
+                if let Element::Message(j) = f.element {
+                    match marks[j] {
+                        Mark::New => {
+                            marks[j] = Mark::Open;
+                            stack.push((j, 0));
+                        }
+                        Mark::Open => {
+                            return Err(TypeError {
+                                type_name: structs[i].name.clone(),
+                                field: Some(f.name.clone()),
+                                reason: format!(
+                                    "`{}` contains itself through this field",
+                                    structs[j].name
+                                ),
+                            })
+                        }
+                        Mark::Done => {}
+                    }
+                }
+            } else {
+                marks[i] = Mark::Done;
+                order.push(i);
+                stack.pop();
+            }
+        }
+    }
+    Ok(order)
+}

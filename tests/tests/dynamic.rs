@@ -1,0 +1,178 @@
+//! Messages typed at run time (`shm_cdr::dynamic`) against the generated
+//! types: the same bytes, the same hashes, the same defaults, and the same
+//! refusal of bad input. (`tests/ros2/check.py` runs the same comparison on
+//! rclpy's encodings of random values of every standard type.)
+
+use std::borrow::Cow;
+
+use shm_cdr::describe::FullDescription;
+use shm_cdr::describe::{Field, FieldType, TypeDescription, TypeSource};
+use shm_cdr::dynamic::{DynamicType, Value};
+use shm_cdr::msgs::{sensor_msgs, std_msgs, test_msgs};
+use shm_cdr::{DecodeErrorKind, RosMessage};
+
+fn dynamic<T: RosMessage>() -> DynamicType {
+    DynamicType::from_description(&T::full_description()).unwrap()
+}
+
+#[test]
+fn defaults_from_the_description_are_the_generated_defaults() {
+    fn same<T: RosMessage + Default>() {
+        let ours = dynamic::<T>().default_message();
+        assert_eq!(
+            shm_cdr::to_vec(&ours).unwrap(),
+            shm_cdr::to_vec(&T::default()).unwrap(),
+            "{}",
+            T::TYPE_NAME
+        );
+    }
+    // Numbers, bools, strings with quotes, arrays and bounded sequences of
+    // each, nested messages.
+    same::<test_msgs::msg::Defaults>();
+    same::<test_msgs::msg::Arrays>();
+    same::<test_msgs::msg::BoundedSequences>();
+    same::<test_msgs::msg::UnboundedSequences>();
+    same::<test_msgs::msg::Strings>();
+    same::<test_msgs::msg::WStrings>();
+    same::<test_msgs::msg::MultiNested>();
+    same::<sensor_msgs::msg::Imu>();
+}
+
+#[test]
+fn byte_and_number_arrays_borrow_from_the_input() {
+    let image = sensor_msgs::msg::Image {
+        encoding: "mono8".into(),
+        data: vec![7; 4096],
+        ..Default::default()
+    };
+    let bytes = shm_cdr::to_vec(&image).unwrap();
+    let message = dynamic::<sensor_msgs::msg::Image>().decode(&bytes).unwrap();
+    match message.get("data") {
+        Some(Value::U8s(Cow::Borrowed(data))) => assert_eq!(data.len(), 4096),
+        other => panic!("data not borrowed: {other:?}"),
+    }
+    match message.get("encoding") {
+        Some(Value::String(Cow::Borrowed(text))) => assert_eq!(*text, "mono8"),
+        other => panic!("encoding not borrowed: {other:?}"),
+    }
+    // From shared memory, strings are copied before they are checked.
+    let shared = dynamic::<sensor_msgs::msg::Image>()
+        .decode_shared(&bytes)
+        .unwrap();
+    assert!(matches!(
+        shared.get("encoding"),
+        Some(Value::String(Cow::Owned(_)))
+    ));
+}
+
+#[test]
+fn bad_input_is_an_error_never_a_panic() {
+    let ty = dynamic::<test_msgs::msg::MultiNested>();
+    let bytes = shm_cdr::to_vec(&test_msgs::msg::MultiNested::default()).unwrap();
+    for end in 0..bytes.len() {
+        // Every cut short either fails or (inside trailing padding) reads the same.
+        if let Ok(m) = ty.decode(&bytes[..end]) {
+            assert_eq!(shm_cdr::to_vec(&m).unwrap(), bytes);
+        }
+    }
+    // A length prefix far beyond the input is refused before anything is
+    // allocated for it.
+    let strings = dynamic::<std_msgs::msg::Header>();
+    let mut hostile = shm_cdr::to_vec(&std_msgs::msg::Header::default()).unwrap();
+    hostile[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert!(strings.decode(&hostile).is_err());
+    // Bounds are enforced on decode as the generated types enforce them.
+    let bounded = dynamic::<test_msgs::msg::BoundedPlainSequences>();
+    let value = test_msgs::msg::BoundedPlainSequences {
+        bool_values: vec![true; 3].into(),
+        ..Default::default()
+    };
+    let mut bytes = shm_cdr::to_vec(&value).unwrap();
+    let at = 4; // the first field's count
+    bytes[at..at + 4].copy_from_slice(&4u32.to_le_bytes());
+    bytes.insert(at + 4 + 3, 1);
+    let e = bounded.decode(&bytes).unwrap_err();
+    assert!(
+        matches!(
+            e.kind(),
+            DecodeErrorKind::BoundExceeded { len: 4, bound: 3 }
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn set_keeps_every_value_of_its_fields_kind() {
+    let ty = dynamic::<test_msgs::msg::BoundedSequences>();
+    let mut m = ty.default_message();
+    assert!(m
+        .set("int32_values", Value::I32s(vec![1, 2, 3].into()))
+        .is_ok());
+    let too_many = m.set("int32_values", Value::I32s(vec![1, 2, 3, 4].into()));
+    assert!(too_many.unwrap_err().reason.contains("at most 3"));
+    let wrong = m
+        .set("int32_values", Value::String("x".into()))
+        .unwrap_err();
+    assert!(wrong.reason.contains("a string is not"), "{wrong}");
+    assert!(m.set("no_such_field", Value::Bool(true)).is_err());
+    let arrays = dynamic::<test_msgs::msg::Arrays>();
+    let mut a = arrays.default_message();
+    let short = a
+        .set("int32_values", Value::I32s(vec![1].into()))
+        .unwrap_err();
+    assert!(short.reason.contains("array of 3"), "{short}");
+    // A nested message must be of the field's type.
+    let header = dynamic::<std_msgs::msg::Header>().default_message();
+    let mut image = dynamic::<sensor_msgs::msg::Image>().default_message();
+    assert!(image.set("header", Value::Message(header)).is_err());
+
+    // What set wrote encodes as the generated type with the same values.
+    let generated = test_msgs::msg::BoundedSequences {
+        int32_values: vec![1, 2, 3].into(),
+        ..Default::default()
+    };
+    assert_eq!(
+        shm_cdr::to_vec(&m).unwrap(),
+        shm_cdr::to_vec(&generated).unwrap()
+    );
+}
+
+#[test]
+fn descriptions_that_cannot_be_types_say_why() {
+    let header = std_msgs::msg::Header::full_description();
+    // A nested type missing from the description.
+    let missing = FullDescription {
+        own: header.own,
+        referenced: Vec::new(),
+    };
+    let e = DynamicType::from_description(&missing).unwrap_err();
+    assert!(e.reason.contains("builtin_interfaces/msg/Time"), "{e}");
+    assert_eq!(e.field.as_deref(), Some("stamp"));
+
+    // A type that contains itself (through a sequence, too) is refused: a
+    // decoder of it would recurse as deep as the input lets it.
+    static A: [Field; 1] = [Field::new(
+        "b",
+        FieldType::nested("t/msg/B").unbounded_sequence(),
+    )];
+    static B: [Field; 1] = [Field::new("a", FieldType::nested("t/msg/A"))];
+    let cycle = FullDescription {
+        own: TypeDescription::new("t/msg/A", &A, TypeSource::NONE),
+        referenced: vec![TypeDescription::new("t/msg/B", &B, TypeSource::NONE)],
+    };
+    let e = DynamicType::from_description(&cycle).unwrap_err();
+    assert!(e.reason.contains("contains itself"), "{e}");
+}
+
+#[test]
+fn the_hash_of_every_type_built_at_run_time_is_rosidls() {
+    for description in [
+        sensor_msgs::msg::PointCloud2::full_description(),
+        test_msgs::msg::MultiNested::full_description(),
+        test_msgs::msg::WStrings::full_description(),
+    ] {
+        let ty = DynamicType::from_description(&description).unwrap();
+        assert_eq!(ty.type_hash(), description.type_hash());
+        assert_eq!(ty.name(), description.own.type_name);
+    }
+}
