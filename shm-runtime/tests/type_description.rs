@@ -1,0 +1,107 @@
+//! What a tool that was not built with a type does: find the type's hash on
+//! the graph, ask the publishing node's `~/get_type_description` for it, build
+//! a run-time type from the reply (`shm_cdr::dynamic`), and read the topic's
+//! messages with it. The reply's hash is the one in the tokens; a type leaves
+//! the answers when the last entity using it goes.
+
+mod common;
+
+use std::time::Duration;
+
+use common::loopback_sessions;
+use shm_cdr::dynamic::{DynamicType, Value};
+use shm_cdr::msgs::sensor_msgs::Imu;
+use shm_cdr::msgs::std_msgs::Header;
+use shm_cdr::msgs::type_description_interfaces::srv::{
+    GetTypeDescription, GetTypeDescription_Request,
+};
+use shm_cdr::RosMessage;
+use shm_runtime::RosNode;
+use zenoh::Wait;
+
+const TIMEOUT: Duration = Duration::from_secs(10);
+
+#[test]
+fn a_tool_reads_a_topic_through_the_publishers_type_description() {
+    let (a, b, _) = loopback_sessions();
+    let driver = RosNode::builder(&a, "imu_driver")
+        .namespace("/robot")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let imu = driver.declare_publisher::<Imu>("imu").wait().unwrap();
+
+    let tool = common::node(&b, "echo");
+    // The graph says who publishes /robot/imu and with which type hash.
+    let graph = tool.graph_cache().unwrap();
+    assert!(graph.wait_until(TIMEOUT, |g| !g.publishers("/robot/imu").is_empty()));
+    let publisher = graph.read().publishers("/robot/imu")[0].clone();
+    let endpoint = publisher.endpoint.clone().unwrap();
+    assert_eq!(publisher.node_fqn(), "/robot/imu_driver");
+
+    let client = tool
+        .declare_client::<GetTypeDescription>("/robot/imu_driver/get_type_description")
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+    let ask = |hash: &str| {
+        client
+            .call(&GetTypeDescription_Request {
+                type_name: endpoint.type_name.clone(),
+                type_hash: hash.to_owned(),
+                include_type_sources: true,
+            })
+            .wait()
+            .unwrap()
+    };
+    let reply = ask(&endpoint.type_hash);
+    assert!(reply.successful, "{}", reply.failure_reason);
+    assert_eq!(reply.type_sources[0].type_name, "sensor_msgs/msg/Imu");
+    assert!(reply.type_sources[0]
+        .raw_file_contents
+        .contains("geometry_msgs/Quaternion orientation"));
+    let ty = DynamicType::from_type_description_msg(&reply.type_description).unwrap();
+    assert_eq!(ty.type_hash(), endpoint.type_hash);
+    assert_eq!(ty.name(), endpoint.type_name);
+
+    // Messages on the topic read with the run-time type.
+    let listener = tool.declare_subscriber::<Imu>("/robot/imu").wait().unwrap();
+    assert!(imu.wait_for_subscribers(TIMEOUT));
+    let sent = Imu {
+        header: Header {
+            frame_id: "imu_link".into(),
+            ..Default::default()
+        },
+        linear_acceleration_covariance: [0.5; 9],
+        ..Default::default()
+    };
+    imu.publish(&sent).wait().unwrap();
+    let sample = listener.recv_timeout(TIMEOUT).unwrap().expect("a sample");
+    let bytes = sample.payload().to_bytes();
+    let message = ty.decode(&bytes).unwrap();
+    let Some(Value::Message(header)) = message.get("header") else {
+        panic!("no header in {message:?}");
+    };
+    assert_eq!(
+        header.get("frame_id"),
+        Some(&Value::String("imu_link".into()))
+    );
+    assert_eq!(
+        message.get("linear_acceleration_covariance"),
+        Some(&Value::F64s(vec![0.5; 9].into()))
+    );
+    assert_eq!(
+        shm_cdr::to_vec(&message).unwrap(),
+        shm_cdr::to_vec(&sent).unwrap()
+    );
+
+    // The type leaves the answers with the publisher.
+    drop(imu);
+    let gone = ask(&endpoint.type_hash);
+    assert!(!gone.successful);
+    assert_eq!(
+        gone.failure_reason,
+        "Type not currently in use by this node"
+    );
+    assert_eq!(Imu::type_hash(), endpoint.type_hash);
+}
