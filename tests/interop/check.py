@@ -89,6 +89,8 @@ def python_reads_us(endpoint):
                     break
                 time.sleep(0.001)
                 continue
+            if str(sample.key_expr).startswith("0/parameter_events/"):
+                continue  # the node's own parameter declarations, as every ROS 2 node makes them
             samples.append((str(sample.key_expr), sample.payload.as_shm() is not None,
                             sample.payload.to_bytes(), None if sample.attachment is None else sample.attachment.to_bytes()))
         rc = proc.wait(timeout=30)

@@ -363,7 +363,10 @@ def rust_serves_python_calls():
     deadline = time.time() + 20
     while len(found) < 5 and time.time() < deadline:
         for r in session.liveliness().get("@ros2_lv/0/**", timeout=5):
-            if r.ok is not None and "/rust_action_server/" in str(r.ok.key_expr):
+            # The action's own endpoints; the node also has what every ROS 2 node
+            # declares (parameter services, ~/get_type_description, /parameter_events).
+            own = f"/rust_action_server/{action.replace('/', '%')}%_action%"
+            if r.ok is not None and own in str(r.ok.key_expr):
                 k = str(r.ok.key_expr)
                 for kind in ("/SS/", "/MP/"):
                     if kind in k:
