@@ -12,7 +12,9 @@ with rmw_fastrtps_cpp's typesupport, and rosidl's own `.json` type descriptions)
    up to 8 bytes past the end). `ros2_types roundtrip` decodes them with our
    types and re-encodes them; rclpy deserializes our bytes, and the result must
    equal the original value. The Rust side also checks that its exact size, its
-   borrowing `…Ref` form and decoding into a kept value agree.
+   borrowing `…Ref` form, decoding into a kept value, and the run-time type
+   built from the type's description (`shm_cdr::dynamic`: same bytes, same
+   hash) agree.
 2b. Descriptions: the full type description of every type (default values
    included, which the hash leaves out) must equal rosidl's `type_description_msg`,
    and every type source must be the installed interface file's text (rosidl's
@@ -299,7 +301,7 @@ def check_roundtrips(names):
     total = sum(v[1] for v in per_package.values())
     good = sum(v[0] for v in per_package.values())
     print(f"differential: {good}/{total} random values of {len(names) - len(missing)} message types "
-          f"rclpy -> ours -> rclpy equal ({trailing} of rclpy's encodings had bytes past the message): "
+          f"rclpy -> ours (generated and run-time typed) -> rclpy equal ({trailing} of rclpy's encodings had bytes past the message): "
           + ", ".join(f"{p} {g}/{n}" for p, (g, n) in sorted(per_package.items())))
     if missing:
         print(f"  not in rclpy (no wheel; checked by hash only): {len(missing)}: {', '.join(sorted(missing))}")
