@@ -162,6 +162,18 @@ fn descriptions_that_cannot_be_types_say_why() {
     };
     let e = DynamicType::from_description(&cycle).unwrap_err();
     assert!(e.reason.contains("contains itself"), "{e}");
+
+    // An array larger than any message can carry.
+    static HUGE: [Field; 1] = [Field::new(
+        "values",
+        FieldType::scalar(shm_cdr::describe::TypeId::Int32).array(1 << 40),
+    )];
+    let huge = FullDescription {
+        own: TypeDescription::new("t/msg/Huge", &HUGE, TypeSource::NONE),
+        referenced: Vec::new(),
+    };
+    let e = DynamicType::from_description(&huge).unwrap_err();
+    assert!(e.reason.contains("more than any ROS 2 message"), "{e}");
 }
 
 #[test]

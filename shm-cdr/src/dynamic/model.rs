@@ -350,7 +350,7 @@ fn field_kind(
     let (base, container) = match f.type_id {
         0 => return Err("type_id 0 (not set)".into()),
         id @ 1..=48 => (id, Container::Single),
-        id @ 49..=96 => (id - 48, Container::Array(count(f.capacity)?)),
+        id @ 49..=96 => (id - 48, Container::Array(array_len(f.capacity)?)),
         id @ 97..=144 => (id - 96, Container::BoundedSequence(count(f.capacity)?)),
         id @ 145..=192 => (id - 144, Container::Sequence),
         id => return Err(format!("unknown type_id {id}")),
@@ -393,6 +393,20 @@ fn field_kind(
 
 fn count(n: u64) -> Result<usize, String> {
     usize::try_from(n).map_err(|_| format!("capacity {n} does not fit this machine"))
+}
+
+/// The most elements a fixed array may have: as many as a sequence's 32-bit
+/// count allows, so that a description from elsewhere cannot ask
+/// [`DynamicType::default_message`] for more.
+const MAX_ARRAY_LEN: u64 = u32::MAX as u64;
+
+fn array_len(n: u64) -> Result<usize, String> {
+    if n > MAX_ARRAY_LEN {
+        return Err(format!(
+            "an array of {n} elements: more than any ROS 2 message can carry ({MAX_ARRAY_LEN})"
+        ));
+    }
+    count(n)
 }
 
 /// The types in an order where each comes after every type it nests; an error

@@ -323,7 +323,8 @@ fn check(
 
 impl DynamicType {
     /// A message of this type with every field at its default: the default
-    /// value its description gives, else zero, empty, or an array of zeros.
+    /// value its description gives, else zero, empty, or an array of zeros
+    /// (every element of a fixed array is made).
     pub fn default_message(&self) -> Message<'static> {
         self.default_struct(0)
     }
