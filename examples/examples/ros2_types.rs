@@ -7,7 +7,13 @@
 //! ros2_types descriptions # one JSON object per line: a type's full description
 //!                         # (default values included) and its sources
 //! ros2_types roundtrip   # stdin: `<type name> <hex>` lines; stdout: `ok <hex>` or `err <why>`
+//! ros2_types yaml        # stdin: `<type name> <options> <hex>` lines; stdout: the run-time
+//!                        # typed message as YAML (a JSON string), that text read back and
+//!                        # encoded (hex, or `-` if the options cut it short), its JSON
 //! ```
+//!
+//! `yaml`'s options are `-` or comma-separated `t<N>` (truncate length),
+//! `a` (no arrays), `s` (no strings), `f` (flow style): `ros2 topic echo`'s.
 //!
 //! `roundtrip` decodes the CDR bytes (as real ROS 2 sent them: stale padding,
 //! bytes after the end) into the owned type, re-encodes them, and checks that the
@@ -219,11 +225,72 @@ fn main() {
                 let _ = out.flush();
             }
         }
+        "yaml" => {
+            let types: HashMap<String, shm_cdr::dynamic::DynamicType> = descriptions()
+                .iter()
+                .filter_map(|d| {
+                    let ty = shm_cdr::dynamic::DynamicType::from_description(d).ok()?;
+                    Some((ty.name().to_owned(), ty))
+                })
+                .collect();
+            for line in std::io::stdin().lock().lines() {
+                let Ok(line) = line else { break };
+                let reply = yaml_reply(&types, &line).unwrap_or_else(|e| format!("err {e}"));
+                let _ = writeln!(out, "{reply}");
+                let _ = out.flush();
+            }
+        }
         _ => {
-            eprintln!("usage: ros2_types hashes | user-hashes | descriptions | roundtrip");
+            eprintln!("usage: ros2_types hashes | user-hashes | descriptions | roundtrip | yaml");
             std::process::exit(2);
         }
     }
+}
+
+/// `yaml` mode: the message as YAML with the options given, and, when nothing
+/// was cut or abbreviated, that text read back and encoded, and the message
+/// as JSON.
+fn yaml_reply(
+    types: &HashMap<String, shm_cdr::dynamic::DynamicType>,
+    line: &str,
+) -> Result<String, String> {
+    let mut parts = line.splitn(3, ' ');
+    let (Some(name), Some(flags), Some(hex)) = (parts.next(), parts.next(), parts.next()) else {
+        return Err("expected `<type> <options> <hex>`".into());
+    };
+    let ty = types
+        .get(name)
+        .ok_or_else(|| format!("unknown type {name}"))?;
+    let bytes = decode_hex(hex.trim()).ok_or("bad hex")?;
+    let message = ty.decode(&bytes).map_err(|e| e.to_string())?;
+    let mut options = shm_cdr::dynamic::YamlOptions::full();
+    for flag in flags.split(',').filter(|f| *f != "-") {
+        options = match flag {
+            "a" => options.no_arr(true),
+            "s" => options.no_str(true),
+            "f" => options.flow_style(true),
+            t => options.truncate_length(Some(
+                t.strip_prefix('t')
+                    .and_then(|n| n.parse().ok())
+                    .ok_or_else(|| format!("bad option {t}"))?,
+            )),
+        };
+    }
+    let text = message.to_yaml_with(&options);
+    let lossless = options.truncate_length.is_none() && !options.no_arr && !options.no_str;
+    let back = if lossless {
+        let read = ty
+            .message_from_yaml(&text)
+            .map_err(|e| format!("our YAML does not read back: {e}"))?;
+        encode_hex(&shm_cdr::to_vec(&read).map_err(|e| e.to_string())?)
+    } else {
+        "-".to_owned()
+    };
+    let json = serde_json::to_string(&message).map_err(|e| e.to_string())?;
+    Ok(format!(
+        "ok {} {back} {json}",
+        serde_json::Value::String(text)
+    ))
 }
 
 fn decode_hex(s: &str) -> Option<Vec<u8>> {

@@ -188,3 +188,151 @@ fn the_hash_of_every_type_built_at_run_time_is_rosidls() {
         assert_eq!(ty.name(), description.own.type_name);
     }
 }
+
+#[test]
+fn yaml_text_reads_as_ros2_topic_pub_reads_it() {
+    use shm_cdr::msgs::sensor_msgs::JointState;
+    let ty = dynamic::<JointState>();
+    let message = ty
+        .message_from_yaml("{header: {frame_id: base}, name: [a, b], position: [1, 2.5]}")
+        .unwrap();
+    let state: JointState = shm_cdr::from_bytes(&shm_cdr::to_vec(&message).unwrap()).unwrap();
+    assert_eq!(state.header.frame_id, "base");
+    assert_eq!(state.name, ["a", "b"]);
+    assert_eq!(state.position, [1.0, 2.5]);
+    assert!(state.velocity.is_empty());
+
+    // Empty text and an empty mapping are the defaults.
+    assert_eq!(ty.message_from_yaml("").unwrap(), ty.default_message());
+    assert_eq!(ty.message_from_yaml("{}").unwrap(), ty.default_message());
+
+    // A string field keeps any scalar as written, as PyYAML reads it.
+    let header = dynamic::<shm_cdr::msgs::std_msgs::Header>();
+    for text in ["1e5", "0o17", "yes", "~x", "12:30"] {
+        let m = header
+            .message_from_yaml(&format!("frame_id: {text}"))
+            .unwrap();
+        assert_eq!(
+            m.get("frame_id"),
+            Some(&Value::String(text.into())),
+            "{text}"
+        );
+    }
+
+    // `auto` and `now`, with the time given.
+    let stamped = dynamic::<shm_cdr::msgs::geometry_msgs::PointStamped>();
+    let m = stamped
+        .message_from_yaml_at("{header: auto, point: {x: 1}}", (12, 34))
+        .unwrap();
+    let Some(Value::Message(h)) = m.get("header") else {
+        panic!("no header")
+    };
+    let Some(Value::Message(stamp)) = h.get("stamp") else {
+        panic!("no stamp")
+    };
+    assert_eq!(stamp.get("sec"), Some(&Value::I32(12)));
+    assert_eq!(stamp.get("nanosec"), Some(&Value::U32(34)));
+    assert!(stamped.message_from_yaml("header: auto").is_err());
+}
+
+#[test]
+fn yaml_text_that_is_not_a_value_of_the_type_says_where_and_why() {
+    use shm_cdr::msgs::sensor_msgs::JointState;
+    let ty = dynamic::<JointState>();
+    let cases = [
+        (
+            "velocity: [1, x]",
+            "velocity[1]",
+            "a number, not the string \"x\"",
+        ),
+        (
+            "header: {stamp: {sec: 3000000000}}",
+            "header.stamp.sec",
+            "an integer from -2147483648 to 2147483647 (int32), not `3000000000`",
+        ),
+        (
+            "header: {stamp: {nanosec: -1}}",
+            "header.stamp.nanosec",
+            "an integer from 0 to 4294967295 (uint32), not `-1`",
+        ),
+        (
+            "header: {frame: x}",
+            "header.frame",
+            "std_msgs/msg/Header has no field `frame` (its fields: stamp, frame_id)",
+        ),
+        ("name: x", "name", "invalid type"),
+        ("header: 5", "header", "invalid type"),
+    ];
+    for (text, path, reason) in cases {
+        let e = ty.message_from_yaml(text).unwrap_err();
+        assert_eq!(e.path, path, "{text}: {e}");
+        assert!(e.reason.contains(reason), "{text}: {e}");
+    }
+    let e = ty.message_from_yaml("name: [a").unwrap_err();
+    assert!(e.reason.contains("did not find expected ',' or ']'"), "{e}");
+
+    // Arrays must have their length, bounded sequences and strings stay within
+    // their bounds.
+    let arrays = dynamic::<shm_cdr::msgs::test_msgs::Arrays>();
+    let e = arrays
+        .message_from_yaml("int32_values: [1, 2]")
+        .unwrap_err();
+    assert_eq!(
+        (e.path.as_str(), e.reason.as_str()),
+        ("int32_values", "2 elements for an array of 3")
+    );
+    let bounded = dynamic::<shm_cdr::msgs::test_msgs::BoundedSequences>();
+    let e = bounded
+        .message_from_yaml("int32_values: [1, 2, 3, 4]")
+        .unwrap_err();
+    assert_eq!(e.reason, "4 elements for a sequence of at most 3");
+    let strings = dynamic::<shm_cdr::msgs::test_msgs::Strings>();
+    let e = strings
+        .message_from_yaml("bounded_string_value: abcdefghijklmnopqrstuvw")
+        .unwrap_err();
+    assert_eq!(
+        e.reason,
+        "a string longer than the field's bound of 22 bytes"
+    );
+    // float32's range.
+    let basic = dynamic::<shm_cdr::msgs::test_msgs::BasicTypes>();
+    let e = basic.message_from_yaml("float32_value: 1e39").unwrap_err();
+    assert_eq!(e.reason, "1e39 is beyond float32's range");
+    assert!(basic.message_from_yaml("float32_value: .inf").is_ok());
+    // Bytes as numbers or one character up to U+00FF.
+    let m = basic
+        .message_from_yaml("{byte_value: 'é', char_value: 65}")
+        .unwrap();
+    assert_eq!(m.get("byte_value"), Some(&Value::U8(0xE9)));
+    assert!(basic.message_from_yaml("byte_value: 'ab'").is_err());
+    assert!(basic.message_from_yaml("byte_value: 256").is_err());
+}
+
+#[test]
+fn yaml_text_written_reads_back_to_the_same_message() {
+    use shm_cdr::dynamic::YamlOptions;
+    let ty = dynamic::<shm_cdr::msgs::test_msgs::UnboundedSequences>();
+    let text = "bool_values: [true, false]\nbyte_values: [\"\\x00\", é, ' ']\nfloat32_values: [0.1, .inf]\nstring_values: ['1e5', 'yes', \"a\\nb\", '']\n";
+    let message = ty.message_from_yaml(text).unwrap();
+    for options in [YamlOptions::full(), YamlOptions::full().flow_style(true)] {
+        let written = message.to_yaml_with(&options);
+        assert_eq!(
+            ty.message_from_yaml(&written).unwrap(),
+            message,
+            "{written}"
+        );
+    }
+    let json = serde_json::to_string(&message).unwrap();
+    assert!(json.contains("\"byte_values\":[0,233,32]"), "{json}");
+    assert!(
+        json.contains("\"float32_values\":[0.10000000149011612,null]"),
+        "{json}"
+    );
+    // JSON is YAML: it reads back, but for the non-finite floats it has no
+    // number for.
+    let e = ty.message_from_yaml(&json).unwrap_err();
+    assert_eq!(e.path, "float32_values[1]");
+    let finite = ty.message_from_yaml(&text.replace(".inf", "-2.5")).unwrap();
+    let json = serde_json::to_string(&finite).unwrap();
+    assert_eq!(ty.message_from_yaml(&json).unwrap(), finite);
+}

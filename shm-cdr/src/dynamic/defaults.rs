@@ -72,7 +72,7 @@ fn scalar(element: Element, text: &str) -> Option<Value<'static>> {
 }
 
 /// Scalars gathered into the array value of their element.
-fn collect(element: Element, values: Vec<Value<'static>>) -> Option<Value<'static>> {
+pub(crate) fn collect(element: Element, values: Vec<Value<'static>>) -> Option<Value<'static>> {
     macro_rules! gather {
         ($variant:ident, $many:ident) => {
             Value::$many(Cow::Owned(

@@ -28,7 +28,15 @@
 mod codec;
 mod defaults;
 mod model;
+#[cfg(feature = "serde")]
+mod serde_impl;
 mod value;
+#[cfg(feature = "yaml")]
+mod yaml_in;
+mod yaml_out;
 
 pub use model::{DynamicType, Element, FieldDef, StructDef, TypeError};
 pub use value::{Message, Value, ValueError};
+#[cfg(feature = "yaml")]
+pub use yaml_in::TextError;
+pub use yaml_out::YamlOptions;

@@ -329,7 +329,7 @@ impl DynamicType {
         self.default_struct(0)
     }
 
-    fn default_struct(&self, index: usize) -> Message<'static> {
+    pub(crate) fn default_struct(&self, index: usize) -> Message<'static> {
         let def = &self.inner.structs[index];
         let values = def
             .fields
