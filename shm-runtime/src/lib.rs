@@ -66,6 +66,7 @@ pub use transport::subscriber::{
 pub use shm_cdr;
 
 use shm_cdr::RosMessage;
+use transport::queue::TopicType;
 use zenoh::Session;
 
 /// Typed publishers and subscribers on a plain key expression of your choice,
@@ -90,13 +91,13 @@ impl SessionExt for Session {
         &self,
         key_expr: impl Into<String>,
     ) -> PublisherBuilder<'_, T> {
-        PublisherBuilder::new(self, key_expr.into())
+        PublisherBuilder::new(self, key_expr.into(), TopicType::of::<T>())
     }
 
     fn declare_ros_subscriber<T: RosMessage>(
         &self,
         key_expr: impl Into<String>,
     ) -> SubscriberBuilder<'_, T> {
-        SubscriberBuilder::new(self, key_expr.into())
+        SubscriberBuilder::new(self, key_expr.into(), TopicType::of::<T>())
     }
 }

@@ -16,6 +16,7 @@ use shm_cdr::msgs::type_description_interfaces::srv::{
     GetTypeDescription, GetTypeDescription_Request,
 };
 use shm_cdr::RosMessage;
+use shm_runtime::rmw::{EntityKind, Qos};
 use shm_runtime::RosNode;
 use zenoh::Wait;
 
@@ -65,7 +66,10 @@ fn a_tool_reads_a_topic_through_the_publishers_type_description() {
     assert_eq!(ty.name(), endpoint.type_name);
 
     // Messages on the topic read with the run-time type.
-    let listener = tool.declare_subscriber::<Imu>("/robot/imu").wait().unwrap();
+    let listener = tool
+        .declare_dynamic_subscriber("/robot/imu", &ty, Qos::default())
+        .wait()
+        .unwrap();
     assert!(imu.wait_for_subscribers(TIMEOUT));
     let sent = Imu {
         header: Header {
@@ -104,4 +108,64 @@ fn a_tool_reads_a_topic_through_the_publishers_type_description() {
         "Type not currently in use by this node"
     );
     assert_eq!(Imu::type_hash(), endpoint.type_hash);
+}
+
+#[test]
+fn run_time_typed_endpoints_are_the_compiled_types_endpoints() {
+    let (a, b, _) = loopback_sessions();
+    let typed = common::node(&a, "typed");
+    let tool = common::node(&b, "tool");
+    let ty = DynamicType::from_description(&Header::full_description()).unwrap();
+
+    // A run-time typed publisher reaches a compiled subscriber, with the
+    // token a compiled publisher would have (type name, hash, QoS).
+    let subscriber = typed
+        .declare_subscriber::<Header>("/stamps")
+        .wait()
+        .unwrap();
+    let publisher = tool
+        .declare_dynamic_publisher("/stamps", &ty, Qos::default())
+        .wait()
+        .unwrap();
+    assert!(publisher.wait_for_subscribers(TIMEOUT));
+    let message = ty
+        .message_from_yaml("{stamp: {sec: 5, nanosec: 6}, frame_id: odom}")
+        .unwrap();
+    publisher.publish_dynamic(&message).wait().unwrap();
+    let received = subscriber.recv_timeout(TIMEOUT).unwrap().expect("a sample");
+    let header: Header = received.decode().unwrap();
+    assert_eq!(
+        (
+            header.stamp.sec,
+            header.stamp.nanosec,
+            header.frame_id.as_str()
+        ),
+        (5, 6, "odom")
+    );
+
+    let graph = typed.graph_cache().unwrap();
+    assert!(graph.wait_until(TIMEOUT, |g| !g.publishers("/stamps").is_empty()));
+    let entity = graph.read().publishers("/stamps")[0].clone();
+    assert_eq!(entity.kind, EntityKind::Publisher);
+    let endpoint = entity.endpoint.clone().unwrap();
+    assert_eq!(endpoint.type_name, Header::TYPE_NAME);
+    assert_eq!(endpoint.type_hash, Header::type_hash());
+
+    // A message of another type is refused, not sent.
+    let other = DynamicType::from_description(&Imu::full_description()).unwrap();
+    let wrong = other.default_message();
+    let error = publisher.publish_dynamic(&wrong).wait().unwrap_err();
+    assert_eq!(
+        error.to_string(),
+        "publish: a sensor_msgs/msg/Imu message on a publisher of std_msgs/msg/Header"
+    );
+    // A nested message of the right type is not the type itself either.
+    let Some(Value::Message(stamp)) = message.get("stamp") else {
+        panic!("no stamp")
+    };
+    assert!(publisher.publish_dynamic(stamp).wait().is_err());
+    assert!(subscriber
+        .recv_timeout(Duration::from_millis(300))
+        .unwrap()
+        .is_none());
 }

@@ -195,6 +195,12 @@ impl<'a> Message<'a> {
         &self.ty.inner.structs[self.index]
     }
 
+    /// Whether this is a message of type `ty` itself (not one of the types
+    /// it nests).
+    pub fn is_of(&self, ty: &DynamicType) -> bool {
+        self.index == 0 && self.ty == *ty
+    }
+
     /// The field names and values, in order.
     pub fn fields(&self) -> impl Iterator<Item = (&str, &Value<'a>)> {
         self.def()

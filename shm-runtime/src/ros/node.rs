@@ -6,6 +6,7 @@ use std::num::NonZeroUsize;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
+use shm_cdr::dynamic::DynamicType;
 use shm_cdr::interface::{RosAction, RosService};
 use shm_cdr::msgs::rcl_interfaces::srv::{GetLoggerLevels, SetLoggerLevels};
 use shm_cdr::msgs::type_description_interfaces::srv::GetTypeDescription;
@@ -21,13 +22,14 @@ use crate::ros::parameters::{
     OverrideError, ParameterClient, ParameterDescriptor, ParameterError, ParameterOverrides,
     ParameterServer, ParameterValue, SetResult,
 };
-use crate::ros::rmw::{service_key_expr, topic_key_expr, EntityKind, Gid, NodeInfo, Qos};
+use crate::ros::rmw::{service_key_expr, topic_key_expr_of, EntityKind, Gid, NodeInfo, Qos};
 use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
 use crate::ros::time::{Clock, RosTime, Timer};
 use crate::ros::type_description::{TypeCache, TypeUse};
 use crate::transport::limits::check_key_expr;
 use crate::transport::pool::ShmContext;
 use crate::transport::publisher::{PublisherBuilder, RmwPublisher};
+use crate::transport::queue::TopicType;
 use crate::transport::subscriber::SubscriberBuilder;
 use crate::History;
 
@@ -124,15 +126,59 @@ impl RosNode {
         topic: &str,
         qos: Qos,
     ) -> PublisherBuilder<'_, T> {
+        let type_use = self.types.register(T::type_hash(), T::full_description);
+        self.node_publisher(topic, qos, TopicType::of::<T>(), Some(type_use))
+    }
+
+    /// A publisher of messages typed at run time: `ty`'s messages on `topic`,
+    /// announced and keyed exactly as a publisher of the compiled type would be,
+    /// so ROS 2 subscribers of that type receive them. Publish with
+    /// [`RosPublisher::publish_dynamic`](crate::RosPublisher::publish_dynamic).
+    /// (The node's `~/get_type_description` describes compiled types only.)
+    ///
+    /// ```no_run
+    /// use shm_cdr::dynamic::{DynamicType, Value};
+    /// use shm_cdr::msgs::std_msgs::String as RosString;
+    /// use shm_cdr::RosMessage;
+    /// use shm_runtime::rmw::Qos;
+    /// use shm_runtime::RosNode;
+    /// use zenoh::Wait;
+    ///
+    /// let session = zenoh::open(zenoh::Config::default()).wait()?;
+    /// let node = RosNode::builder(&session, "talker").wait()?;
+    /// // A type known only at run time (here from a compiled type's description).
+    /// let ty = DynamicType::from_description(&RosString::full_description())?;
+    /// let publisher = node.declare_dynamic_publisher("/chatter", &ty, Qos::default()).wait()?;
+    /// let mut message = ty.default_message();
+    /// message.set("data", Value::String("hello".into()))?;
+    /// publisher.publish_dynamic(&message).wait()?;
+    /// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+    /// ```
+    pub fn declare_dynamic_publisher(
+        &self,
+        topic: &str,
+        ty: &DynamicType,
+        qos: Qos,
+    ) -> PublisherBuilder<'_, DynamicType> {
+        let mut builder = self.node_publisher(topic, qos, TopicType::of_dynamic(ty), None);
+        builder.dynamic = Some(ty.clone());
+        builder
+    }
+
+    fn node_publisher<T>(
+        &self,
+        topic: &str,
+        qos: Qos,
+        topic_type: TopicType,
+        type_use: Option<TypeUse>,
+    ) -> PublisherBuilder<'_, T> {
         let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
         let (topic, invalid) = self.resolve(topic, NameKind::Topic);
-        let token = self
-            .info
-            .topic_token::<T>(entity_id, EntityKind::Publisher, &topic, &qos);
-        let mut builder = PublisherBuilder::new(
-            &self.session,
-            topic_key_expr::<T>(self.info.domain_id, &topic),
-        );
+        let token =
+            self.info
+                .topic_token_of(entity_id, EntityKind::Publisher, &topic, &topic_type, &qos);
+        let key_expr = topic_key_expr_of(self.info.domain_id, &topic, &topic_type);
+        let mut builder = PublisherBuilder::new(&self.session, key_expr, topic_type);
         builder.invalid = invalid;
         builder.qos = qos;
         builder.shm.inherited = self.shm.clone();
@@ -140,7 +186,7 @@ impl RosNode {
             gid: Gid::from_token(&token),
             token,
             liveliness: None,
-            _type_use: self.types.register(T::type_hash(), T::full_description),
+            _type_use: type_use,
         });
         builder
     }
@@ -160,13 +206,55 @@ impl RosNode {
         topic: &str,
         qos: Qos,
     ) -> SubscriberBuilder<'_, T> {
+        let type_use = self.types.register(T::type_hash(), T::full_description);
         node_subscriber(
             &self.session,
             &self.info,
             &self.remaps,
-            &self.types,
             topic,
             qos,
+            TopicType::of::<T>(),
+            Some(type_use),
+        )
+    }
+
+    /// A subscriber to messages typed at run time: `ty`'s messages on
+    /// `topic`, announced and keyed as a subscriber of the compiled type would
+    /// be. Read the samples with [`DynamicType::decode`] (borrowing from the
+    /// sample, as the generated `…Ref` types do).
+    ///
+    /// ```no_run
+    /// use shm_cdr::dynamic::DynamicType;
+    /// use shm_cdr::msgs::std_msgs::String as RosString;
+    /// use shm_cdr::RosMessage;
+    /// use shm_runtime::rmw::Qos;
+    /// use shm_runtime::RosNode;
+    /// use zenoh::Wait;
+    ///
+    /// let session = zenoh::open(zenoh::Config::default()).wait()?;
+    /// let node = RosNode::builder(&session, "listener").wait()?;
+    /// let ty = DynamicType::from_description(&RosString::full_description())?;
+    /// let subscriber = node.declare_dynamic_subscriber("/chatter", &ty, Qos::default()).wait()?;
+    /// while let Ok(sample) = subscriber.recv() {
+    ///     let bytes = sample.payload().to_bytes();
+    ///     print!("{}---\n", ty.decode(&bytes)?.to_yaml());
+    /// }
+    /// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+    /// ```
+    pub fn declare_dynamic_subscriber(
+        &self,
+        topic: &str,
+        ty: &DynamicType,
+        qos: Qos,
+    ) -> SubscriberBuilder<'_, DynamicType> {
+        node_subscriber(
+            &self.session,
+            &self.info,
+            &self.remaps,
+            topic,
+            qos,
+            TopicType::of_dynamic(ty),
+            None,
         )
     }
 
@@ -530,18 +618,23 @@ fn resolve(
     }
 }
 
-/// A node's subscriber of `T` on `topic` (see [`RosNode::declare_subscriber_with_qos`]).
-fn node_subscriber<'s, T: RosMessage>(
+/// A node's subscriber of `topic_type` on `topic` (see
+/// [`RosNode::declare_subscriber_with_qos`]).
+fn node_subscriber<'s, T>(
     session: &'s Session,
     info: &NodeInfo,
     remaps: &Remaps,
-    types: &Arc<TypeCache>,
     topic: &str,
     qos: Qos,
+    topic_type: TopicType,
+    type_use: Option<TypeUse>,
 ) -> SubscriberBuilder<'s, T> {
     let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
     let (topic, invalid) = resolve(info, remaps, topic, NameKind::Topic);
-    let mut builder = SubscriberBuilder::new(session, topic_key_expr::<T>(info.domain_id, &topic));
+    let key_expr = topic_key_expr_of(info.domain_id, &topic, &topic_type);
+    let liveliness =
+        info.topic_token_of(entity_id, EntityKind::Subscriber, &topic, &topic_type, &qos);
+    let mut builder = SubscriberBuilder::new(session, key_expr, topic_type);
     builder.invalid = invalid;
     builder.qos = qos;
     // The queue keeps what the QoS announces, as rmw_zenoh_cpp's does: a
@@ -553,9 +646,8 @@ fn node_subscriber<'s, T: RosMessage>(
         }
         crate::ros::rmw::History::KeepAll => History::KeepAll,
     };
-    builder.liveliness =
-        Some(info.topic_token::<T>(entity_id, EntityKind::Subscriber, &topic, &qos));
-    builder.type_use = Some(types.register(T::type_hash(), T::full_description));
+    builder.liveliness = Some(liveliness);
+    builder.type_use = type_use;
     builder
 }
 
@@ -579,13 +671,18 @@ impl SimTimeSwitch {
             return Ok(());
         }
         let tick = self.clock.tick_handle();
-        let subscription = node_subscriber::<shm_cdr::msgs::rosgraph_msgs::msg::Clock>(
+        type ClockMsg = shm_cdr::msgs::rosgraph_msgs::msg::Clock;
+        let subscription = node_subscriber::<ClockMsg>(
             &self.session,
             &self.info,
             &self.remaps,
-            &self.types,
             "/clock",
             crate::ros::time::CLOCK_QOS,
+            TopicType::of::<ClockMsg>(),
+            Some(
+                self.types
+                    .register(ClockMsg::type_hash(), ClockMsg::full_description),
+            ),
         )
         .callback_inline(move |sample| {
             match sample.decode::<shm_cdr::msgs::rosgraph_msgs::msg::Clock>() {

@@ -18,6 +18,20 @@ pub fn topic_key_expr<T: RosMessage>(domain_id: u32, topic: &str) -> String {
     )
 }
 
+/// [`topic_key_expr`] of a type given at run time.
+pub(crate) fn topic_key_expr_of(
+    domain_id: u32,
+    topic: &str,
+    ty: &crate::transport::queue::TopicType,
+) -> String {
+    format!(
+        "{domain_id}/{}/{}/{}",
+        topic.trim_matches('/'),
+        ty.dds_name(),
+        ty.hash
+    )
+}
+
 /// The key expression of a service, which its server's queryable declares and its
 /// clients query: `<domain>/<service name without leading/trailing '/'>/<pkg>::srv::dds_::<Name>_/<RIHS01 hash of the service>`.
 pub fn service_key_expr<S: RosService>(domain_id: u32, service: &str) -> String {
@@ -451,6 +465,19 @@ impl NodeInfo {
             S::type_hash(),
             qos,
         )
+    }
+
+    /// The liveliness token of a publisher or subscriber of a type given at
+    /// run time.
+    pub(crate) fn topic_token_of(
+        &self,
+        entity_id: u64,
+        kind: EntityKind,
+        topic: &str,
+        ty: &crate::transport::queue::TopicType,
+        qos: &Qos,
+    ) -> String {
+        self.entity_token(entity_id, kind, topic, &ty.dds_name(), &ty.hash, qos)
     }
 
     fn entity_token(

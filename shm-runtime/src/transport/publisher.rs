@@ -9,6 +9,7 @@ use std::sync::atomic::{AtomicI64, AtomicU32, Ordering};
 use std::sync::Arc;
 use std::time::{SystemTime, UNIX_EPOCH};
 
+use shm_cdr::dynamic::{DynamicType, Message};
 use shm_cdr::{EncodeError, RosMessage};
 use zenoh::bytes::ZBytes;
 use zenoh::liveliness::LivelinessToken;
@@ -23,6 +24,7 @@ use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
 use crate::transport::pool::ShmContext;
+use crate::transport::queue::TopicType;
 use crate::transport::reach::{Receiver, Receivers, PROBE_TIMEOUT};
 
 /// Why a publish failed. A full pool is not a failure: the message then goes on
@@ -39,6 +41,13 @@ pub enum PublishError {
     /// The session's transport cannot fragment (Zenoh's lowlatency) and the
     /// message's inline part is larger than one frame: it was not sent.
     Unfragmentable(Unfragmentable),
+    /// A run-time typed message of another type than the publisher's.
+    WrongType {
+        /// The publisher's type.
+        expected: String,
+        /// The message's.
+        found: String,
+    },
 }
 
 impl fmt::Display for PublishError {
@@ -48,6 +57,9 @@ impl fmt::Display for PublishError {
             Self::Zenoh(e) => write!(f, "publish: zenoh: {e}"),
             Self::Loan(e) => write!(f, "publish: loan: {e}"),
             Self::Unfragmentable(e) => write!(f, "publish: {e}"),
+            Self::WrongType { expected, found } => {
+                write!(f, "publish: a {found} message on a publisher of {expected}")
+            }
         }
     }
 }
@@ -179,8 +191,9 @@ pub(crate) struct RmwPublisher {
     pub(crate) gid: Gid,
     pub(crate) token: String,
     pub(crate) liveliness: Option<LivelinessToken>,
-    /// The message type, in the node's type-description cache while this lives.
-    pub(crate) _type_use: TypeUse,
+    /// The message type, in the node's type-description cache while this
+    /// lives (compiled types; a run-time type is not described by the node).
+    pub(crate) _type_use: Option<TypeUse>,
 }
 
 /// Builder of a [`RosPublisher`]; resolve with `.wait()` or `.await`.
@@ -196,14 +209,19 @@ pub struct PublisherBuilder<'a, T> {
     pub(crate) recovery: Option<usize>,
     /// A name that failed to resolve (node publishers): reported by `build`.
     pub(crate) invalid: Option<crate::ros::names::NameError>,
+    pub(crate) topic_type: TopicType,
+    /// The run-time type of a publisher of [`DynamicType`] messages.
+    pub(crate) dynamic: Option<DynamicType>,
     pub(crate) message: PhantomData<fn(&T)>,
 }
 
-impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
-    pub(crate) fn new(session: &'a Session, key_expr: String) -> Self {
+impl<'a, T> PublisherBuilder<'a, T> {
+    pub(crate) fn new(session: &'a Session, key_expr: String, topic_type: TopicType) -> Self {
         Self {
             session,
             key_expr,
+            topic_type,
+            dynamic: None,
             shm: ShmSettings::default(),
             rmw: None,
             congestion_control: None,
@@ -297,7 +315,8 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
         let policy = self
             .shm
             .resolve_for_publisher(self.session, &self.key_expr)?;
-        let encoding = crate::transport::queue::type_encoding::<T>();
+        let encoding =
+            crate::transport::queue::type_encoding(&self.topic_type.name, &self.topic_type.hash);
         let inline_limit =
             InlineLimit::of(self.session, &self.key_expr, encoding.to_string().len());
         if self.recovery == Some(0) {
@@ -374,22 +393,23 @@ impl<'a, T: RosMessage> PublisherBuilder<'a, T> {
             rmw,
             sequence: AtomicI64::new(0),
             source_sn: AtomicU32::new(0),
+            dynamic: self.dynamic,
             message: PhantomData,
         })
     }
 }
 
-impl<T: RosMessage> Resolvable for PublisherBuilder<'_, T> {
+impl<T> Resolvable for PublisherBuilder<'_, T> {
     type To = zenoh::Result<RosPublisher<T>>;
 }
 
-impl<T: RosMessage> Wait for PublisherBuilder<'_, T> {
+impl<T> Wait for PublisherBuilder<'_, T> {
     fn wait(self) -> Self::To {
         self.build()
     }
 }
 
-impl<'a, T: RosMessage> IntoFuture for PublisherBuilder<'a, T> {
+impl<'a, T> IntoFuture for PublisherBuilder<'a, T> {
     type Output = zenoh::Result<RosPublisher<T>>;
     type IntoFuture = std::future::Ready<Self::Output>;
 
@@ -464,6 +484,8 @@ pub struct RosPublisher<T> {
     /// Zenoh `SourceInfo` sequence number of the next put, from 0 (as zenoh-ext
     /// numbers them): subscribers count the gaps as missed messages.
     source_sn: AtomicU32,
+    /// The type of a publisher of run-time typed messages.
+    dynamic: Option<DynamicType>,
     message: PhantomData<fn(&T)>,
 }
 
@@ -486,6 +508,29 @@ impl<T: RosMessage> RosPublisher<T> {
         }
     }
 
+    /// Encode `msg` exactly as [`publish`](Self::publish) would, without sending.
+    pub fn encode(&self, msg: &T) -> Result<EncodedPayload, EncodeError> {
+        encode_payload(msg, self.policy.as_ref())
+    }
+}
+
+impl RosPublisher<DynamicType> {
+    /// Publish a run-time typed message (see
+    /// [`RosNode::declare_dynamic_publisher`](crate::RosNode::declare_dynamic_publisher));
+    /// resolve with `.wait()` or `.await`. A message of another type than the
+    /// publisher's is refused ([`PublishError::WrongType`]).
+    pub fn publish_dynamic<'p, 'm>(
+        &'p self,
+        msg: &'p Message<'m>,
+    ) -> PublishBuilder<'p, DynamicType, Message<'m>> {
+        PublishBuilder {
+            publisher: self,
+            msg,
+        }
+    }
+}
+
+impl<T> RosPublisher<T> {
     /// Wait until at least one subscriber matches this publisher, or `timeout`
     /// passes; returns whether one did. (Zenoh drops what is published before a
     /// subscriber is known, like any pub/sub.) Built on Zenoh's matching
@@ -577,14 +622,13 @@ impl<T: RosMessage> RosPublisher<T> {
         self.policy.as_ref().map(|p| &p.context)
     }
 
-    /// Encode `msg` exactly as [`publish`](Self::publish) would, without sending.
-    pub fn encode(&self, msg: &T) -> Result<EncodedPayload, EncodeError> {
-        encode_payload(msg, self.policy.as_ref())
-    }
-
     /// Encode `msg` and build its attachment: everything a put needs.
-    fn prepare(&self, msg: &T) -> Result<Prepared, PublishError> {
-        self.prepare_encoded(self.encode(msg)?)
+    fn prepare<M: sealed::Publishable<T> + ?Sized>(
+        &self,
+        msg: &M,
+    ) -> Result<Prepared, PublishError> {
+        msg.check_type(self.dynamic.as_ref())?;
+        self.prepare_encoded(encode_payload(msg, self.policy.as_ref())?)
     }
 
     /// The attachment and source info for an encoded message; refused if the
@@ -679,18 +723,47 @@ impl Prepared {
     }
 }
 
-/// One pending publish; resolve with `.wait()` or `.await`.
-#[must_use = "resolve the publish with .wait() or .await"]
-pub struct PublishBuilder<'p, T> {
-    publisher: &'p RosPublisher<T>,
-    msg: &'p T,
+mod sealed {
+    use super::{DynamicType, Message, PublishError, RosMessage};
+
+    /// What a publisher of `T` publishes: `T` itself, or run-time typed
+    /// messages of its type for a publisher of [`DynamicType`].
+    pub trait Publishable<T>: shm_cdr::CdrEncode {
+        /// Refuse a message that is not of the publisher's type.
+        fn check_type(&self, publisher: Option<&DynamicType>) -> Result<(), PublishError>;
+    }
+
+    impl<T: RosMessage> Publishable<T> for T {
+        fn check_type(&self, _: Option<&DynamicType>) -> Result<(), PublishError> {
+            Ok(())
+        }
+    }
+
+    impl Publishable<DynamicType> for Message<'_> {
+        fn check_type(&self, publisher: Option<&DynamicType>) -> Result<(), PublishError> {
+            match publisher {
+                Some(ty) if self.is_of(ty) => Ok(()),
+                other => Err(PublishError::WrongType {
+                    expected: other.map_or_else(String::new, |t| t.name().to_owned()),
+                    found: self.type_name().to_owned(),
+                }),
+            }
+        }
+    }
 }
 
-impl<T: RosMessage> Resolvable for PublishBuilder<'_, T> {
+/// One pending publish; resolve with `.wait()` or `.await`.
+#[must_use = "resolve the publish with .wait() or .await"]
+pub struct PublishBuilder<'p, T, M: ?Sized = T> {
+    publisher: &'p RosPublisher<T>,
+    msg: &'p M,
+}
+
+impl<T, M: sealed::Publishable<T> + ?Sized> Resolvable for PublishBuilder<'_, T, M> {
     type To = Result<PublishOutcome, PublishError>;
 }
 
-impl<T: RosMessage> Wait for PublishBuilder<'_, T> {
+impl<T, M: sealed::Publishable<T> + ?Sized> Wait for PublishBuilder<'_, T, M> {
     fn wait(self) -> Self::To {
         self.publisher
             .prepare(self.msg)?
@@ -698,7 +771,7 @@ impl<T: RosMessage> Wait for PublishBuilder<'_, T> {
     }
 }
 
-impl<'p, T: RosMessage> IntoFuture for PublishBuilder<'p, T> {
+impl<'p, T, M: sealed::Publishable<T> + ?Sized> IntoFuture for PublishBuilder<'p, T, M> {
     type Output = Result<PublishOutcome, PublishError>;
     type IntoFuture = Pin<Box<dyn Future<Output = Self::Output> + Send + 'p>>;
 

@@ -67,20 +67,18 @@ pub(crate) struct Queue {
 /// (`application/cdr;<type name>;<hash>`, see [`type_encoding`]). Samples
 /// without that (rmw_zenoh_cpp, plain Zenoh, other tools) are taken as they are.
 pub(crate) struct TypeCheck {
-    /// `type_encoding::<T>()`: the common case is one comparison.
+    /// `type_encoding(..)` of the type: the common case is one comparison.
     expected: zenoh::bytes::Encoding,
-    name: &'static str,
-    hash: &'static str,
+    ty: TopicType,
     key_expr: String,
     pub(crate) rejected: Arc<AtomicU64>,
 }
 
 impl TypeCheck {
-    pub(crate) fn new<T: RosMessage>(key_expr: &str) -> Self {
+    pub(crate) fn new(key_expr: &str, ty: &TopicType) -> Self {
         Self {
-            expected: type_encoding::<T>(),
-            name: T::TYPE_NAME,
-            hash: T::type_hash(),
+            expected: type_encoding(&ty.name, &ty.hash),
+            ty: ty.clone(),
             key_expr: key_expr.to_owned(),
             rejected: Arc::new(AtomicU64::new(0)),
         }
@@ -96,13 +94,13 @@ impl TypeCheck {
         let Some((name, hash)) = sample_type(sample) else {
             return true;
         };
-        if name == self.name && hash == self.hash {
+        if *name == *self.ty.name && *hash == *self.ty.hash {
             return true;
         }
         if self.rejected.fetch_add(1, Ordering::Relaxed) == 0 {
             tracing::warn!(
                 key_expr = %self.key_expr,
-                expected = %format!("{} {}", self.name, self.hash),
+                expected = %format!("{} {}", self.ty.name, self.ty.hash),
                 received = %format!("{name} {hash}"),
                 "samples of another message type on this key are dropped (RosSubscriber::wrong_type() counts them)"
             );
@@ -119,14 +117,48 @@ pub(crate) fn sample_type(sample: &Sample) -> Option<(String, String)> {
     Some((name.to_owned(), hash.to_owned()))
 }
 
-/// The encoding our publishers give every sample of `T`:
+/// The message type of a publisher or subscriber: its name (`pkg/msg/Name`)
+/// and RIHS01 hash, from a compiled type or from a
+/// [`DynamicType`](shm_cdr::dynamic::DynamicType) given at run time.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct TopicType {
+    pub(crate) name: std::sync::Arc<str>,
+    pub(crate) hash: std::sync::Arc<str>,
+}
+
+impl TopicType {
+    pub(crate) fn of<T: RosMessage>() -> Self {
+        Self {
+            name: T::TYPE_NAME.into(),
+            hash: T::type_hash().into(),
+        }
+    }
+
+    pub(crate) fn of_dynamic(ty: &shm_cdr::dynamic::DynamicType) -> Self {
+        Self {
+            name: ty.name().into(),
+            hash: ty.type_hash().into(),
+        }
+    }
+
+    /// rmw_zenoh's (DDS's) name of the type: `pkg::msg::dds_::Name_`.
+    pub(crate) fn dds_name(&self) -> String {
+        let mut parts = self.name.splitn(3, '/');
+        match (parts.next(), parts.next(), parts.next()) {
+            (Some(pkg), Some(kind), Some(name)) => format!("{pkg}::{kind}::dds_::{name}_"),
+            _ => self.name.to_string(),
+        }
+    }
+}
+
+/// The encoding our publishers give every sample of a type:
 /// `application/cdr;<type name>;<RIHS01 hash>`, or plain `application/cdr`
 /// for a type whose name is too long for that: Zenoh writes an encoding's
 /// schema with a one-byte length, and panics on anything longer than 255
 /// bytes (a type name of more than 183 characters with its hash).
-pub(crate) fn type_encoding<T: RosMessage>() -> zenoh::bytes::Encoding {
+pub(crate) fn type_encoding(name: &str, hash: &str) -> zenoh::bytes::Encoding {
     const ZENOH_SCHEMA_MAX: usize = 255;
-    let schema = format!("{};{}", T::TYPE_NAME, T::type_hash());
+    let schema = format!("{name};{hash}");
     if schema.len() > ZENOH_SCHEMA_MAX {
         return zenoh::bytes::Encoding::APPLICATION_CDR;
     }

@@ -11,7 +11,7 @@ use std::sync::{Arc, OnceLock};
 use std::task::{Context, Poll};
 use std::time::Duration;
 
-use shm_cdr::{CdrDecode, DecodeError, RosMessage};
+use shm_cdr::{CdrDecode, DecodeError};
 use zenoh::bytes::ZBytes;
 use zenoh::liveliness::LivelinessToken;
 
@@ -27,7 +27,7 @@ use crate::ros::rmw::{
 use crate::ros::type_description::TypeUse;
 use crate::transport::executor::{Callback, Dispatch, Executor};
 use crate::transport::limits::check_key_expr;
-use crate::transport::queue::{sample_type, Queue, TypeCheck, DEFAULT_MAX_QUEUED_BYTES};
+use crate::transport::queue::{sample_type, Queue, TopicType, TypeCheck, DEFAULT_MAX_QUEUED_BYTES};
 
 pub use crate::transport::queue::History;
 
@@ -48,14 +48,16 @@ pub struct SubscriberBuilder<'a, T> {
     pub(crate) recovery: bool,
     /// A name that failed to resolve (node subscribers): reported by `build`.
     pub(crate) invalid: Option<crate::ros::names::NameError>,
+    pub(crate) topic_type: TopicType,
     pub(crate) message: PhantomData<fn() -> T>,
 }
 
-impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
-    pub(crate) fn new(session: &'a Session, key_expr: String) -> Self {
+impl<'a, T> SubscriberBuilder<'a, T> {
+    pub(crate) fn new(session: &'a Session, key_expr: String, topic_type: TopicType) -> Self {
         Self {
             session,
             key_expr,
+            topic_type,
             liveliness: None,
             type_use: None,
             history: History::KeepAll,
@@ -225,7 +227,7 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
             self.history,
             self.max_queued_bytes,
             &self.key_expr,
-            TypeCheck::new::<T>(&self.key_expr),
+            TypeCheck::new(&self.key_expr, &self.topic_type),
         );
         let lost = queue.lost.clone();
         let missed = queue.missed.clone();
@@ -250,17 +252,17 @@ impl<'a, T: RosMessage> SubscriberBuilder<'a, T> {
     }
 }
 
-impl<T: RosMessage> Resolvable for SubscriberBuilder<'_, T> {
+impl<T> Resolvable for SubscriberBuilder<'_, T> {
     type To = zenoh::Result<RosSubscriber<T>>;
 }
 
-impl<T: RosMessage> Wait for SubscriberBuilder<'_, T> {
+impl<T> Wait for SubscriberBuilder<'_, T> {
     fn wait(self) -> Self::To {
         self.build()
     }
 }
 
-impl<T: RosMessage> IntoFuture for SubscriberBuilder<'_, T> {
+impl<T> IntoFuture for SubscriberBuilder<'_, T> {
     type Output = zenoh::Result<RosSubscriber<T>>;
     type IntoFuture = std::future::Ready<Self::Output>;
     fn into_future(self) -> Self::IntoFuture {
@@ -303,7 +305,7 @@ pub struct CallbackSubscriberBuilder<'a, T> {
     callback: Callback<RosSample>,
 }
 
-impl<T: RosMessage> CallbackSubscriberBuilder<'_, T> {
+impl<T> CallbackSubscriberBuilder<'_, T> {
     /// Run the callback on `executor`'s threads instead of the global ones
     /// (no effect on an inline callback).
     pub fn executor(mut self, executor: &Executor) -> Self {
@@ -318,7 +320,7 @@ impl<T: RosMessage> CallbackSubscriberBuilder<'_, T> {
             self.inner.history,
             self.inner.max_queued_bytes,
             &key_expr,
-            TypeCheck::new::<T>(&key_expr),
+            TypeCheck::new(&key_expr, &self.inner.topic_type),
         );
         let counters = Counters {
             lost: queue.lost.clone(),
@@ -425,17 +427,17 @@ impl<T> Drop for CallbackSubscriber<T> {
     }
 }
 
-impl<T: RosMessage> Resolvable for CallbackSubscriberBuilder<'_, T> {
+impl<T> Resolvable for CallbackSubscriberBuilder<'_, T> {
     type To = zenoh::Result<CallbackSubscriber<T>>;
 }
 
-impl<T: RosMessage> Wait for CallbackSubscriberBuilder<'_, T> {
+impl<T> Wait for CallbackSubscriberBuilder<'_, T> {
     fn wait(self) -> Self::To {
         self.build()
     }
 }
 
-impl<T: RosMessage> IntoFuture for CallbackSubscriberBuilder<'_, T> {
+impl<T> IntoFuture for CallbackSubscriberBuilder<'_, T> {
     type Output = zenoh::Result<CallbackSubscriber<T>>;
     type IntoFuture = std::future::Ready<Self::Output>;
     fn into_future(self) -> Self::IntoFuture {
@@ -467,7 +469,7 @@ impl<T> fmt::Debug for RosSubscriber<T> {
     }
 }
 
-impl<T: RosMessage> RosSubscriber<T> {
+impl<T> RosSubscriber<T> {
     /// Wait for the next sample.
     pub fn recv(&self) -> zenoh::Result<RosSample> {
         Ok(self.receiver.recv()?)

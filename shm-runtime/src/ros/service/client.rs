@@ -10,6 +10,7 @@ use std::sync::OnceLock;
 use std::time::Duration;
 
 use shm_cdr::interface::RosService;
+use shm_cdr::RosMessage;
 use shm_cdr::{CdrDecode, DecodeError, EncodeError};
 use zenoh::bytes::{Encoding, ZBytes};
 use zenoh::handlers::FifoChannelHandler;
@@ -154,7 +155,10 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
         check_key_expr("key expression", &self.key_expr)?;
         check_key_expr("liveliness token", &self.token)?;
         let policy = self.shm.resolve(self.session, &self.key_expr);
-        let request_encoding = type_encoding::<S::Request>();
+        let request_encoding = type_encoding(
+            <S::Request as RosMessage>::TYPE_NAME,
+            <S::Request as RosMessage>::type_hash(),
+        );
         let inline_limit = InlineLimit::of(
             self.session,
             &self.key_expr,

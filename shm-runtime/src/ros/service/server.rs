@@ -11,6 +11,7 @@ use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
 use shm_cdr::interface::RosService;
+use shm_cdr::RosMessage;
 use shm_cdr::{CdrDecode, DecodeError};
 use zenoh::bytes::{Encoding, ZBytes};
 use zenoh::key_expr::KeyExpr;
@@ -148,7 +149,10 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
             check_key_expr("liveliness token", token)?;
         }
         let policy = self.shm.resolve(self.session, &self.key_expr);
-        let response_encoding = type_encoding::<S::Response>();
+        let response_encoding = type_encoding(
+            <S::Response as RosMessage>::TYPE_NAME,
+            <S::Response as RosMessage>::type_hash(),
+        );
         let inline_limit = InlineLimit::of(
             self.session,
             &self.key_expr,
