@@ -49,7 +49,7 @@ done
 for pkg in "${from_rosbags[@]}"; do dirs+=("$src/$pkg"); done
 
 cargo run --quiet -p shm-codegen -- --crate-path crate --extern-root crate::msgs --arbitrary \
-    --features shm-cdr/Cargo.toml --registry examples/src/interfaces.rs \
+    --features shm-cdr/Cargo.toml --registry shm-cdr/src/registry.rs \
     --out-dir shm-cdr/src/msgs "${dirs[@]}"
 
 # shm-runtime's `…Shm` forms (byte sequences as `ShmBytes`) of the packages

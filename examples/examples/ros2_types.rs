@@ -28,7 +28,6 @@ use std::io::{BufRead, Write};
 
 use shm_cdr::{CdrEncode, DecodeOwned, RosAction, RosMessage, RosService};
 
-include!("../src/interfaces.rs");
 
 type Roundtrip = fn(&[u8], &mut Vec<u8>) -> Result<Vec<u8>, String>;
 
@@ -134,7 +133,7 @@ macro_rules! tables {
     };
 }
 
-for_each_interface!(tables);
+shm_cdr::for_each_interface!(tables);
 
 fn main() {
     let mode = std::env::args().nth(1).unwrap_or_default();

@@ -41,6 +41,10 @@ pub mod loan;
 mod message;
 pub mod msgs;
 pub mod prelude;
+// `for_each_interface!`: every generated standard type, for tools and tests
+// that handle them all (shm-codegen/generate-standard-set.sh writes it).
+#[cfg(feature = "all_interfaces")]
+mod registry;
 #[cfg(any(feature = "proptest", feature = "arbitrary"))]
 mod strategies;
 pub mod testing;

@@ -229,7 +229,7 @@ fn registry_source(packages: &[shm_codegen::ast::Package], borrowed: bool) -> St
         Vec::new()
     };
     format!(
-        "{GENERATED_MARKER}\n\n/// Calls `$callback! {{ messages: [..], borrowed: [(Owned, Ref), ..], services: [..], actions: [..] }}`\n/// with every type generated into `shm_cdr::msgs` (all packages' features on).\nmacro_rules! for_each_interface {{\n    ($callback:ident) => {{\n        $callback! {{\n        messages: [\n{}        ],\n        borrowed: [\n{}        ],\n        services: [\n{}        ],\n        actions: [\n{}        ],\n        }}\n    }};\n}}\n",
+        "{GENERATED_MARKER}\n\n/// Calls `$callback! {{ messages: [..], borrowed: [(Owned, Ref), ..], services: [..], actions: [..] }}`\n/// with every type generated into `shm_cdr::msgs` (all packages' features on).\n#[macro_export]\n#[doc(hidden)]\nmacro_rules! for_each_interface {{\n    ($callback:ident) => {{\n        $callback! {{\n        messages: [\n{}        ],\n        borrowed: [\n{}        ],\n        services: [\n{}        ],\n        actions: [\n{}        ],\n        }}\n    }};\n}}\n",
         list(&messages),
         list(&with_ref),
         list(&services),

@@ -2,6 +2,8 @@
 
 /// Calls `$callback! { messages: [..], borrowed: [(Owned, Ref), ..], services: [..], actions: [..] }`
 /// with every type generated into `shm_cdr::msgs` (all packages' features on).
+#[macro_export]
+#[doc(hidden)]
 macro_rules! for_each_interface {
     ($callback:ident) => {
         $callback! {
