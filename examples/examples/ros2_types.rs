@@ -28,7 +28,6 @@ use std::io::{BufRead, Write};
 
 use shm_cdr::{CdrEncode, DecodeOwned, RosAction, RosMessage, RosService};
 
-
 type Roundtrip = fn(&[u8], &mut Vec<u8>) -> Result<Vec<u8>, String>;
 
 fn owned<T: RosMessage + DecodeOwned + Default>(

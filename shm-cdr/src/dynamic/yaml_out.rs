@@ -300,10 +300,30 @@ pub(crate) fn yaml_float(x: f64) -> String {
     out
 }
 
-/// Python's `repr` of a finite float: the shortest digits that read back to
-/// it, in positional notation when the decimal exponent is from -4 to 15,
-/// else in scientific notation with a signed exponent of at least two digits.
-pub(crate) fn python_repr(x: f64) -> String {
+/// A float as Python's `repr` (and `str`, and so ROS 2's Python tools) writes
+/// it: the shortest digits that read back to it, in positional notation when
+/// the decimal exponent is from -4 to 15, else in scientific notation with a
+/// signed exponent of at least two digits; `inf`, `-inf`, `nan`.
+///
+/// ```
+/// use shm_cdr::dynamic::python_float;
+///
+/// assert_eq!(python_float(1.0), "1.0");
+/// assert_eq!(python_float(1e-5), "1e-05");
+/// assert_eq!(python_float(f64::from(0.1f32)), "0.10000000149011612");
+/// ```
+pub fn python_float(x: f64) -> String {
+    if x.is_nan() {
+        return "nan".into();
+    }
+    if x.is_infinite() {
+        return if x > 0.0 { "inf" } else { "-inf" }.into();
+    }
+    python_repr(x)
+}
+
+/// [`python_float`] of a finite float.
+fn python_repr(x: f64) -> String {
     // Rust's `{:e}` finds how many digits read back to `x`; of the strings
     // of that many digits, Python takes the one nearest to `x`, a tie to the
     // even digit, which is Rust's exact formatting at that precision.

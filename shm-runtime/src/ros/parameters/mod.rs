@@ -53,6 +53,20 @@ pub(crate) fn type_name(code: u8) -> String {
 }
 
 impl ParameterValue {
+    /// A value written as `ros2 param set` and `-p name:=value` read it: YAML
+    /// (`true`, `3`, `1.5`, `text`, `[1, 2]`; a list of one type).
+    ///
+    /// ```
+    /// use shm_runtime::parameters::ParameterValue;
+    ///
+    /// assert_eq!(ParameterValue::from_yaml_text("3"), Ok(ParameterValue::Integer(3)));
+    /// assert_eq!(ParameterValue::from_yaml_text("[1.5, 2.5]"), Ok(ParameterValue::DoubleArray(vec![1.5, 2.5])));
+    /// assert!(ParameterValue::from_yaml_text("[1, a]").is_err());
+    /// ```
+    pub fn from_yaml_text(text: &str) -> Result<Self, String> {
+        overrides::value_from_yaml_text(text)
+    }
+
     /// The `rcl_interfaces/msg/ParameterType` code.
     pub fn type_code(&self) -> u8 {
         match self {

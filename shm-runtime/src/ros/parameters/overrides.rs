@@ -226,6 +226,12 @@ fn flatten(
     Ok(())
 }
 
+/// [`ParameterValue::from_yaml_text`].
+pub(crate) fn value_from_yaml_text(text: &str) -> Result<ParameterValue, String> {
+    let yaml: Value = serde_yaml::from_str(text).map_err(|e| e.to_string())?;
+    yaml_value(&yaml)
+}
+
 /// A YAML scalar or sequence as a parameter value: one type per sequence.
 fn yaml_value(value: &Value) -> Result<ParameterValue, String> {
     fn scalar(value: &Value) -> Result<ParameterValue, String> {

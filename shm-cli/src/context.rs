@@ -1,0 +1,111 @@
+//! The Zenoh session, the graph and (when a command needs one) a hidden node
+//! of the command line's own.
+
+use std::sync::OnceLock;
+use std::time::Duration;
+
+use shm_runtime::graph::{Graph, GraphCache};
+use shm_runtime::RosNode;
+use zenoh::{Session, Wait};
+
+use crate::Error;
+
+/// How to reach the ROS 2 system.
+#[derive(Debug, clap::Args)]
+pub(crate) struct Connection {
+    /// ROS domain id.
+    #[arg(long, global = true, env = "ROS_DOMAIN_ID", default_value_t = 0)]
+    domain_id: u32,
+    /// Zenoh endpoint to connect to (repeatable); rmw_zenoh_cpp's router
+    /// by default.
+    #[arg(
+        long = "connect",
+        short = 'e',
+        global = true,
+        default_value = "tcp/localhost:7447"
+    )]
+    connect: Vec<String>,
+    /// A Zenoh configuration file (JSON5) to start from, as rmw_zenoh_cpp's
+    /// `ZENOH_SESSION_CONFIG_URI`.
+    #[arg(long, global = true, env = "ZENOH_SESSION_CONFIG_URI")]
+    zenoh_config: Option<std::path::PathBuf>,
+    /// Seconds to wait for the graph and for answers.
+    #[arg(long, global = true, default_value_t = 5.0)]
+    timeout: f64,
+}
+
+pub(crate) struct Context {
+    pub(crate) session: Session,
+    pub(crate) domain_id: u32,
+    pub(crate) timeout: Duration,
+    graph: GraphCache,
+    node: OnceLock<RosNode>,
+}
+
+impl Context {
+    pub(crate) fn open(connection: &Connection) -> Result<Self, Error> {
+        let mut config = match &connection.zenoh_config {
+            Some(path) => zenoh::Config::from_file(path)
+                .map_err(|e| format!("Zenoh configuration {}: {e}", path.display()))?,
+            None => zenoh::Config::default(),
+        };
+        if connection.zenoh_config.is_none() {
+            // rmw_zenoh_cpp's session: a peer that finds the others through
+            // the router, not by multicast.
+            config
+                .insert_json5("scouting/multicast/enabled", "false")
+                .map_err(|e| format!("Zenoh configuration: {e}"))?;
+        }
+        let endpoints = serde_json::to_string(&connection.connect)?;
+        config
+            .insert_json5("connect/endpoints", &endpoints)
+            .map_err(|e| format!("Zenoh configuration: --connect {endpoints}: {e}"))?;
+        let session = zenoh::open(config)
+            .wait()
+            .map_err(|e| format!("cannot open a Zenoh session: {e}"))?;
+        let timeout = Duration::try_from_secs_f64(connection.timeout)
+            .map_err(|_| format!("--timeout {}: give a number of seconds", connection.timeout))?;
+        let graph = GraphCache::of(&session, connection.domain_id)?;
+        Ok(Self {
+            session,
+            domain_id: connection.domain_id,
+            timeout,
+            graph,
+            node: OnceLock::new(),
+        })
+    }
+
+    /// The graph, once the first answers are in.
+    pub(crate) fn graph(&self) -> Graph {
+        self.graph.wait_synced(self.timeout);
+        self.graph.snapshot()
+    }
+
+    /// Wait until `condition` holds on the graph, or the timeout passes.
+    pub(crate) fn wait_for(&self, condition: impl FnMut(&Graph) -> bool) -> Option<Graph> {
+        self.graph
+            .wait_until(self.timeout, condition)
+            .then(|| self.graph.snapshot())
+    }
+
+    /// A hidden node of the command line's own, for the commands that
+    /// subscribe, publish or call services. It keeps out of what it inspects:
+    /// no parameter services, no type-description service.
+    pub(crate) fn node(&self) -> Result<&RosNode, Error> {
+        if let Some(node) = self.node.get() {
+            return Ok(node);
+        }
+        let node = RosNode::builder(&self.session, &format!("_shm_ros2_{}", std::process::id()))
+            .domain_id(self.domain_id)
+            .parameter_services(false)
+            .type_description_service(false)
+            .wait()?;
+        Ok(self.node.get_or_init(|| node))
+    }
+}
+
+/// Whether a name is hidden from listings (a part starting with `_`), as
+/// ros2cli decides.
+pub(crate) fn is_hidden(name: &str) -> bool {
+    name.split('/').any(|part| part.starts_with('_'))
+}

@@ -1,0 +1,74 @@
+//! `shm-ros2`: the ROS 2 command line for systems on rmw_zenoh, with no ROS
+//! install. The commands, arguments and output formats are ros2cli's
+//! (`ros2 topic echo`, `ros2 param set`, …); types the binary was not built
+//! with are asked of the publishing node's `~/get_type_description` and read
+//! at run time.
+
+mod context;
+mod interface;
+mod node;
+mod param;
+mod service;
+mod topic;
+mod types;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// A ROS 2 command line for rmw_zenoh systems, with no ROS install.
+#[derive(Debug, Parser)]
+#[command(name = "shm-ros2", version, about)]
+struct Cli {
+    #[command(flatten)]
+    connection: context::Connection,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Topics: list, info, type, echo, hz, bw, pub.
+    #[command(subcommand)]
+    Topic(topic::TopicCommand),
+    /// Nodes: list, info.
+    #[command(subcommand)]
+    Node(node::NodeCommand),
+    /// Services: list, type.
+    #[command(subcommand)]
+    Service(service::ServiceCommand),
+    /// Parameters: list, get, set, dump.
+    #[command(subcommand)]
+    Param(param::ParamCommand),
+    /// Interfaces: list, show.
+    #[command(subcommand)]
+    Interface(interface::InterfaceCommand),
+}
+
+/// A failure to report: the message says what happened and what to do.
+pub(crate) type Error = Box<dyn std::error::Error + Send + Sync>;
+
+fn main() -> ExitCode {
+    shm_runtime::init_logging();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Interface(command) => interface::run(command),
+        command => match context::Context::open(&cli.connection) {
+            Ok(context) => match command {
+                Command::Topic(c) => topic::run(&context, c),
+                Command::Node(c) => node::run(&context, c),
+                Command::Service(c) => service::run(&context, c),
+                Command::Param(c) => param::run(&context, c),
+                Command::Interface(_) => unreachable!("handled above"),
+            },
+            Err(e) => Err(e),
+        },
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,258 @@
+//! `shm-ros2 param …`: ros2param's verbs and output.
+
+use std::io::Write;
+
+use clap::Subcommand;
+use shm_cdr::dynamic::python_float;
+use shm_runtime::parameters::{ParameterClient, ParameterValue};
+
+use crate::context::Context;
+use crate::Error;
+
+#[derive(Debug, Subcommand)]
+pub(crate) enum ParamCommand {
+    /// Output a list of available parameters.
+    List {
+        /// Name of the ROS node; every node's by default.
+        node_name: Option<String>,
+        /// Print parameter types with parameter names.
+        #[arg(short = 't', long)]
+        param_type: bool,
+        /// Only list parameters with these prefixes.
+        #[arg(long, num_args = 1..)]
+        param_prefixes: Vec<String>,
+    },
+    /// Get parameter.
+    Get {
+        /// Name of the ROS node.
+        node_name: String,
+        /// Name of the parameter.
+        parameter_name: String,
+        /// Hide the type information.
+        #[arg(long)]
+        hide_type: bool,
+    },
+    /// Set parameter.
+    Set {
+        /// Name of the ROS node.
+        node_name: String,
+        /// Name of the parameter.
+        parameter_name: String,
+        /// Value of the parameter, read as YAML (`true`, `3`, `1.5`, `[1, 2]`;
+        /// anything else is a string).
+        value: String,
+    },
+}
+
+pub(crate) fn run(context: &Context, command: ParamCommand) -> Result<(), Error> {
+    match command {
+        ParamCommand::List {
+            node_name,
+            param_type,
+            param_prefixes,
+        } => {
+            let nodes = match &node_name {
+                Some(node) => vec![absolute(node)],
+                None => context
+                    .graph()
+                    .nodes()
+                    .into_iter()
+                    .filter(|n| {
+                        !n.rsplit('/')
+                            .next()
+                            .is_some_and(|name| name.starts_with('_'))
+                    })
+                    .collect(),
+            };
+            let mut out = std::io::stdout().lock();
+            for node in nodes {
+                let client = match client(context, &node) {
+                    Ok(client) => client,
+                    Err(e) => {
+                        writeln!(out, "{e}")?;
+                        continue;
+                    }
+                };
+                let prefixes: Vec<&str> = param_prefixes.iter().map(String::as_str).collect();
+                let mut names = client.list(&prefixes, 0)?.names;
+                names.sort();
+                if node_name.is_none() && !names.is_empty() {
+                    writeln!(out, "{node}:")?;
+                }
+                let types = if param_type {
+                    let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+                    client.types(&refs)?
+                } else {
+                    Vec::new()
+                };
+                for (i, name) in names.iter().enumerate() {
+                    match types.get(i) {
+                        Some(t) => writeln!(out, "  {name} (type: {})", type_string(*t))?,
+                        None => writeln!(out, "  {name}")?,
+                    }
+                }
+            }
+            Ok(())
+        }
+        ParamCommand::Get {
+            node_name,
+            parameter_name,
+            hide_type,
+        } => {
+            let node = absolute(&node_name);
+            let client = client(context, &node)?;
+            let values = client.get(&[parameter_name.as_str()])?;
+            let Some(value) = values.first() else {
+                return Err("Parameter not set".into());
+            };
+            let (label, text) = describe(value);
+            match (hide_type, text) {
+                (true, Some(text)) => println!("{text}"),
+                (false, Some(text)) => println!("{label} {text}"),
+                (_, None) => println!("{label}"),
+            }
+            Ok(())
+        }
+        ParamCommand::Set {
+            node_name,
+            parameter_name,
+            value,
+        } => {
+            let node = absolute(&node_name);
+            let client = client(context, &node)?;
+            // As rclpy's `get_parameter_value`: YAML, else the text itself.
+            let value = ParameterValue::from_yaml_text(&value)
+                .unwrap_or_else(|_| ParameterValue::String(value.clone()));
+            let results = client.set(&[(parameter_name, value)])?;
+            let Some(result) = results.first() else {
+                return Err(format!("{node} answered with no result").into());
+            };
+            let reason = if result.reason.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", result.reason)
+            };
+            if result.successful {
+                println!("Set parameter successful{reason}");
+                Ok(())
+            } else {
+                Err(format!("Setting parameter failed{reason}").into())
+            }
+        }
+    }
+}
+
+fn absolute(node: &str) -> String {
+    if node.starts_with('/') {
+        node.to_owned()
+    } else {
+        format!("/{node}")
+    }
+}
+
+/// A parameter client of `node`, once the node is on the graph and its
+/// services answer.
+fn client(context: &Context, node: &str) -> Result<ParameterClient, Error> {
+    if context.wait_for(|g| g.contains_node(node)).is_none() {
+        return Err("Node not found".into());
+    }
+    let client = context.node()?.parameter_client(node)?;
+    if !client.wait_for_services(context.timeout) {
+        return Err(format!(
+            "Wait for service timed out waiting for parameter services for node {node}"
+        )
+        .into());
+    }
+    Ok(client)
+}
+
+/// rcl_interfaces' type names, as `ros2 param list -t` prints them.
+fn type_string(code: u8) -> &'static str {
+    match code {
+        1 => "boolean",
+        2 => "integer",
+        3 => "double",
+        4 => "string",
+        5 => "byte array",
+        6 => "boolean array",
+        7 => "integer array",
+        8 => "double array",
+        9 => "string array",
+        0 => "not set",
+        _ => "unknown type",
+    }
+}
+
+/// `ros2 param get`'s label and value, the value as Python prints it.
+fn describe(value: &ParameterValue) -> (&'static str, Option<String>) {
+    let list = |items: Vec<String>| format!("[{}]", items.join(", "));
+    let py_bool = |b: bool| if b { "True" } else { "False" }.to_owned();
+    match value {
+        ParameterValue::Bool(b) => ("Boolean value is:", Some(py_bool(*b))),
+        ParameterValue::Integer(i) => ("Integer value is:", Some(i.to_string())),
+        ParameterValue::Double(x) => ("Double value is:", Some(python_float(*x))),
+        ParameterValue::String(s) => ("String value is:", Some(s.clone())),
+        ParameterValue::ByteArray(v) => (
+            "Byte values are:",
+            Some(list(v.iter().map(|b| python_bytes(*b)).collect())),
+        ),
+        ParameterValue::BoolArray(v) => (
+            "Boolean values are:",
+            Some(list(v.iter().map(|b| py_bool(*b)).collect())),
+        ),
+        ParameterValue::IntegerArray(v) => (
+            "Integer values are:",
+            Some(list(v.iter().map(i64::to_string).collect())),
+        ),
+        ParameterValue::DoubleArray(v) => (
+            "Double values are:",
+            Some(list(v.iter().map(|x| python_float(*x)).collect())),
+        ),
+        ParameterValue::StringArray(v) => (
+            "String values are:",
+            Some(list(v.iter().map(|s| python_str(s)).collect())),
+        ),
+        _ => ("Parameter not set.", None),
+    }
+}
+
+/// Python's `repr` of a one-byte `bytes`.
+fn python_bytes(b: u8) -> String {
+    match b {
+        b'\\' => "b'\\\\'".into(),
+        b'\'' => "b\"'\"".into(),
+        b'\t' => "b'\\t'".into(),
+        b'\n' => "b'\\n'".into(),
+        b'\r' => "b'\\r'".into(),
+        0x20..=0x7e => format!("b'{}'", char::from(b)),
+        _ => format!("b'\\x{b:02x}'"),
+    }
+}
+
+/// Python's `repr` of a string.
+fn python_str(s: &str) -> String {
+    let quote = if s.contains('\'') && !s.contains('"') {
+        '"'
+    } else {
+        '\''
+    };
+    let mut out = String::from(quote);
+    for c in s.chars() {
+        match c {
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            '\t' => out.push_str("\\t"),
+            c if c == quote => {
+                out.push('\\');
+                out.push(c);
+            }
+            c if (c as u32) < 0x20 || c as u32 == 0x7f => {
+                out.push_str(&format!("\\x{:02x}", c as u32))
+            }
+            c => out.push(c),
+        }
+    }
+    out.push(quote);
+    out
+}

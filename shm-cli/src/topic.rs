@@ -1,0 +1,516 @@
+//! `shm-ros2 topic …`: ros2topic's verbs and output.
+
+use std::collections::VecDeque;
+use std::io::Write;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use clap::{Args, Subcommand};
+use shm_cdr::dynamic::{DynamicType, YamlOptions};
+use shm_runtime::graph::Graph;
+use shm_runtime::rmw::{Durability, EntityKind, Qos, Reliability};
+use zenoh::Wait;
+
+use crate::context::{is_hidden, Context};
+use crate::{types, Error};
+
+#[derive(Debug, Subcommand)]
+pub(crate) enum TopicCommand {
+    /// Output a list of available topics.
+    List {
+        /// Additionally show the topic type.
+        #[arg(short = 't', long)]
+        show_types: bool,
+        /// Only display the number of topics discovered.
+        #[arg(short = 'c', long)]
+        count_topics: bool,
+        /// Consider hidden topics as well.
+        #[arg(long)]
+        include_hidden_topics: bool,
+    },
+    /// Print information about a topic.
+    Info {
+        /// Name of the ROS topic to get info (e.g. '/chatter').
+        topic_name: String,
+        /// Print detailed information about the publishers and subscribers.
+        #[arg(short, long)]
+        verbose: bool,
+    },
+    /// Print a topic's type.
+    Type {
+        /// Name of the ROS topic (e.g. '/chatter').
+        topic_name: String,
+    },
+    /// Output messages from a topic.
+    Echo(EchoArgs),
+    /// Print the average publishing rate to screen.
+    Hz {
+        /// Name of the ROS topic to listen to (e.g. '/chatter').
+        topic_name: String,
+        /// Window size, in # of messages, for calculating rate.
+        #[arg(short, long = "window", default_value_t = 10_000)]
+        window: usize,
+    },
+    /// Display bandwidth used by topic.
+    Bw {
+        /// Name of the ROS topic to listen to (e.g. '/chatter').
+        topic_name: String,
+        /// Maximum window size, in # of messages, for calculating rate.
+        #[arg(short, long = "window", default_value_t = 100)]
+        window: usize,
+    },
+    /// Publish a message to a topic.
+    Pub(PubArgs),
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct EchoArgs {
+    /// Name of the ROS topic to listen to (e.g. '/chatter').
+    topic_name: String,
+    /// Type of the ROS message (e.g. 'std_msgs/msg/String'); by default the
+    /// type its publishers announce.
+    message_type: Option<String>,
+    /// Print the first message received and then exit.
+    #[arg(long)]
+    once: bool,
+    /// The length to truncate arrays, bytes, and strings to.
+    #[arg(short = 'l', long, default_value_t = 128)]
+    truncate_length: usize,
+    /// Output all elements for arrays, bytes, and string with a length >
+    /// '--truncate-length'.
+    #[arg(short = 'f', long)]
+    full_length: bool,
+    /// Don't print array fields of messages.
+    #[arg(long)]
+    no_arr: bool,
+    /// Don't print string fields of messages.
+    #[arg(long)]
+    no_str: bool,
+    /// Print arrays and sequences in flow style.
+    #[arg(long)]
+    flow_style: bool,
+    /// Print each message as one line of JSON instead of YAML.
+    #[arg(long, conflicts_with_all = ["flow_style", "no_arr", "no_str"])]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct PubArgs {
+    /// Name of the ROS topic to publish to (e.g. '/chatter').
+    topic_name: String,
+    /// Type of the ROS message (e.g. 'std_msgs/String').
+    message_type: String,
+    /// Values to fill the message with in YAML format (e.g. 'data: Hello
+    /// World'), otherwise the message is published with default values.
+    #[arg(default_value = "{}")]
+    values: String,
+    /// Publishing rate in Hz.
+    #[arg(short, long, default_value_t = 1.0)]
+    rate: f64,
+    /// Publish one message and exit.
+    #[arg(short = '1', long)]
+    once: bool,
+    /// Publish this number of times and then exit.
+    #[arg(short, long)]
+    times: Option<u64>,
+    /// Wait until this many subscriptions match before the first message
+    /// (within the timeout).
+    #[arg(short, long, default_value_t = 1)]
+    wait_matching_subscriptions: usize,
+}
+
+pub(crate) fn run(context: &Context, command: TopicCommand) -> Result<(), Error> {
+    match command {
+        TopicCommand::List {
+            show_types,
+            count_topics,
+            include_hidden_topics,
+        } => {
+            let graph = context.graph();
+            let topics: Vec<_> = graph
+                .topics()
+                .into_iter()
+                .filter(|(name, _)| include_hidden_topics || !is_hidden(name))
+                .collect();
+            let mut out = std::io::stdout().lock();
+            if count_topics {
+                writeln!(out, "{}", topics.len())?;
+                return Ok(());
+            }
+            for (name, types) in topics {
+                if show_types {
+                    let types: Vec<&str> = types.iter().map(String::as_str).collect();
+                    writeln!(out, "{name} [{}]", types.join(", "))?;
+                } else {
+                    writeln!(out, "{name}")?;
+                }
+            }
+            Ok(())
+        }
+        TopicCommand::Info {
+            topic_name,
+            verbose,
+        } => info(context, &topic_name, verbose),
+        TopicCommand::Type { topic_name } => {
+            let graph = context.graph();
+            let Some(types) = graph.topics().remove(&topic_name) else {
+                return Err(format!("Unknown topic '{topic_name}'").into());
+            };
+            for ty in types {
+                println!("{ty}");
+            }
+            Ok(())
+        }
+        TopicCommand::Echo(args) => echo(context, args),
+        TopicCommand::Hz { topic_name, window } => hz(context, &topic_name, window),
+        TopicCommand::Bw { topic_name, window } => bw(context, &topic_name, window),
+        TopicCommand::Pub(args) => publish(context, args),
+    }
+}
+
+fn info(context: &Context, topic: &str, verbose: bool) -> Result<(), Error> {
+    let graph = context.graph();
+    let Some(types) = graph.topics().remove(topic) else {
+        return Err(format!("Unknown topic '{topic}'").into());
+    };
+    let end = if verbose { "\n\n" } else { "\n" };
+    let types: Vec<String> = types.into_iter().collect();
+    let type_text = match &types[..] {
+        [one] => one.clone(),
+        many => format!("{many:?}"),
+    };
+    let mut out = std::io::stdout().lock();
+    write!(out, "Type: {type_text}{end}")?;
+    for (kind, label) in [
+        (EntityKind::Publisher, "Publisher count"),
+        (EntityKind::Subscriber, "Subscription count"),
+    ] {
+        let endpoints = graph.endpoints(kind, topic);
+        write!(out, "{label}: {}{end}", endpoints.len())?;
+        if verbose {
+            for entity in endpoints {
+                let Some(endpoint) = &entity.endpoint else {
+                    continue;
+                };
+                let qos = &endpoint.qos;
+                write!(
+                    out,
+                    "Node name: {}\nNode namespace: {}\nTopic type: {}\nTopic type hash: {}\nEndpoint type: {}\nGID: {}\nQoS profile:\n  Reliability: {}\n  History (Depth): {}\n  Durability: {}\n{end}",
+                    entity.node_name,
+                    entity.namespace,
+                    endpoint.type_name,
+                    endpoint.type_hash,
+                    if kind == EntityKind::Publisher { "PUBLISHER" } else { "SUBSCRIPTION" },
+                    entity.gid.0.iter().map(|b| format!("{b:02x}")).collect::<Vec<_>>().join("."),
+                    match qos.reliability {
+                        Reliability::Reliable => "RELIABLE",
+                        Reliability::BestEffort => "BEST_EFFORT",
+                    },
+                    match qos.history {
+                        shm_runtime::rmw::History::KeepLast(depth) => format!("KEEP_LAST ({depth})"),
+                        shm_runtime::rmw::History::KeepAll => "KEEP_ALL".to_owned(),
+                    },
+                    match qos.durability {
+                        Durability::TransientLocal => "TRANSIENT_LOCAL",
+                        Durability::Volatile => "VOLATILE",
+                    },
+                )?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The topic's type: the one given (a standard type), else the one its
+/// endpoints announce.
+fn resolve_type(
+    context: &Context,
+    graph: &Graph,
+    topic: &str,
+    given: Option<&str>,
+) -> Result<DynamicType, Error> {
+    match given {
+        Some(name) => types::standard_message(name).ok_or_else(|| {
+            format!(
+                "{name} is not a standard type this binary knows: leave the type out, and it is asked of the node that uses {topic}"
+            )
+            .into()
+        }),
+        None => types::of_topic(context, graph, topic),
+    }
+}
+
+/// The QoS to subscribe with, as ros2cli picks it: the publishers' (transient
+/// local if they all are; best effort if any is).
+fn subscriber_qos(graph: &Graph, topic: &str) -> Qos {
+    let publishers: Vec<Qos> = graph
+        .publishers(topic)
+        .iter()
+        .filter_map(|e| e.endpoint.as_ref().map(|e| e.qos))
+        .collect();
+    let mut qos = Qos::default();
+    if !publishers.is_empty()
+        && publishers
+            .iter()
+            .all(|q| q.durability == Durability::TransientLocal)
+    {
+        qos.durability = Durability::TransientLocal;
+    }
+    if publishers
+        .iter()
+        .any(|q| q.reliability == Reliability::BestEffort)
+    {
+        qos.reliability = Reliability::BestEffort;
+    }
+    qos
+}
+
+/// Wait for the topic to appear on the graph (it may be starting).
+fn graph_with_topic(context: &Context, topic: &str) -> Graph {
+    context
+        .wait_for(|g| !g.publishers(topic).is_empty())
+        .unwrap_or_else(|| context.graph())
+}
+
+fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
+    let graph = graph_with_topic(context, &args.topic_name);
+    let ty = resolve_type(
+        context,
+        &graph,
+        &args.topic_name,
+        args.message_type.as_deref(),
+    )?;
+    let subscriber = context
+        .node()?
+        .declare_dynamic_subscriber(
+            &args.topic_name,
+            &ty,
+            subscriber_qos(&graph, &args.topic_name),
+        )
+        .wait()?;
+    let options = YamlOptions::echo()
+        .truncate_length((!args.full_length).then_some(args.truncate_length))
+        .no_arr(args.no_arr)
+        .no_str(args.no_str)
+        .flow_style(args.flow_style);
+    let mut out = std::io::stdout().lock();
+    loop {
+        let sample = subscriber.recv()?;
+        let bytes = sample.payload().to_bytes();
+        match ty.decode(&bytes) {
+            Ok(message) if args.json => writeln!(out, "{}", serde_json::to_string(&message)?)?,
+            Ok(message) => write!(out, "{}---\n", message.to_yaml_with(&options))?,
+            Err(e) => eprintln!(
+                "a message on {} is not a {}: {e}",
+                args.topic_name,
+                ty.name()
+            ),
+        }
+        out.flush()?;
+        if args.once {
+            return Ok(());
+        }
+    }
+}
+
+fn hz(context: &Context, topic: &str, window: usize) -> Result<(), Error> {
+    let graph = graph_with_topic(context, topic);
+    let ty = types::of_topic(context, &graph, topic)?;
+    let subscriber = context
+        .node()?
+        .declare_dynamic_subscriber(topic, &ty, subscriber_qos(&graph, topic))
+        .wait()?;
+    let mut deltas: VecDeque<f64> = VecDeque::new();
+    let mut last: Option<Instant> = None;
+    let mut received = 0u64;
+    let mut printed = 0u64;
+    let mut next_report = Instant::now() + Duration::from_secs(1);
+    let mut out = std::io::stdout().lock();
+    loop {
+        let wait = next_report.saturating_duration_since(Instant::now());
+        if let Some(_sample) = subscriber.recv_timeout(wait)? {
+            let now = Instant::now();
+            if let Some(previous) = last {
+                deltas.push_back(now.duration_since(previous).as_secs_f64());
+                if deltas.len() > window {
+                    deltas.pop_front();
+                }
+            }
+            last = Some(now);
+            received += 1;
+        }
+        if Instant::now() < next_report {
+            continue;
+        }
+        next_report += Duration::from_secs(1);
+        if deltas.is_empty() || received == printed {
+            continue;
+        }
+        printed = received;
+        let n = deltas.len() as f64;
+        let mean = deltas.iter().sum::<f64>() / n;
+        let rate = if mean > 0.0 { 1.0 / mean } else { 0.0 };
+        let std_dev = (deltas.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
+        let min = deltas.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = deltas.iter().copied().fold(0.0, f64::max);
+        writeln!(
+            out,
+            "average rate: {rate:.3}\n\tmin: {min:.3}s max: {max:.3}s std dev: {std_dev:.5}s window: {}",
+            deltas.len()
+        )?;
+        out.flush()?;
+    }
+}
+
+fn bw(context: &Context, topic: &str, window: usize) -> Result<(), Error> {
+    let graph = graph_with_topic(context, topic);
+    let ty = types::of_topic(context, &graph, topic)?;
+    let subscriber = context
+        .node()?
+        .declare_dynamic_subscriber(topic, &ty, subscriber_qos(&graph, topic))
+        .wait()?;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "Subscribed to [{topic}]")?;
+    out.flush()?;
+    let mut arrivals: VecDeque<(Instant, usize)> = VecDeque::new();
+    let mut next_report = Instant::now() + Duration::from_secs(1);
+    loop {
+        let wait = next_report.saturating_duration_since(Instant::now());
+        if let Some(sample) = subscriber.recv_timeout(wait)? {
+            arrivals.push_back((Instant::now(), sample.payload().len()));
+            if arrivals.len() > window {
+                arrivals.pop_front();
+            }
+        }
+        if Instant::now() < next_report {
+            continue;
+        }
+        next_report += Duration::from_secs(1);
+        let (Some(first), true) = (arrivals.front(), arrivals.len() >= 2) else {
+            continue;
+        };
+        let elapsed = first.0.elapsed().as_secs_f64();
+        let total: usize = arrivals.iter().map(|(_, size)| size).sum();
+        let n = arrivals.len();
+        let per_second = total as f64 / elapsed;
+        let mean = total as f64 / n as f64;
+        let min = arrivals.iter().map(|(_, s)| *s).min().unwrap_or(0) as f64;
+        let max = arrivals.iter().map(|(_, s)| *s).max().unwrap_or(0) as f64;
+        let unit = |bytes: f64| {
+            if per_second < 1000.0 {
+                format!("{bytes:.0} B")
+            } else if per_second < 1_000_000.0 {
+                format!("{:.2} KB", bytes / 1000.0)
+            } else {
+                format!("{:.2} MB", bytes / 1000.0 / 1000.0)
+            }
+        };
+        writeln!(
+            out,
+            "{}/s from {n} messages\n\tMessage size mean: {} min: {} max: {}",
+            unit(per_second),
+            unit(mean),
+            unit(min),
+            unit(max)
+        )?;
+        out.flush()?;
+    }
+}
+
+fn now() -> (i32, u32) {
+    let since = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default();
+    (
+        i32::try_from(since.as_secs()).unwrap_or(i32::MAX),
+        since.subsec_nanos(),
+    )
+}
+
+fn publish(context: &Context, args: PubArgs) -> Result<(), Error> {
+    let ty = match types::standard_message(&args.message_type) {
+        Some(ty) => ty,
+        None => {
+            // A type of the system's own: as its subscribers' nodes describe it.
+            let graph = context
+                .wait_for(|g| !g.subscribers(&args.topic_name).is_empty())
+                .unwrap_or_else(|| context.graph());
+            let ty = types::of_topic(context, &graph, &args.topic_name)?;
+            if ty.name() != types::full_name(&args.message_type) {
+                return Err(format!(
+                    "{} is not a standard type, and {} carries {}",
+                    args.message_type,
+                    args.topic_name,
+                    ty.name()
+                )
+                .into());
+            }
+            ty
+        }
+    };
+    // Read once now, so that bad values are reported before anything is
+    // declared.
+    ty.message_from_yaml_at(&args.values, now())
+        .map_err(|e| format!("Failed to populate field: {e}"))?;
+    if !(args.rate > 0.0 && args.rate.is_finite()) {
+        return Err(format!(
+            "--rate {}: give a positive number of messages per second",
+            args.rate
+        )
+        .into());
+    }
+    let times = if args.once { Some(1) } else { args.times };
+    let publisher = context
+        .node()?
+        .declare_dynamic_publisher(&args.topic_name, &ty, Qos::default())
+        .wait()?;
+    println!("publisher: beginning loop");
+    if args.wait_matching_subscriptions > 0 {
+        let deadline = Instant::now() + context.timeout;
+        publisher.wait_for_subscribers(context.timeout);
+        let node = context.node()?;
+        while Instant::now() < deadline {
+            let graph = node.graph(Duration::from_millis(100))?;
+            if graph
+                .subscribers(&publisher_topic(context, &args.topic_name))
+                .len()
+                >= args.wait_matching_subscriptions
+            {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+    let period = Duration::from_secs_f64(1.0 / args.rate);
+    let mut next = Instant::now();
+    let mut count = 0u64;
+    loop {
+        let message = ty
+            .message_from_yaml_at(&args.values, now())
+            .map_err(|e| format!("Failed to populate field: {e}"))?;
+        publisher.publish_dynamic(&message).wait()?;
+        count += 1;
+        println!(
+            "publishing #{count}: {}\n",
+            message
+                .to_yaml_with(&YamlOptions::full().flow_style(true))
+                .trim_end()
+                .replace('\n', ", ")
+        );
+        if times.is_some_and(|t| count >= t) {
+            // Give the last message time to leave.
+            std::thread::sleep(Duration::from_millis(100));
+            return Ok(());
+        }
+        next += period;
+        std::thread::sleep(next.saturating_duration_since(Instant::now()));
+    }
+}
+
+/// The topic's fully qualified name, as the graph lists it.
+fn publisher_topic(context: &Context, topic: &str) -> String {
+    context
+        .node()
+        .ok()
+        .and_then(|n| n.resolve_topic_name(topic).ok())
+        .unwrap_or_else(|| topic.to_owned())
+}

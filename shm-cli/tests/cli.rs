@@ -1,0 +1,456 @@
+//! `shm-ros2` end to end: nodes of this project on a local Zenoh endpoint, the
+//! command run against them as a user runs it, its output compared with what
+//! ros2cli prints for the same graph.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::mpsc;
+use std::time::Duration;
+
+use shm_cdr::msgs::std_msgs::String as RosString;
+use shm_cdr::RosMessage;
+use shm_runtime::parameters::ParameterValue;
+use shm_runtime::RosNode;
+use zenoh::{Session, Wait};
+
+/// A message type the binary was not built with: its type is read from the
+/// publishing node's `~/get_type_description`.
+#[derive(Debug, Clone, Default, PartialEq, RosMessage)]
+#[ros(type_name = "robot_msgs/msg/Battery")]
+struct Battery {
+    voltage: f32,
+    cells: Vec<u16>,
+    label: String,
+}
+
+const TIMEOUT: Duration = Duration::from_secs(15);
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .unwrap_or(17447)
+}
+
+/// A session listening on a local port, as a router would for the command.
+fn listening_session() -> (Session, u16) {
+    let port = free_port();
+    let mut config = zenoh::Config::default();
+    config
+        .insert_json5("listen/endpoints", &format!("[\"tcp/127.0.0.1:{port}\"]"))
+        .unwrap();
+    config
+        .insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    (zenoh::open(config).wait().unwrap(), port)
+}
+
+fn cli(port: u16, args: &[&str]) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_shm-ros2"));
+    command
+        .args([
+            "--connect",
+            &format!("tcp/127.0.0.1:{port}"),
+            "--domain-id",
+            "0",
+            "--timeout",
+            "5",
+        ])
+        .args(args)
+        .env_remove("ZENOH_SESSION_CONFIG_URI")
+        .env("RUST_LOG", "error");
+    command
+}
+
+fn run(port: u16, args: &[&str]) -> Output {
+    cli(port, args).output().unwrap()
+}
+
+fn stdout(output: &Output) -> String {
+    assert!(
+        output.status.success(),
+        "failed: {}\n{}",
+        String::from_utf8_lossy(&output.stderr),
+        String::from_utf8_lossy(&output.stdout)
+    );
+    String::from_utf8(output.stdout.clone()).unwrap()
+}
+
+/// A running command whose output lines arrive on a channel.
+struct Running {
+    child: Child,
+    lines: mpsc::Receiver<String>,
+}
+
+impl Running {
+    fn start(port: u16, args: &[&str]) -> Self {
+        let mut child = cli(port, args).stdout(Stdio::piped()).spawn().unwrap();
+        let out = child.stdout.take().unwrap();
+        let (tx, lines) = mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        Self { child, lines }
+    }
+
+    fn line(&self) -> String {
+        self.lines.recv_timeout(TIMEOUT).expect("a line of output")
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Publish `message` every 50 ms from a thread until the returned flag drops.
+fn keep_publishing<T: RosMessage + Send + Sync + 'static>(
+    node: &RosNode,
+    topic: &str,
+    message: T,
+) -> std::sync::Arc<()> {
+    let publisher = node.declare_publisher::<T>(topic).wait().unwrap();
+    let alive = std::sync::Arc::new(());
+    let weak = std::sync::Arc::downgrade(&alive);
+    std::thread::spawn(move || {
+        while weak.upgrade().is_some() {
+            publisher.publish(&message).wait().unwrap();
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    });
+    alive
+}
+
+#[test]
+fn lists_and_infos_read_as_ros2cli_prints_them() {
+    let (session, port) = listening_session();
+    let talker = RosNode::builder(&session, "talker")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let _chatter = talker
+        .declare_publisher::<RosString>("/chatter")
+        .wait()
+        .unwrap();
+    let _hidden = talker
+        .declare_publisher::<RosString>("/_internal")
+        .wait()
+        .unwrap();
+
+    let list = stdout(&run(port, &["topic", "list", "-t"]));
+    assert!(
+        list.lines().any(|l| l == "/chatter [std_msgs/msg/String]"),
+        "{list}"
+    );
+    assert!(
+        list.lines()
+            .any(|l| l == "/parameter_events [rcl_interfaces/msg/ParameterEvent]"),
+        "{list}"
+    );
+    assert!(
+        !list.contains("/_internal"),
+        "hidden topics are left out: {list}"
+    );
+    let hidden = stdout(&run(port, &["topic", "list", "--include-hidden-topics"]));
+    assert!(hidden.lines().any(|l| l == "/_internal"), "{hidden}");
+
+    assert_eq!(
+        stdout(&run(port, &["topic", "info", "/chatter"])),
+        "Type: std_msgs/msg/String\nPublisher count: 1\nSubscription count: 0\n"
+    );
+    assert_eq!(
+        stdout(&run(port, &["topic", "type", "/chatter"])),
+        "std_msgs/msg/String\n"
+    );
+    assert_eq!(stdout(&run(port, &["node", "list"])), "/talker\n");
+
+    let info = stdout(&run(port, &["node", "info", "/talker"]));
+    let expected_start = "/talker\n  Subscribers:\n\n  Publishers:\n    /chatter: std_msgs/msg/String\n    /parameter_events: rcl_interfaces/msg/ParameterEvent\n";
+    assert!(info.starts_with(expected_start), "{info}");
+    assert!(
+        info.contains("  Service Servers:\n    /talker/describe_parameters: rcl_interfaces/srv/DescribeParameters\n"),
+        "{info}"
+    );
+    assert!(
+        info.ends_with("  Action Servers:\n\n  Action Clients:\n\n"),
+        "{info}"
+    );
+
+    let services = stdout(&run(port, &["service", "list", "-t"]));
+    assert!(
+        services
+            .lines()
+            .any(|l| l == "/talker/get_parameters [rcl_interfaces/srv/GetParameters]"),
+        "{services}"
+    );
+    assert_eq!(
+        stdout(&run(port, &["service", "type", "/talker/set_parameters"])),
+        "rcl_interfaces/srv/SetParameters\n"
+    );
+
+    // A node that is not there: the message ros2cli gives, and a failure.
+    let missing = run(port, &["node", "info", "/nobody"]);
+    assert!(!missing.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&missing.stderr).trim(),
+        "Unable to find node '/nobody'"
+    );
+}
+
+#[test]
+fn echo_reads_standard_types_and_types_it_was_never_built_with() {
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "driver")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let _chatter = keep_publishing(
+        &node,
+        "/chatter",
+        RosString {
+            data: "hello: world".into(),
+        },
+    );
+    let _battery = keep_publishing(
+        &node,
+        "/battery",
+        Battery {
+            voltage: 12.5,
+            cells: vec![3300, 3310, 3290],
+            label: "main".into(),
+        },
+    );
+
+    let out = stdout(&run(port, &["topic", "echo", "/chatter", "--once"]));
+    assert_eq!(out, "data: 'hello: world'\n---\n");
+
+    // Not a standard type: asked of /driver's ~/get_type_description.
+    let out = stdout(&run(port, &["topic", "echo", "/battery", "--once"]));
+    assert_eq!(
+        out,
+        "voltage: 12.5\ncells:\n- 3300\n- 3310\n- 3290\nlabel: main\n---\n"
+    );
+    let out = stdout(&run(
+        port,
+        &[
+            "topic",
+            "echo",
+            "/battery",
+            "--once",
+            "--flow-style",
+            "-l",
+            "2",
+        ],
+    ));
+    assert_eq!(
+        out,
+        "voltage: 12.5\ncells: [3300, 3310, '...']\nlabel: ma...\n---\n"
+    );
+    let out = stdout(&run(
+        port,
+        &["topic", "echo", "/battery", "--once", "--json"],
+    ));
+    assert_eq!(
+        out,
+        "{\"voltage\":12.5,\"cells\":[3300,3310,3290],\"label\":\"main\"}\n"
+    );
+
+    // A topic nobody publishes, without a type: what to do.
+    let nothing = run(port, &["topic", "echo", "/nothing", "--once"]);
+    assert!(!nothing.status.success());
+    assert!(
+        String::from_utf8_lossy(&nothing.stderr)
+            .contains("give its type: shm-ros2 topic echo /nothing <pkg/msg/Type>"),
+        "{}",
+        String::from_utf8_lossy(&nothing.stderr)
+    );
+}
+
+#[test]
+fn hz_and_bw_report_every_second() {
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "talker")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let _chatter = keep_publishing(
+        &node,
+        "/chatter",
+        RosString {
+            data: "x".repeat(100),
+        },
+    );
+
+    let hz = Running::start(port, &["topic", "hz", "/chatter"]);
+    let first = hz.line();
+    assert!(first.starts_with("average rate: "), "{first}");
+    let rate: f64 = first["average rate: ".len()..].parse().unwrap();
+    // Published every 50 ms plus the publish itself: a rate below 20 Hz.
+    assert!(rate > 5.0 && rate <= 21.0, "{first}");
+    let stats = hz.line();
+    assert!(
+        stats.starts_with("\tmin: ") && stats.contains(" window: "),
+        "{stats}"
+    );
+
+    let bw = Running::start(port, &["topic", "bw", "/chatter"]);
+    assert_eq!(bw.line(), "Subscribed to [/chatter]");
+    let report = bw.line();
+    assert!(
+        report.contains(" from ") && report.contains(" messages"),
+        "{report}"
+    );
+    let sizes = bw.line();
+    // 4 bytes of header, 4 of length, 100 characters and the NUL; in the
+    // unit of the rate (about 2 KB/s), as ros2cli writes them.
+    assert!(
+        sizes.contains("mean: 0.11 KB min: 0.11 KB max: 0.11 KB"),
+        "{sizes}"
+    );
+}
+
+#[test]
+fn pub_publishes_yaml_values_with_the_topics_type() {
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "listener")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let subscriber = node
+        .declare_subscriber::<RosString>("/chatter")
+        .wait()
+        .unwrap();
+
+    let out = stdout(&run(
+        port,
+        &[
+            "topic",
+            "pub",
+            "--once",
+            "/chatter",
+            "std_msgs/String",
+            "data: hi there",
+        ],
+    ));
+    assert!(
+        out.starts_with("publisher: beginning loop\npublishing #1: data: hi there"),
+        "{out}"
+    );
+    let sample = subscriber
+        .recv_timeout(TIMEOUT)
+        .unwrap()
+        .expect("the published message");
+    let message: RosString = sample.decode().unwrap();
+    assert_eq!(message.data, "hi there");
+
+    // Values that are not the type's: said before anything is published.
+    let bad = run(
+        port,
+        &[
+            "topic",
+            "pub",
+            "--once",
+            "/chatter",
+            "std_msgs/msg/String",
+            "datum: 1",
+        ],
+    );
+    assert!(!bad.status.success());
+    assert!(
+        String::from_utf8_lossy(&bad.stderr)
+            .contains("Failed to populate field: datum: std_msgs/msg/String has no field `datum` (its fields: data)"),
+        "{}",
+        String::from_utf8_lossy(&bad.stderr)
+    );
+}
+
+#[test]
+fn params_are_listed_read_and_set_as_ros2_param_does() {
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "controller")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    node.declare_parameter("gain", 1.5).unwrap();
+    node.declare_parameter("names", vec!["a".to_owned(), "it's".to_owned()])
+        .unwrap();
+
+    assert_eq!(
+        stdout(&run(port, &["param", "list", "/controller"])),
+        "  gain\n  names\n  start_type_description_service\n  use_sim_time\n"
+    );
+    assert_eq!(
+        stdout(&run(port, &["param", "list", "-t", "/controller"])),
+        "  gain (type: double)\n  names (type: string array)\n  start_type_description_service (type: boolean)\n  use_sim_time (type: boolean)\n"
+    );
+    assert_eq!(
+        stdout(&run(port, &["param", "get", "/controller", "gain"])),
+        "Double value is: 1.5\n"
+    );
+    assert_eq!(
+        stdout(&run(port, &["param", "get", "/controller", "names"])),
+        "String values are: ['a', \"it's\"]\n"
+    );
+    assert_eq!(
+        stdout(&run(port, &["param", "set", "/controller", "gain", "2.25"])),
+        "Set parameter successful\n"
+    );
+    assert_eq!(node.parameter("gain"), Some(ParameterValue::Double(2.25)));
+    assert_eq!(
+        stdout(&run(
+            port,
+            &["param", "get", "/controller", "use_sim_time", "--hide-type"]
+        )),
+        "False\n"
+    );
+    // Refused: the node's reason, and a failure.
+    let refused = run(port, &["param", "set", "/controller", "gain", "fast"]);
+    assert!(!refused.status.success());
+    assert!(
+        String::from_utf8_lossy(&refused.stderr).starts_with("Setting parameter failed"),
+        "{}",
+        String::from_utf8_lossy(&refused.stderr)
+    );
+    let missing = run(port, &["param", "get", "/nobody", "gain"]);
+    assert_eq!(
+        String::from_utf8_lossy(&missing.stderr).trim(),
+        "Node not found"
+    );
+}
+
+#[test]
+fn interface_show_expands_nested_types_as_ros2_interface_does() {
+    let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
+        .args(["interface", "show", "geometry_msgs/msg/PoseStamped"])
+        .output()
+        .unwrap();
+    let text = stdout(&out);
+    assert!(
+        text.starts_with("# A Pose with reference coordinate frame and timestamp\n\nstd_msgs/Header header\n\tbuiltin_interfaces/Time stamp\n\t\tint32 sec\n\t\tuint32 nanosec\n\tstring frame_id\nPose pose\n\tPoint position\n\t\tfloat64 x\n"),
+        "{text}"
+    );
+    let list = stdout(
+        &Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
+            .args(["interface", "list"])
+            .output()
+            .unwrap(),
+    );
+    assert!(
+        list.starts_with("Messages:\n    action_msgs/msg/GoalInfo\n"),
+        "{list}"
+    );
+    assert!(
+        list.contains("Services:\n    action_msgs/srv/CancelGoal\n"),
+        "{list}"
+    );
+    assert!(
+        !list.contains("_Request"),
+        "derived types are not interface files"
+    );
+}
