@@ -298,7 +298,7 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
         let bytes = sample.payload().to_bytes();
         match ty.decode(&bytes) {
             Ok(message) if args.json => writeln!(out, "{}", serde_json::to_string(&message)?)?,
-            Ok(message) => write!(out, "{}---\n", message.to_yaml_with(&options))?,
+            Ok(message) => writeln!(out, "{}---", message.to_yaml_with(&options))?,
             Err(e) => eprintln!(
                 "a message on {} is not a {}: {e}",
                 args.topic_name,

@@ -47,6 +47,7 @@ from pathlib import Path
 
 from rclpy.serialization import deserialize_message, serialize_message
 from rosidl_parser import definition as d
+from yaml_format import message_to_yaml, to_ordereddict
 
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples") / "ros2_types"
 ROUNDS = int(sys.argv[2]) if len(sys.argv) > 2 else 20
@@ -328,59 +329,6 @@ YAML_TEXT = TEXT + [
 ]
 
 
-def _rosidl_type_name(t):
-    if isinstance(t, d.BasicType):
-        return t.typename
-    if isinstance(t, d.AbstractString):
-        return "string"
-    if isinstance(t, d.AbstractWString):
-        return "wstring"
-    if isinstance(t, d.NamespacedType):
-        return "/".join(t.namespaced_name())
-    return "unknown"
-
-
-def _abbreviated(value, t):
-    inner = _rosidl_type_name(t.value_type)
-    if isinstance(t, d.Array):
-        return f"<array type: {inner}[{t.size}]>"
-    if isinstance(t, d.BoundedSequence):
-        return f"<sequence type: {inner}[{t.maximum_size}], length: {len(value)}>"
-    return f"<sequence type: {inner}, length: {len(value)}>"
-
-
-def to_ordereddict(msg, trunc, no_arr, no_str):
-    """rosidl_runtime_py.convert.message_to_ordereddict's rules."""
-    from collections import OrderedDict
-    import array
-    import numpy
-
-    def convert(value, t=None):
-        if isinstance(value, bytes):
-            text = "".join(chr(c) for c in value)
-            return text[:trunc] + "..." if trunc is not None and len(value) > trunc else text
-        if isinstance(value, str):
-            if no_str:
-                return f"<string length: <{len(value)}>>"
-            return value[:trunc] + "..." if trunc is not None and len(value) > trunc else value
-        if isinstance(value, (list, tuple, array.array, numpy.ndarray)):
-            if no_arr and t is not None:
-                return _abbreviated(value, t)
-            if trunc is not None and len(value) > trunc:
-                return [convert(v) for v in value[:trunc]] + ["..."]
-            return [convert(v) for v in value]
-        if isinstance(value, numpy.number):
-            return value.item()
-        if isinstance(value, (bool, float, int)):
-            return value
-        return to_ordereddict(value, trunc, no_arr, no_str)
-
-    out = OrderedDict()
-    for name, t in zip(msg.get_fields_and_field_types().keys(), msg.SLOT_TYPES):
-        out[name] = convert(getattr(msg, name), t)
-    return out
-
-
 def to_json_data(msg):
     """The message as plain data, as our JSON writes it (bytes as numbers, non-finite floats as null)."""
     import array
@@ -418,13 +366,6 @@ def first_difference(a, b, path=""):
 def check_yaml(names):
     global TEXT
     import yaml
-    from collections import OrderedDict
-
-    def represent_ordereddict(dumper, data):
-        items = [(dumper.represent_data(k), dumper.represent_data(v)) for k, v in data.items()]
-        return yaml.nodes.MappingNode("tag:yaml.org,2002:map", items)
-
-    yaml.add_representer(OrderedDict, represent_ordereddict)
     proc = subprocess.Popen([BIN, "yaml"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     plain_text, TEXT = TEXT, YAML_TEXT
     rounds = max(1, ROUNDS // 4)
@@ -451,8 +392,8 @@ def check_yaml(names):
                     continue
                 ours_text, end = json.JSONDecoder().raw_decode(reply, 3)
                 back_hex, ours_json = reply[end:].strip().split(" ", 1)
-                theirs = yaml.dump(to_ordereddict(original, trunc, no_arr, no_str), allow_unicode=True,
-                                   width=sys.maxsize, default_flow_style=flow)
+                theirs = message_to_yaml(original, truncate_length=trunc, no_arr=no_arr, no_str=no_str,
+                                         flow_style=flow)
                 if ours_text != theirs:
                     at = next(i for i, (a, b) in enumerate(zip(ours_text + "\0", theirs + "\0")) if a != b)
                     failures.append(f"{name} [{flags}]: YAML differs at {at}:\n    ours:   {ours_text[max(0, at - 80):at + 40]!r}"

@@ -1,0 +1,289 @@
+#!/usr/bin/env python3
+"""`shm-ros2` against software this project did not write: an independent
+rmw_zenoh-convention peer (eclipse-zenoh, rclpy's serialization, rosidl's
+hashes) that announces a node `/demo/py_node`, publishes rclpy-serialized
+messages and serves the node's parameter services with rclpy's own parameter
+handlers (an rclpy node in this process).
+
+- `topic list -t`, `topic info`, `node list`, `node info`: the peer's tokens,
+  in ros2cli's formats.
+- `topic echo --once`: for random values of several standard types (every
+  kind of field, YAML's hard strings), the text must be rosidl_runtime_py's
+  `message_to_yaml` through PyYAML (the rules restated in yaml_format.py), the
+  `---` after it, with `ros2 topic echo`'s default truncation and with
+  `--full-length`, `--flow-style`, `--no-arr`.
+- `topic pub --once`: the peer subscribes with an `MS` token and reads the
+  message with rclpy: the YAML values given.
+- `param list/get/set`: rclpy's handlers answer; the printed values are
+  ros2param's (Python's `repr`s), and a set reaches rclpy's node.
+
+    python tests/ros2/cli.py <dir with the shm-ros2 binary>
+"""
+import os
+import random
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import rclpy
+from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.srv import (DescribeParameters, GetParameterTypes, GetParameters, ListParameters,
+                                SetParameters, SetParametersAtomically)
+from rclpy.serialization import deserialize_message, serialize_message
+from rmw_zenoh import attachment, free_port, gid_of, open_session, parse_attachment, rosidl_hash
+from yaml_format import message_to_yaml
+
+BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release") / "shm-ros2"
+QOS = "::,10:,:,:,,"  # reliable, volatile, keep last 10
+failures = []
+rng = random.Random(20261126)
+
+HARD_TEXT = ["", "hello", "yes", "1.5", "- x", "a: b", "#c", "it's", " lead", "multi\nline", "tab\there",
+             "ハロー", "emoji \U0001f916", "x" * 200]
+
+
+def check(ok, what):
+    if not ok:
+        failures.append(what)
+    return ok
+
+
+def dds(type_name):
+    pkg, kind, name = type_name.split("/")
+    return f"{pkg}::{kind}::dds_::{name}_"
+
+
+class Peer:
+    """A node of rmw_zenoh's conventions, written in Python."""
+
+    def __init__(self, endpoint, namespace, name):
+        self.session = open_session(endpoint, listen=True)
+        self.zid = str(self.session.zid())
+        self.namespace, self.name = namespace, name
+        self.next_id = 1
+        self.keep = []
+        self.token("NN", None)
+
+    def token(self, kind, entity):
+        entity_id = self.next_id
+        self.next_id += 1
+        ns = self.namespace.replace("/", "%")
+        key = f"@ros2_lv/0/{self.zid}/0/{entity_id}/{kind}/%/{ns}/{self.name}"
+        if entity is not None:
+            topic, type_name = entity
+            key += f"/{topic.replace('/', '%')}/{dds(type_name)}/{rosidl_hash(type_name)}/{QOS}"
+        self.keep.append(self.session.liveliness().declare_token(key))
+        return key
+
+    def publisher(self, topic, type_name):
+        token = self.token("MP", (topic, type_name))
+        key = f"0/{topic.strip('/')}/{dds(type_name)}/{rosidl_hash(type_name)}"
+        publisher = self.session.declare_publisher(key)
+        self.keep.append(publisher)
+        gid = gid_of(token)
+        seq = [0]
+
+        def publish(message):
+            seq[0] += 1
+            publisher.put(serialize_message(message), attachment=attachment(seq[0], gid))
+        return publish
+
+    def subscriber(self, topic, type_name, on_message):
+        self.token("MS", (topic, type_name))
+        key = f"0/{topic.strip('/')}/{dds(type_name)}/{rosidl_hash(type_name)}"
+        self.keep.append(self.session.declare_subscriber(key, lambda s: on_message(s.payload.to_bytes())))
+
+    def serve(self, service, srv_type, type_name, handler):
+        """A server whose requests rclpy reads and whose replies `handler` makes."""
+        token = self.token("SS", (service, type_name))
+        key = f"0/{service.strip('/')}/{dds(type_name)}/{rosidl_hash(type_name)}"
+        del token
+
+        def on_query(query):
+            att = parse_attachment(None if query.attachment is None else query.attachment.to_bytes())
+            request = deserialize_message(query.payload.to_bytes(), srv_type.Request)
+            response = handler(request, srv_type.Response())
+            query.reply(key, serialize_message(response), attachment=attachment(att[0], att[2]) if att else None)
+        self.keep.append(self.session.declare_queryable(key, on_query, complete=True))
+
+
+def cli(endpoint, *args, timeout=60):
+    return subprocess.run([str(BIN), "--connect", endpoint, "--domain-id", "0", "--timeout", "10", *args],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def random_value(cls):
+    """A random message of `cls` (rclpy's types), with YAML's hard strings."""
+    from rosidl_parser import definition as d
+
+    def scalar(t):
+        if isinstance(t, d.BasicType):
+            n = t.typename
+            if n == "boolean":
+                return rng.random() < 0.5
+            if n == "octet":
+                return bytes([rng.randrange(256)])
+            if n in ("float", "double"):
+                return rng.choice([0.0, -0.0, 1.5, 0.1, 1e-7, 123456.789, float("inf")])
+            if n.startswith("uint") or n == "char":
+                return rng.randrange(0, 200)
+            return rng.randrange(-100, 100)
+        if isinstance(t, d.AbstractString):
+            return rng.choice(HARD_TEXT)
+        if isinstance(t, d.NamespacedType):
+            import importlib
+            module = importlib.import_module(".".join(t.namespaces))
+            return random_value(getattr(module, t.name))
+        raise ValueError(t)
+
+    msg = cls()
+    for slot, t in zip(cls.__slots__, cls.SLOT_TYPES):
+        name = slot[1:]
+        if isinstance(t, d.AbstractNestedType):
+            n = t.size if isinstance(t, d.Array) else rng.choice([0, 2, 140])
+            if isinstance(t, d.BoundedSequence):
+                n = min(n, t.maximum_size)
+            if isinstance(t.value_type, d.NamespacedType):
+                n = min(n, 3)
+            setattr(msg, name, [scalar(t.value_type) for _ in range(n)])
+        else:
+            setattr(msg, name, scalar(t))
+    return msg
+
+
+def check_echo(endpoint, peer):
+    from geometry_msgs.msg import PoseStamped
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import String
+    from test_msgs.msg import Arrays, UnboundedSequences
+    cases = [("/chatter", "std_msgs/msg/String", String), ("/joints", "sensor_msgs/msg/JointState", JointState),
+             ("/pose", "geometry_msgs/msg/PoseStamped", PoseStamped),
+             ("/arrays", "test_msgs/msg/Arrays", Arrays), ("/sequences", "test_msgs/msg/UnboundedSequences",
+                                                            UnboundedSequences)]
+    options = [([], dict(truncate_length=128)), (["--full-length"], {}),
+               (["--flow-style"], dict(truncate_length=128, flow_style=True)),
+               (["--no-arr", "-l", "5"], dict(truncate_length=5, no_arr=True))]
+    equal = total = 0
+    for topic, type_name, cls in cases:
+        publish = peer.publisher(topic, type_name)
+        for flags, kwargs in options:
+            message = random_value(cls)
+            stop = threading.Event()
+
+            def keep_publishing():
+                while not stop.is_set():
+                    publish(message)
+                    time.sleep(0.05)
+            thread = threading.Thread(target=keep_publishing)
+            thread.start()
+            try:
+                proc = cli(endpoint, "topic", "echo", topic, "--once", *flags)
+            finally:
+                stop.set()
+                thread.join()
+            total += 1
+            # What a subscriber reads: float32 fields rounded as rclpy's
+            # deserialization rounds them.
+            seen = deserialize_message(serialize_message(message), cls)
+            expected = message_to_yaml(seen, **kwargs) + "---\n"
+            at = next((i for i, (a, b) in enumerate(zip(proc.stdout + "\0", expected + "\0")) if a != b), 0)
+            if check(proc.returncode == 0 and proc.stdout == expected,
+                     f"echo {topic} {flags}: exit {proc.returncode} {proc.stderr[-300:]!r}, differs at {at}\n"
+                     f"    ours:     {proc.stdout[max(0, at - 150):at + 100]!r}\n"
+                     f"    expected: {expected[max(0, at - 150):at + 100]!r}"):
+                equal += 1
+    print(f"topic echo: {equal}/{total} outputs equal to message_to_yaml's (PyYAML) for rclpy-serialized "
+          f"random values of {len(cases)} types, 4 option sets")
+
+
+def check_graph(endpoint):
+    proc = cli(endpoint, "topic", "list", "-t")
+    check("/chatter [std_msgs/msg/String]" in proc.stdout.splitlines(), f"topic list -t: {proc.stdout!r}")
+    proc = cli(endpoint, "topic", "info", "/joints")
+    check(proc.stdout == "Type: sensor_msgs/msg/JointState\nPublisher count: 1\nSubscription count: 0\n",
+          f"topic info: {proc.stdout!r} {proc.stderr[-300:]!r}")
+    proc = cli(endpoint, "node", "list")
+    check(proc.stdout == "/demo/py_node\n", f"node list: {proc.stdout!r}")
+    proc = cli(endpoint, "node", "info", "/demo/py_node")
+    check(proc.stdout.startswith("/demo/py_node\n  Subscribers:\n    /cmd: std_msgs/msg/String\n  Publishers:\n"
+                                 "    /arrays: test_msgs/msg/Arrays\n")
+          and "  Service Servers:\n    /demo/py_node/describe_parameters: rcl_interfaces/srv/DescribeParameters\n"
+          in proc.stdout, f"node info: {proc.stdout!r} {proc.stderr[-300:]!r}")
+    print("graph: topic list -t, topic info, node list, node info as ros2cli prints them")
+
+
+def check_pub(endpoint, received):
+    from std_msgs.msg import String
+    proc = cli(endpoint, "topic", "pub", "--once", "/cmd", "std_msgs/msg/String", "data: 'hello: rclpy'")
+    deadline = time.time() + 5
+    while not received and time.time() < deadline:
+        time.sleep(0.05)
+    got = [deserialize_message(b, String).data for b in received]
+    check(proc.returncode == 0 and got == ["hello: rclpy"], f"topic pub: exit {proc.returncode}, rclpy read {got} "
+                                                             f"{proc.stderr[-300:]!r}")
+    print(f"topic pub: rclpy read {got}")
+
+
+def check_params(endpoint, node):
+    proc = cli(endpoint, "param", "list", "/demo/py_node")
+    expected = "".join(f"  {n}\n" for n in sorted(["gain", "names", "flags", "mode", "use_sim_time",
+                                                      "start_type_description_service"]))
+    check(proc.stdout == expected, f"param list: {proc.stdout!r} expected {expected!r} {proc.stderr[-300:]!r}")
+    # ros2param prints Python's values.
+    for name, line in [("gain", "Double value is: 0.1"), ("names", "String values are: ['a', \"it's\"]"),
+                       ("flags", "Boolean values are: [True, False]"), ("mode", "String value is: auto"),
+                       ("use_sim_time", "Boolean value is: False")]:
+        proc = cli(endpoint, "param", "get", "/demo/py_node", name)
+        check(proc.stdout == line + "\n", f"param get {name}: {proc.stdout!r} expected {line!r} {proc.stderr[-300:]!r}")
+    proc = cli(endpoint, "param", "set", "/demo/py_node", "gain", "2.5")
+    check(proc.stdout == "Set parameter successful\n" and node.get_parameter("gain").value == 2.5,
+          f"param set: {proc.stdout!r} {proc.stderr[-300:]!r}, rclpy holds {node.get_parameter('gain').value}")
+    proc = cli(endpoint, "param", "set", "/demo/py_node", "gain", "fast")
+    check(proc.returncode != 0 and proc.stderr.startswith("Setting parameter failed"),
+          f"param set refused: exit {proc.returncode} {proc.stderr!r}")
+    print("param: list, get (every kind printed as ros2param prints it), set (and a refused set) "
+          "answered by rclpy's parameter handlers")
+
+
+def main():
+    rclpy.init()
+    node = rclpy.create_node("py_node", namespace="/demo")
+    node.declare_parameter("gain", 0.1)
+    node.declare_parameter("names", ["a", "it's"])
+    node.declare_parameter("flags", [True, False])
+    node.declare_parameter("mode", "auto", ParameterDescriptor(description="operating mode"))
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    peer = Peer(endpoint, "/demo", "py_node")
+    handlers = node._parameter_service
+    for service, srv_type, callback in [
+        ("list_parameters", ListParameters, handlers._list_parameters_callback),
+        ("get_parameters", GetParameters, handlers._get_parameters_callback),
+        ("get_parameter_types", GetParameterTypes, handlers._get_parameter_types_callback),
+        ("describe_parameters", DescribeParameters, handlers._describe_parameters_callback),
+        ("set_parameters", SetParameters, handlers._set_parameters_callback),
+        ("set_parameters_atomically", SetParametersAtomically, handlers._set_parameters_atomically_callback),
+    ]:
+        peer.serve(f"/demo/py_node/{service}", srv_type, f"rcl_interfaces/srv/{srv_type.__name__}", callback)
+    received = []
+    peer.subscriber("/cmd", "std_msgs/msg/String", received.append)
+    check_echo(endpoint, peer)
+    check_graph(endpoint)
+    check_pub(endpoint, received)
+    check_params(endpoint, node)
+    for f in failures:
+        print("  FAIL", f)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    try:
+        code = main()
+    except BaseException:
+        import traceback
+        traceback.print_exc()
+        code = 1
+    sys.stdout.flush()
+    # Zenoh's threads would keep the interpreter from exiting.
+    os._exit(code)
