@@ -14,8 +14,6 @@ use shm_cdr_examples::peer_session;
 use shm_runtime::RosNode;
 use zenoh::Wait;
 
-include!("../src/interfaces.rs");
-
 macro_rules! declare_all {
     (messages: [$($m:path,)*], borrowed: [$(($o:path, $r:path),)*], services: [$($s:path,)*], actions: [$($a:path,)*],) => {
         fn declare_all(
@@ -44,7 +42,7 @@ macro_rules! declare_all {
     };
 }
 
-for_each_interface!(declare_all);
+shm_cdr::for_each_interface!(declare_all);
 
 fn main() -> zenoh::Result<()> {
     let endpoint = std::env::args()

@@ -215,8 +215,7 @@ pub mod fuzzing {
         };
     }
 
-    include!("../../examples/src/interfaces.rs");
-    for_each_interface!(generated_table);
+    shm_cdr::for_each_interface!(generated_table);
 
     /// Target `roundtrip_generated`: for the generated standard type chosen by
     /// the first two bytes (all of `shm_cdr::msgs`), the rest decoded as it and

@@ -299,8 +299,6 @@ mod generated {
     use shm_cdr::testing::{check_decode_into, check_in_place, check_roundtrip};
     use shm_cdr::{BorrowedForm, DecodeOwned};
 
-    include!("../../examples/src/interfaces.rs");
-
     fn check<T>() -> usize
     where
         T: BorrowedForm + DecodeOwned + InPlace + for<'a> Arbitrary<'a> + std::fmt::Debug,
@@ -351,5 +349,5 @@ mod generated {
         };
     }
 
-    for_each_interface!(properties);
+    shm_cdr::for_each_interface!(properties);
 }
