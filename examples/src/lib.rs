@@ -103,6 +103,7 @@ pub mod docs {
         Messages = "../../docs/src/messages.md",
         Interfaces = "../../docs/src/interfaces.md",
         Dynamic = "../../docs/src/dynamic.md",
+        Cli = "../../docs/src/cli.md",
         SharedMemory = "../../docs/src/shared-memory.md",
         Nodes = "../../docs/src/nodes.md",
         ZenohConfig = "../../docs/src/zenoh-config.md",
