@@ -7,6 +7,8 @@
 //! ros2_types descriptions # one JSON object per line: a type's full description
 //!                         # (default values included) and its sources
 //! ros2_types roundtrip   # stdin: `<type name> <hex>` lines; stdout: `ok <hex>` or `err <why>`
+//! ros2_types rosidl-json # stdin: paths of rosidl's `.json` type descriptions; stdout: the
+//!                        # run-time type's name and hash, or `err <why>`
 //! ros2_types yaml        # stdin: `<type name> <options> <hex>` lines; stdout: the run-time
 //!                        # typed message as YAML (a JSON string), that text read back and
 //!                        # encoded (hex, or `-` if the options cut it short), its JSON
@@ -223,6 +225,23 @@ fn main() {
                 let _ = out.flush();
             }
         }
+        "rosidl-json" => {
+            for line in std::io::stdin().lock().lines() {
+                let Ok(path) = line else { break };
+                let reply = std::fs::read_to_string(path.trim())
+                    .map_err(|e| e.to_string())
+                    .and_then(|text| {
+                        shm_cdr::dynamic::DynamicType::from_rosidl_json(&text)
+                            .map_err(|e| e.to_string())
+                    })
+                    .map_or_else(
+                        |e| format!("err {e}"),
+                        |ty| format!("{} {}", ty.name(), ty.type_hash()),
+                    );
+                let _ = writeln!(out, "{reply}");
+                let _ = out.flush();
+            }
+        }
         "yaml" => {
             let types: HashMap<String, shm_cdr::dynamic::DynamicType> = descriptions()
                 .iter()
@@ -239,7 +258,7 @@ fn main() {
             }
         }
         _ => {
-            eprintln!("usage: ros2_types hashes | user-hashes | descriptions | roundtrip | yaml");
+            eprintln!("usage: ros2_types hashes | user-hashes | descriptions | roundtrip | rosidl-json | yaml");
             std::process::exit(2);
         }
     }

@@ -20,6 +20,9 @@ with rmw_fastrtps_cpp's typesupport, and rosidl's own `.json` type descriptions)
    and every type source must be the installed interface file's text (rosidl's
    typesupport reports the same), or `implicit` for a type derived from a .srv or
    .action file.
+2b'. Types from rosidl's files: every `.json` type description rosidl installed
+   is read by `DynamicType::from_rosidl_json`; the run-time type's hash must be
+   the one the file lists.
 2c. Text: each random value, decoded with the run-time type, is written as
    YAML under random `ros2 topic echo` options (truncation, `--no-arr`,
    `--no-str`, `--flow-style`) and must be the very text rosidl_runtime_py's
@@ -276,6 +279,27 @@ def check_descriptions():
     return not failures and total > 0
 
 
+def check_rosidl_json():
+    files = sorted(p for kind in ("msg", "srv", "action") for p in SHARE.glob(f"*/{kind}/*.json"))
+    proc = subprocess.run([BIN, "rosidl-json"], input="".join(f"{p}\n" for p in files), capture_output=True,
+                          text=True, timeout=300)
+    replies = proc.stdout.splitlines()
+    failures = []
+    for path, reply in zip(files, replies):
+        desc = json.loads(path.read_text())
+        own = desc["type_description_msg"]["type_description"]["type_name"]
+        listed = next(h["hash_string"] for h in desc["type_hashes"] if h["type_name"] == own)
+        if reply != f"{own} {listed}":
+            failures.append(f"{path.name}: {reply} (rosidl: {listed})")
+    if len(replies) != len(files):
+        failures.append(f"{len(replies)} replies for {len(files)} files: {proc.stderr[-300:]}")
+    print(f"rosidl JSON: {len(files) - len(failures)}/{len(files)} installed type descriptions read as run-time "
+          f"types with rosidl's hash")
+    for f in failures[:20]:
+        print("  FAIL", f)
+    return not failures
+
+
 def check_roundtrips(names):
     proc = subprocess.Popen([BIN, "roundtrip"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     per_package = defaultdict(lambda: [0, 0])
@@ -465,9 +489,10 @@ def main():
     names, hashes_ok = check_hashes()
     descriptions_ok = check_descriptions()
     roundtrips_ok = check_roundtrips(names)
+    rosidl_json_ok = check_rosidl_json()
     yaml_ok = check_yaml(names)
     user_ok = check_user_package()
-    if not (hashes_ok and descriptions_ok and roundtrips_ok and yaml_ok and user_ok):
+    if not (hashes_ok and descriptions_ok and roundtrips_ok and rosidl_json_ok and yaml_ok and user_ok):
         sys.exit(1)
 
 

@@ -197,6 +197,121 @@ impl DynamicType {
         }))
     }
 
+    /// The type a rosidl `.json` type description describes (what rosidl
+    /// installs beside each interface, `share/<pkg>/msg/<Name>.json`: its
+    /// `type_description_msg`, and the `type_hashes` it is checked against).
+    /// The bare `type_description_msg` object is read too.
+    ///
+    /// ```
+    /// use shm_cdr::dynamic::DynamicType;
+    ///
+    /// let json = r#"{"type_description_msg": {"type_description": {"type_name": "demo_msgs/msg/Level",
+    ///     "fields": [{"name": "value", "type": {"type_id": 11, "capacity": 0, "string_capacity": 0,
+    ///     "nested_type_name": ""}, "default_value": "0.5"}]}, "referenced_type_descriptions": []}}"#;
+    /// let ty = DynamicType::from_rosidl_json(json)?;
+    /// assert_eq!(ty.name(), "demo_msgs/msg/Level");
+    /// assert_eq!(ty.default_message().get("value"), Some(&shm_cdr::dynamic::Value::F64(0.5)));
+    /// # Ok::<(), shm_cdr::dynamic::TypeError>(())
+    /// ```
+    #[cfg(feature = "yaml")]
+    pub fn from_rosidl_json(text: &str) -> Result<Self, TypeError> {
+        use serde_yaml::Value;
+        let error = |reason: String| TypeError {
+            type_name: "(rosidl JSON)".into(),
+            field: None,
+            reason,
+        };
+        let root: Value =
+            serde_yaml::from_str(text).map_err(|e| error(format!("not JSON: {e}")))?;
+        let msg = root.get("type_description_msg").unwrap_or(&root);
+        let str_of = |v: &Value, key: &str| -> Result<String, TypeError> {
+            v.get(key)
+                .and_then(Value::as_str)
+                .map(str::to_owned)
+                .ok_or_else(|| error(format!("no string `{key}`")))
+        };
+        let u64_of = |v: &Value, key: &str| -> Result<u64, TypeError> {
+            v.get(key)
+                .and_then(Value::as_u64)
+                .ok_or_else(|| error(format!("no number `{key}`")))
+        };
+        // (type name, [(name, type_id, capacity, string_capacity, nested, default)])
+        type Fields = Vec<(String, u8, u64, u64, String, String)>;
+        let mut types: Vec<(String, Fields)> = Vec::new();
+        let own = msg
+            .get("type_description")
+            .ok_or_else(|| error("no `type_description`".into()))?;
+        let referenced = match msg.get("referenced_type_descriptions") {
+            Some(Value::Sequence(items)) => items.as_slice(),
+            Some(_) => return Err(error("`referenced_type_descriptions` is not a list".into())),
+            None => &[],
+        };
+        for description in std::iter::once(own).chain(referenced) {
+            let name = str_of(description, "type_name")?;
+            let Some(Value::Sequence(fields)) = description.get("fields") else {
+                return Err(error(format!("{name}: no list `fields`")));
+            };
+            let mut out = Vec::with_capacity(fields.len());
+            for field in fields {
+                let ty = field
+                    .get("type")
+                    .ok_or_else(|| error(format!("{name}: a field without `type`")))?;
+                let type_id = u8::try_from(u64_of(ty, "type_id")?)
+                    .map_err(|_| error(format!("{name}: a type_id beyond 255")))?;
+                out.push((
+                    str_of(field, "name")?,
+                    type_id,
+                    u64_of(ty, "capacity")?,
+                    u64_of(ty, "string_capacity")?,
+                    str_of(ty, "nested_type_name")?,
+                    field
+                        .get("default_value")
+                        .and_then(Value::as_str)
+                        .unwrap_or_default()
+                        .to_owned(),
+                ));
+            }
+            types.push((name, out));
+        }
+        let ty = Self::build(types.iter().map(|(name, fields)| {
+            (
+                name.as_str(),
+                fields
+                    .iter()
+                    .map(|(n, id, cap, scap, nested, default)| DescribedField {
+                        name: n,
+                        type_id: *id,
+                        capacity: *cap,
+                        string_capacity: *scap,
+                        nested_type_name: nested,
+                        default_value: default,
+                    })
+                    .collect::<Vec<_>>(),
+            )
+        }))?;
+        // rosidl's own hash of the type, where the file gives it.
+        let listed = root
+            .get("type_hashes")
+            .and_then(Value::as_sequence)
+            .and_then(|hashes| {
+                hashes.iter().find_map(|h| {
+                    (h.get("type_name")?.as_str()? == ty.name())
+                        .then(|| h.get("hash_string")?.as_str().map(str::to_owned))?
+                })
+            });
+        if let Some(listed) = listed {
+            let computed = ty.type_hash();
+            if listed != computed {
+                return Err(TypeError {
+                    type_name: ty.name().to_owned(),
+                    field: None,
+                    reason: format!("the file's hash {listed} is not the description's {computed}"),
+                });
+            }
+        }
+        Ok(ty)
+    }
+
     /// Build from (type name, fields) pairs, the root first.
     pub(crate) fn build<'a>(
         types: impl Iterator<Item = (&'a str, Vec<DescribedField<'a>>)>,
