@@ -4,6 +4,7 @@
 //! with are asked of the publishing node's `~/get_type_description` and read
 //! at run time.
 
+mod action;
 mod context;
 mod interface;
 mod node;
@@ -37,7 +38,10 @@ enum Command {
     /// Services: list, type.
     #[command(subcommand)]
     Service(service::ServiceCommand),
-    /// Parameters: list, get, set, dump.
+    /// Actions: list, info.
+    #[command(subcommand)]
+    Action(action::ActionCommand),
+    /// Parameters: list, get, set.
     #[command(subcommand)]
     Param(param::ParamCommand),
     /// Interfaces: list, show.
@@ -59,6 +63,7 @@ fn main() -> ExitCode {
                 Command::Node(c) => node::run(&context, c),
                 Command::Service(c) => service::run(&context, c),
                 Command::Param(c) => param::run(&context, c),
+                Command::Action(c) => action::run(&context, c),
                 Command::Interface(_) => unreachable!("handled above"),
             },
             Err(e) => Err(e),

@@ -194,6 +194,22 @@ fn lists_and_infos_read_as_ros2cli_prints_them() {
         "rcl_interfaces/srv/SetParameters\n"
     );
 
+    // An action server: its services are hidden, the action is listed.
+    let _fibonacci = talker
+        .declare_action_server::<shm_cdr::msgs::test_msgs::action::Fibonacci>("/fibonacci")
+        .wait()
+        .unwrap();
+    assert_eq!(
+        stdout(&run(port, &["action", "list", "-t"])),
+        "/fibonacci [test_msgs/action/Fibonacci]\n"
+    );
+    assert_eq!(
+        stdout(&run(port, &["action", "info", "/fibonacci", "-t"])),
+        "Action: /fibonacci\nAction clients: 0\nAction servers: 1\n    /talker [test_msgs/action/Fibonacci]\n"
+    );
+    let services = stdout(&run(port, &["service", "list"]));
+    assert!(!services.contains("_action"), "{services}");
+
     // A node that is not there: the message ros2cli gives, and a failure.
     let missing = run(port, &["node", "info", "/nobody"]);
     assert!(!missing.status.success());
