@@ -4,6 +4,7 @@ use std::io::Write;
 
 use clap::Subcommand;
 use shm_cdr::dynamic::python_float;
+use shm_codegen::python::string_repr;
 use shm_runtime::parameters::{ParameterClient, ParameterValue};
 
 use crate::context::Context;
@@ -210,7 +211,7 @@ fn describe(value: &ParameterValue) -> (&'static str, Option<String>) {
         ),
         ParameterValue::StringArray(v) => (
             "String values are:",
-            Some(list(v.iter().map(|s| python_str(s)).collect())),
+            Some(list(v.iter().map(|s| string_repr(s)).collect())),
         ),
         _ => ("Parameter not set.", None),
     }
@@ -227,32 +228,4 @@ fn python_bytes(b: u8) -> String {
         0x20..=0x7e => format!("b'{}'", char::from(b)),
         _ => format!("b'\\x{b:02x}'"),
     }
-}
-
-/// Python's `repr` of a string.
-fn python_str(s: &str) -> String {
-    let quote = if s.contains('\'') && !s.contains('"') {
-        '"'
-    } else {
-        '\''
-    };
-    let mut out = String::from(quote);
-    for c in s.chars() {
-        match c {
-            '\\' => out.push_str("\\\\"),
-            '\n' => out.push_str("\\n"),
-            '\r' => out.push_str("\\r"),
-            '\t' => out.push_str("\\t"),
-            c if c == quote => {
-                out.push('\\');
-                out.push(c);
-            }
-            c if (c as u32) < 0x20 || c as u32 == 0x7f => {
-                out.push_str(&format!("\\x{:02x}", c as u32))
-            }
-            c => out.push(c),
-        }
-    }
-    out.push(quote);
-    out
 }

@@ -32,7 +32,7 @@
 
 pub mod ast;
 pub mod parse;
-mod python;
+pub mod python;
 pub mod rust;
 
 use std::path::{Path, PathBuf};

@@ -58,8 +58,13 @@ fn float_repr(rust: &str) -> String {
 
 /// Python's `repr()` of a `str`: single quotes unless the text holds a single
 /// quote and no double quote; backslashes, the quote and control characters
-/// escaped.
-fn string_repr(text: &str) -> String {
+/// escaped. (What ROS 2's Python tools print for a string in a list.)
+///
+/// ```
+/// assert_eq!(shm_codegen::python::string_repr("it's"), "\"it's\"");
+/// assert_eq!(shm_codegen::python::string_repr("a\tb"), "'a\\tb'");
+/// ```
+pub fn string_repr(text: &str) -> String {
     let quote = if text.contains('\'') && !text.contains('"') {
         '"'
     } else {
