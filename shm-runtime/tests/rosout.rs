@@ -33,6 +33,20 @@ fn tracing_events_reach_rosout_as_rcl_log_messages() {
         .wait()
         .unwrap();
     assert!(rosout.wait_for_publishers(TIMEOUT));
+    // Log once the talker's session routes to the listener. A log published
+    // before that reaches the listener only through zenoh-ext's history
+    // queries, and zenoh-ext 1.10 can drop it there: a live message that
+    // arrives while the query to a publisher found at start-up is out is
+    // delivered, and the older replies are then discarded as duplicates.
+    let route = a
+        .declare_publisher(rosout.key_expr().to_owned())
+        .wait()
+        .unwrap();
+    let deadline = std::time::Instant::now() + TIMEOUT;
+    while !route.matching_status().wait().unwrap().matching() {
+        assert!(std::time::Instant::now() < deadline, "no route to /rosout");
+        std::thread::sleep(Duration::from_millis(5));
+    }
 
     let line = line!() + 4;
     // Kept to the end: the layer holds the /rosout publisher.

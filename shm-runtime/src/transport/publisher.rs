@@ -351,18 +351,22 @@ impl<'a, T> PublisherBuilder<'a, T> {
             Some(depth) => {
                 // Sequence numbers always (zenoh-ext would otherwise need
                 // timestamping on the session for a cache). Heartbeats tell
-                // subscribers what they missed: rmw_zenoh_cpp's sporadic ones
-                // (only after a publish) for reliable transient local, but
-                // zenoh-ext sends those with `Block`, which on a stalled
-                // connection would close the transport that recovery keeps
-                // open; periodic ones go with `Drop`.
-                let miss_detection = if self.recovery.is_some() {
-                    MissDetectionConfig::default().heartbeat(HEARTBEAT_PERIOD)
-                } else if self.qos.reliability == Reliability::Reliable {
-                    MissDetectionConfig::default().sporadic_heartbeat(HEARTBEAT_PERIOD)
-                } else {
-                    MissDetectionConfig::default()
-                };
+                // subscribers what they missed. They are periodic, for
+                // reliable transient local too, where rmw_zenoh_cpp sends
+                // sporadic ones (one after a burst of publishes): a subscriber
+                // whose declaration reaches this session just after a burst
+                // misses the burst, and zenoh-ext skips a heartbeat from a
+                // publisher it meets while its history query is out, so a
+                // single heartbeat can leave the burst missing for good.
+                // zenoh-ext also sends sporadic ones with `Block`, which on a
+                // stalled connection would close the transport that recovery
+                // keeps open; periodic ones go with `Drop`.
+                let miss_detection =
+                    if self.recovery.is_some() || self.qos.reliability == Reliability::Reliable {
+                        MissDetectionConfig::default().heartbeat(HEARTBEAT_PERIOD)
+                    } else {
+                        MissDetectionConfig::default()
+                    };
                 let builder = builder
                     .cache(CacheConfig::default().max_samples(depth))
                     .sample_miss_detection(miss_detection);
@@ -432,8 +436,8 @@ fn session_has_shm(session: &Session) -> bool {
 /// subscribing sessions have answered the pool's probe.
 const RECEIVER_POLL: std::time::Duration = std::time::Duration::from_millis(1);
 
-/// Heartbeat period of reliable transient-local publishers (rmw_zenoh_cpp's)
-/// and of publishers with recovery.
+/// Heartbeat period of reliable transient-local publishers (rmw_zenoh_cpp's
+/// period) and of publishers with recovery.
 const HEARTBEAT_PERIOD: std::time::Duration = std::time::Duration::from_millis(500);
 
 /// A plain Zenoh publisher, or zenoh-ext's advanced one (transient local,
