@@ -259,7 +259,10 @@ impl TypeDescription {
     /// from its fields, which describes the same type.
     pub fn source_text(&self) -> (&'static str, std::borrow::Cow<'static, str>) {
         if self.source.encoding.is_empty() {
-            ("msg", std::borrow::Cow::Owned(msg_text(self.fields)))
+            (
+                "msg",
+                std::borrow::Cow::Owned(msg_text(self.fields.iter().map(DescribedField::of))),
+            )
         } else {
             (
                 self.source.encoding,
@@ -269,116 +272,117 @@ impl TypeDescription {
     }
 }
 
-/// `.msg` text declaring `fields`, one per line.
-fn msg_text(fields: &[Field]) -> String {
+/// `.msg` text declaring `fields`, one per line: a description written back
+/// as the file it could come from (without the comments and constants a
+/// description does not carry).
+pub(crate) fn msg_text<'a>(fields: impl Iterator<Item = DescribedField<'a>>) -> String {
     let mut out = String::new();
-    for (i, field) in fields.iter().enumerate() {
+    for (i, field) in fields.enumerate() {
         if i > 0 {
             out.push('\n');
         }
-        let t = &field.field_type;
-        let element = match t.element {
-            TypeId::Nested => {
+        // type_id is the element's id plus 48 per container kind.
+        let base = (field.type_id.max(1) - 1) % 48 + 1;
+        let container = (field.type_id.max(1) - 1) / 48;
+        let element = match base {
+            b if b == TypeId::Nested as u8 => {
                 // `pkg/msg/Name` is written `pkg/Name` in .msg files.
-                let mut parts = t.nested_type_name.split('/');
+                let mut parts = field.nested_type_name.split('/');
                 match (parts.next(), parts.next(), parts.next()) {
                     (Some(pkg), Some(_), Some(name)) => format!("{pkg}/{name}"),
-                    _ => t.nested_type_name.to_owned(),
+                    _ => field.nested_type_name.to_owned(),
                 }
             }
-            TypeId::BoundedString => format!("string<={}", t.string_capacity),
-            TypeId::BoundedWString => format!("wstring<={}", t.string_capacity),
+            b if b == TypeId::BoundedString as u8 => format!("string<={}", field.string_capacity),
+            b if b == TypeId::BoundedWString as u8 => {
+                format!("wstring<={}", field.string_capacity)
+            }
             other => msg_primitive_name(other).to_owned(),
         };
         out.push_str(&element);
-        match t.container {
-            Container::Single => {}
-            Container::Array(n) => {
-                let _ = write!(out, "[{n}]");
+        match container {
+            0 => {}
+            1 => {
+                let _ = write!(out, "[{}]", field.capacity);
             }
-            Container::BoundedSequence(n) => {
-                let _ = write!(out, "[<={n}]");
+            2 => {
+                let _ = write!(out, "[<={}]", field.capacity);
             }
-            Container::Sequence => out.push_str("[]"),
+            _ => out.push_str("[]"),
         }
         out.push(' ');
         out.push_str(field.name);
         if !field.default_value.is_empty() {
             out.push(' ');
-            out.push_str(&msg_default(field));
+            let is_text = matches!(base, 17 | 18 | 21 | 22);
+            out.push_str(&msg_default(field.default_value, is_text, container == 0));
         }
     }
     out
 }
 
-fn msg_primitive_name(id: TypeId) -> &'static str {
+/// The `.msg` name of a primitive element id.
+fn msg_primitive_name(id: u8) -> &'static str {
     match id {
-        TypeId::Int8 => "int8",
-        TypeId::Uint8 => "uint8",
-        TypeId::Int16 => "int16",
-        TypeId::Uint16 => "uint16",
-        TypeId::Int32 => "int32",
-        TypeId::Uint32 => "uint32",
-        TypeId::Int64 => "int64",
-        TypeId::Uint64 => "uint64",
-        TypeId::Float32 => "float32",
-        TypeId::Float64 => "float64",
-        TypeId::Char => "char",
-        TypeId::WChar => "wchar",
-        TypeId::Boolean => "bool",
-        TypeId::Byte => "byte",
-        TypeId::String | TypeId::BoundedString => "string",
-        TypeId::WString | TypeId::BoundedWString => "wstring",
-        TypeId::Nested => "",
+        2 => "int8",
+        3 => "uint8",
+        4 => "int16",
+        5 => "uint16",
+        6 => "int32",
+        7 => "uint32",
+        8 => "int64",
+        9 => "uint64",
+        10 => "float32",
+        11 => "float64",
+        13 => "char",
+        14 => "wchar",
+        15 => "bool",
+        16 => "byte",
+        17 | 21 => "string",
+        18 | 22 => "wstring",
+        _ => "",
     }
 }
 
 /// A description's default value written back as `.msg` syntax: Python's tuple
 /// `(a, b)` becomes `[a, b]`, `True` becomes `true`, a string is quoted.
-fn msg_default(field: &Field) -> String {
-    let text = field.default_value;
-    let is_text = matches!(
-        field.field_type.element,
-        TypeId::String | TypeId::WString | TypeId::BoundedString | TypeId::BoundedWString
-    );
+fn msg_default(text: &str, is_text: bool, single: bool) -> String {
     let scalar = |s: &str| match s {
         "True" => "true".to_owned(),
         "False" => "false".to_owned(),
         other => other.to_owned(),
     };
-    match field.field_type.container {
-        Container::Single if is_text => {
-            let mut quoted = String::with_capacity(text.len() + 2);
-            quoted.push('"');
-            for c in text.chars() {
-                if c == '"' || c == '\\' {
-                    quoted.push('\\');
-                }
-                quoted.push(c);
+    if single && is_text {
+        let mut quoted = String::with_capacity(text.len() + 2);
+        quoted.push('"');
+        for c in text.chars() {
+            if c == '"' || c == '\\' {
+                quoted.push('\\');
             }
-            quoted.push('"');
-            quoted
+            quoted.push(c);
         }
-        Container::Single => scalar(text),
-        _ => {
-            // Python's repr of a tuple; its strings are already quoted.
-            let inner = text
-                .strip_prefix('(')
-                .and_then(|t| t.strip_suffix(')'))
-                .unwrap_or(text);
-            let inner = inner.strip_suffix(',').unwrap_or(inner);
-            if is_text {
-                format!("[{inner}]")
-            } else {
-                let items: Vec<String> = inner
-                    .split(',')
-                    .map(str::trim)
-                    .filter(|s| !s.is_empty())
-                    .map(scalar)
-                    .collect();
-                format!("[{}]", items.join(", "))
-            }
-        }
+        quoted.push('"');
+        return quoted;
+    }
+    if single {
+        return scalar(text);
+    }
+    // Python's repr of a tuple; its strings are already quoted.
+    let inner = text
+        .strip_prefix('(')
+        .and_then(|t| t.strip_suffix(')'))
+        .unwrap_or(text);
+    let inner = inner.strip_suffix(',').unwrap_or(inner);
+    if is_text {
+        format!("[{inner}]")
+    } else {
+        let items: Vec<String> = inner
+            .split(',')
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .map(scalar)
+            .collect();
+        format!("[{}]", items.join(", "))
     }
 }
 

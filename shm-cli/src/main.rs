@@ -5,6 +5,7 @@
 //! at run time.
 
 mod action;
+mod bag;
 mod context;
 mod interface;
 mod node;
@@ -47,6 +48,9 @@ enum Command {
     /// Interfaces: list, show.
     #[command(subcommand)]
     Interface(interface::InterfaceCommand),
+    /// Recordings: record, play, info (MCAP, as rosbag2 writes it).
+    #[command(subcommand)]
+    Bag(bag::BagCommand),
 }
 
 /// A failure to report: the message says what happened and what to do.
@@ -57,6 +61,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Interface(command) => interface::run(command),
+        Command::Bag(command @ bag::BagCommand::Info { .. }) => bag::run(None, command),
         command => match context::Context::open(&cli.connection) {
             Ok(context) => match command {
                 Command::Topic(c) => topic::run(&context, c),
@@ -64,6 +69,7 @@ fn main() -> ExitCode {
                 Command::Service(c) => service::run(&context, c),
                 Command::Param(c) => param::run(&context, c),
                 Command::Action(c) => action::run(&context, c),
+                Command::Bag(c) => bag::run(Some(&context), c),
                 Command::Interface(_) => unreachable!("handled above"),
             },
             Err(e) => Err(e),

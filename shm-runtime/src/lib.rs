@@ -49,7 +49,7 @@ pub use transport::memlock::{MemlockBudget, ZENOH_METADATA_SEGMENT};
 pub use transport::payload::{EncodedPayload, PayloadKind};
 pub use transport::pool::{CdrBackend, ShmContext, ShmStats};
 pub use transport::publisher::{
-    PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher,
+    PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher, Serialized,
 };
 pub use transport::queue::DEFAULT_MAX_QUEUED_BYTES;
 pub use transport::reach::{Reach, Receiver, PROBE_TIMEOUT};

@@ -74,6 +74,20 @@ pub struct FieldDef {
     described: (u8, u64, u64, String),
 }
 
+impl FieldDef {
+    /// The field as its type description states it.
+    fn described(&self) -> DescribedField<'_> {
+        DescribedField {
+            name: &self.name,
+            type_id: self.described.0,
+            capacity: self.described.1,
+            string_capacity: self.described.2,
+            nested_type_name: &self.described.3,
+            default_value: &self.default_value,
+        }
+    }
+}
+
 /// One message type.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct StructDef {
@@ -422,19 +436,29 @@ impl DynamicType {
         describe::rihs01_of_json(&out)
     }
 
+    /// The `.msg` text of each message type this type uses, its own first,
+    /// written back from the description (field lines only: a description
+    /// carries no comments or constants), as `(pkg/msg/Name, text)`.
+    pub fn msg_texts(&self) -> Vec<(&str, String)> {
+        let reached = self.reached_from_root();
+        self.inner
+            .structs
+            .iter()
+            .zip(reached)
+            .filter(|(_, reached)| *reached)
+            .map(|(def, _)| {
+                let text = describe::msg_text(def.fields.iter().map(FieldDef::described));
+                (def.name.as_str(), text)
+            })
+            .collect()
+    }
+
     fn write_json(&self, out: &mut String, i: usize) {
         let def = &self.inner.structs[i];
         describe::write_individual_json(
             out,
             &def.name,
-            def.fields.iter().map(|f| DescribedField {
-                name: &f.name,
-                type_id: f.described.0,
-                capacity: f.described.1,
-                string_capacity: f.described.2,
-                nested_type_name: &f.described.3,
-                default_value: &f.default_value,
-            }),
+            def.fields.iter().map(FieldDef::described),
             false,
         );
     }

@@ -165,6 +165,43 @@ impl RosNode {
         builder
     }
 
+    /// A publisher of messages given already serialized (their CDR bytes, as a
+    /// recording keeps them) of the type `type_name` (`pkg/msg/Name`) with
+    /// RIHS01 hash `type_hash`: announced and keyed exactly as a publisher of
+    /// that type, for a program that moves messages without their type, such
+    /// as a player of recordings. Publish with
+    /// [`RosPublisher::publish_serialized`](crate::RosPublisher::publish_serialized).
+    ///
+    /// ```no_run
+    /// use shm_cdr::msgs::std_msgs::String as RosString;
+    /// use shm_cdr::RosMessage;
+    /// use shm_runtime::rmw::Qos;
+    /// use shm_runtime::RosNode;
+    /// use zenoh::Wait;
+    ///
+    /// let session = zenoh::open(zenoh::Config::default()).wait()?;
+    /// let node = RosNode::builder(&session, "player").wait()?;
+    /// let publisher = node
+    ///     .declare_serialized_publisher("/chatter", RosString::TYPE_NAME, RosString::type_hash(), Qos::default())
+    ///     .wait()?;
+    /// // "hi" as rclpy serializes a std_msgs/msg/String.
+    /// publisher.publish_serialized(&[0, 1, 0, 0, 3, 0, 0, 0, b'h', b'i', 0])?;
+    /// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+    /// ```
+    pub fn declare_serialized_publisher(
+        &self,
+        topic: &str,
+        type_name: &str,
+        type_hash: &str,
+        qos: Qos,
+    ) -> PublisherBuilder<'_, crate::Serialized> {
+        let topic_type = TopicType {
+            name: type_name.into(),
+            hash: type_hash.into(),
+        };
+        self.node_publisher(topic, qos, topic_type, None)
+    }
+
     fn node_publisher<T>(
         &self,
         topic: &str,

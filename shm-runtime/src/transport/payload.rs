@@ -159,6 +159,50 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
     })
 }
 
+/// Bytes that do not start with a CDR encapsulation header.
+pub(crate) struct NotCdr;
+
+/// A message already in CDR (its 4-byte encapsulation header first, as a
+/// recording keeps it) as a payload under `policy`: copied once, into an
+/// exact-size shared-memory buffer at or above the threshold, else the heap.
+pub(crate) fn serialized_payload(
+    cdr: &[u8],
+    policy: Option<&ShmPolicy>,
+) -> Result<EncodedPayload, NotCdr> {
+    if !matches!(cdr, [0, 0 | 1, _, _, ..]) {
+        return Err(NotCdr);
+    }
+    let size = cdr.len();
+    let mut kind = PayloadKind::Heap;
+    if let Some(policy) = policy {
+        if size >= policy.threshold {
+            match policy
+                .gate()
+                .map_or_else(|| policy.context.place(size), Err)
+            {
+                Ok(mut buffer) => {
+                    buffer.copy_from_slice(cdr);
+                    policy.context.count(PayloadKind::Shm, size);
+                    return Ok(EncodedPayload {
+                        bytes: ZBytes::from(buffer),
+                        kind: PayloadKind::Shm,
+                        size,
+                        inline: 0,
+                    });
+                }
+                Err(heap) => kind = heap,
+            }
+        }
+        policy.context.count(kind, size);
+    }
+    Ok(EncodedPayload {
+        bytes: ZBytes::from(cdr.to_vec()),
+        kind,
+        size,
+        inline: size,
+    })
+}
+
 /// `encoded` as it may go out under `policy`: a payload in shared memory
 /// (spliced or loaned) is copied to the heap while a subscribing session
 /// has not shown it maps the pool, or cannot (see [`ShmPolicy::gate`]).

@@ -22,7 +22,7 @@ use crate::ros::rmw::{Attachment, Durability, Gid, History, Qos, Reliability};
 use crate::ros::type_description::TypeUse;
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
-use crate::transport::payload::{encode_payload, EncodedPayload, PayloadKind, ShmPolicy};
+use crate::transport::payload::{encode_payload, serialized_payload, EncodedPayload, PayloadKind, ShmPolicy};
 use crate::transport::pool::ShmContext;
 use crate::transport::queue::TopicType;
 use crate::transport::reach::{Receiver, Receivers, PROBE_TIMEOUT};
@@ -48,6 +48,12 @@ pub enum PublishError {
         /// The message's.
         found: String,
     },
+    /// Bytes given as a serialized message do not start with a CDR
+    /// encapsulation header (`00 00` or `00 01`, then two option bytes).
+    NotCdr {
+        /// How many bytes were given.
+        len: usize,
+    },
 }
 
 impl fmt::Display for PublishError {
@@ -60,6 +66,11 @@ impl fmt::Display for PublishError {
             Self::WrongType { expected, found } => {
                 write!(f, "publish: a {found} message on a publisher of {expected}")
             }
+            Self::NotCdr { len } => write!(
+                f,
+                "publish: {len} bytes that do not start with a CDR encapsulation header \
+                 (00 00 or 00 01, then two option bytes)"
+            ),
         }
     }
 }
@@ -535,6 +546,18 @@ impl RosPublisher<DynamicType> {
 }
 
 impl<T> RosPublisher<T> {
+    /// Publish a message already serialized, its CDR encapsulation header
+    /// first (what a subscriber's [`Sample::payload`](crate::Sample::payload)
+    /// holds, or a recording keeps): copied once, into an exact-size
+    /// shared-memory buffer at or above the threshold, else the heap. The
+    /// bytes are not checked against the publisher's type beyond the header,
+    /// so they must be a message of it (a recorded one, say).
+    pub fn publish_serialized(&self, cdr: &[u8]) -> Result<PublishOutcome, PublishError> {
+        let encoded = serialized_payload(cdr, self.policy.as_ref())
+            .map_err(|_| PublishError::NotCdr { len: cdr.len() })?;
+        self.prepare_encoded(encoded)?.put_wait(&self.publisher)
+    }
+
     /// Wait until at least one subscriber matches this publisher, or `timeout`
     /// passes; returns whether one did. (Zenoh drops what is published before a
     /// subscriber is known, like any pub/sub.) Built on Zenoh's matching
@@ -755,6 +778,12 @@ mod sealed {
         }
     }
 }
+
+/// The message type of a publisher of messages given already serialized
+/// (see [`RosNode::declare_serialized_publisher`](crate::RosNode::declare_serialized_publisher)):
+/// it publishes with [`RosPublisher::publish_serialized`] only.
+#[derive(Debug)]
+pub enum Serialized {}
 
 /// One pending publish; resolve with `.wait()` or `.await`.
 #[must_use = "resolve the publish with .wait() or .await"]

@@ -1,0 +1,453 @@
+//! Playing a recording back: every selected topic published with its
+//! recorded type and QoS, each message at its recorded time (scaled by a
+//! rate), from an exact-size shared-memory buffer when it is large.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use shm_runtime::rmw::Qos;
+use shm_runtime::{PayloadKind, RosNode, RosPublisher, Serialized, ShmConfig, ShmContext};
+use zenoh::Wait;
+
+use crate::metadata::BagMetadata;
+use crate::qos;
+use crate::types;
+use crate::Error;
+
+/// A recording on disk: a bag directory (with `metadata.yaml`) or one MCAP
+/// file.
+#[derive(Debug)]
+pub struct Bag {
+    files: Vec<PathBuf>,
+    metadata: Option<BagMetadata>,
+}
+
+/// One topic of a recording, as its MCAP channels describe it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedTopic {
+    /// The topic name.
+    pub name: String,
+    /// `pkg/msg/Name`.
+    pub type_name: String,
+    /// The RIHS01 hash recorded (`topic_type_hash`), or empty.
+    pub type_hash: String,
+    /// The recorded publishers' QoS.
+    pub offered_qos: Vec<Qos>,
+    /// The message encoding (`cdr`).
+    pub message_encoding: String,
+    /// Its messages in all files.
+    pub message_count: u64,
+}
+
+impl Bag {
+    /// Open `path`: a bag directory or an `.mcap` file.
+    pub fn open(path: &Path) -> Result<Self, Error> {
+        if path.is_dir() {
+            let metadata = BagMetadata::read(path)?;
+            let files = metadata
+                .relative_file_paths
+                .iter()
+                .map(|f| path.join(f))
+                .collect();
+            return Ok(Self {
+                files,
+                metadata: Some(metadata),
+            });
+        }
+        if path.is_file() {
+            return Ok(Self {
+                files: vec![path.to_owned()],
+                metadata: None,
+            });
+        }
+        Err(format!("{}: no such bag directory or MCAP file", path.display()).into())
+    }
+
+    /// The MCAP files, in order.
+    pub fn files(&self) -> &[PathBuf] {
+        &self.files
+    }
+
+    /// `metadata.yaml`, for a bag directory.
+    pub fn metadata(&self) -> Option<&BagMetadata> {
+        self.metadata.as_ref()
+    }
+
+    /// What the recording holds: its `metadata.yaml`, or for a lone MCAP
+    /// file the same facts read from its summary.
+    pub fn describe(&self) -> Result<BagMetadata, Error> {
+        if let Some(metadata) = &self.metadata {
+            return Ok(metadata.clone());
+        }
+        let mut start = u64::MAX;
+        let mut end = 0;
+        let mut count = 0;
+        for path in &self.files {
+            let file = map(path)?;
+            if let Some(stats) = summary(path, &file)?.stats {
+                start = start.min(stats.message_start_time);
+                end = end.max(stats.message_end_time);
+                count += stats.message_count;
+            }
+        }
+        let start = if count == 0 { 0 } else { start };
+        let topics = self.topics()?;
+        Ok(BagMetadata {
+            version: crate::metadata::VERSION,
+            storage_identifier: "mcap".to_owned(),
+            duration: crate::metadata::Nanoseconds {
+                nanoseconds: end.saturating_sub(start),
+            },
+            starting_time: crate::metadata::NanosecondsSinceEpoch {
+                nanoseconds_since_epoch: start,
+            },
+            message_count: count,
+            topics_with_message_count: topics
+                .into_values()
+                .map(|t| crate::metadata::TopicWithMessageCount {
+                    message_count: t.message_count,
+                    topic_metadata: crate::metadata::TopicMetadata {
+                        name: t.name,
+                        type_name: t.type_name,
+                        serialization_format: t.message_encoding,
+                        offered_qos_profiles: t.offered_qos.iter().map(qos::QosProfile::from).collect(),
+                        type_description_hash: t.type_hash,
+                    },
+                })
+                .collect(),
+            compression_format: String::new(),
+            compression_mode: String::new(),
+            relative_file_paths: self
+                .files
+                .iter()
+                .map(|p| p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned()))
+                .collect(),
+            files: Vec::new(),
+            custom_data: None,
+            ros_distro: String::new(),
+        })
+    }
+
+    /// The size of the recording's files in bytes.
+    pub fn size(&self) -> u64 {
+        self.files
+            .iter()
+            .filter_map(|p| std::fs::metadata(p).ok())
+            .map(|m| m.len())
+            .sum()
+    }
+
+    /// The topics in all files, by name, from the files' summaries.
+    pub fn topics(&self) -> Result<BTreeMap<String, RecordedTopic>, Error> {
+        let mut out: BTreeMap<String, RecordedTopic> = BTreeMap::new();
+        for path in &self.files {
+            let file = map(path)?;
+            let summary = summary(path, &file)?;
+            let counts = summary
+                .stats
+                .as_ref()
+                .map(|s| s.channel_message_counts.clone())
+                .unwrap_or_default();
+            for (id, channel) in &summary.channels {
+                let topic = out
+                    .entry(channel.topic.clone())
+                    .or_insert_with(|| recorded_topic(channel));
+                topic.message_count += counts.get(id).copied().unwrap_or(0);
+            }
+        }
+        Ok(out)
+    }
+}
+
+fn recorded_topic(channel: &mcap::Channel<'_>) -> RecordedTopic {
+    let offered_qos = channel
+        .metadata
+        .get("offered_qos_profiles")
+        .and_then(|text| qos::from_yaml(text).ok())
+        .unwrap_or_default()
+        .iter()
+        .map(qos::QosProfile::to_qos)
+        .collect();
+    RecordedTopic {
+        name: channel.topic.clone(),
+        type_name: channel
+            .schema
+            .as_ref()
+            .map(|s| s.name.clone())
+            .unwrap_or_default(),
+        type_hash: channel
+            .metadata
+            .get("topic_type_hash")
+            .cloned()
+            .unwrap_or_default(),
+        offered_qos,
+        message_encoding: channel.message_encoding.clone(),
+        message_count: 0,
+    }
+}
+
+fn map(path: &Path) -> Result<memmap2::Mmap, Error> {
+    let file =
+        std::fs::File::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+    // SAFETY: the map is only read, and only while this process holds it; a
+    // recording being rewritten under a player is outside what a player can
+    // guard against (as for any reader of files), and MCAP parsing checks
+    // every length against the map's end, so a change cannot make it read
+    // out of bounds.
+    unsafe { memmap2::Mmap::map(&file) }.map_err(|e| format!("cannot map {}: {e}", path.display()).into())
+}
+
+fn summary(path: &Path, file: &[u8]) -> Result<mcap::Summary, Error> {
+    mcap::Summary::read(file)
+        .map_err(|e| format!("{}: not a readable MCAP file: {e}", path.display()))?
+        .ok_or_else(|| {
+            format!(
+                "{} has no summary (its recording did not finish); `mcap recover` rebuilds one",
+                path.display()
+            )
+            .into()
+        })
+}
+
+/// How to play.
+#[derive(Debug, Clone)]
+pub struct PlayOptions {
+    /// Time runs this much faster than recorded (default 1).
+    pub rate: f64,
+    /// Start again at the end, until stopped.
+    pub loop_playback: bool,
+    /// Only these topics (default: all).
+    pub topics: Vec<String>,
+    /// Wait this long after declaring the publishers before the first
+    /// message, so that subscribers can match them (default 0).
+    pub delay: Duration,
+    /// The ROS domain (default `ROS_DOMAIN_ID`, else 0).
+    pub domain_id: Option<u32>,
+    /// The player's node name (default `shm_bag_player`).
+    pub node_name: String,
+    /// Before the first message, wait up to this long until every topic's
+    /// publisher has a subscriber (default: do not wait).
+    pub wait_for_subscribers: Option<Duration>,
+}
+
+impl Default for PlayOptions {
+    fn default() -> Self {
+        Self {
+            rate: 1.0,
+            loop_playback: false,
+            topics: Vec::new(),
+            delay: Duration::ZERO,
+            domain_id: None,
+            node_name: "shm_bag_player".to_owned(),
+            wait_for_subscribers: None,
+        }
+    }
+}
+
+/// What a playback did.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct PlayStats {
+    /// Messages published.
+    pub published: u64,
+    /// Their bytes.
+    pub bytes: u64,
+    /// Of them, published from shared memory.
+    pub shm: u64,
+    /// Messages whose publish failed.
+    pub failed: u64,
+}
+
+/// Plays a [`Bag`] back through a node of its own.
+///
+/// ```no_run
+/// use std::sync::atomic::AtomicBool;
+/// use shm_bag::{Bag, PlayOptions, Player};
+/// use zenoh::Wait;
+///
+/// let session = zenoh::open(zenoh::Config::default()).wait()?;
+/// let bag = Bag::open("my_bag".as_ref())?;
+/// let player = Player::new(&session, bag, PlayOptions::default())?;
+/// let stats = player.play(&AtomicBool::new(false))?;
+/// println!("{} messages", stats.published);
+/// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+/// ```
+pub struct Player {
+    bag: Bag,
+    options: PlayOptions,
+    _node: RosNode,
+    publishers: HashMap<String, RosPublisher<Serialized>>,
+}
+
+impl std::fmt::Debug for Player {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Player")
+            .field("files", &self.bag.files)
+            .field("topics", &self.publishers.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Player {
+    /// Declare a publisher for each selected topic of `bag`, with its
+    /// recorded type and QoS, in a node of its own in `session`, with a
+    /// shared-memory pool that holds the recording's largest messages.
+    pub fn new(session: &zenoh::Session, bag: Bag, options: PlayOptions) -> Result<Self, Error> {
+        if !(options.rate > 0.0 && options.rate.is_finite()) {
+            return Err(format!("rate {}: give a number above 0", options.rate).into());
+        }
+        let topics = bag.topics()?;
+        for wanted in &options.topics {
+            if !topics.contains_key(wanted) {
+                let list: Vec<&str> = topics.keys().map(String::as_str).collect();
+                return Err(format!(
+                    "the recording has no topic {wanted}; it has {}",
+                    list.join(", ")
+                )
+                .into());
+            }
+        }
+        let largest = largest_message(&bag)?;
+        let pool = (largest.saturating_mul(4)).clamp(ShmConfig::DEFAULT_POOL_SIZE, 1 << 30);
+        let shm = ShmContext::new(ShmConfig::enabled().pool_size_at_most(pool))?;
+        let mut builder = RosNode::builder(session, &options.node_name).shm(&shm);
+        if let Some(domain_id) = options.domain_id {
+            builder = builder.domain_id(domain_id);
+        }
+        let node = builder.wait()?;
+        let mut publishers = HashMap::new();
+        for topic in topics.values() {
+            if !options.topics.is_empty() && !options.topics.contains(&topic.name) {
+                continue;
+            }
+            let hash = if topic.type_hash.is_empty() {
+                // Recorded without a hash (an older rosbag2): the standard
+                // type of that name, if there is one.
+                types::standard_message(&topic.type_name)
+                    .map(|t| t.ty.type_hash())
+                    .ok_or_else(|| {
+                        format!(
+                            "{}: the recording gives no type hash for {} and it is not a standard type",
+                            topic.name, topic.type_name
+                        )
+                    })?
+            } else {
+                topic.type_hash.clone()
+            };
+            let qos = playback_qos(&topic.offered_qos);
+            let publisher = node
+                .declare_serialized_publisher(&topic.name, &topic.type_name, &hash, qos)
+                .wait()?;
+            publishers.insert(topic.name.clone(), publisher);
+        }
+        Ok(Self {
+            bag,
+            options,
+            _node: node,
+            publishers,
+        })
+    }
+
+    /// Publish the recording, each message at its recorded time from the
+    /// start (divided by the rate), until its end (or, looping, until `stop`
+    /// is set). Messages come from the file as mapped: from the page cache
+    /// into the publisher's buffer is their one copy.
+    pub fn play(&self, stop: &AtomicBool) -> Result<PlayStats, Error> {
+        if let Some(timeout) = self.options.wait_for_subscribers {
+            let deadline = Instant::now() + timeout;
+            for publisher in self.publishers.values() {
+                publisher.wait_for_subscribers(deadline.saturating_duration_since(Instant::now()));
+            }
+        }
+        std::thread::sleep(self.options.delay);
+        let mut stats = PlayStats::default();
+        loop {
+            let start = Instant::now();
+            let mut first: Option<u64> = None;
+            for path in &self.bag.files {
+                let file = map(path)?;
+                let summary = summary(path, &file)?;
+                let by_channel: HashMap<u16, &RosPublisher<Serialized>> = summary
+                    .channels
+                    .iter()
+                    .filter_map(|(id, c)| self.publishers.get(&c.topic).map(|p| (*id, p)))
+                    .collect();
+                let stream = mcap::read::RawMessageStream::new(&file)
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
+                for message in stream {
+                    if stop.load(Ordering::Relaxed) {
+                        return Ok(stats);
+                    }
+                    let message = message.map_err(|e| format!("{}: {e}", path.display()))?;
+                    let Some(publisher) = by_channel.get(&message.header.channel_id) else {
+                        continue;
+                    };
+                    let t0 = *first.get_or_insert(message.header.log_time);
+                    let offset = message.header.log_time.saturating_sub(t0) as f64 / self.options.rate;
+                    let due = start + Duration::from_nanos(offset as u64);
+                    let now = Instant::now();
+                    if due > now {
+                        std::thread::sleep(due - now);
+                    }
+                    match publisher.publish_serialized(&message.data) {
+                        Ok(outcome) => {
+                            stats.published += 1;
+                            stats.bytes += message.data.len() as u64;
+                            if outcome.kind == PayloadKind::Shm {
+                                stats.shm += 1;
+                            }
+                        }
+                        Err(e) => {
+                            stats.failed += 1;
+                            tracing::warn!("publishing a recorded message failed: {e}");
+                        }
+                    }
+                }
+            }
+            if !self.options.loop_playback || stop.load(Ordering::Relaxed) {
+                return Ok(stats);
+            }
+        }
+    }
+}
+
+/// The QoS to publish a recorded topic with: the recorded publishers'
+/// (transient local only when all were, best effort when one was).
+fn playback_qos(offered: &[Qos]) -> Qos {
+    match offered {
+        [] => Qos::default(),
+        [one] => *one,
+        many => {
+            let mut qos = many[0];
+            if many
+                .iter()
+                .any(|q| q.durability != shm_runtime::rmw::Durability::TransientLocal)
+            {
+                qos.durability = shm_runtime::rmw::Durability::Volatile;
+            }
+            if many
+                .iter()
+                .any(|q| q.reliability == shm_runtime::rmw::Reliability::BestEffort)
+            {
+                qos.reliability = shm_runtime::rmw::Reliability::BestEffort;
+            }
+            qos
+        }
+    }
+}
+
+/// A bound on the largest message's size: the largest chunk (a chunk holds
+/// whole messages, and a message larger than the chunk size has one of its
+/// own), read from the files' summaries.
+fn largest_message(bag: &Bag) -> Result<usize, Error> {
+    let mut largest = 0u64;
+    for path in &bag.files {
+        let file = map(path)?;
+        let summary = summary(path, &file)?;
+        for chunk in &summary.chunk_indexes {
+            largest = largest.max(chunk.uncompressed_size);
+        }
+    }
+    Ok(usize::try_from(largest).unwrap_or(usize::MAX))
+}

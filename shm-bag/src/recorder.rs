@@ -1,0 +1,540 @@
+//! Recording live topics: discovered on the graph, typed through the
+//! standard set or the announcing node's type-description service, received
+//! in place (a shared-memory sample is written from where it lies) and
+//! written by one thread, with memory bounded and every message that could
+//! not be kept counted.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use regex::Regex;
+use shm_runtime::graph::Graph;
+use shm_runtime::rmw::{Durability, History, Qos, Reliability};
+use shm_runtime::{CallbackSubscriber, RosNode, RosSample};
+use zenoh::Wait;
+
+use crate::metadata::{BagMetadata, TopicMetadata};
+use crate::qos::QosProfile;
+use crate::types;
+use crate::writer::{BagWriter, TopicId, WriteOptions};
+use crate::Error;
+
+/// Which topics to record.
+#[derive(Debug, Clone, Default)]
+pub struct Selection {
+    /// Every topic (`-a`).
+    pub all: bool,
+    /// These topics, by name (`/chatter`; a name without `/` is taken from
+    /// the root namespace).
+    pub topics: Vec<String>,
+    /// Topics whose name this matches (`-e`).
+    pub regex: Option<Regex>,
+    /// Not the topics whose name this matches (`-x`), whatever else says.
+    pub exclude: Option<Regex>,
+    /// Also hidden topics (a name part starting with `_`, such as an
+    /// action's), which `all` and `regex` leave out otherwise.
+    pub include_hidden: bool,
+}
+
+impl Selection {
+    /// Whether `topic` is to be recorded.
+    pub fn matches(&self, topic: &str) -> bool {
+        if self.exclude.as_ref().is_some_and(|x| x.is_match(topic)) {
+            return false;
+        }
+        if self.topics.iter().any(|t| qualified(t) == topic) {
+            return true;
+        }
+        let hidden = topic.split('/').any(|part| part.starts_with('_'));
+        if hidden && !self.include_hidden {
+            return false;
+        }
+        self.all || self.regex.as_ref().is_some_and(|r| r.is_match(topic))
+    }
+
+    fn is_empty(&self) -> bool {
+        !self.all && self.topics.is_empty() && self.regex.is_none()
+    }
+}
+
+fn qualified(topic: &str) -> String {
+    if topic.starts_with('/') {
+        topic.to_owned()
+    } else {
+        format!("/{topic}")
+    }
+}
+
+/// How to record.
+#[derive(Debug, Clone)]
+pub struct RecordOptions {
+    /// The bag directory to create.
+    pub output: PathBuf,
+    /// Which topics.
+    pub selection: Selection,
+    /// How the files are written.
+    pub write: WriteOptions,
+    /// The most bytes of received messages waiting for the writer (default
+    /// 512 MiB). A message that would go past it is dropped and counted in
+    /// [`RecordStats::dropped`]: memory stays bounded when the disk is
+    /// slower than the topics, and nothing is lost silently.
+    pub max_queued_bytes: usize,
+    /// How often the graph is looked at for new topics (default 100 ms).
+    pub discovery_period: Duration,
+    /// How long a node may take to describe a type (default 5 s).
+    pub type_timeout: Duration,
+    /// The ROS domain (default `ROS_DOMAIN_ID`, else 0).
+    pub domain_id: Option<u32>,
+    /// The recorder's node name (default `shm_bag_recorder`).
+    pub node_name: String,
+}
+
+impl RecordOptions {
+    /// Record `selection` into the new bag directory `output`, with the
+    /// defaults.
+    pub fn new(output: impl Into<PathBuf>, selection: Selection) -> Self {
+        Self {
+            output: output.into(),
+            selection,
+            write: WriteOptions::default(),
+            max_queued_bytes: 512 * 1024 * 1024,
+            discovery_period: Duration::from_millis(100),
+            type_timeout: Duration::from_secs(5),
+            domain_id: None,
+            node_name: "shm_bag_recorder".to_owned(),
+        }
+    }
+}
+
+/// What a recording has done so far.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RecordStats {
+    /// Topics being recorded.
+    pub topics: usize,
+    /// Messages received.
+    pub received: u64,
+    /// Messages written.
+    pub written: u64,
+    /// Bytes of messages written.
+    pub bytes: u64,
+    /// Messages received but not written because the writer was
+    /// [`max_queued_bytes`](RecordOptions::max_queued_bytes) behind, or a
+    /// write had failed.
+    pub dropped: u64,
+    /// Messages that never arrived: gaps in a publisher's sequence numbers.
+    pub missed: u64,
+    /// Bytes received and not yet written.
+    pub queued_bytes: usize,
+    /// Topics selected but not recorded, with why (a type no node
+    /// describes, say).
+    pub skipped: BTreeMap<String, String>,
+}
+
+#[derive(Default)]
+struct Shared {
+    stop: AtomicBool,
+    topics: AtomicUsize,
+    received: AtomicU64,
+    written: AtomicU64,
+    bytes: AtomicU64,
+    dropped: AtomicU64,
+    missed: AtomicU64,
+    queued_bytes: AtomicUsize,
+    skipped: Mutex<BTreeMap<String, String>>,
+}
+
+enum Event {
+    Topic {
+        index: usize,
+        metadata: TopicMetadata,
+        definition: String,
+    },
+    Sample {
+        index: usize,
+        sample: RosSample,
+        log_time: u64,
+    },
+    Stop,
+}
+
+/// A recording in progress: topics are discovered and written until
+/// [`stop`](Self::stop).
+///
+/// ```no_run
+/// use shm_bag::{RecordOptions, Recorder, Selection};
+/// use zenoh::Wait;
+///
+/// let session = zenoh::open(zenoh::Config::default()).wait()?;
+/// let selection = Selection { all: true, ..Selection::default() };
+/// let recorder = Recorder::start(&session, RecordOptions::new("my_bag", selection))?;
+/// std::thread::sleep(std::time::Duration::from_secs(10));
+/// let metadata = recorder.stop()?;
+/// println!("{} messages", metadata.message_count);
+/// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+/// ```
+pub struct Recorder {
+    shared: Arc<Shared>,
+    events: flume::Sender<Event>,
+    discovery: Option<JoinHandle<()>>,
+    writer: Option<JoinHandle<Result<BagMetadata, Error>>>,
+}
+
+impl std::fmt::Debug for Recorder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Recorder")
+            .field("stats", &self.stats())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Recorder {
+    /// Create the bag directory and start recording what `options` selects,
+    /// through a node of its own in `session`.
+    pub fn start(session: &zenoh::Session, options: RecordOptions) -> Result<Self, Error> {
+        if options.selection.is_empty() {
+            return Err(
+                "nothing to record: name topics, or give -a (all) or -e (a regular expression)"
+                    .into(),
+            );
+        }
+        let mut builder = RosNode::builder(session, &options.node_name);
+        if let Some(domain_id) = options.domain_id {
+            builder = builder.domain_id(domain_id);
+        }
+        let node = builder.wait()?;
+        let writer = BagWriter::create(&options.output, options.write.clone())?;
+        let shared = Arc::new(Shared::default());
+        let (events, receiver) = flume::unbounded();
+        let writer = {
+            let shared = shared.clone();
+            std::thread::Builder::new()
+                .name("shm-bag writer".into())
+                .spawn(move || write_loop(writer, &receiver, &shared))?
+        };
+        let discovery = {
+            let shared = shared.clone();
+            let events = events.clone();
+            std::thread::Builder::new()
+                .name("shm-bag discovery".into())
+                .spawn(move || discover(&node, &options, &shared, &events))?
+        };
+        Ok(Self {
+            shared,
+            events,
+            discovery: Some(discovery),
+            writer: Some(writer),
+        })
+    }
+
+    /// What the recording has done so far.
+    pub fn stats(&self) -> RecordStats {
+        let s = &self.shared;
+        RecordStats {
+            topics: s.topics.load(Ordering::Relaxed),
+            received: s.received.load(Ordering::Relaxed),
+            written: s.written.load(Ordering::Relaxed),
+            bytes: s.bytes.load(Ordering::Relaxed),
+            dropped: s.dropped.load(Ordering::Relaxed),
+            missed: s.missed.load(Ordering::Relaxed),
+            queued_bytes: s.queued_bytes.load(Ordering::Relaxed),
+            skipped: s
+                .skipped
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .clone(),
+        }
+    }
+
+    /// Stop subscribing, write what was received, close the files and write
+    /// `metadata.yaml`; returns what it says.
+    pub fn stop(mut self) -> Result<BagMetadata, Error> {
+        self.finish()
+    }
+
+    fn finish(&mut self) -> Result<BagMetadata, Error> {
+        self.shared.stop.store(true, Ordering::Relaxed);
+        if let Some(discovery) = self.discovery.take() {
+            let _ = discovery.join();
+        }
+        let _ = self.events.send(Event::Stop);
+        match self.writer.take() {
+            Some(writer) => writer
+                .join()
+                .unwrap_or_else(|_| Err("the writer thread panicked".into())),
+            None => Err("the recording was stopped already".into()),
+        }
+    }
+}
+
+impl Drop for Recorder {
+    fn drop(&mut self) {
+        if self.writer.is_some() {
+            let _ = self.finish();
+        }
+    }
+}
+
+fn now_ns() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+}
+
+/// The discovery thread: subscribe to each selected topic once it has a
+/// publisher, until told to stop; the subscriptions end with it.
+fn discover(
+    node: &RosNode,
+    options: &RecordOptions,
+    shared: &Arc<Shared>,
+    events: &flume::Sender<Event>,
+) {
+    let cache = match node.graph_cache() {
+        Ok(cache) => cache,
+        Err(e) => {
+            shared
+                .skipped
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .insert(String::from("*"), format!("no graph: {e}"));
+            return;
+        }
+    };
+    cache.wait_synced(Duration::from_secs(1));
+    let mut subscribers: Vec<CallbackSubscriber<shm_cdr::dynamic::DynamicType>> = Vec::new();
+    let mut recorded: HashMap<String, usize> = HashMap::new();
+    let mut retry: HashMap<String, Instant> = HashMap::new();
+    while !shared.stop.load(Ordering::Relaxed) {
+        let graph = cache.snapshot();
+        for topic in graph.topics().into_keys() {
+            if recorded.contains_key(&topic) || !options.selection.matches(&topic) {
+                continue;
+            }
+            if retry.get(&topic).is_some_and(|at| Instant::now() < *at) {
+                continue;
+            }
+            if graph.publishers(&topic).is_empty() {
+                continue;
+            }
+            let index = recorded.len();
+            match subscribe(node, options, &graph, &topic, index, shared, events) {
+                Ok(subscriber) => {
+                    subscribers.push(subscriber);
+                    recorded.insert(topic.clone(), index);
+                    shared.topics.store(recorded.len(), Ordering::Relaxed);
+                    shared
+                        .skipped
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .remove(&topic);
+                }
+                Err(e) => {
+                    tracing::warn!(topic, "not recorded for now: {e}");
+                    shared
+                        .skipped
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .insert(topic.clone(), e.to_string());
+                    retry.insert(topic, Instant::now() + Duration::from_secs(10));
+                }
+            }
+        }
+        std::thread::sleep(options.discovery_period);
+    }
+    drop(subscribers);
+}
+
+/// The QoS to record a topic with, from its publishers' (as rosbag2
+/// adapts): reliable unless one publisher is best effort, so that all are
+/// heard; transient local when every publisher is, so that their kept
+/// messages are recorded too.
+fn recording_qos(offered: &[Qos]) -> Qos {
+    let reliability = if offered
+        .iter()
+        .any(|q| q.reliability == Reliability::BestEffort)
+    {
+        Reliability::BestEffort
+    } else {
+        Reliability::Reliable
+    };
+    let transient = !offered.is_empty()
+        && offered
+            .iter()
+            .all(|q| q.durability == Durability::TransientLocal);
+    if transient {
+        let depth = offered
+            .iter()
+            .map(|q| match q.history {
+                History::KeepLast(depth) => depth,
+                History::KeepAll => usize::MAX,
+            })
+            .max()
+            .unwrap_or(1);
+        Qos::with_history(
+            reliability,
+            Durability::TransientLocal,
+            History::KeepLast(depth),
+        )
+    } else {
+        Qos::with_history(reliability, Durability::Volatile, History::KeepLast(10))
+    }
+}
+
+fn subscribe(
+    node: &RosNode,
+    options: &RecordOptions,
+    graph: &Graph,
+    topic: &str,
+    index: usize,
+    shared: &Arc<Shared>,
+    events: &flume::Sender<Event>,
+) -> Result<CallbackSubscriber<shm_cdr::dynamic::DynamicType>, Error> {
+    let resolved = types::of_topic(node, options.type_timeout, graph, topic)?;
+    let offered: Vec<Qos> = graph
+        .publishers(topic)
+        .iter()
+        .filter_map(|p| p.endpoint.as_ref().map(|e| e.qos))
+        .collect();
+    let metadata = TopicMetadata {
+        name: topic.to_owned(),
+        type_name: resolved.ty.name().to_owned(),
+        serialization_format: "cdr".to_owned(),
+        offered_qos_profiles: offered.iter().map(QosProfile::from).collect(),
+        type_description_hash: resolved.ty.type_hash(),
+    };
+    // The writer learns of the topic before any of its messages.
+    events
+        .send(Event::Topic {
+            index,
+            metadata,
+            definition: resolved.definition,
+        })
+        .map_err(|_| "the writer has stopped")?;
+    let budget = options.max_queued_bytes;
+    let shared_cb = shared.clone();
+    let events_cb = events.clone();
+    let subscriber = node
+        .declare_dynamic_subscriber(topic, &resolved.ty, recording_qos(&offered))
+        // Zenoh's thread only hands the sample over: the writer's pace never
+        // reaches the network, and the budget bounds what waits.
+        .callback_inline(move |sample| {
+            let shared = &shared_cb;
+            shared.received.fetch_add(1, Ordering::Relaxed);
+            let len = sample.payload().len();
+            let queued = shared.queued_bytes.fetch_add(len, Ordering::Relaxed);
+            if queued.saturating_add(len) > budget {
+                shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
+                shared.dropped.fetch_add(1, Ordering::Relaxed);
+                return;
+            }
+            let event = Event::Sample {
+                index,
+                sample,
+                log_time: now_ns(),
+            };
+            if events_cb.send(event).is_err() {
+                shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
+                shared.dropped.fetch_add(1, Ordering::Relaxed);
+            }
+        })
+        .wait()?;
+    Ok(subscriber)
+}
+
+/// The writer thread: topics and messages in arrival order, until `Stop`.
+fn write_loop(
+    mut writer: BagWriter,
+    events: &flume::Receiver<Event>,
+    shared: &Shared,
+) -> Result<BagMetadata, Error> {
+    let mut topics: HashMap<usize, TopicId> = HashMap::new();
+    // Each publisher's last sequence number, for the gaps.
+    let mut last: HashMap<[u8; 16], i64> = HashMap::new();
+    let mut failure: Option<Error> = None;
+    while let Ok(event) = events.recv() {
+        match event {
+            Event::Topic {
+                index,
+                metadata,
+                definition,
+            } => match writer.add_topic(metadata, definition) {
+                Ok(id) => {
+                    topics.insert(index, id);
+                }
+                Err(e) => {
+                    failure.get_or_insert(e);
+                }
+            },
+            Event::Sample {
+                index,
+                sample,
+                log_time,
+            } => {
+                let payload = sample.payload().to_bytes();
+                let len = payload.len();
+                let (publish_time, sequence) = match sample.attachment() {
+                    Some(Ok(attachment)) => {
+                        let seq = attachment.sequence_number;
+                        let previous = last.insert(attachment.gid.0, seq);
+                        if let Some(previous) = previous {
+                            if seq > previous + 1 {
+                                shared.missed.fetch_add(
+                                    u64::try_from(seq - previous - 1).unwrap_or(0),
+                                    Ordering::Relaxed,
+                                );
+                            } else if seq <= previous {
+                                // A kept message replayed: not a gap.
+                                last.insert(attachment.gid.0, previous);
+                            }
+                        }
+                        (
+                            u64::try_from(attachment.source_timestamp).unwrap_or(log_time),
+                            seq as u32,
+                        )
+                    }
+                    _ => (log_time, 0),
+                };
+                let written = match (failure.is_none(), topics.get(&index)) {
+                    (true, Some(&id)) => {
+                        match writer.write(id, log_time, publish_time, sequence, &payload) {
+                            Ok(()) => true,
+                            Err(e) => {
+                                tracing::error!("recording stops writing: {e}");
+                                failure = Some(e);
+                                false
+                            }
+                        }
+                    }
+                    _ => false,
+                };
+                drop(payload);
+                drop(sample);
+                shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
+                if written {
+                    shared.written.fetch_add(1, Ordering::Relaxed);
+                    shared.bytes.fetch_add(len as u64, Ordering::Relaxed);
+                } else {
+                    shared.dropped.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+            Event::Stop => break,
+        }
+    }
+    // Whatever a callback still handed over after the stop is counted.
+    for event in events.try_iter() {
+        if let Event::Sample { sample, .. } = event {
+            shared
+                .queued_bytes
+                .fetch_sub(sample.payload().len(), Ordering::Relaxed);
+            shared.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+    let metadata = writer.finish()?;
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(metadata),
+    }
+}

@@ -1,0 +1,380 @@
+//! A recording on disk as rosbag2 writes it with its MCAP storage: a
+//! directory with `metadata.yaml` and one or more MCAP files, profile `ros2`,
+//! a `ros2msg` schema per type with the full definition, a `cdr` channel per
+//! topic with its QoS profiles and type hash, chunked (optionally compressed)
+//! and indexed, split by size or duration.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use crate::definition;
+use crate::metadata::{
+    BagMetadata, FileInformation, Nanoseconds, NanosecondsSinceEpoch, TopicMetadata,
+    TopicWithMessageCount, VERSION,
+};
+use crate::qos;
+use crate::Error;
+
+/// How chunks are compressed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Compression {
+    /// Zstandard (rosbag2's `zstd_fast` preset uses it).
+    Zstd,
+    /// LZ4 frames.
+    Lz4,
+}
+
+/// How a recording is written.
+#[derive(Debug, Clone)]
+pub struct WriteOptions {
+    /// Chunk compression; `None` (the default) keeps chunks as they are, so
+    /// each message goes from its buffer to the file in one write.
+    pub compression: Option<Compression>,
+    /// Chunks close once they hold this many bytes (default 1 MiB); a larger
+    /// message makes a chunk of its own.
+    pub chunk_size: u64,
+    /// Start a new file once the current one holds this many bytes.
+    pub max_bag_size: Option<u64>,
+    /// Start a new file once the current one spans this long.
+    pub max_bag_duration: Option<Duration>,
+}
+
+impl Default for WriteOptions {
+    fn default() -> Self {
+        Self {
+            compression: None,
+            chunk_size: 1024 * 1024,
+            max_bag_size: None,
+            max_bag_duration: None,
+        }
+    }
+}
+
+/// Which topic a message is on: returned by [`BagWriter::add_topic`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct TopicId(usize);
+
+struct Topic {
+    metadata: TopicMetadata,
+    definition: String,
+    count: u64,
+}
+
+/// The file being written.
+struct Current {
+    writer: mcap::Writer<BufWriter<File>>,
+    path: String,
+    channels: BTreeMap<usize, u16>,
+    first: Option<u64>,
+    last: u64,
+    count: u64,
+    bytes: u64,
+}
+
+/// Writes a recording: a bag directory of MCAP files and `metadata.yaml`.
+pub struct BagWriter {
+    dir: PathBuf,
+    base: String,
+    options: WriteOptions,
+    topics: Vec<Topic>,
+    current: Option<Current>,
+    files: Vec<FileInformation>,
+    first: Option<u64>,
+    last: u64,
+    count: u64,
+}
+
+impl std::fmt::Debug for BagWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BagWriter")
+            .field("dir", &self.dir)
+            .field("files", &self.files.len())
+            .field("count", &self.count)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The MCAP library string of our files.
+const LIBRARY: &str = concat!("shm-bag ", env!("CARGO_PKG_VERSION"));
+
+impl BagWriter {
+    /// Create the bag directory `dir` (it must not exist, as for rosbag2)
+    /// and its first file.
+    pub fn create(dir: &Path, options: WriteOptions) -> Result<Self, Error> {
+        if dir.exists() {
+            return Err(format!(
+                "{} exists already: give another output directory (-o)",
+                dir.display()
+            )
+            .into());
+        }
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        let base = dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "bag".to_owned());
+        let mut writer = Self {
+            dir: dir.to_owned(),
+            base,
+            options,
+            topics: Vec::new(),
+            current: None,
+            files: Vec::new(),
+            first: None,
+            last: 0,
+            count: 0,
+        };
+        writer.open_file()?;
+        Ok(writer)
+    }
+
+    /// The bag directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Add a topic: its metadata (name, type, QoS, hash) and its complete
+    /// definition in `ros2msg` form (see [`definition`]).
+    pub fn add_topic(
+        &mut self,
+        metadata: TopicMetadata,
+        definition: String,
+    ) -> Result<TopicId, Error> {
+        let id = self.topics.len();
+        self.topics.push(Topic {
+            metadata,
+            definition,
+            count: 0,
+        });
+        if let Some(current) = self.current.as_mut() {
+            add_channel(current, id, &self.topics[id])?;
+        }
+        Ok(TopicId(id))
+    }
+
+    /// Write one message: its CDR bytes as received, the time it was
+    /// received (`log_time`) and sent (`publish_time`), in nanoseconds since
+    /// the Unix epoch, and the publisher's sequence number.
+    pub fn write(
+        &mut self,
+        topic: TopicId,
+        log_time: u64,
+        publish_time: u64,
+        sequence: u32,
+        data: &[u8],
+    ) -> Result<(), Error> {
+        if topic.0 >= self.topics.len() {
+            return Err(format!("no topic {} in this recording", topic.0).into());
+        }
+        self.split_if_due(log_time)?;
+        let Some(current) = self.current.as_mut() else {
+            return Err("the recording is finished".into());
+        };
+        let channel_id = match current.channels.get(&topic.0) {
+            Some(&id) => id,
+            None => add_channel(current, topic.0, &self.topics[topic.0])?,
+        };
+        current
+            .writer
+            .write_to_known_channel(
+                &mcap::records::MessageHeader {
+                    channel_id,
+                    sequence,
+                    log_time,
+                    publish_time,
+                },
+                data,
+            )
+            .map_err(|e| format!("writing {}: {e}", current.path))?;
+        current.first.get_or_insert(log_time);
+        current.last = current.last.max(log_time);
+        current.count += 1;
+        current.bytes += data.len() as u64;
+        self.first.get_or_insert(log_time);
+        self.last = self.last.max(log_time);
+        self.count += 1;
+        self.topics[topic.0].count += 1;
+        Ok(())
+    }
+
+    /// Messages written so far.
+    pub fn message_count(&self) -> u64 {
+        self.count
+    }
+
+    /// Close the last file and write `metadata.yaml`; returns what it says.
+    pub fn finish(mut self) -> Result<BagMetadata, Error> {
+        self.close_file()?;
+        let metadata = self.metadata();
+        let path = self.dir.join(crate::metadata::FILE_NAME);
+        std::fs::write(&path, metadata.to_yaml())
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        Ok(metadata)
+    }
+
+    /// The recording's metadata as it stands.
+    pub fn metadata(&self) -> BagMetadata {
+        let first = self.first.unwrap_or(0);
+        BagMetadata {
+            version: VERSION,
+            storage_identifier: "mcap".to_owned(),
+            duration: Nanoseconds {
+                nanoseconds: self.last.saturating_sub(first),
+            },
+            starting_time: NanosecondsSinceEpoch {
+                nanoseconds_since_epoch: first,
+            },
+            message_count: self.count,
+            topics_with_message_count: self
+                .topics
+                .iter()
+                .map(|t| TopicWithMessageCount {
+                    topic_metadata: t.metadata.clone(),
+                    message_count: t.count,
+                })
+                .collect(),
+            compression_format: String::new(),
+            compression_mode: String::new(),
+            relative_file_paths: self.files.iter().map(|f| f.path.clone()).collect(),
+            files: self.files.clone(),
+            custom_data: None,
+            ros_distro: std::env::var("ROS_DISTRO").unwrap_or_default(),
+        }
+    }
+
+    fn split_if_due(&mut self, log_time: u64) -> Result<(), Error> {
+        let Some(current) = self.current.as_ref() else {
+            return Ok(());
+        };
+        if current.count == 0 {
+            return Ok(());
+        }
+        let by_size = self
+            .options
+            .max_bag_size
+            .is_some_and(|max| current.bytes >= max);
+        let by_duration = self.options.max_bag_duration.is_some_and(|max| {
+            current.first.is_some_and(|first| {
+                log_time.saturating_sub(first) >= u64::try_from(max.as_nanos()).unwrap_or(u64::MAX)
+            })
+        });
+        if by_size || by_duration {
+            self.close_file()?;
+            self.open_file()?;
+        }
+        Ok(())
+    }
+
+    fn open_file(&mut self) -> Result<(), Error> {
+        let name = format!("{}_{}.mcap", self.base, self.files.len());
+        let path = self.dir.join(&name);
+        let file =
+            File::create(&path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+        let compression = self.options.compression.map(|c| match c {
+            Compression::Zstd => mcap::Compression::Zstd,
+            Compression::Lz4 => mcap::Compression::Lz4,
+        });
+        // rosbag2's MCAP defaults: no chunk CRCs; and no data-section CRC,
+        // which would read every byte once more.
+        let writer = mcap::WriteOptions::new()
+            .profile("ros2")
+            .library(LIBRARY)
+            .compression(compression)
+            .chunk_size(Some(self.options.chunk_size))
+            .calculate_chunk_crcs(false)
+            .calculate_data_section_crc(false)
+            .create(BufWriter::with_capacity(1 << 20, file))
+            .map_err(|e| format!("cannot start {}: {e}", path.display()))?;
+        let mut current = Current {
+            writer,
+            path: path.display().to_string(),
+            channels: BTreeMap::new(),
+            first: None,
+            last: 0,
+            count: 0,
+            bytes: 0,
+        };
+        for (id, topic) in self.topics.iter().enumerate() {
+            add_channel(&mut current, id, topic)?;
+        }
+        self.files.push(FileInformation {
+            path: name,
+            starting_time: NanosecondsSinceEpoch::default(),
+            duration: Nanoseconds::default(),
+            message_count: 0,
+        });
+        self.current = Some(current);
+        Ok(())
+    }
+
+    fn close_file(&mut self) -> Result<(), Error> {
+        let Some(mut current) = self.current.take() else {
+            return Ok(());
+        };
+        let first = current.first.unwrap_or(0);
+        if let Some(info) = self.files.last_mut() {
+            info.starting_time.nanoseconds_since_epoch = first;
+            info.duration.nanoseconds = current.last.saturating_sub(first);
+            info.message_count = current.count;
+        }
+        // rosbag2 keeps the bag's metadata in each file too.
+        let metadata = mcap::records::Metadata {
+            name: "rosbag2".to_owned(),
+            metadata: BTreeMap::from([(
+                "serialized_metadata".to_owned(),
+                self.metadata().to_yaml(),
+            )]),
+        };
+        current
+            .writer
+            .write_metadata(&metadata)
+            .and_then(|_| current.writer.finish().map(|_| ()))
+            .map_err(|e| format!("finishing {}: {e}", current.path))?;
+        let mut file = current.writer.into_inner();
+        std::io::Write::flush(&mut file).map_err(|e| format!("{}: {e}", current.path))?;
+        Ok(())
+    }
+}
+
+impl Drop for BagWriter {
+    fn drop(&mut self) {
+        // A writer dropped without `finish` still leaves readable files.
+        let _ = self.close_file();
+    }
+}
+
+fn add_channel(current: &mut Current, id: usize, topic: &Topic) -> Result<u16, Error> {
+    let schema = current
+        .writer
+        .add_schema(
+            &topic.metadata.type_name,
+            definition::ENCODING,
+            topic.definition.as_bytes(),
+        )
+        .map_err(|e| format!("{}: {e}", current.path))?;
+    let metadata = BTreeMap::from([
+        (
+            "offered_qos_profiles".to_owned(),
+            qos::to_yaml(&topic.metadata.offered_qos_profiles),
+        ),
+        (
+            "topic_type_hash".to_owned(),
+            topic.metadata.type_description_hash.clone(),
+        ),
+    ]);
+    let channel = current
+        .writer
+        .add_channel(
+            schema,
+            &topic.metadata.name,
+            &topic.metadata.serialization_format,
+            &metadata,
+        )
+        .map_err(|e| format!("{}: {e}", current.path))?;
+    current.channels.insert(id, channel);
+    Ok(channel)
+}

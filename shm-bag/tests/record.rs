@@ -1,0 +1,292 @@
+//! Recording and playing back live topics between processes' sessions: the
+//! files read back with the `mcap` reader hold every message byte for byte,
+//! with rosbag2's schemas, channel metadata and `metadata.yaml`; playing
+//! them back delivers the same bytes, large ones through shared memory.
+
+use std::collections::BTreeMap;
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+use shm_bag::{metadata, Bag, PlayOptions, Player, RecordOptions, Recorder, Selection};
+use shm_cdr::msgs::sensor_msgs::msg::Image;
+use shm_cdr::msgs::std_msgs::msg::String as RosString;
+use shm_cdr::RosMessage;
+use shm_runtime::rmw::Qos;
+use shm_runtime::{RosNode, ShmConfig, ShmContext};
+use zenoh::{Session, Wait};
+
+/// A type the recorder was not built with: described by its publisher's
+/// `~/get_type_description`.
+#[derive(Debug, Clone, Default, PartialEq, RosMessage)]
+#[ros(type_name = "robot_msgs/msg/Battery")]
+struct Battery {
+    voltage: f32,
+    cells: Vec<u16>,
+    label: String,
+}
+
+const TIMEOUT: Duration = Duration::from_secs(20);
+const COUNT: usize = 20;
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .unwrap_or(17448)
+}
+
+/// Two peer sessions on a local port, as two processes would be.
+fn sessions() -> (Session, Session) {
+    let port = free_port();
+    let open = |listen: bool| {
+        let mut config = zenoh::Config::default();
+        let key = if listen {
+            "listen/endpoints"
+        } else {
+            "connect/endpoints"
+        };
+        config
+            .insert_json5(key, &format!("[\"tcp/127.0.0.1:{port}\"]"))
+            .unwrap();
+        config
+            .insert_json5("scouting/multicast/enabled", "false")
+            .unwrap();
+        zenoh::open(config).wait().unwrap()
+    };
+    let a = open(true);
+    (a, open(false))
+}
+
+fn wait_until(what: &str, mut condition: impl FnMut() -> bool) {
+    let deadline = Instant::now() + TIMEOUT;
+    while !condition() {
+        assert!(Instant::now() < deadline, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// A profile of its own, to see it recorded and played back.
+fn image_qos() -> Qos {
+    Qos::with_history(
+        shm_runtime::rmw::Reliability::Reliable,
+        shm_runtime::rmw::Durability::Volatile,
+        shm_runtime::rmw::History::KeepLast(7),
+    )
+    .deadline(Duration::from_millis(250))
+}
+
+fn image(i: usize) -> Image {
+    Image {
+        height: 512,
+        width: 512,
+        encoding: "mono8".into(),
+        step: 512,
+        data: (0..512 * 512).map(|j| (i * 7 + j) as u8).collect(),
+        ..Image::default()
+    }
+}
+
+#[test]
+fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
+    let (a, b) = sessions();
+    let pool = ShmContext::new(ShmConfig::enabled().pool_size(16 << 20)).unwrap();
+    let camera = RosNode::builder(&a, "camera")
+        .domain_id(0)
+        .shm(&pool)
+        .wait()
+        .unwrap();
+    let chatter = camera
+        .declare_publisher::<RosString>("/chatter")
+        .wait()
+        .unwrap();
+    let images = camera
+        .declare_publisher_with_qos::<Image>("/image", image_qos())
+        .wait()
+        .unwrap();
+    let battery = camera.declare_publisher::<Battery>("/battery").wait().unwrap();
+    let latched = camera
+        .declare_publisher_with_qos::<RosString>("/latched", Qos::transient_local(1))
+        .wait()
+        .unwrap();
+    // Published before the recording starts: a transient-local topic's
+    // kept message is recorded when the recorder joins.
+    latched
+        .publish(&RosString {
+            data: "kept".into(),
+        })
+        .wait()
+        .unwrap();
+
+    let dir = std::env::temp_dir().join(format!("shm_bag_test_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let selection = Selection {
+        topics: vec!["/chatter".into(), "image".into(), "/latched".into()],
+        regex: Some(regex::Regex::new("^/bat").unwrap()),
+        ..Selection::default()
+    };
+    let mut options = RecordOptions::new(dir.join("bag"), selection);
+    options.domain_id = Some(0);
+    let recorder = Recorder::start(&b, options).unwrap();
+    wait_until("four topics", || recorder.stats().topics == 4);
+    assert!(chatter.wait_for_subscribers(TIMEOUT));
+    assert!(images.wait_for_subscribers(TIMEOUT));
+    assert!(battery.wait_for_subscribers(TIMEOUT));
+
+    let mut expected: BTreeMap<&str, Vec<Vec<u8>>> = BTreeMap::new();
+    expected.insert(
+        "/latched",
+        vec![shm_cdr::to_vec(&RosString {
+            data: "kept".into(),
+        })
+        .unwrap()],
+    );
+    for i in 0..COUNT {
+        let text = RosString {
+            data: format!("hello {i}"),
+        };
+        chatter.publish(&text).wait().unwrap();
+        expected
+            .entry("/chatter")
+            .or_default()
+            .push(shm_cdr::to_vec(&text).unwrap());
+        let img = image(i);
+        let outcome = images.publish(&img).wait().unwrap();
+        assert!(outcome.kind.is_shm(), "{outcome:?}");
+        expected
+            .entry("/image")
+            .or_default()
+            .push(shm_cdr::to_vec(&img).unwrap());
+        let b = Battery {
+            voltage: 11.5 + i as f32,
+            cells: vec![i as u16; 3],
+            label: "pack".into(),
+        };
+        battery.publish(&b).wait().unwrap();
+        expected
+            .entry("/battery")
+            .or_default()
+            .push(shm_cdr::to_vec(&b).unwrap());
+    }
+    let total = (3 * COUNT + 1) as u64;
+    wait_until("every message written", || recorder.stats().written == total);
+    let stats = recorder.stats();
+    assert_eq!((stats.dropped, stats.missed), (0, 0), "{stats:?}");
+    let written = recorder.stop().unwrap();
+    assert_eq!(written.message_count, total);
+
+    // metadata.yaml, as rosbag2 reads it.
+    let meta = metadata::BagMetadata::read(&dir.join("bag")).unwrap();
+    assert_eq!(meta, written);
+    assert_eq!(meta.version, 9);
+    assert_eq!(meta.storage_identifier, "mcap");
+    assert_eq!(meta.relative_file_paths, ["bag_0.mcap"]);
+    let counts: BTreeMap<&str, (u64, &str, &str)> = meta
+        .topics_with_message_count
+        .iter()
+        .map(|t| {
+            (
+                t.topic_metadata.name.as_str(),
+                (
+                    t.message_count,
+                    t.topic_metadata.type_name.as_str(),
+                    t.topic_metadata.type_description_hash.as_str(),
+                ),
+            )
+        })
+        .collect();
+    assert_eq!(
+        counts,
+        BTreeMap::from([
+            ("/battery", (COUNT as u64, Battery::TYPE_NAME, Battery::type_hash())),
+            ("/chatter", (COUNT as u64, RosString::TYPE_NAME, RosString::type_hash())),
+            ("/image", (COUNT as u64, Image::TYPE_NAME, Image::type_hash())),
+            ("/latched", (1, RosString::TYPE_NAME, RosString::type_hash())),
+        ])
+    );
+
+    // The MCAP file, through the mcap crate's reader.
+    let bytes = std::fs::read(dir.join("bag").join("bag_0.mcap")).unwrap();
+    let mut seen: BTreeMap<String, Vec<Vec<u8>>> = BTreeMap::new();
+    let mut last_log_time = 0;
+    for message in mcap::MessageStream::new(&bytes).unwrap() {
+        let message = message.unwrap();
+        let channel = &message.channel;
+        let schema = channel.schema.as_ref().unwrap();
+        assert_eq!(schema.encoding, "ros2msg");
+        assert_eq!(channel.message_encoding, "cdr");
+        let hash = &channel.metadata["topic_type_hash"];
+        assert_eq!(hash, &counts[channel.topic.as_str()].2);
+        let qos = shm_bag::qos::from_yaml(&channel.metadata["offered_qos_profiles"]).unwrap();
+        assert_eq!(qos.len(), 1, "{}", channel.topic);
+        if channel.topic == "/image" {
+            assert_eq!(qos[0].to_qos(), image_qos());
+        }
+        let definition = std::str::from_utf8(&schema.data).unwrap();
+        if channel.topic == "/battery" {
+            assert_eq!(definition, "float32 voltage\nuint16[] cells\nstring label");
+        }
+        if channel.topic == "/image" {
+            assert!(definition.contains("\nMSG: std_msgs/msg/Header\n"), "{definition}");
+        }
+        assert!(message.log_time >= last_log_time);
+        assert!(message.publish_time <= message.log_time);
+        last_log_time = message.log_time;
+        seen.entry(channel.topic.clone())
+            .or_default()
+            .push(message.data.into_owned());
+    }
+    for (topic, messages) in &expected {
+        assert!(seen[*topic] == *messages, "{topic}: the recorded bytes differ");
+    }
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    assert_eq!(summary.stats.unwrap().message_count, total);
+
+    // Played back: the same bytes, in order, the images through shared memory.
+    let listener = RosNode::builder(&a, "listener").domain_id(0).wait().unwrap();
+    let played_images = listener
+        .declare_subscriber_with_qos::<Image>("/image", image_qos())
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    let played_batteries = listener
+        .declare_subscriber::<Battery>("/battery")
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    let options = PlayOptions {
+        rate: 10.0,
+        topics: vec!["/image".into(), "/battery".into()],
+        domain_id: Some(0),
+        wait_for_subscribers: Some(TIMEOUT),
+        ..PlayOptions::default()
+    };
+    let player = Player::new(&b, Bag::open(&dir.join("bag")).unwrap(), options).unwrap();
+    let played = player.play(&AtomicBool::new(false)).unwrap();
+    assert_eq!(played.published, 2 * COUNT as u64);
+    assert_eq!(played.shm, COUNT as u64, "every image from shared memory");
+    for (i, want) in expected["/battery"].iter().enumerate() {
+        let sample = played_batteries.recv_timeout(TIMEOUT).unwrap().unwrap();
+        assert_eq!(&sample.payload().to_bytes()[..], &want[..], "battery {i}");
+    }
+    for (i, want) in expected["/image"].iter().enumerate() {
+        let sample = played_images.recv_timeout(TIMEOUT).unwrap().unwrap();
+        assert!(sample.is_shm(), "image {i} through shared memory");
+        assert!(sample.payload().to_bytes()[..] == want[..], "image {i}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_existing_output_directory_is_refused_with_what_to_do() {
+    let (_a, b) = sessions();
+    let dir = std::env::temp_dir();
+    let selection = Selection {
+        all: true,
+        ..Selection::default()
+    };
+    let err = Recorder::start(&b, RecordOptions::new(&dir, selection)).unwrap_err();
+    assert!(err.to_string().contains("exists already"), "{err}");
+    let err = Recorder::start(&b, RecordOptions::new(dir.join("x"), Selection::default()))
+        .unwrap_err();
+    assert!(err.to_string().contains("nothing to record"), "{err}");
+}

@@ -1,0 +1,356 @@
+//! `shm-ros2 bag …`: record, play and describe recordings as ros2bag does,
+//! through shm-bag (MCAP as rosbag2 writes it).
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use clap::{Args, Subcommand, ValueEnum};
+use shm_bag::{Bag, BagMetadata, Compression, PlayOptions, Player, RecordOptions, Recorder, Selection};
+
+use crate::context::Context;
+use crate::Error;
+
+#[derive(Debug, Subcommand)]
+pub(crate) enum BagCommand {
+    /// Record ROS data to a bag (MCAP, as rosbag2 writes it).
+    Record(RecordArgs),
+    /// Play back ROS data from a bag.
+    Play(PlayArgs),
+    /// Print information about a bag to the screen.
+    Info {
+        /// Bag to open: a bag directory or an MCAP file.
+        bag_path: PathBuf,
+    },
+}
+
+/// rosbag2's MCAP storage presets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum Preset {
+    /// Chunked, uncompressed (the default).
+    None,
+    /// Chunked, uncompressed: already the fastest.
+    Fastwrite,
+    /// Chunks compressed with Zstandard, fastest level.
+    ZstdFast,
+    /// Chunks compressed with Zstandard, 4 MiB chunks.
+    ZstdSmall,
+}
+
+/// Chunk compression.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum ChunkCompression {
+    /// Zstandard.
+    Zstd,
+    /// LZ4.
+    Lz4,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct RecordArgs {
+    /// List of topics to record.
+    topics: Vec<String>,
+    /// Record all topics (hidden ones only with --include-hidden-topics).
+    #[arg(short = 'a', long = "all-topics", alias = "all")]
+    all_topics: bool,
+    /// Record only topics matching this regular expression.
+    #[arg(short = 'e', long)]
+    regex: Option<String>,
+    /// Do not record topics matching this regular expression.
+    #[arg(short = 'x', long = "exclude-regex", alias = "exclude")]
+    exclude_regex: Option<String>,
+    /// Record hidden topics too (a name part starting with `_`).
+    #[arg(long)]
+    include_hidden_topics: bool,
+    /// Destination of the bag directory (default rosbag2_<date>-<time>).
+    #[arg(short = 'o', long)]
+    output: Option<PathBuf>,
+    /// Start a new file once one holds this many bytes (0: never).
+    #[arg(short = 'b', long, default_value_t = 0)]
+    max_bag_size: u64,
+    /// Start a new file once one spans this many seconds (0: never).
+    #[arg(short = 'd', long, default_value_t = 0)]
+    max_bag_duration: u64,
+    /// Bytes of received messages that may wait for the disk; past it
+    /// messages are dropped and counted.
+    #[arg(long, default_value_t = 512 * 1024 * 1024)]
+    max_cache_size: usize,
+    /// MCAP storage preset (rosbag2's names).
+    #[arg(long, value_enum, default_value_t = Preset::None)]
+    storage_preset_profile: Preset,
+    /// Compress MCAP chunks (rosbag2 does this through the storage preset).
+    #[arg(long, value_enum)]
+    compression_format: Option<ChunkCompression>,
+    /// Stop after this many seconds (default: at Ctrl-C).
+    #[arg(long)]
+    duration: Option<f64>,
+    /// Print no progress line.
+    #[arg(long)]
+    no_progress: bool,
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct PlayArgs {
+    /// Bag to open: a bag directory or an MCAP file.
+    bag_path: PathBuf,
+    /// Rate at which to play back messages.
+    #[arg(short = 'r', long, default_value_t = 1.0)]
+    rate: f64,
+    /// Play the bag in a loop, until Ctrl-C.
+    #[arg(short = 'l', long = "loop")]
+    loop_playback: bool,
+    /// Topics to replay (default: all).
+    #[arg(long, num_args = 1..)]
+    topics: Vec<String>,
+    /// Sleep this many seconds before playing.
+    #[arg(short = 'd', long, default_value_t = 0.0)]
+    delay: f64,
+}
+
+pub(crate) fn run(context: Option<&Context>, command: BagCommand) -> Result<(), Error> {
+    match command {
+        BagCommand::Info { bag_path } => info(&bag_path),
+        BagCommand::Record(args) => match context {
+            Some(context) => record(context, args),
+            None => Err("bag record needs a Zenoh session".into()),
+        },
+        BagCommand::Play(args) => match context {
+            Some(context) => play(context, &args),
+            None => Err("bag play needs a Zenoh session".into()),
+        },
+    }
+}
+
+fn regex(flag: &str, text: Option<String>) -> Result<Option<regex::Regex>, Error> {
+    text.map(|t| regex::Regex::new(&t).map_err(|e| format!("{flag} {t:?}: {e}").into()))
+        .transpose()
+}
+
+/// Set when Ctrl-C (or SIGTERM) arrives.
+fn interrupted() -> Result<Arc<AtomicBool>, Error> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let set = flag.clone();
+    ctrlc::set_handler(move || set.store(true, Ordering::Relaxed))
+        .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
+    Ok(flag)
+}
+
+fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
+    let selection = Selection {
+        all: args.all_topics,
+        topics: args.topics,
+        regex: regex("-e", args.regex)?,
+        exclude: regex("-x", args.exclude_regex)?,
+        include_hidden: args.include_hidden_topics,
+    };
+    let output = args.output.unwrap_or_else(|| {
+        PathBuf::from(
+            chrono::Local::now()
+                .format("rosbag2_%Y_%m_%d-%H_%M_%S")
+                .to_string(),
+        )
+    });
+    let mut options = RecordOptions::new(&output, selection);
+    options.domain_id = Some(context.domain_id);
+    options.type_timeout = context.timeout;
+    options.max_queued_bytes = args.max_cache_size;
+    options.write.max_bag_size = (args.max_bag_size > 0).then_some(args.max_bag_size);
+    options.write.max_bag_duration =
+        (args.max_bag_duration > 0).then(|| Duration::from_secs(args.max_bag_duration));
+    match args.storage_preset_profile {
+        Preset::None | Preset::Fastwrite => {}
+        Preset::ZstdFast => options.write.compression = Some(Compression::Zstd),
+        Preset::ZstdSmall => {
+            options.write.compression = Some(Compression::Zstd);
+            options.write.chunk_size = 4 * 1024 * 1024;
+        }
+    }
+    if let Some(c) = args.compression_format {
+        options.write.compression = Some(match c {
+            ChunkCompression::Zstd => Compression::Zstd,
+            ChunkCompression::Lz4 => Compression::Lz4,
+        });
+    }
+    let stop = interrupted()?;
+    let recorder = Recorder::start(&context.session, options)?;
+    let started = Instant::now();
+    let deadline = args.duration.map(|s| started + Duration::from_secs_f64(s.max(0.0)));
+    let progress = (!args.no_progress).then(|| {
+        let bar = indicatif::ProgressBar::new_spinner();
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+        );
+        bar
+    });
+    let mut last = (Instant::now(), 0u64);
+    while !stop.load(Ordering::Relaxed) && deadline.is_none_or(|d| Instant::now() < d) {
+        std::thread::sleep(Duration::from_millis(200));
+        if let Some(bar) = &progress {
+            let stats = recorder.stats();
+            let now = Instant::now();
+            let rate = (stats.bytes - last.1) as f64 / now.duration_since(last.0).as_secs_f64();
+            if now.duration_since(last.0) >= Duration::from_secs(1) {
+                last = (now, stats.bytes);
+            }
+            bar.set_message(format!(
+                "Recording {} topics: {} messages, {}, {}/s | dropped {} | missed {}{}",
+                stats.topics,
+                stats.written,
+                size(stats.bytes),
+                size(rate as u64),
+                stats.dropped,
+                stats.missed,
+                if stats.skipped.is_empty() {
+                    String::new()
+                } else {
+                    format!(" | not recorded: {}", stats.skipped.len())
+                }
+            ));
+            bar.tick();
+        }
+    }
+    let stats = recorder.stats();
+    let metadata = recorder.stop()?;
+    let final_stats_dropped = stats.dropped;
+    if let Some(bar) = progress {
+        bar.finish_and_clear();
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    eprintln!(
+        "Recorded {} messages on {} topics ({}) into {} in {seconds:.1} s; dropped {}, missed {}",
+        metadata.message_count,
+        metadata.topics_with_message_count.len(),
+        size(stats.bytes),
+        output.display(),
+        final_stats_dropped,
+        stats.missed,
+    );
+    for (topic, why) in &stats.skipped {
+        eprintln!("Not recorded: {topic}: {why}");
+    }
+    Ok(())
+}
+
+fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {
+    let bag = Bag::open(&args.bag_path)?;
+    let options = PlayOptions {
+        rate: args.rate,
+        loop_playback: args.loop_playback,
+        topics: args.topics.clone(),
+        delay: Duration::from_secs_f64(args.delay.max(0.0)),
+        domain_id: Some(context.domain_id),
+        ..PlayOptions::default()
+    };
+    let stop = interrupted()?;
+    let player = Player::new(&context.session, bag, options)?;
+    let stats = player.play(&stop)?;
+    eprintln!(
+        "Played {} messages ({}), {} from shared memory; {} failed",
+        stats.published,
+        size(stats.bytes),
+        stats.shm,
+        stats.failed
+    );
+    if stats.failed > 0 {
+        return Err(format!("{} messages could not be published", stats.failed).into());
+    }
+    Ok(())
+}
+
+fn info(path: &std::path::Path) -> Result<(), Error> {
+    let bag = Bag::open(path)?;
+    let metadata = bag.describe()?;
+    print!("{}", format_info(&metadata, bag.size()));
+    println!();
+    Ok(())
+}
+
+/// ros2bag's `info` text (rosbag2_py's `format_bag_meta_data`).
+fn format_info(metadata: &BagMetadata, bag_size: u64) -> String {
+    const INDENT: &str = "                   ";
+    let start = metadata.starting_time.nanoseconds_since_epoch;
+    let end = start + metadata.duration.nanoseconds;
+    let mut out = String::from("\nFiles:             ");
+    for (i, file) in metadata.relative_file_paths.iter().enumerate() {
+        if i > 0 {
+            out.push_str(INDENT);
+        }
+        out.push_str(file);
+        out.push('\n');
+    }
+    if metadata.relative_file_paths.is_empty() {
+        out.push('\n');
+    }
+    let distro = if metadata.ros_distro.is_empty() {
+        "unknown"
+    } else {
+        &metadata.ros_distro
+    };
+    out.push_str(&format!("Bag size:          {}\n", size(bag_size)));
+    out.push_str(&format!("Storage id:        {}\n", metadata.storage_identifier));
+    out.push_str(&format!("ROS Distro:        {distro}\n"));
+    out.push_str(&format!(
+        "Duration:          {}s\n",
+        seconds(metadata.duration.nanoseconds)
+    ));
+    out.push_str(&format!("Start:             {}\n", time_point(start)));
+    out.push_str(&format!("End:               {}\n", time_point(end)));
+    out.push_str(&format!("Messages:          {}\n", metadata.message_count));
+    out.push_str("Topic information: ");
+    let mut topics: Vec<_> = metadata.topics_with_message_count.iter().collect();
+    topics.sort_by(|a, b| a.topic_metadata.name.cmp(&b.topic_metadata.name));
+    if topics.is_empty() {
+        out.push('\n');
+    }
+    for (i, topic) in topics.iter().enumerate() {
+        if i > 0 {
+            out.push_str(INDENT);
+        }
+        out.push_str(&format!(
+            "Topic: {} | Type: {} | Count: {} | Serialization Format: {}\n",
+            topic.topic_metadata.name,
+            topic.topic_metadata.type_name,
+            topic.message_count,
+            topic.topic_metadata.serialization_format
+        ));
+    }
+    out.push_str("Service:           0\n");
+    out.push_str("Service information: ");
+    out
+}
+
+/// `12.345678901`: seconds with nine decimals.
+fn seconds(ns: u64) -> String {
+    format!("{}.{:09}", ns / 1_000_000_000, ns % 1_000_000_000)
+}
+
+/// `Mar  5 2024 10:00:00.000000000 (1709632800.000000000)`, in local time.
+fn time_point(ns: u64) -> String {
+    let secs = i64::try_from(ns / 1_000_000_000).unwrap_or(i64::MAX);
+    let local = chrono::DateTime::from_timestamp(secs, 0)
+        .map(|t| t.with_timezone(&chrono::Local).format("%b %e %Y %H:%M:%S").to_string())
+        .unwrap_or_default();
+    format!(
+        "{local}.{:09} ({})",
+        ns % 1_000_000_000,
+        seconds(ns)
+    )
+}
+
+/// rosbag2's sizes: `B` with no decimals, else one decimal of KiB, MiB, …
+fn size(bytes: u64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut value = bytes as f64;
+    let mut unit = 0;
+    while value >= 1024.0 && unit < 4 {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{value:.1} {}", UNITS[unit])
+    }
+}
