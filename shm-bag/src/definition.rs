@@ -94,7 +94,13 @@ mod tests {
     fn a_run_time_type_without_sources_writes_its_fields_back() {
         let ty = DynamicType::from_description(&PoseStamped::full_description()).unwrap();
         let text = of_dynamic(&ty, |_| None);
-        assert!(text.starts_with("std_msgs/Header header\ngeometry_msgs/Pose pose\n"), "{text}");
-        assert!(text.contains("MSG: geometry_msgs/msg/Quaternion\nfloat64 x 0.0\n"), "{text}");
+        assert!(
+            text.starts_with("std_msgs/Header header\ngeometry_msgs/Pose pose\n"),
+            "{text}"
+        );
+        assert!(
+            text.contains("MSG: geometry_msgs/msg/Quaternion\nfloat64 x 0.0\n"),
+            "{text}"
+        );
     }
 }

@@ -112,7 +112,11 @@ impl Bag {
                         name: t.name,
                         type_name: t.type_name,
                         serialization_format: t.message_encoding,
-                        offered_qos_profiles: t.offered_qos.iter().map(qos::QosProfile::from).collect(),
+                        offered_qos_profiles: t
+                            .offered_qos
+                            .iter()
+                            .map(qos::QosProfile::from)
+                            .collect(),
                         type_description_hash: t.type_hash,
                     },
                 })
@@ -122,7 +126,10 @@ impl Bag {
             relative_file_paths: self
                 .files
                 .iter()
-                .map(|p| p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned()))
+                .map(|p| {
+                    p.file_name()
+                        .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+                })
                 .collect(),
             files: Vec::new(),
             custom_data: None,
@@ -196,7 +203,8 @@ fn map(path: &Path) -> Result<memmap2::Mmap, Error> {
     // guard against (as for any reader of files), and MCAP parsing checks
     // every length against the map's end, so a change cannot make it read
     // out of bounds.
-    unsafe { memmap2::Mmap::map(&file) }.map_err(|e| format!("cannot map {}: {e}", path.display()).into())
+    unsafe { memmap2::Mmap::map(&file) }
+        .map_err(|e| format!("cannot map {}: {e}", path.display()).into())
 }
 
 fn summary(path: &Path, file: &[u8]) -> Result<mcap::Summary, Error> {
@@ -384,7 +392,8 @@ impl Player {
                         continue;
                     };
                     let t0 = *first.get_or_insert(message.header.log_time);
-                    let offset = message.header.log_time.saturating_sub(t0) as f64 / self.options.rate;
+                    let offset =
+                        message.header.log_time.saturating_sub(t0) as f64 / self.options.rate;
                     let due = start + Duration::from_nanos(offset as u64);
                     let now = Instant::now();
                     if due > now {

@@ -150,8 +150,12 @@ mod tests {
             Qos::default(),
             Qos::sensor_data(),
             Qos::transient_local(1000).lifespan(Duration::from_secs(10)),
-            Qos::with_history(Reliability::Reliable, Durability::Volatile, History::KeepAll)
-                .deadline(Duration::from_millis(1500)),
+            Qos::with_history(
+                Reliability::Reliable,
+                Durability::Volatile,
+                History::KeepAll,
+            )
+            .deadline(Duration::from_millis(1500)),
         ] {
             let text = to_yaml(&[QosProfile::from(&qos)]);
             let back = from_yaml(&text).unwrap();
@@ -164,7 +168,14 @@ mod tests {
     fn a_profile_reads_as_rosbag2_writes_it() {
         let text = "- history: keep_last\n  depth: 10\n  reliability: best_effort\n  durability: volatile\n  deadline:\n    sec: 9223372036\n    nsec: 854775807\n  lifespan:\n    sec: 9223372036\n    nsec: 854775807\n  liveliness: automatic\n  liveliness_lease_duration:\n    sec: 9223372036\n    nsec: 854775807\n  avoid_ros_namespace_conventions: false\n";
         let profiles = from_yaml(text).unwrap();
-        assert_eq!(profiles[0].to_qos(), Qos::with_history(Reliability::BestEffort, Durability::Volatile, History::KeepLast(10)));
+        assert_eq!(
+            profiles[0].to_qos(),
+            Qos::with_history(
+                Reliability::BestEffort,
+                Durability::Volatile,
+                History::KeepLast(10)
+            )
+        );
         assert_eq!(to_yaml(&profiles), text);
     }
 }

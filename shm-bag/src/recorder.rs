@@ -241,11 +241,7 @@ impl Recorder {
             dropped: s.dropped.load(Ordering::Relaxed),
             missed: s.missed.load(Ordering::Relaxed),
             queued_bytes: s.queued_bytes.load(Ordering::Relaxed),
-            skipped: s
-                .skipped
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .clone(),
+            skipped: s.skipped.lock().unwrap_or_else(|e| e.into_inner()).clone(),
         }
     }
 

@@ -167,9 +167,7 @@ pub fn ask_node(
     hash: &str,
 ) -> Result<ResolvedType, Error> {
     let service = format!("{}/get_type_description", node_fqn.trim_end_matches('/'));
-    let client = node
-        .declare_client::<GetTypeDescription>(&service)
-        .wait()?;
+    let client = node.declare_client::<GetTypeDescription>(&service).wait()?;
     if !client.wait_for_service(timeout) {
         return Err(format!(
             "{name} is not a type this binary knows, and {node_fqn} does not answer {service} (waited {timeout:?}): \

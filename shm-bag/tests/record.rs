@@ -103,7 +103,10 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
         .declare_publisher_with_qos::<Image>("/image", image_qos())
         .wait()
         .unwrap();
-    let battery = camera.declare_publisher::<Battery>("/battery").wait().unwrap();
+    let battery = camera
+        .declare_publisher::<Battery>("/battery")
+        .wait()
+        .unwrap();
     let latched = camera
         .declare_publisher_with_qos::<RosString>("/latched", Qos::transient_local(1))
         .wait()
@@ -168,7 +171,9 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
             .push(shm_cdr::to_vec(&b).unwrap());
     }
     let total = (3 * COUNT + 1) as u64;
-    wait_until("every message written", || recorder.stats().written == total);
+    wait_until("every message written", || {
+        recorder.stats().written == total
+    });
     let stats = recorder.stats();
     assert_eq!((stats.dropped, stats.missed), (0, 0), "{stats:?}");
     let written = recorder.stop().unwrap();
@@ -197,10 +202,22 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
     assert_eq!(
         counts,
         BTreeMap::from([
-            ("/battery", (COUNT as u64, Battery::TYPE_NAME, Battery::type_hash())),
-            ("/chatter", (COUNT as u64, RosString::TYPE_NAME, RosString::type_hash())),
-            ("/image", (COUNT as u64, Image::TYPE_NAME, Image::type_hash())),
-            ("/latched", (1, RosString::TYPE_NAME, RosString::type_hash())),
+            (
+                "/battery",
+                (COUNT as u64, Battery::TYPE_NAME, Battery::type_hash())
+            ),
+            (
+                "/chatter",
+                (COUNT as u64, RosString::TYPE_NAME, RosString::type_hash())
+            ),
+            (
+                "/image",
+                (COUNT as u64, Image::TYPE_NAME, Image::type_hash())
+            ),
+            (
+                "/latched",
+                (1, RosString::TYPE_NAME, RosString::type_hash())
+            ),
         ])
     );
 
@@ -226,7 +243,10 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
             assert_eq!(definition, "float32 voltage\nuint16[] cells\nstring label");
         }
         if channel.topic == "/image" {
-            assert!(definition.contains("\nMSG: std_msgs/msg/Header\n"), "{definition}");
+            assert!(
+                definition.contains("\nMSG: std_msgs/msg/Header\n"),
+                "{definition}"
+            );
         }
         assert!(message.log_time >= last_log_time);
         assert!(message.publish_time <= message.log_time);
@@ -236,13 +256,19 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
             .push(message.data.into_owned());
     }
     for (topic, messages) in &expected {
-        assert!(seen[*topic] == *messages, "{topic}: the recorded bytes differ");
+        assert!(
+            seen[*topic] == *messages,
+            "{topic}: the recorded bytes differ"
+        );
     }
     let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
     assert_eq!(summary.stats.unwrap().message_count, total);
 
     // Played back: the same bytes, in order, the images through shared memory.
-    let listener = RosNode::builder(&a, "listener").domain_id(0).wait().unwrap();
+    let listener = RosNode::builder(&a, "listener")
+        .domain_id(0)
+        .wait()
+        .unwrap();
     let played_images = listener
         .declare_subscriber_with_qos::<Image>("/image", image_qos())
         .history(shm_runtime::History::KeepAll)
@@ -286,7 +312,7 @@ fn an_existing_output_directory_is_refused_with_what_to_do() {
     };
     let err = Recorder::start(&b, RecordOptions::new(&dir, selection)).unwrap_err();
     assert!(err.to_string().contains("exists already"), "{err}");
-    let err = Recorder::start(&b, RecordOptions::new(dir.join("x"), Selection::default()))
-        .unwrap_err();
+    let err =
+        Recorder::start(&b, RecordOptions::new(dir.join("x"), Selection::default())).unwrap_err();
     assert!(err.to_string().contains("nothing to record"), "{err}");
 }

@@ -7,7 +7,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use clap::{Args, Subcommand, ValueEnum};
-use shm_bag::{Bag, BagMetadata, Compression, PlayOptions, Player, RecordOptions, Recorder, Selection};
+use shm_bag::{
+    Bag, BagMetadata, Compression, PlayOptions, Player, RecordOptions, Recorder, Selection,
+};
 
 use crate::context::Context;
 use crate::Error;
@@ -175,7 +177,9 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
     let stop = interrupted()?;
     let recorder = Recorder::start(&context.session, options)?;
     let started = Instant::now();
-    let deadline = args.duration.map(|s| started + Duration::from_secs_f64(s.max(0.0)));
+    let deadline = args
+        .duration
+        .map(|s| started + Duration::from_secs_f64(s.max(0.0)));
     let progress = (!args.no_progress).then(|| {
         let bar = indicatif::ProgressBar::new_spinner();
         bar.set_style(
@@ -289,7 +293,10 @@ fn format_info(metadata: &BagMetadata, bag_size: u64) -> String {
         &metadata.ros_distro
     };
     out.push_str(&format!("Bag size:          {}\n", size(bag_size)));
-    out.push_str(&format!("Storage id:        {}\n", metadata.storage_identifier));
+    out.push_str(&format!(
+        "Storage id:        {}\n",
+        metadata.storage_identifier
+    ));
     out.push_str(&format!("ROS Distro:        {distro}\n"));
     out.push_str(&format!(
         "Duration:          {}s\n",
@@ -330,13 +337,13 @@ fn seconds(ns: u64) -> String {
 fn time_point(ns: u64) -> String {
     let secs = i64::try_from(ns / 1_000_000_000).unwrap_or(i64::MAX);
     let local = chrono::DateTime::from_timestamp(secs, 0)
-        .map(|t| t.with_timezone(&chrono::Local).format("%b %e %Y %H:%M:%S").to_string())
+        .map(|t| {
+            t.with_timezone(&chrono::Local)
+                .format("%b %e %Y %H:%M:%S")
+                .to_string()
+        })
         .unwrap_or_default();
-    format!(
-        "{local}.{:09} ({})",
-        ns % 1_000_000_000,
-        seconds(ns)
-    )
+    format!("{local}.{:09} ({})", ns % 1_000_000_000, seconds(ns))
 }
 
 /// rosbag2's sizes: `B` with no decimals, else one decimal of KiB, MiB, …

@@ -85,9 +85,10 @@ class Peer:
         gid = gid_of(token)
         seq = [0]
 
-        def publish(message):
+        def publish(message, data=None):
+            """Publish `message`, or bytes already serialized (`data`)."""
             seq[0] += 1
-            publisher.put(serialize_message(message), attachment=attachment(seq[0], gid))
+            publisher.put(serialize_message(message) if data is None else data, attachment=attachment(seq[0], gid))
         return publish
 
     def subscriber(self, topic, type_name, on_message):

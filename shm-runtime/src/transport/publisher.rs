@@ -22,7 +22,9 @@ use crate::ros::rmw::{Attachment, Durability, Gid, History, Qos, Reliability};
 use crate::ros::type_description::TypeUse;
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
-use crate::transport::payload::{encode_payload, serialized_payload, EncodedPayload, PayloadKind, ShmPolicy};
+use crate::transport::payload::{
+    encode_payload, serialized_payload, EncodedPayload, PayloadKind, ShmPolicy,
+};
 use crate::transport::pool::ShmContext;
 use crate::transport::queue::TopicType;
 use crate::transport::reach::{Receiver, Receivers, PROBE_TIMEOUT};
