@@ -104,6 +104,7 @@ pub mod docs {
         Interfaces = "../../docs/src/interfaces.md",
         Dynamic = "../../docs/src/dynamic.md",
         Cli = "../../docs/src/cli.md",
+        Recording = "../../docs/src/recording.md",
         SharedMemory = "../../docs/src/shared-memory.md",
         Nodes = "../../docs/src/nodes.md",
         ZenohConfig = "../../docs/src/zenoh-config.md",

@@ -149,7 +149,9 @@ fn record(dir: &Path, seconds: f64, sync: bool) -> Run {
     for child in children {
         let out = child.wait_with_output().expect("a publisher's count");
         let text = String::from_utf8_lossy(&out.stdout);
-        let mut numbers = text.split_whitespace().map(|n| n.parse::<u64>().unwrap_or(0));
+        let mut numbers = text
+            .split_whitespace()
+            .map(|n| n.parse::<u64>().unwrap_or(0));
         published += numbers.next().unwrap_or(0);
         published_shm += numbers.next().unwrap_or(0);
     }
@@ -226,7 +228,8 @@ fn main() {
         for _ in 0..ROUNDS {
             let run = record(&dir, seconds, sync);
             let blocks = run.written.max(1);
-            dd_rates.push((blocks * IMAGE_BYTES as u64) as f64 / dd_seconds(&dir, blocks, sync) / 1e6);
+            dd_rates
+                .push((blocks * IMAGE_BYTES as u64) as f64 / dd_seconds(&dir, blocks, sync) / 1e6);
             rates.push(run.bytes as f64 / run.seconds / 1e6);
             totals.0 += run.published;
             totals.1 += run.published_shm;

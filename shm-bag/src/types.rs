@@ -85,7 +85,7 @@ pub struct ResolvedType {
     /// The run-time type (its name and RIHS01 hash are the announced ones).
     pub ty: DynamicType,
     /// The `.msg` text of the type and, after rosbag2's delimiters, of every
-    /// type it uses (see [`definition`](crate::definition)).
+    /// type it uses (see [`definition`]).
     pub definition: String,
 }
 

@@ -26,6 +26,15 @@ struct Battery {
 }
 
 const TIMEOUT: Duration = Duration::from_secs(20);
+
+/// Whether this process may lock all the shared memory it maps (root,
+/// `CAP_IPC_LOCK`, no limit): only then are the pools below sure to be made
+/// and mapped. Under a memory-lock limit messages go from the heap instead,
+/// and everything else holds the same.
+fn unlimited() -> bool {
+    let budget = shm_runtime::MemlockBudget::read();
+    budget.exempt || budget.limit.is_none()
+}
 const COUNT: usize = 20;
 
 fn free_port() -> u16 {
@@ -89,7 +98,7 @@ fn image(i: usize) -> Image {
 #[test]
 fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
     let (a, b) = sessions();
-    let pool = ShmContext::new(ShmConfig::enabled().pool_size(16 << 20)).unwrap();
+    let pool = ShmContext::new(ShmConfig::enabled().pool_size_at_most(16 << 20)).unwrap();
     let camera = RosNode::builder(&a, "camera")
         .domain_id(0)
         .shm(&pool)
@@ -154,7 +163,7 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
             .push(shm_cdr::to_vec(&text).unwrap());
         let img = image(i);
         let outcome = images.publish(&img).wait().unwrap();
-        assert!(outcome.kind.is_shm(), "{outcome:?}");
+        assert!(outcome.kind.is_shm() || !unlimited(), "{outcome:?}");
         expected
             .entry("/image")
             .or_default()
@@ -289,14 +298,19 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
     let player = Player::new(&b, Bag::open(&dir.join("bag")).unwrap(), options).unwrap();
     let played = player.play(&AtomicBool::new(false)).unwrap();
     assert_eq!(played.published, 2 * COUNT as u64);
-    assert_eq!(played.shm, COUNT as u64, "every image from shared memory");
+    if unlimited() {
+        assert_eq!(played.shm, COUNT as u64, "every image from shared memory");
+    }
     for (i, want) in expected["/battery"].iter().enumerate() {
         let sample = played_batteries.recv_timeout(TIMEOUT).unwrap().unwrap();
         assert_eq!(&sample.payload().to_bytes()[..], &want[..], "battery {i}");
     }
     for (i, want) in expected["/image"].iter().enumerate() {
         let sample = played_images.recv_timeout(TIMEOUT).unwrap().unwrap();
-        assert!(sample.is_shm(), "image {i} through shared memory");
+        assert!(
+            sample.is_shm() || !unlimited(),
+            "image {i} through shared memory"
+        );
         assert!(sample.payload().to_bytes()[..] == want[..], "image {i}");
     }
     let _ = std::fs::remove_dir_all(&dir);

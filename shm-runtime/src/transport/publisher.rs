@@ -549,7 +549,7 @@ impl RosPublisher<DynamicType> {
 
 impl<T> RosPublisher<T> {
     /// Publish a message already serialized, its CDR encapsulation header
-    /// first (what a subscriber's [`Sample::payload`](crate::Sample::payload)
+    /// first (what a subscriber's [`RosSample::payload`](crate::RosSample::payload)
     /// holds, or a recording keeps): copied once, into an exact-size
     /// shared-memory buffer at or above the threshold, else the heap. The
     /// bytes are not checked against the publisher's type beyond the header,
