@@ -3,9 +3,9 @@
 use std::io::Write;
 
 use clap::Subcommand;
-use shm_cdr::dynamic::python_float;
+use shm_cdr::dynamic::{python_float, YamlValue};
 use shm_codegen::python::string_repr;
-use shm_runtime::parameters::{ParameterClient, ParameterValue};
+use shm_runtime::parameters::{ParameterClient, ParameterOverrides, ParameterValue};
 
 use crate::context::Context;
 use crate::Error;
@@ -42,6 +42,21 @@ pub(crate) enum ParamCommand {
         /// Value of the parameter, read as YAML (`true`, `3`, `1.5`, `[1, 2]`;
         /// anything else is a string).
         value: String,
+    },
+    /// Show all of the parameters of a node in a YAML file format.
+    Dump {
+        /// Name of the ROS node.
+        node_name: String,
+    },
+    /// Load parameter file for a node.
+    Load {
+        /// Name of the ROS node.
+        node_name: String,
+        /// Parameter file.
+        parameter_file: std::path::PathBuf,
+        /// Do not load parameters in the '/**' namespace into the node.
+        #[arg(long)]
+        no_use_wildcard: bool,
     },
 }
 
@@ -140,7 +155,138 @@ pub(crate) fn run(context: &Context, command: ParamCommand) -> Result<(), Error>
                 Err(format!("Setting parameter failed{reason}").into())
             }
         }
+        ParamCommand::Dump { node_name } => dump(context, &node_name),
+        ParamCommand::Load {
+            node_name,
+            parameter_file,
+            no_use_wildcard,
+        } => load(context, &node_name, &parameter_file, no_use_wildcard),
     }
+}
+
+/// `ros2 param dump`: every parameter, nested at its dots, under
+/// `<node>: ros__parameters:`, as PyYAML's `yaml.dump` writes it (keys
+/// sorted), then the empty line `print` adds.
+fn dump(context: &Context, node_name: &str) -> Result<(), Error> {
+    let node = absolute(node_name);
+    let client = client(context, &node)?;
+    let mut names = client.list(&[], 0)?.names;
+    names.sort();
+    let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+    let values = client.get(&refs)?;
+    let mut parameters = Vec::new();
+    for (name, value) in names.iter().zip(&values) {
+        if let Some(value) = yaml_of(value) {
+            insert(&mut parameters, name, value);
+        }
+    }
+    sort(&mut parameters);
+    let doc = YamlValue::Map(vec![(
+        node,
+        YamlValue::Map(vec![(
+            "ros__parameters".to_owned(),
+            YamlValue::Map(parameters),
+        )]),
+    )]);
+    println!("{}", doc.to_yaml());
+    Ok(())
+}
+
+/// Put `value` at `name`, a part per `.` (`a.b` → `a: {b: …}`), as ros2param
+/// nests them.
+fn insert(map: &mut Vec<(String, YamlValue)>, name: &str, value: YamlValue) {
+    match name.split_once('.') {
+        Some((head, rest)) => {
+            let at = match map.iter().position(|(k, _)| k == head) {
+                Some(at) => at,
+                None => {
+                    map.push((head.to_owned(), YamlValue::Map(Vec::new())));
+                    map.len() - 1
+                }
+            };
+            if let YamlValue::Map(inner) = &mut map[at].1 {
+                insert(inner, rest, value);
+            }
+        }
+        None => map.push((name.to_owned(), value)),
+    }
+}
+
+/// Sort every mapping by key, as `yaml.dump` does.
+fn sort(map: &mut [(String, YamlValue)]) {
+    map.sort_by(|a, b| a.0.cmp(&b.0));
+    for (_, value) in map {
+        if let YamlValue::Map(inner) = value {
+            sort(inner);
+        }
+    }
+}
+
+/// A parameter's value as YAML data; `None` for one not set.
+fn yaml_of(value: &ParameterValue) -> Option<YamlValue> {
+    Some(match value {
+        ParameterValue::Bool(b) => YamlValue::Bool(*b),
+        ParameterValue::Integer(i) => YamlValue::Int(*i),
+        ParameterValue::Double(x) => YamlValue::Float(*x),
+        ParameterValue::String(s) => YamlValue::Str(s.clone()),
+        ParameterValue::ByteArray(v) => {
+            YamlValue::Seq(v.iter().map(|b| YamlValue::Int(i64::from(*b))).collect())
+        }
+        ParameterValue::BoolArray(v) => {
+            YamlValue::Seq(v.iter().map(|b| YamlValue::Bool(*b)).collect())
+        }
+        ParameterValue::IntegerArray(v) => {
+            YamlValue::Seq(v.iter().map(|i| YamlValue::Int(*i)).collect())
+        }
+        ParameterValue::DoubleArray(v) => {
+            YamlValue::Seq(v.iter().map(|x| YamlValue::Float(*x)).collect())
+        }
+        ParameterValue::StringArray(v) => {
+            YamlValue::Seq(v.iter().map(|s| YamlValue::Str(s.clone())).collect())
+        }
+        _ => return None,
+    })
+}
+
+/// `ros2 param load`: the file's parameters for this node (its own entry,
+/// and `/**` unless `--no-use-wildcard`), set in one call; a line per
+/// parameter as ros2param prints it.
+fn load(
+    context: &Context,
+    node_name: &str,
+    file: &std::path::Path,
+    no_use_wildcard: bool,
+) -> Result<(), Error> {
+    let node = absolute(node_name);
+    let client = client(context, &node)?;
+    let mut overrides = ParameterOverrides::default();
+    overrides.add_file(file)?;
+    if no_use_wildcard {
+        overrides = overrides.without_wildcard();
+    }
+    let parameters = overrides.for_node(&node);
+    if parameters.is_empty() {
+        return Err(format!("{} has no parameters for {node}", file.display()).into());
+    }
+    let results = client.set(&parameters)?;
+    let mut failed = false;
+    for ((name, _), result) in parameters.iter().zip(&results) {
+        let reason = if result.reason.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", result.reason)
+        };
+        if result.successful {
+            println!("Set parameter {name} successful{reason}");
+        } else {
+            eprintln!("Set parameter {name} failed{reason}");
+            failed = true;
+        }
+    }
+    if failed {
+        return Err("some parameters were not set".into());
+    }
+    Ok(())
 }
 
 fn absolute(node: &str) -> String {

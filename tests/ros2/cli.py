@@ -248,6 +248,32 @@ def check_params(endpoint, node):
           "answered by rclpy's parameter handlers")
 
 
+def check_dump_load(endpoint, node):
+    import tempfile
+    import yaml
+    names = sorted(node._parameters)
+    expected = yaml.dump({"/demo/py_node": {"ros__parameters": {n: node.get_parameter(n).value for n in names}}},
+                         default_flow_style=False) + "\n"
+    proc = cli(endpoint, "param", "dump", "/demo/py_node")
+    check(proc.stdout == expected, f"param dump: {proc.stdout!r} expected {expected!r} {proc.stderr[-300:]!r}")
+    with tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False) as f:
+        yaml.dump({"/**": {"ros__parameters": {"mode": "wild"}},
+                   "/demo/py_node": {"ros__parameters": {"gain": 4.5, "names": ["x", "y: z"]}}}, f)
+    proc = cli(endpoint, "param", "load", "/demo/py_node", f.name)
+    lines = set(proc.stdout.splitlines())
+    check(proc.returncode == 0 and lines == {"Set parameter gain successful", "Set parameter names successful",
+                                             "Set parameter mode successful"}
+          and node.get_parameter("gain").value == 4.5 and node.get_parameter("names").value == ["x", "y: z"]
+          and node.get_parameter("mode").value == "wild",
+          f"param load: {proc.stdout!r} {proc.stderr[-300:]!r}")
+    proc = cli(endpoint, "param", "load", "/demo/py_node", f.name, "--no-use-wildcard")
+    check(set(proc.stdout.splitlines()) == {"Set parameter gain successful", "Set parameter names successful"},
+          f"param load --no-use-wildcard: {proc.stdout!r}")
+    os.unlink(f.name)
+    print("param: dump equal to ros2param's (yaml.dump of rclpy's values), load (with and without /**) reaching "
+          "rclpy's node")
+
+
 def main():
     rclpy.init()
     node = rclpy.create_node("py_node", namespace="/demo")
@@ -273,6 +299,7 @@ def main():
     check_graph(endpoint)
     check_pub(endpoint, received)
     check_params(endpoint, node)
+    check_dump_load(endpoint, node)
     for f in failures:
         print("  FAIL", f)
     return 1 if failures else 0

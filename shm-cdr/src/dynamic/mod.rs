@@ -39,4 +39,4 @@ pub use model::{DynamicType, Element, FieldDef, StructDef, TypeError};
 pub use value::{Message, Value, ValueError};
 #[cfg(feature = "yaml")]
 pub use yaml_in::TextError;
-pub use yaml_out::{python_float, YamlOptions};
+pub use yaml_out::{python_float, YamlOptions, YamlValue};

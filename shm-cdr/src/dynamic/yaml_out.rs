@@ -121,6 +121,65 @@ impl Message<'_> {
     }
 }
 
+/// Plain data to write as YAML the way PyYAML's `yaml.dump(data,
+/// default_flow_style=False)` writes it: what ROS 2's tools print for data
+/// that is not a message (`ros2 param dump`, say). Mappings keep the order
+/// given (`yaml.dump` sorts them: sort first to match it).
+///
+/// ```
+/// use shm_cdr::dynamic::YamlValue;
+///
+/// let doc = YamlValue::Map(vec![(
+///     "/talker".into(),
+///     YamlValue::Map(vec![
+///         ("gain".into(), YamlValue::Float(0.5)),
+///         ("names".into(), YamlValue::Seq(vec![YamlValue::Str("yes".into())])),
+///     ]),
+/// )]);
+/// assert_eq!(doc.to_yaml(), "/talker:\n  gain: 0.5\n  names:\n  - 'yes'\n");
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub enum YamlValue {
+    /// `true`, `false`.
+    Bool(bool),
+    /// An integer.
+    Int(i64),
+    /// A float, in Python's `repr` (`.inf`, `.nan` as YAML writes them).
+    Float(f64),
+    /// A string, quoted where YAML would read it as something else.
+    Str(String),
+    /// A sequence, block style (flow style when empty).
+    Seq(Vec<YamlValue>),
+    /// A mapping, block style (flow style when empty).
+    Map(Vec<(String, YamlValue)>),
+}
+
+impl YamlValue {
+    /// The YAML text, ending with a line break.
+    pub fn to_yaml(&self) -> String {
+        let tree = self.node();
+        let mut emitter = Emitter::new(false);
+        emitter.document(&tree);
+        emitter.out
+    }
+
+    fn node(&self) -> Node<'_> {
+        match self {
+            Self::Bool(b) => bool_node(*b),
+            Self::Int(i) => Node::Plain(i.to_string()),
+            Self::Float(x) => float_node(*x),
+            Self::Str(s) => Node::Str(Cow::Borrowed(s)),
+            Self::Seq(items) => Node::Seq(items.iter().map(Self::node).collect()),
+            Self::Map(entries) => Node::Map(
+                entries
+                    .iter()
+                    .map(|(k, v)| (k.as_str(), v.node()))
+                    .collect(),
+            ),
+        }
+    }
+}
+
 /// What rosidl_runtime_py turns a message into before PyYAML writes it.
 #[derive(Debug)]
 enum Node<'m> {

@@ -184,6 +184,14 @@ impl ParameterOverrides {
         out
     }
 
+    /// These values without those of `/**` entries (`ros2 param load
+    /// --no-use-wildcard`).
+    pub fn without_wildcard(mut self) -> Self {
+        self.entries
+            .retain(|(pattern, _, _)| !pattern.as_ref().is_some_and(|p| p.0 == ["**"]));
+        self
+    }
+
     /// Whether there are none.
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
