@@ -10,7 +10,7 @@ use std::time::Duration;
 use shm_cdr::describe::FullDescription;
 use shm_cdr::dynamic::DynamicType;
 use shm_cdr::msgs::type_description_interfaces::srv::{
-    GetTypeDescription, GetTypeDescription_Request,
+    GetTypeDescription, GetTypeDescription_Request, GetTypeDescription_Response,
 };
 use shm_cdr::{RosAction, RosMessage, RosService};
 use shm_runtime::graph::Graph;
@@ -166,6 +166,22 @@ pub fn ask_node(
     name: &str,
     hash: &str,
 ) -> Result<ResolvedType, Error> {
+    let (ty, reply) = ask(node, timeout, node_fqn, name, hash)?;
+    Ok(ResolvedType {
+        definition: definition::of_reply(&reply.type_description, &reply.type_sources),
+        ty,
+    })
+}
+
+/// `node_fqn`'s description of `name`, checked against `hash`: the type
+/// built from it, and the reply (for its sources).
+fn ask(
+    node: &RosNode,
+    timeout: Duration,
+    node_fqn: &str,
+    name: &str,
+    hash: &str,
+) -> Result<(DynamicType, GetTypeDescription_Response), Error> {
     let service = format!("{}/get_type_description", node_fqn.trim_end_matches('/'));
     let client = node.declare_client::<GetTypeDescription>(&service).wait()?;
     if !client.wait_for_service(timeout) {
@@ -198,8 +214,69 @@ pub fn ask_node(
         )
         .into());
     }
-    Ok(ResolvedType {
-        definition: definition::of_reply(&reply.type_description, &reply.type_sources),
-        ty,
+    Ok((ty, reply))
+}
+
+/// A service type resolved: its name and hash as announced, and its request
+/// and response as run-time types.
+#[derive(Debug, Clone)]
+pub struct ResolvedService {
+    /// `pkg/srv/Name`.
+    pub name: String,
+    /// Its RIHS01 hash.
+    pub hash: String,
+    /// `pkg/srv/Name_Request`.
+    pub request: DynamicType,
+    /// `pkg/srv/Name_Response`.
+    pub response: DynamicType,
+}
+
+/// The type of `service` as its servers announce it (checked against
+/// `expected`, a name as users write it, when given): the standard type if
+/// its hash is the one announced, else the description the server's node
+/// gives.
+pub fn of_service(
+    node: &RosNode,
+    timeout: Duration,
+    graph: &Graph,
+    service: &str,
+    expected: Option<&str>,
+) -> Result<ResolvedService, Error> {
+    let servers = graph.servers(service);
+    let announced: std::collections::BTreeSet<(String, String)> = servers
+        .iter()
+        .filter_map(|e| e.endpoint.as_ref())
+        .map(|e| (e.type_name.clone(), e.type_hash.clone()))
+        .collect();
+    let (Some(first), Some((name, hash))) = (servers.first(), announced.first()) else {
+        return Err(format!("service {service} has no server").into());
+    };
+    if announced.len() > 1 {
+        return Err(format!("service {service} is served with more than one type").into());
+    }
+    if let Some(expected) = expected {
+        let expected = match expected.split('/').collect::<Vec<_>>()[..] {
+            [pkg, ty] => format!("{pkg}/srv/{ty}"),
+            _ => expected.to_owned(),
+        };
+        if &expected != name {
+            return Err(format!("service {service} is of type {name}, not {expected}").into());
+        }
+    }
+    let ty = match standard().get(name.as_str()) {
+        Some(known) if known.kind == Kind::Service && known.hash == hash => {
+            DynamicType::from_description(&(known.describe)())?
+        }
+        _ => ask(node, timeout, &first.node_fqn(), name, hash)?.0,
+    };
+    let part = |suffix: &str| {
+        ty.member(&format!("{name}{suffix}"))
+            .ok_or_else(|| format!("the description of {name} has no {name}{suffix}"))
+    };
+    Ok(ResolvedService {
+        request: part("_Request")?,
+        response: part("_Response")?,
+        name: name.clone(),
+        hash: hash.clone(),
     })
 }

@@ -10,6 +10,7 @@ mod context;
 mod interface;
 mod node;
 mod param;
+mod python;
 mod service;
 mod topic;
 mod types;

@@ -8,6 +8,7 @@ use shm_codegen::python::string_repr;
 use shm_runtime::parameters::{ParameterClient, ParameterOverrides, ParameterValue};
 
 use crate::context::Context;
+use crate::python::bytes_repr;
 use crate::Error;
 
 #[derive(Debug, Subcommand)]
@@ -341,7 +342,7 @@ fn describe(value: &ParameterValue) -> (&'static str, Option<String>) {
         ParameterValue::String(s) => ("String value is:", Some(s.clone())),
         ParameterValue::ByteArray(v) => (
             "Byte values are:",
-            Some(list(v.iter().map(|b| python_bytes(*b)).collect())),
+            Some(list(v.iter().map(|b| bytes_repr(*b)).collect())),
         ),
         ParameterValue::BoolArray(v) => (
             "Boolean values are:",
@@ -360,18 +361,5 @@ fn describe(value: &ParameterValue) -> (&'static str, Option<String>) {
             Some(list(v.iter().map(|s| string_repr(s)).collect())),
         ),
         _ => ("Parameter not set.", None),
-    }
-}
-
-/// Python's `repr` of a one-byte `bytes`.
-fn python_bytes(b: u8) -> String {
-    match b {
-        b'\\' => "b'\\\\'".into(),
-        b'\'' => "b\"'\"".into(),
-        b'\t' => "b'\\t'".into(),
-        b'\n' => "b'\\n'".into(),
-        b'\r' => "b'\\r'".into(),
-        0x20..=0x7e => format!("b'{}'", char::from(b)),
-        _ => format!("b'\\x{b:02x}'"),
     }
 }

@@ -4,8 +4,10 @@ use std::io::Write;
 
 use clap::Subcommand;
 
+use zenoh::Wait;
+
 use crate::context::{is_hidden, Context};
-use crate::Error;
+use crate::{python, Error};
 
 #[derive(Debug, Subcommand)]
 pub(crate) enum ServiceCommand {
@@ -26,9 +28,32 @@ pub(crate) enum ServiceCommand {
         /// Name of the ROS service to get type (e.g. '/add_two_ints').
         service_name: String,
     },
+    /// Call a service.
+    Call {
+        /// Name of the ROS service to call to (e.g. '/add_two_ints').
+        service_name: String,
+        /// Type of the ROS service (e.g. 'std_srvs/srv/Empty').
+        service_type: String,
+        /// Values to fill the service request with in YAML format (e.g. '{a: 1, b: 2}'),
+        /// otherwise the service request will be published with default values.
+        #[arg(default_value = "{}")]
+        values: String,
+        /// Repeat the call at a specific rate in Hz.
+        #[arg(short = 'r', long)]
+        rate: Option<f64>,
+    },
 }
 
 pub(crate) fn run(context: &Context, command: ServiceCommand) -> Result<(), Error> {
+    if let ServiceCommand::Call {
+        service_name,
+        service_type,
+        values,
+        rate,
+    } = command
+    {
+        return call(context, &service_name, &service_type, &values, rate);
+    }
     let graph = context.graph();
     let mut out = std::io::stdout().lock();
     match command {
@@ -63,6 +88,88 @@ pub(crate) fn run(context: &Context, command: ServiceCommand) -> Result<(), Erro
                 writeln!(out, "{ty}")?;
             }
         }
+        ServiceCommand::Call { .. } => unreachable!("handled above"),
     }
     Ok(())
+}
+
+/// `ros2 service call`: the request filled from YAML, sent, and request and
+/// response printed as rclpy prints them (Python's `repr`).
+fn call(
+    context: &Context,
+    service: &str,
+    service_type: &str,
+    values: &str,
+    rate: Option<f64>,
+) -> Result<(), Error> {
+    if rate.is_some_and(|r| !(r > 0.0 && r.is_finite())) {
+        return Err("rate must be greater than zero".into());
+    }
+    let service = if service.starts_with('/') {
+        service.to_owned()
+    } else {
+        format!("/{service}")
+    };
+    let mut graph = context.graph();
+    if graph.servers(&service).is_empty() {
+        println!("waiting for service to become available...");
+        graph = context
+            .wait_for(|g| !g.servers(&service).is_empty())
+            .ok_or_else(|| {
+                format!(
+                    "service {service} has no server (waited {:?})",
+                    context.timeout
+                )
+            })?;
+    }
+    let node = context.node()?;
+    let resolved =
+        shm_bag::types::of_service(node, context.timeout, &graph, &service, Some(service_type))?;
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default();
+    let request = resolved
+        .request
+        .message_from_yaml_at(
+            values,
+            (
+                i32::try_from(now.as_secs()).unwrap_or(i32::MAX),
+                now.subsec_nanos(),
+            ),
+        )
+        .map_err(|e| format!("Failed to populate field: {e}"))?;
+    let cdr = shm_cdr::to_vec(&request)?;
+    let client = node
+        .declare_serialized_client(&service, &resolved.name, &resolved.hash)
+        // As ros2cli: wait for the answer as long as the server is there.
+        .timeout(std::time::Duration::MAX)
+        .wait()?;
+    if !client.wait_for_service(context.timeout) {
+        return Err(format!(
+            "service {service} does not answer (waited {:?})",
+            context.timeout
+        )
+        .into());
+    }
+    let period = rate.map(|r| std::time::Duration::from_secs_f64(1.0 / r));
+    loop {
+        let started = std::time::Instant::now();
+        println!(
+            "requester: making request: {}\n",
+            python::message_repr(&request, &resolved.request)
+        );
+        let reply = client.call_serialized(&cdr)?;
+        let bytes = reply.payload().to_bytes();
+        let response = resolved.response.decode(&bytes)?;
+        println!(
+            "response:\n{}\n",
+            python::message_repr(&response, &resolved.response)
+        );
+        let Some(period) = period else {
+            return Ok(());
+        };
+        if let Some(left) = period.checked_sub(started.elapsed()) {
+            std::thread::sleep(left);
+        }
+    }
 }

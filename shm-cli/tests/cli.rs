@@ -441,6 +441,64 @@ fn params_are_listed_read_and_set_as_ros2_param_does() {
 }
 
 #[test]
+fn param_dump_and_service_call_print_as_ros2cli_does() {
+    use shm_cdr::msgs::std_srvs::srv::{SetBool, SetBool_Response};
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "arm")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    node.declare_parameter("limits.speed", 0.5).unwrap();
+    node.declare_parameter("limits.names", vec!["yes".to_owned()])
+        .unwrap();
+    node.declare_parameter("mode", "auto".to_owned()).unwrap();
+    assert_eq!(
+        stdout(&run(port, &["param", "dump", "/arm"])),
+        "/arm:\n  ros__parameters:\n    limits:\n      names:\n      - 'yes'\n      speed: 0.5\n    mode: auto\n    \
+         start_type_description_service: true\n    use_sim_time: false\n\n"
+    );
+
+    let _server = node
+        .declare_service::<SetBool>("/arm/enable")
+        .handler(|request| SetBool_Response {
+            success: request.data,
+            message: format!("it's {}", request.data),
+        })
+        .wait()
+        .unwrap();
+    assert_eq!(
+        stdout(&run(
+            port,
+            &[
+                "service",
+                "call",
+                "/arm/enable",
+                "std_srvs/srv/SetBool",
+                "{data: true}"
+            ]
+        )),
+        "requester: making request: std_srvs.srv.SetBool_Request(data=True)\n\n\
+         response:\nstd_srvs.srv.SetBool_Response(success=True, message=\"it's true\")\n\n"
+    );
+    let refused = run(
+        port,
+        &[
+            "service",
+            "call",
+            "/arm/enable",
+            "std_srvs/srv/SetBool",
+            "{speed: 3}",
+        ],
+    );
+    assert!(!refused.status.success());
+    assert!(
+        String::from_utf8_lossy(&refused.stderr).starts_with("Failed to populate field"),
+        "{}",
+        String::from_utf8_lossy(&refused.stderr)
+    );
+}
+
+#[test]
 fn interface_show_expands_nested_types_as_ros2_interface_does() {
     let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
         .args(["interface", "show", "geometry_msgs/msg/PoseStamped"])

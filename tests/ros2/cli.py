@@ -274,6 +274,51 @@ def check_dump_load(endpoint, node):
           "rclpy's node")
 
 
+def check_service_call(endpoint, peer):
+    from std_srvs.srv import Trigger
+    from test_msgs.srv import BasicTypes
+
+    def basic(request, response):
+        # Every field echoed back, changed where it can be.
+        for name in BasicTypes.Request.get_fields_and_field_types():
+            setattr(response, name, getattr(request, name))
+        response.string_value = request.string_value + " (it's back)"
+        response.int64_value = request.int64_value * 2
+        return response
+
+    def trigger(request, response):
+        response.success, response.message = True, "done: yes"
+        return response
+    peer.serve("/demo/basic", BasicTypes, "test_msgs/srv/BasicTypes", basic)
+    peer.serve("/demo/trigger", Trigger, "std_srvs/srv/Trigger", trigger)
+    values = ("{bool_value: true, byte_value: 7, char_value: 65, float32_value: 1.5, float64_value: 0.1, "
+              "int8_value: -3, uint8_value: 200, int16_value: -300, uint16_value: 60000, int32_value: -7, "
+              "uint32_value: 4000000000, int64_value: -9000000000, uint64_value: 18000000000000000000, "
+              "string_value: 'naïve: yes'}")
+    request = BasicTypes.Request(bool_value=True, byte_value=b"\x07", char_value=65, float32_value=1.5,
+                                 float64_value=0.1, int8_value=-3, uint8_value=200, int16_value=-300,
+                                 uint16_value=60000, int32_value=-7, uint32_value=4000000000,
+                                 int64_value=-9000000000, uint64_value=18000000000000000000,
+                                 string_value="naïve: yes")
+    response = deserialize_message(serialize_message(basic(request, BasicTypes.Response())), BasicTypes.Response)
+    for service, type_name, args, expected in [
+        ("/demo/basic", "test_msgs/srv/BasicTypes", [values],
+         f"requester: making request: {request!r}\n\nresponse:\n{response!r}\n\n"),
+        ("/demo/trigger", "std_srvs/srv/Trigger", [],
+         f"requester: making request: {Trigger.Request()!r}\n\nresponse:\n"
+         f"{Trigger.Response(success=True, message='done: yes')!r}\n\n"),
+    ]:
+        proc = cli(endpoint, "service", "call", service, type_name, *args)
+        check(proc.returncode == 0 and proc.stdout == expected,
+              f"service call {service}: exit {proc.returncode} {proc.stderr[-300:]!r}\n"
+              f"    ours:     {proc.stdout!r}\n    expected: {expected!r}")
+    proc = cli(endpoint, "service", "call", "/demo/trigger", "std_srvs/srv/SetBool")
+    check(proc.returncode != 0 and "is of type std_srvs/srv/Trigger" in proc.stderr,
+          f"service call of the wrong type: {proc.returncode} {proc.stderr!r}")
+    print("service call: test_msgs/srv/BasicTypes (every scalar kind) and std_srvs/srv/Trigger answered by the "
+          "peer, request and response printed as rclpy's repr")
+
+
 def main():
     rclpy.init()
     node = rclpy.create_node("py_node", namespace="/demo")
@@ -300,6 +345,7 @@ def main():
     check_pub(endpoint, received)
     check_params(endpoint, node)
     check_dump_load(endpoint, node)
+    check_service_call(endpoint, peer)
     for f in failures:
         print("  FAIL", f)
     return 1 if failures else 0

@@ -436,6 +436,40 @@ impl DynamicType {
         describe::rihs01_of_json(&out)
     }
 
+    /// One of the types this type uses, as a type of its own: the request
+    /// (`pkg/srv/Name_Request`) or response of a service type, say, or any
+    /// nested message. `None` if this type does not use `name`.
+    ///
+    /// ```
+    /// use shm_cdr::dynamic::DynamicType;
+    /// use shm_cdr::RosMessage;
+    ///
+    /// #[derive(RosMessage)]
+    /// #[ros(type_name = "demo_msgs/msg/Cell")]
+    /// struct Cell { volts: f32 }
+    ///
+    /// #[derive(RosMessage)]
+    /// #[ros(type_name = "demo_msgs/msg/Battery")]
+    /// struct Battery { cells: Vec<Cell> }
+    ///
+    /// let battery = DynamicType::from_description(&Battery::full_description())?;
+    /// let cell = battery.member("demo_msgs/msg/Cell").unwrap();
+    /// assert_eq!(cell.type_hash(), Cell::type_hash());
+    /// # Ok::<(), shm_cdr::dynamic::TypeError>(())
+    /// ```
+    pub fn member(&self, name: &str) -> Option<Self> {
+        let structs = &self.inner.structs;
+        let at = structs.iter().position(|s| s.name == name)?;
+        let order = std::iter::once(at).chain((0..structs.len()).filter(|&i| i != at));
+        Self::build(order.map(|i| {
+            (
+                structs[i].name.as_str(),
+                structs[i].fields.iter().map(FieldDef::described).collect(),
+            )
+        }))
+        .ok()
+    }
+
     /// The `.msg` text of each message type this type uses, its own first,
     /// written back from the description (field lines only: a description
     /// carries no comments or constants), as `(pkg/msg/Name, text)`.

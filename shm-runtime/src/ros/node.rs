@@ -350,6 +350,43 @@ impl RosNode {
         builder
     }
 
+    /// A client of the service type `type_name` (`pkg/srv/Name`) with RIHS01
+    /// hash `type_hash`, for requests given already serialized: announced and
+    /// keyed exactly as a client of that type, for a program that calls
+    /// services whose type it learns at run time (a command line). Call it
+    /// with [`ServiceClient::call_serialized`](crate::service::ServiceClient::call_serialized).
+    pub fn declare_serialized_client(
+        &self,
+        service: &str,
+        type_name: &str,
+        type_hash: &str,
+    ) -> ServiceClientBuilder<'_, crate::Serialized> {
+        let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
+        let (service, invalid) = self.resolve(service, NameKind::Service);
+        let service_type = TopicType {
+            name: type_name.into(),
+            hash: type_hash.into(),
+        };
+        let token = self.info.topic_token_of(
+            entity_id,
+            EntityKind::ServiceClient,
+            &service,
+            &service_type,
+            &Qos::services_default(),
+        );
+        let key_expr = topic_key_expr_of(self.info.domain_id, &service, &service_type);
+        // The request's own type is not known here: requests carry plain CDR.
+        let mut builder = ServiceClientBuilder::with_request_encoding(
+            &self.session,
+            key_expr,
+            token,
+            zenoh::bytes::Encoding::APPLICATION_CDR,
+        );
+        builder.invalid = invalid;
+        builder.shm.inherited = self.shm.clone();
+        builder
+    }
+
     /// A server of action `A` on `action` (e.g. `"/fibonacci"`, resolved like a
     /// topic name): its three services and two topics under
     /// `<action>/_action/`, as rcl_action and rmw_zenoh_cpp name them. Resolve

@@ -59,6 +59,12 @@ pub enum CallError {
     /// The session's transport cannot fragment (Zenoh's lowlatency) and the
     /// request's inline part is larger than one frame: it was not sent.
     Unfragmentable(Unfragmentable),
+    /// Bytes given as a serialized request do not start with a CDR
+    /// encapsulation header.
+    NotCdr {
+        /// How many bytes were given.
+        len: usize,
+    },
 }
 
 impl fmt::Display for CallError {
@@ -75,6 +81,11 @@ impl fmt::Display for CallError {
             Self::Decode(e) => write!(f, "service call: the response is not valid: {e}"),
             Self::Attachment(e) => write!(f, "service call: reply {e}"),
             Self::Unfragmentable(e) => write!(f, "service call: {e}"),
+            Self::NotCdr { len } => write!(
+                f,
+                "service call: {len} bytes that do not start with a CDR encapsulation header \
+                 (00 00 or 00 01, then two option bytes)"
+            ),
         }
     }
 }
@@ -104,11 +115,32 @@ pub struct ServiceClientBuilder<'a, S> {
     pub(crate) timeout: Duration,
     /// A name that failed to resolve: reported by `build`.
     pub(crate) invalid: Option<crate::ros::names::NameError>,
+    /// The encoding requests carry.
+    pub(crate) request_encoding: Encoding,
     pub(crate) service: PhantomData<fn() -> S>,
 }
 
 impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
     pub(crate) fn new(session: &'a Session, key_expr: String, token: String) -> Self {
+        Self::with_request_encoding(
+            session,
+            key_expr,
+            token,
+            type_encoding(
+                <S::Request as RosMessage>::TYPE_NAME,
+                <S::Request as RosMessage>::type_hash(),
+            ),
+        )
+    }
+}
+
+impl<'a, S> ServiceClientBuilder<'a, S> {
+    pub(crate) fn with_request_encoding(
+        session: &'a Session,
+        key_expr: String,
+        token: String,
+        request_encoding: Encoding,
+    ) -> Self {
         Self {
             session,
             key_expr,
@@ -118,6 +150,7 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
             shm: ShmSettings::default(),
             timeout: DEFAULT_TIMEOUT,
             invalid: None,
+            request_encoding,
             service: PhantomData,
         }
     }
@@ -155,10 +188,7 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
         check_key_expr("key expression", &self.key_expr)?;
         check_key_expr("liveliness token", &self.token)?;
         let policy = self.shm.resolve(self.session, &self.key_expr);
-        let request_encoding = type_encoding(
-            <S::Request as RosMessage>::TYPE_NAME,
-            <S::Request as RosMessage>::type_hash(),
-        );
+        let request_encoding = self.request_encoding;
         let inline_limit = InlineLimit::of(
             self.session,
             &self.key_expr,
@@ -190,17 +220,17 @@ impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
     }
 }
 
-impl<S: RosService> Resolvable for ServiceClientBuilder<'_, S> {
+impl<S> Resolvable for ServiceClientBuilder<'_, S> {
     type To = zenoh::Result<ServiceClient<S>>;
 }
 
-impl<S: RosService> Wait for ServiceClientBuilder<'_, S> {
+impl<S> Wait for ServiceClientBuilder<'_, S> {
     fn wait(self) -> Self::To {
         self.build()
     }
 }
 
-impl<S: RosService> IntoFuture for ServiceClientBuilder<'_, S> {
+impl<S> IntoFuture for ServiceClientBuilder<'_, S> {
     type Output = zenoh::Result<ServiceClient<S>>;
     type IntoFuture = std::future::Ready<Self::Output>;
     fn into_future(self) -> Self::IntoFuture {
@@ -264,6 +294,41 @@ impl<S: RosService> ServiceClient<S> {
         }
     }
 
+    /// Encode `request` and number the call.
+    fn prepare(&self, request: &S::Request) -> Result<Prepared, CallError> {
+        let encoded = encode_payload(request, self.policy.as_ref()).map_err(CallError::Encode)?;
+        self.number(encoded)
+    }
+}
+
+impl ServiceClient<crate::Serialized> {
+    /// Call the service with a request already serialized (its CDR
+    /// encapsulation header first), waiting up to the client's timeout; the
+    /// reply's bytes are [`ServiceReply::payload`]. The request is copied
+    /// once, into an exact-size shared-memory buffer at or above the
+    /// threshold, else the heap.
+    pub fn call_serialized(
+        &self,
+        cdr: &[u8],
+    ) -> Result<ServiceReply<crate::Serialized>, CallError> {
+        let encoded = crate::transport::payload::serialized_payload(cdr, self.policy.as_ref())
+            .map_err(|_| CallError::NotCdr { len: cdr.len() })?;
+        let prepared = self.number(encoded)?;
+        let sequence_number = prepared.sequence_number;
+        let replies: FifoChannelHandler<Reply> = self
+            .get(prepared, self.timeout)
+            .wait()
+            .map_err(CallError::Zenoh)?;
+        while let Ok(reply) = replies.recv() {
+            if let Some(answer) = self.answer(reply, sequence_number, self.timeout) {
+                return answer;
+            }
+        }
+        Err(CallError::NoReply)
+    }
+}
+
+impl<S> ServiceClient<S> {
     /// Whether a server is there now.
     pub fn is_service_available(&self) -> bool {
         self.querier
@@ -314,9 +379,11 @@ impl<S: RosService> ServiceClient<S> {
         self.gid
     }
 
-    /// Encode `request` and number the call.
-    fn prepare(&self, request: &S::Request) -> Result<Prepared, CallError> {
-        let encoded = encode_payload(request, self.policy.as_ref()).map_err(CallError::Encode)?;
+    /// Check an encoded request against the link and number the call.
+    fn number(
+        &self,
+        encoded: crate::transport::payload::EncodedPayload,
+    ) -> Result<Prepared, CallError> {
         inline_limit::check(self.inline_limit, encoded.inline)
             .map_err(CallError::Unfragmentable)?;
         let sequence_number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;
@@ -486,6 +553,13 @@ impl<S: RosService> ServiceReply<S> {
     /// The response as an owned `S::Response`.
     pub fn response(&self) -> Result<S::Response, DecodeError> {
         self.decode()
+    }
+}
+
+impl<S> ServiceReply<S> {
+    /// The response's bytes (CDR, its encapsulation header first).
+    pub fn payload(&self) -> &ZBytes {
+        self.sample.payload()
     }
 
     /// The response decoded as `M` (`S::Response` or a form of it borrowing from
