@@ -217,6 +217,32 @@ fn ask(
     Ok((ty, reply))
 }
 
+/// A standard type by name, if its hash is `hash`: a message, service or
+/// action of the set built in, or a part of a standard action
+/// (`pkg/action/Name_SendGoal`, `…_FeedbackMessage`, …).
+pub fn standard_type(name: &str, hash: &str) -> Option<DynamicType> {
+    let table = standard();
+    let ty = match table.get(name) {
+        Some(known) => DynamicType::from_description(&(known.describe)()).ok()?,
+        None => {
+            // The action whose name is the longest prefix of `name` before a `_`.
+            let (_, known) = table
+                .iter()
+                .filter(|(n, known)| {
+                    known.kind == Kind::Action
+                        && name
+                            .strip_prefix(**n)
+                            .is_some_and(|rest| rest.starts_with('_'))
+                })
+                .max_by_key(|(n, _)| n.len())?;
+            DynamicType::from_description(&(known.describe)())
+                .ok()?
+                .member(name)?
+        }
+    };
+    (ty.type_hash() == hash).then_some(ty)
+}
+
 /// A service type resolved: its name and hash as announced, and its request
 /// and response as run-time types.
 #[derive(Debug, Clone)]
@@ -263,11 +289,9 @@ pub fn of_service(
             return Err(format!("service {service} is of type {name}, not {expected}").into());
         }
     }
-    let ty = match standard().get(name.as_str()) {
-        Some(known) if known.kind == Kind::Service && known.hash == hash => {
-            DynamicType::from_description(&(known.describe)())?
-        }
-        _ => ask(node, timeout, &first.node_fqn(), name, hash)?.0,
+    let ty = match standard_type(name, hash) {
+        Some(ty) => ty,
+        None => ask(node, timeout, &first.node_fqn(), name, hash)?.0,
     };
     let part = |suffix: &str| {
         ty.member(&format!("{name}{suffix}"))
@@ -278,5 +302,83 @@ pub fn of_service(
         response: part("_Response")?,
         name: name.clone(),
         hash: hash.clone(),
+    })
+}
+
+/// An action type resolved from its server's endpoints: its goal-sending
+/// and result services and its feedback message, as run-time types.
+#[derive(Debug, Clone)]
+pub struct ResolvedAction {
+    /// `pkg/action/Name`.
+    pub name: String,
+    /// `<action>/_action/send_goal`: `pkg/action/Name_SendGoal`.
+    pub send_goal: ResolvedService,
+    /// `<action>/_action/get_result`: `pkg/action/Name_GetResult`.
+    pub get_result: ResolvedService,
+    /// `<action>/_action/feedback`: `pkg/action/Name_FeedbackMessage`, with
+    /// its RIHS01 hash.
+    pub feedback: (DynamicType, String),
+}
+
+/// The type of `action` as its server announces it (checked against
+/// `expected`, `pkg/action/Name` or `pkg/Name`, when given): the standard
+/// action if its parts' hashes are the ones announced, else the
+/// descriptions the server's node gives of each part.
+pub fn of_action(
+    node: &RosNode,
+    timeout: Duration,
+    graph: &Graph,
+    action: &str,
+    expected: Option<&str>,
+) -> Result<ResolvedAction, Error> {
+    let part = |p: &str| format!("{}/_action/{p}", action.trim_end_matches('/'));
+    let send_goal = of_service(node, timeout, graph, &part("send_goal"), None)
+        .map_err(|e| format!("action {action}: {e}"))?;
+    let Some(name) = send_goal.name.strip_suffix("_SendGoal").map(str::to_owned) else {
+        return Err(format!(
+            "action {action}: its send_goal service is of type {}",
+            send_goal.name
+        )
+        .into());
+    };
+    if let Some(expected) = expected {
+        let expected = match expected.split('/').collect::<Vec<_>>()[..] {
+            [pkg, ty] => format!("{pkg}/action/{ty}"),
+            _ => expected.to_owned(),
+        };
+        if expected != name {
+            return Err(format!("action {action} is of type {name}, not {expected}").into());
+        }
+    }
+    let get_result = of_service(node, timeout, graph, &part("get_result"), None)
+        .map_err(|e| format!("action {action}: {e}"))?;
+    let feedback_topic = part("feedback");
+    let feedback_name = format!("{name}_FeedbackMessage");
+    // The feedback type: a standard action's, else the description the
+    // server's node gives (it publishes the feedback).
+    let hash = graph
+        .publishers(&feedback_topic)
+        .first()
+        .and_then(|p| p.endpoint.as_ref().map(|e| e.type_hash.clone()))
+        .ok_or_else(|| {
+            format!("action {action}: no feedback publisher announces {feedback_name}")
+        })?;
+    let ty = match standard_type(&feedback_name, &hash) {
+        Some(ty) => ty,
+        None => {
+            let server = graph
+                .servers(&part("send_goal"))
+                .first()
+                .map(|s| s.node_fqn())
+                .ok_or_else(|| format!("action {action} has no server"))?;
+            ask(node, timeout, &server, &feedback_name, &hash)?.0
+        }
+    };
+    let feedback = (ty, hash);
+    Ok(ResolvedAction {
+        name,
+        send_goal,
+        get_result,
+        feedback,
     })
 }

@@ -45,15 +45,19 @@ pub(crate) enum ServiceCommand {
 }
 
 pub(crate) fn run(context: &Context, command: ServiceCommand) -> Result<(), Error> {
-    if let ServiceCommand::Call {
-        service_name,
-        service_type,
-        values,
-        rate,
-    } = command
-    {
-        return call(context, &service_name, &service_type, &values, rate);
+    match command {
+        ServiceCommand::Call {
+            service_name,
+            service_type,
+            values,
+            rate,
+        } => call(context, &service_name, &service_type, &values, rate),
+        other => inspect(context, other),
     }
+}
+
+/// The verbs that read the graph.
+fn inspect(context: &Context, command: ServiceCommand) -> Result<(), Error> {
     let graph = context.graph();
     let mut out = std::io::stdout().lock();
     match command {
@@ -88,7 +92,7 @@ pub(crate) fn run(context: &Context, command: ServiceCommand) -> Result<(), Erro
                 writeln!(out, "{ty}")?;
             }
         }
-        ServiceCommand::Call { .. } => unreachable!("handled above"),
+        ServiceCommand::Call { .. } => return Err("not a listing".into()),
     }
     Ok(())
 }

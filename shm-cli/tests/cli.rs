@@ -499,6 +499,78 @@ fn param_dump_and_service_call_print_as_ros2cli_does() {
 }
 
 #[test]
+fn action_send_goal_prints_feedback_and_result_as_ros2_action_does() {
+    use shm_cdr::msgs::test_msgs::action::{Fibonacci, Fibonacci_Feedback, Fibonacci_Result};
+    use shm_runtime::action::GoalDecision;
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "fib")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let server = node
+        .declare_action_server::<Fibonacci>("/fibonacci")
+        .on_goal(|_, goal| {
+            if goal.order < 10 {
+                GoalDecision::Accept
+            } else {
+                GoalDecision::Reject
+            }
+        })
+        .wait()
+        .unwrap();
+    std::thread::spawn(move || {
+        while let Ok(accepted) = server.recv() {
+            let goal = accepted.execute();
+            let mut sequence = vec![0, 1];
+            for i in 1..goal.goal().order as usize {
+                sequence.push(sequence[i] + sequence[i - 1]);
+                let _ = goal.publish_feedback(Fibonacci_Feedback {
+                    sequence: sequence.clone(),
+                });
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            let _ = goal.succeed(Fibonacci_Result { sequence });
+        }
+    });
+    let out = stdout(&run(
+        port,
+        &[
+            "action",
+            "send_goal",
+            "-f",
+            "/fibonacci",
+            "test_msgs/action/Fibonacci",
+            "{order: 3}",
+        ],
+    ));
+    let id = out
+        .lines()
+        .find_map(|l| l.strip_prefix("Goal accepted with ID: "))
+        .expect("an accepted goal");
+    assert_eq!(id.len(), 32, "{out}");
+    let expected = format!(
+        "Waiting for an action server to become available...\nSending goal:\n     order: 3\n\n\
+         Goal accepted with ID: {id}\n\n\
+         Feedback:\n    sequence:\n- 0\n- 1\n- 1\n\n\
+         Feedback:\n    sequence:\n- 0\n- 1\n- 1\n- 2\n\n\
+         Result:\n    sequence:\n- 0\n- 1\n- 1\n- 2\n\n\
+         Goal finished with status: SUCCEEDED\n"
+    );
+    assert_eq!(out, expected);
+    let rejected = stdout(&run(
+        port,
+        &[
+            "action",
+            "send_goal",
+            "/fibonacci",
+            "test_msgs/action/Fibonacci",
+            "{order: 50}",
+        ],
+    ));
+    assert!(rejected.ends_with("Goal was rejected.\n"), "{rejected}");
+}
+
+#[test]
 fn interface_show_expands_nested_types_as_ros2_interface_does() {
     let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
         .args(["interface", "show", "geometry_msgs/msg/PoseStamped"])

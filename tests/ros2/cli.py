@@ -319,6 +319,60 @@ def check_service_call(endpoint, peer):
           "peer, request and response printed as rclpy's repr")
 
 
+def check_send_goal(endpoint, peer):
+    from test_msgs.action import Fibonacci
+    impl = Fibonacci.Impl
+    publish_feedback = peer.publisher("/demo/fib/_action/feedback", "test_msgs/action/Fibonacci_FeedbackMessage")
+    goals = {}
+    feedbacks = []
+
+    def sequence(order):
+        out = [0, 1]
+        for i in range(1, order):
+            out.append(out[i] + out[i - 1])
+        return out
+
+    def send_goal(request, response):
+        response.accepted = request.goal.order < 20
+        if response.accepted:
+            goals[bytes(request.goal_id.uuid)] = request.goal.order
+            for n in range(3, request.goal.order + 2):
+                message = impl.FeedbackMessage(goal_id=request.goal_id)
+                message.feedback.sequence = sequence(n - 1)
+                publish_feedback(message)
+                feedbacks.append(message.feedback)
+        return response
+
+    def get_result(request, response):
+        time.sleep(0.2)
+        order = goals.get(bytes(request.goal_id.uuid))
+        response.status = 4 if order is not None else 0
+        response.result.sequence = sequence(order or 0)
+        return response
+    peer.serve("/demo/fib/_action/send_goal", impl.SendGoalService, "test_msgs/action/Fibonacci_SendGoal", send_goal)
+    peer.serve("/demo/fib/_action/get_result", impl.GetResultService, "test_msgs/action/Fibonacci_GetResult",
+               get_result)
+    time.sleep(0.5)
+    proc = cli(endpoint, "action", "send_goal", "-f", "/demo/fib", "test_msgs/action/Fibonacci", "{order: 4}")
+    ids = [line.split(": ")[1] for line in proc.stdout.splitlines() if line.startswith("Goal accepted with ID: ")]
+    goal = Fibonacci.Goal(order=4)
+    result = Fibonacci.Result(sequence=sequence(4))
+    expected = ("Waiting for an action server to become available...\n"
+                f"Sending goal:\n     {message_to_yaml(goal)}\n"
+                f"Goal accepted with ID: {ids[0] if ids else '?'}\n\n"
+                + "".join(f"Feedback:\n    {message_to_yaml(f)}\n" for f in feedbacks)
+                + f"Result:\n    {message_to_yaml(result)}\n"
+                + "Goal finished with status: SUCCEEDED\n")
+    check(proc.returncode == 0 and proc.stdout == expected and len(feedbacks) == 3
+          and [bytes(k).hex() for k in goals] == ids,
+          f"action send_goal: exit {proc.returncode} {proc.stderr[-300:]!r}\n    ours:     {proc.stdout!r}\n"
+          f"    expected: {expected!r}")
+    proc = cli(endpoint, "action", "send_goal", "/demo/fib", "test_msgs/action/Fibonacci", "{order: 50}")
+    check(proc.stdout.endswith("Goal was rejected.\n"), f"action send_goal rejected: {proc.stdout!r}")
+    print(f"action send_goal: a goal, its {len(feedbacks)} feedback messages and result from the peer's "
+          "Fibonacci server, printed as ros2action prints them; a rejected goal")
+
+
 def main():
     rclpy.init()
     node = rclpy.create_node("py_node", namespace="/demo")
@@ -346,6 +400,7 @@ def main():
     check_params(endpoint, node)
     check_dump_load(endpoint, node)
     check_service_call(endpoint, peer)
+    check_send_goal(endpoint, peer)
     for f in failures:
         print("  FAIL", f)
     return 1 if failures else 0

@@ -48,7 +48,11 @@ def open_session(endpoint, listen):
 def rosidl_hash(type_name):
     """The RIHS01 hash rosidl installed for `pkg/kind/Name` (share/<pkg>/<kind>/<Name>.json)."""
     pkg, kind, name = type_name.split("/")
-    desc = json.loads((Path(sys.prefix) / "share" / pkg / kind / f"{name}.json").read_text())
+    path = Path(sys.prefix) / "share" / pkg / kind / f"{name}.json"
+    if not path.exists() and kind == "action":
+        # An action's parts (`Name_SendGoal`, …) are listed in the action's file.
+        path = path.with_name(f"{name.split('_')[0]}.json")
+    desc = json.loads(path.read_text())
     return next(h["hash_string"] for h in desc["type_hashes"] if h["type_name"] == type_name)
 
 
