@@ -20,6 +20,7 @@ mod recorder;
 mod writer;
 
 pub mod definition;
+pub mod local;
 pub mod metadata;
 pub mod qos;
 pub mod types;

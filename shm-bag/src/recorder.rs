@@ -17,6 +17,7 @@ use shm_runtime::rmw::{Durability, History, Qos, Reliability};
 use shm_runtime::{CallbackSubscriber, RosNode, RosSample};
 use zenoh::Wait;
 
+use crate::local::LocalInterfaces;
 use crate::metadata::{BagMetadata, TopicMetadata};
 use crate::qos::QosProfile;
 use crate::types;
@@ -91,6 +92,9 @@ pub struct RecordOptions {
     pub domain_id: Option<u32>,
     /// The recorder's node name (default `shm_bag_recorder`).
     pub node_name: String,
+    /// Interface files whose types (and definition text) are used for a
+    /// topic whose announced hash they match, before asking its node.
+    pub interfaces: LocalInterfaces,
 }
 
 impl RecordOptions {
@@ -106,6 +110,7 @@ impl RecordOptions {
             type_timeout: Duration::from_secs(5),
             domain_id: None,
             node_name: "shm_bag_recorder".to_owned(),
+            interfaces: LocalInterfaces::default(),
         }
     }
 }
@@ -388,7 +393,13 @@ fn subscribe(
     shared: &Arc<Shared>,
     events: &flume::Sender<Event>,
 ) -> Result<CallbackSubscriber<shm_cdr::dynamic::DynamicType>, Error> {
-    let resolved = types::of_topic(node, options.type_timeout, graph, topic)?;
+    let resolved = types::of_topic(
+        node,
+        options.type_timeout,
+        graph,
+        topic,
+        &options.interfaces,
+    )?;
     let offered: Vec<Qos> = graph
         .publishers(topic)
         .iter()

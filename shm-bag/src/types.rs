@@ -18,6 +18,7 @@ use shm_runtime::RosNode;
 use zenoh::Wait;
 
 use crate::definition;
+use crate::local::LocalInterfaces;
 use crate::Error;
 
 /// Which kind of interface.
@@ -105,13 +106,15 @@ pub fn standard_message(name: &str) -> Option<ResolvedType> {
 
 /// The type of the messages on `topic`, as its publishers (else its
 /// subscribers) announce it: the standard type if its hash is the one
-/// announced, else the description the announcing node gives through `node`
-/// (waiting up to `timeout` for its service).
+/// announced, else the type of the interface files `local` if its hash is,
+/// else the description the announcing node gives through `node` (waiting
+/// up to `timeout` for its service).
 pub fn of_topic(
     node: &RosNode,
     timeout: Duration,
     graph: &Graph,
     topic: &str,
+    local: &LocalInterfaces,
 ) -> Result<ResolvedType, Error> {
     let mut endpoints = graph.publishers(topic);
     if endpoints.is_empty() {
@@ -146,6 +149,12 @@ pub fn of_topic(
                 ty: DynamicType::from_description(&description)?,
                 definition: definition::of_description(&description),
             });
+        }
+    }
+    if let Some(resolved) = local.resolve(&endpoint.type_name) {
+        let resolved = resolved?;
+        if resolved.ty.type_hash() == endpoint.type_hash {
+            return Ok(resolved);
         }
     }
     ask_node(

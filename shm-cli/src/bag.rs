@@ -157,6 +157,7 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
     options.domain_id = Some(context.domain_id);
     options.type_timeout = context.timeout;
     options.max_queued_bytes = args.max_cache_size;
+    options.interfaces = context.local.clone();
     options.write.max_bag_size = (args.max_bag_size > 0).then_some(args.max_bag_size);
     options.write.max_bag_duration =
         (args.max_bag_duration > 0).then(|| Duration::from_secs(args.max_bag_duration));

@@ -4,6 +4,7 @@
 use std::sync::OnceLock;
 use std::time::Duration;
 
+use shm_bag::local::LocalInterfaces;
 use shm_runtime::graph::{Graph, GraphCache};
 use shm_runtime::RosNode;
 use zenoh::{Session, Wait};
@@ -32,12 +33,19 @@ pub(crate) struct Connection {
     /// Seconds to wait for the graph and for answers.
     #[arg(long, global = true, default_value_t = 5.0)]
     timeout: f64,
+    /// Interface files to read types from (repeatable): a package directory
+    /// (with msg, srv or action), or a directory of packages. A type they
+    /// define is used when its hash is the one announced.
+    #[arg(long, global = true)]
+    interfaces: Vec<std::path::PathBuf>,
 }
 
 pub(crate) struct Context {
     pub(crate) session: Session,
     pub(crate) domain_id: u32,
     pub(crate) timeout: Duration,
+    /// The types of `--interfaces`.
+    pub(crate) local: LocalInterfaces,
     graph: GraphCache,
     node: OnceLock<RosNode>,
 }
@@ -66,10 +74,12 @@ impl Context {
         let timeout = Duration::try_from_secs_f64(connection.timeout)
             .map_err(|_| format!("--timeout {}: give a number of seconds", connection.timeout))?;
         let graph = GraphCache::of(&session, connection.domain_id)?;
+        let local = LocalInterfaces::load(&connection.interfaces)?;
         Ok(Self {
             session,
             domain_id: connection.domain_id,
             timeout,
+            local,
             graph,
             node: OnceLock::new(),
         })

@@ -229,9 +229,9 @@ fn resolve_type(
     given: Option<&str>,
 ) -> Result<DynamicType, Error> {
     match given {
-        Some(name) => types::standard_message(name).ok_or_else(|| {
+        Some(name) => types::message_by_name(context, name)?.ok_or_else(|| {
             format!(
-                "{name} is not a standard type this binary knows: leave the type out, and it is asked of the node that uses {topic}"
+                "{name} is not a standard type this binary knows nor in --interfaces: leave the type out, and it is asked of the node that uses {topic}"
             )
             .into()
         }),
@@ -427,7 +427,7 @@ fn now() -> (i32, u32) {
 }
 
 fn publish(context: &Context, args: PubArgs) -> Result<(), Error> {
-    let ty = match types::standard_message(&args.message_type) {
+    let ty = match types::message_by_name(context, &args.message_type)? {
         Some(ty) => ty,
         None => {
             // A type of the system's own: as its subscribers' nodes describe it.

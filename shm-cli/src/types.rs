@@ -10,9 +10,16 @@ pub(crate) use shm_bag::types::{full_name, standard, Kind};
 use crate::context::Context;
 use crate::Error;
 
-/// A standard message type by name, as a run-time type.
-pub(crate) fn standard_message(name: &str) -> Option<DynamicType> {
-    shm_bag::types::standard_message(name).map(|resolved| resolved.ty)
+/// A message type by name, as a run-time type: a standard one, else one of
+/// the `--interfaces` files.
+pub(crate) fn message_by_name(context: &Context, name: &str) -> Result<Option<DynamicType>, Error> {
+    if let Some(resolved) = shm_bag::types::standard_message(name) {
+        return Ok(Some(resolved.ty));
+    }
+    match context.local.resolve(&full_name(name)) {
+        Some(resolved) => Ok(Some(resolved?.ty)),
+        None => Ok(None),
+    }
 }
 
 /// The type of the messages on `topic`, as its publishers (else its
@@ -29,6 +36,12 @@ pub(crate) fn of_topic(
         )
         .into());
     }
-    shm_bag::types::of_topic(context.node()?, context.timeout, graph, topic)
-        .map(|resolved| resolved.ty)
+    shm_bag::types::of_topic(
+        context.node()?,
+        context.timeout,
+        graph,
+        topic,
+        &context.local,
+    )
+    .map(|resolved| resolved.ty)
 }

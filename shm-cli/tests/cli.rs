@@ -571,6 +571,54 @@ fn action_send_goal_prints_feedback_and_result_as_ros2_action_does() {
 }
 
 #[test]
+fn types_come_from_interface_files_when_the_node_does_not_describe_them() {
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "quiet")
+        .domain_id(0)
+        .type_description_service(false)
+        .wait()
+        .unwrap();
+    let _battery = keep_publishing(
+        &node,
+        "/battery",
+        Battery {
+            voltage: 11.5,
+            cells: vec![3300],
+            label: "spare".into(),
+        },
+    );
+    let dir = std::env::temp_dir().join(format!("shm_cli_interfaces_{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("robot_msgs/msg")).unwrap();
+    std::fs::write(
+        dir.join("robot_msgs/msg/Battery.msg"),
+        "# A pack.\nfloat32 voltage\nuint16[] cells # mV\nstring label\n",
+    )
+    .unwrap();
+    // The node does not answer ~/get_type_description: the error says so.
+    let unknown = run(port, &["topic", "echo", "/battery", "--once"]);
+    assert!(!unknown.status.success());
+    assert!(
+        String::from_utf8_lossy(&unknown.stderr).contains("does not answer"),
+        "{}",
+        String::from_utf8_lossy(&unknown.stderr)
+    );
+    let dir_arg = dir.display().to_string();
+    let out = stdout(&run(
+        port,
+        &[
+            "--interfaces",
+            &dir_arg,
+            "topic",
+            "echo",
+            "/battery",
+            "--once",
+        ],
+    ));
+    assert_eq!(out, "voltage: 11.5\ncells:\n- 3300\nlabel: spare\n---\n");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn interface_show_expands_nested_types_as_ros2_interface_does() {
     let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
         .args(["interface", "show", "geometry_msgs/msg/PoseStamped"])

@@ -1,0 +1,294 @@
+//! Interface files on disk (`<pkg>/msg/*.msg`, `srv/*.srv`, `action/*.action`),
+//! read with shm-codegen's parser into run-time types: for a system whose
+//! nodes do not describe their types, or to record with the files' own text,
+//! as rosbag2 does with the interfaces it finds installed.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde_json::{json, Value as Json};
+use shm_cdr::dynamic::DynamicType;
+use shm_codegen::ast::{BaseType, Container, Message, Primitive};
+
+use crate::definition;
+use crate::types::{standard, Kind, ResolvedType};
+use crate::Error;
+
+/// The message types of interface packages on disk, by `pkg/msg/Name` (and
+/// the request, response, goal, … types rosidl derives from services and
+/// actions).
+#[derive(Debug, Clone, Default)]
+pub struct LocalInterfaces {
+    messages: BTreeMap<String, Message>,
+}
+
+impl LocalInterfaces {
+    /// Read every package in `dirs`: a directory that holds `msg`, `srv` or
+    /// `action` is a package; any other holds packages.
+    pub fn load(dirs: &[PathBuf]) -> Result<Self, Error> {
+        let mut out = Self::default();
+        for dir in dirs {
+            let packages: Vec<PathBuf> = if is_package(dir) {
+                vec![dir.clone()]
+            } else {
+                let listing = std::fs::read_dir(dir)
+                    .map_err(|e| format!("interface files: cannot list {}: {e}", dir.display()))?;
+                let mut found: Vec<PathBuf> = listing
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| is_package(p))
+                    .collect();
+                found.sort();
+                if found.is_empty() {
+                    return Err(format!(
+                        "interface files: {} holds no package (a directory with msg, srv or action)",
+                        dir.display()
+                    )
+                    .into());
+                }
+                found
+            };
+            for package in packages {
+                let package = shm_codegen::load_package(&package)
+                    .map_err(|e| format!("interface files: {e}"))?;
+                for message in package.all_messages() {
+                    out.messages.insert(message.ty.full_name(), message.clone());
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// How many message types the files give.
+    pub fn len(&self) -> usize {
+        self.messages.len()
+    }
+
+    /// Whether they give none.
+    pub fn is_empty(&self) -> bool {
+        self.messages.is_empty()
+    }
+
+    /// The message type `name` (`pkg/msg/Name`), if the files define it: a
+    /// run-time type, with the files' text as its definition. A type it uses
+    /// comes from the files too, else from the standard set.
+    pub fn resolve(&self, name: &str) -> Option<Result<ResolvedType, Error>> {
+        self.messages.get(name)?;
+        Some(self.build(name))
+    }
+
+    fn build(&self, name: &str) -> Result<ResolvedType, Error> {
+        let mut described: BTreeMap<String, Json> = BTreeMap::new();
+        let mut sources: BTreeMap<String, String> = BTreeMap::new();
+        let mut todo = vec![name.to_owned()];
+        while let Some(next) = todo.pop() {
+            if described.contains_key(&next) {
+                continue;
+            }
+            if let Some(message) = self.messages.get(&next) {
+                for field in &message.fields {
+                    if let BaseType::Message(r) = &field.ty.base {
+                        todo.push(r.full_name());
+                    }
+                }
+                described.insert(next.clone(), individual(message));
+                if let Some(text) = &message.source {
+                    sources.insert(next, text.clone());
+                }
+                continue;
+            }
+            let known = standard()
+                .get(next.as_str())
+                .filter(|k| k.kind == Kind::Message)
+                .ok_or_else(|| {
+                    format!(
+                        "{name} uses {next}, which is neither in the interface files nor a standard message"
+                    )
+                })?;
+            let description = (known.describe)();
+            for (type_name, _, text) in description.sources() {
+                sources.insert(type_name.to_owned(), text.into_owned());
+            }
+            for d in std::iter::once(&description.own).chain(&description.referenced) {
+                described.entry(d.type_name.to_owned()).or_insert_with(|| {
+                    json!({
+                        "type_name": d.type_name,
+                        "fields": d.fields.iter().map(|f| json!({
+                            "name": f.name,
+                            "type": {
+                                "type_id": f.field_type.type_id(),
+                                "capacity": f.field_type.capacity(),
+                                "string_capacity": f.field_type.string_capacity,
+                                "nested_type_name": f.field_type.nested_type_name,
+                            },
+                            "default_value": f.default_value,
+                        })).collect::<Vec<_>>(),
+                    })
+                });
+            }
+        }
+        let own = described
+            .remove(name)
+            .ok_or_else(|| format!("{name}: not described"))?;
+        let document = json!({
+            "type_description": own,
+            "referenced_type_descriptions": described.into_values().collect::<Vec<_>>(),
+        });
+        let ty = DynamicType::from_rosidl_json(&document.to_string())?;
+        let definition = definition::of_dynamic(&ty, |n| sources.get(n).cloned());
+        Ok(ResolvedType { ty, definition })
+    }
+}
+
+fn is_package(dir: &Path) -> bool {
+    ["msg", "srv", "action"]
+        .iter()
+        .any(|s| dir.join(s).is_dir())
+}
+
+/// One message as rosidl's type description states it.
+fn individual(message: &Message) -> Json {
+    let fields: Vec<Json> = message
+        .fields
+        .iter()
+        .map(|f| {
+            let (element, string_capacity, nested) = match &f.ty.base {
+                BaseType::Message(r) => (1u8, 0usize, r.full_name()),
+                BaseType::Primitive(p) => {
+                    let (id, bound) = primitive_id(*p);
+                    (id, bound, String::new())
+                }
+            };
+            let (offset, capacity) = match f.ty.container {
+                Container::Single => (0u8, 0usize),
+                Container::Array(n) => (48, n),
+                Container::BoundedSequence(n) => (96, n),
+                Container::Sequence => (144, 0),
+            };
+            json!({
+                "name": f.name,
+                "type": {
+                    "type_id": element + offset,
+                    "capacity": capacity,
+                    "string_capacity": string_capacity,
+                    "nested_type_name": nested,
+                },
+                "default_value": f.default.as_ref().map(shm_codegen::python::description_default).unwrap_or_default(),
+            })
+        })
+        .collect();
+    // rosidl gives an empty message its placeholder field.
+    let fields = if fields.is_empty() {
+        vec![json!({
+            "name": "structure_needs_at_least_one_member",
+            "type": {"type_id": 3, "capacity": 0, "string_capacity": 0, "nested_type_name": ""},
+            "default_value": "",
+        })]
+    } else {
+        fields
+    };
+    json!({ "type_name": message.ty.full_name(), "fields": fields })
+}
+
+/// type_description_interfaces/msg/FieldType's id of a primitive, and its
+/// string bound. A `.msg` `char` is `uint8`, as rosidl maps it.
+fn primitive_id(p: Primitive) -> (u8, usize) {
+    match p {
+        Primitive::Bool => (15, 0),
+        Primitive::Byte => (16, 0),
+        Primitive::Char | Primitive::UInt8 => (3, 0),
+        Primitive::Int8 => (2, 0),
+        Primitive::Int16 => (4, 0),
+        Primitive::UInt16 => (5, 0),
+        Primitive::Int32 => (6, 0),
+        Primitive::UInt32 => (7, 0),
+        Primitive::Int64 => (8, 0),
+        Primitive::UInt64 => (9, 0),
+        Primitive::Float32 => (10, 0),
+        Primitive::Float64 => (11, 0),
+        Primitive::String(None) => (17, 0),
+        Primitive::WString(None) => (18, 0),
+        Primitive::String(Some(n)) => (21, n),
+        Primitive::WString(Some(n)) => (22, n),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every standard interface written back to its file (`.msg`, `.srv`,
+    /// `.action`, from the text rosidl keeps) and read from there gives every
+    /// message type, service part and action part its compiled hash.
+    #[test]
+    fn every_standard_interface_read_from_its_file_has_its_hash() {
+        let root = std::env::temp_dir().join(format!("shm_bag_local_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        for (name, known) in standard() {
+            let description = (known.describe)();
+            let (encoding, text) = description.own.source_text();
+            let Some((pkg, kind, file)) = name
+                .split('/')
+                .collect::<Vec<_>>()
+                .get(..3)
+                .and_then(|p| Some((p[0], p[1], p[2])))
+            else {
+                continue;
+            };
+            if encoding == "implicit" {
+                continue; // a type rosidl derives from a service or action file
+            }
+            assert_eq!(encoding, kind, "{name}");
+            let dir = root.join(pkg).join(kind);
+            std::fs::create_dir_all(&dir).unwrap();
+            std::fs::write(dir.join(format!("{file}.{kind}")), text.as_ref()).unwrap();
+        }
+        let local = LocalInterfaces::load(&[root.clone()]).unwrap();
+        let mut checked = 0;
+        for (name, known) in standard() {
+            let compiled = DynamicType::from_description(&(known.describe)()).unwrap();
+            for part in compiled.structs() {
+                let Some(from_files) = local.resolve(&part.name) else {
+                    // A service or action type itself: not a message.
+                    let kind = standard().get(part.name.as_str()).map(|k| k.kind);
+                    assert!(
+                        matches!(kind, Some(Kind::Service | Kind::Action)),
+                        "{}",
+                        part.name
+                    );
+                    continue;
+                };
+                let from_files = from_files.unwrap();
+                let expected = compiled.member(&part.name).unwrap().type_hash();
+                assert_eq!(
+                    from_files.ty.type_hash(),
+                    expected,
+                    "{} (of {name})",
+                    part.name
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 500, "{checked}");
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    #[test]
+    fn a_type_using_one_found_nowhere_says_which() {
+        let root = std::env::temp_dir().join(format!("shm_bag_local_bad_{}", std::process::id()));
+        let dir = root.join("robot_msgs").join("msg");
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("Arm.msg"),
+            "robot_msgs/Joint[] joints\nfloat64 reach 1.5\n",
+        )
+        .unwrap();
+        let local = LocalInterfaces::load(&[root.join("robot_msgs")]).unwrap();
+        let err = local.resolve("robot_msgs/msg/Arm").unwrap().unwrap_err();
+        assert!(
+            err.to_string().contains("uses robot_msgs/msg/Joint"),
+            "{err}"
+        );
+        assert!(local.resolve("robot_msgs/msg/Nothing").is_none());
+        let _ = std::fs::remove_dir_all(&root);
+    }
+}
