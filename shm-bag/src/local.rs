@@ -226,12 +226,7 @@ mod tests {
         for (name, known) in standard() {
             let description = (known.describe)();
             let (encoding, text) = description.own.source_text();
-            let Some((pkg, kind, file)) = name
-                .split('/')
-                .collect::<Vec<_>>()
-                .get(..3)
-                .and_then(|p| Some((p[0], p[1], p[2])))
-            else {
+            let Some(&[pkg, kind, file]) = name.split('/').collect::<Vec<_>>().get(..3) else {
                 continue;
             };
             if encoding == "implicit" {
@@ -242,7 +237,7 @@ mod tests {
             std::fs::create_dir_all(&dir).unwrap();
             std::fs::write(dir.join(format!("{file}.{kind}")), text.as_ref()).unwrap();
         }
-        let local = LocalInterfaces::load(&[root.clone()]).unwrap();
+        let local = LocalInterfaces::load(std::slice::from_ref(&root)).unwrap();
         let mut checked = 0;
         for (name, known) in standard() {
             let compiled = DynamicType::from_description(&(known.describe)()).unwrap();
