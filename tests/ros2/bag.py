@@ -160,7 +160,9 @@ def main():
         ours.send_signal(signal.SIGINT)
         ours.wait(timeout=30)
     check(recorder.returncode == 0, f"bag record: exit {recorder.returncode} {err[-500:]!r}")
-    print(f"bag record: {err.strip().splitlines()[0] if err.strip() else ''}")
+    summary = [line for line in err.splitlines() if line.startswith("Recorded ")]
+    check(len(summary) == 1 and "dropped 0, missed 0" in summary[0], f"bag record's summary: {err[-500:]!r}")
+    print(f"bag record: {summary[0] if summary else '?'}")
 
     # The mcap library, decoding with mcap-ros2-support from the schemas.
     from mcap.reader import make_reader
