@@ -124,6 +124,20 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
         }
         Splice::NotNeeded(size) => size,
     };
+    write_payload(size, policy, |buffer| {
+        shm_cdr::encode_into(msg, buffer).map(|_| ())
+    })
+}
+
+/// `size` bytes that `write` fills, in an exact-size shared-memory buffer
+/// under `policy` at or above its threshold (the provider hands out exactly
+/// `size` bytes, so the payload is what `write` wrote and nothing else), else
+/// in a heap buffer of exactly `size` bytes: written once either way.
+fn write_payload<E>(
+    size: usize,
+    policy: Option<&ShmPolicy>,
+    write: impl FnOnce(&mut [u8]) -> Result<(), E>,
+) -> Result<EncodedPayload, E> {
     let mut kind = PayloadKind::Heap;
     if let Some(policy) = policy {
         if size >= policy.threshold {
@@ -132,9 +146,7 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
                 .map_or_else(|| policy.context.place(size), Err)
             {
                 Ok(mut buffer) => {
-                    // The provider hands out exactly `size` bytes, so the payload
-                    // is the encoding and nothing else.
-                    shm_cdr::encode_into(msg, &mut buffer)?;
+                    write(&mut buffer)?;
                     policy.context.count(PayloadKind::Shm, size);
                     return Ok(EncodedPayload {
                         bytes: ZBytes::from(buffer),
@@ -148,9 +160,8 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
         }
         policy.context.count(kind, size);
     }
-    // Heap path: a buffer of exactly `size` bytes, written once.
     let mut buffer = vec![0u8; size];
-    shm_cdr::encode_into(msg, &mut buffer)?;
+    write(&mut buffer)?;
     Ok(EncodedPayload {
         bytes: ZBytes::from(buffer),
         kind,
@@ -172,34 +183,9 @@ pub(crate) fn serialized_payload(
     if !matches!(cdr, [0, 0 | 1, _, _, ..]) {
         return Err(NotCdr);
     }
-    let size = cdr.len();
-    let mut kind = PayloadKind::Heap;
-    if let Some(policy) = policy {
-        if size >= policy.threshold {
-            match policy
-                .gate()
-                .map_or_else(|| policy.context.place(size), Err)
-            {
-                Ok(mut buffer) => {
-                    buffer.copy_from_slice(cdr);
-                    policy.context.count(PayloadKind::Shm, size);
-                    return Ok(EncodedPayload {
-                        bytes: ZBytes::from(buffer),
-                        kind: PayloadKind::Shm,
-                        size,
-                        inline: 0,
-                    });
-                }
-                Err(heap) => kind = heap,
-            }
-        }
-        policy.context.count(kind, size);
-    }
-    Ok(EncodedPayload {
-        bytes: ZBytes::from(cdr.to_vec()),
-        kind,
-        size,
-        inline: size,
+    write_payload(cdr.len(), policy, |buffer| {
+        buffer.copy_from_slice(cdr);
+        Ok(())
     })
 }
 
