@@ -312,13 +312,22 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
     }
 }
 
-fn hz(context: &Context, topic: &str, window: usize) -> Result<(), Error> {
+/// A subscriber to `topic` with its announced type and ros2cli's QoS, for
+/// the verbs that count messages without reading them.
+fn subscribe(
+    context: &Context,
+    topic: &str,
+) -> Result<shm_runtime::RosSubscriber<DynamicType>, Error> {
     let graph = graph_with_topic(context, topic);
     let ty = types::of_topic(context, &graph, topic)?;
-    let subscriber = context
+    Ok(context
         .node()?
         .declare_dynamic_subscriber(topic, &ty, subscriber_qos(&graph, topic))
-        .wait()?;
+        .wait()?)
+}
+
+fn hz(context: &Context, topic: &str, window: usize) -> Result<(), Error> {
+    let subscriber = subscribe(context, topic)?;
     let mut deltas: VecDeque<f64> = VecDeque::new();
     let mut last: Option<Instant> = None;
     let mut received = 0u64;
@@ -362,12 +371,7 @@ fn hz(context: &Context, topic: &str, window: usize) -> Result<(), Error> {
 }
 
 fn bw(context: &Context, topic: &str, window: usize) -> Result<(), Error> {
-    let graph = graph_with_topic(context, topic);
-    let ty = types::of_topic(context, &graph, topic)?;
-    let subscriber = context
-        .node()?
-        .declare_dynamic_subscriber(topic, &ty, subscriber_qos(&graph, topic))
-        .wait()?;
+    let subscriber = subscribe(context, topic)?;
     let mut out = std::io::stdout().lock();
     writeln!(out, "Subscribed to [{topic}]")?;
     out.flush()?;
