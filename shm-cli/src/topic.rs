@@ -320,10 +320,11 @@ fn subscribe(
 ) -> Result<shm_runtime::RosSubscriber<DynamicType>, Error> {
     let graph = graph_with_topic(context, topic);
     let ty = types::of_topic(context, &graph, topic)?;
-    Ok(context
+    let subscriber = context
         .node()?
         .declare_dynamic_subscriber(topic, &ty, subscriber_qos(&graph, topic))
-        .wait()?)
+        .wait()?;
+    Ok(subscriber)
 }
 
 fn hz(context: &Context, topic: &str, window: usize) -> Result<(), Error> {
