@@ -119,6 +119,13 @@ impl BagMetadata {
         .unwrap_or_default()
     }
 
+    /// The metadata alone, as rosbag2 keeps it in each MCAP file's `rosbag2`
+    /// metadata record (`serialized_metadata`): without the file's
+    /// `rosbag2_bagfile_information` key.
+    pub fn to_serialized_metadata(&self) -> String {
+        serde_yaml::to_string(self).unwrap_or_default()
+    }
+
     /// Read `metadata.yaml` text.
     pub fn from_yaml(text: &str) -> Result<Self, Error> {
         let file: File = serde_yaml::from_str(text)

@@ -326,7 +326,7 @@ impl BagWriter {
             name: "rosbag2".to_owned(),
             metadata: BTreeMap::from([(
                 "serialized_metadata".to_owned(),
-                self.metadata().to_yaml(),
+                self.metadata().to_serialized_metadata(),
             )]),
         };
         current

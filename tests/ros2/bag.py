@@ -174,6 +174,13 @@ def main():
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         header = reader.get_header()
         check(header.profile == "ros2", f"profile {header.profile!r}")
+        records = [m for m in reader.iter_metadata() if m.name == "rosbag2"]
+        # As rosbag2's MCAP storage writes it: the metadata's fields at the top.
+        import yaml
+        serialized = yaml.safe_load(records[0].metadata.get("serialized_metadata", "")) if records else None
+        check(len(records) == 1 and isinstance(serialized, dict) and serialized.get("version") == 9
+              and serialized.get("storage_identifier") == "mcap",
+              f"the rosbag2 metadata record: {records!r}")
         for schema, channel, message, decoded in reader.iter_decoded_messages():
             check(schema.encoding == "ros2msg" and channel.message_encoding == "cdr",
                   f"{channel.topic}: schema {schema.encoding}, messages {channel.message_encoding}")
