@@ -57,8 +57,8 @@ fn owned<T: RosMessage + DecodeOwned + Default>(
 }
 
 /// The same input read by the run-time type built from `T`'s description:
-/// it must encode to the generated type's bytes, sized exactly, and its hash
-/// must be `T`'s.
+/// it must encode to the generated type's bytes, sized exactly, its hash
+/// must be `T`'s, and a view of the input must read the same message.
 fn dynamic<T: RosMessage>(input: &[u8], out: &[u8]) -> Result<(), String> {
     let ty = shm_cdr::dynamic::DynamicType::from_description(&T::full_description())
         .map_err(|e| format!("dynamic type: {e}"))?;
@@ -82,6 +82,14 @@ fn dynamic<T: RosMessage>(input: &[u8], out: &[u8]) -> Result<(), String> {
             shm_cdr::encoded_size(&message),
             bytes.len()
         ));
+    }
+    let viewed = ty
+        .view(input)
+        .and_then(|view| view.to_message())
+        .map_err(|e| format!("dynamic view: {e}"))?;
+    // Compared as bytes: NaN is not equal to itself.
+    if shm_cdr::to_vec(&viewed).ok() != Some(bytes) {
+        return Err("the dynamic view reads otherwise than the dynamic decoder".into());
     }
     Ok(())
 }

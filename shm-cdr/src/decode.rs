@@ -261,6 +261,15 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
         self.end - self.pos
     }
 
+    /// A reader over one contiguous body, at position `pos` (clamped to its
+    /// end): to read again, later, what a first pass checked.
+    pub(crate) fn at(body: &'de [u8], pos: usize, shared: bool) -> Self {
+        let mut reader = Self::new(body);
+        reader.pos = pos.min(reader.end);
+        reader.shared = shared;
+        reader
+    }
+
     /// An error of `kind` at body position `pos`.
     #[cold]
     pub fn error_at(&self, pos: usize, kind: DecodeErrorKind) -> DecodeError {

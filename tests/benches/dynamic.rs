@@ -1,6 +1,7 @@
 //! Messages typed at run time (`shm_cdr::dynamic`) against the generated code
-//! for the same message, measured in the same run: the borrowed decode and
-//! `encode_into` of each.
+//! for the same message, measured in the same run: the borrowed decode (the
+//! dynamic one built as a `Message`, or checked as a `MessageView`, then every
+//! field of the view read) and `encode_into` of each.
 //!
 //! `cargo bench -p shm-cdr-tests --bench dynamic`, then
 //! `python3 tests/benches/report.py` prints the ratios (medians).
@@ -9,7 +10,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use shm_cdr::dynamic::DynamicType;
+use shm_cdr::dynamic::{DynamicType, FieldView, StructView};
 use shm_cdr::{encode_into, encoded_size, from_bytes, to_vec, CdrEncode, RosMessage};
 use shm_cdr_tests::msgs::{JointStateRef, PointCloud2Ref};
 use shm_cdr_tests::samples;
@@ -30,6 +31,12 @@ fn bench_pair<T: RosMessage>(c: &mut Criterion, name: &str, msg: &T, decode_gene
     group.bench_function(BenchmarkId::new("dynamic_decode", size), |b| {
         b.iter(|| black_box(ty.decode(black_box(&bytes)).unwrap()))
     });
+    group.bench_function(BenchmarkId::new("dynamic_view", size), |b| {
+        b.iter(|| black_box(ty.view(black_box(&bytes)).unwrap()))
+    });
+    group.bench_function(BenchmarkId::new("dynamic_view_read_all", size), |b| {
+        b.iter(|| black_box(read_all(&ty.view(black_box(&bytes)).unwrap().root())))
+    });
     group.bench_function(BenchmarkId::new("generated_encode_into", size), |b| {
         b.iter(|| encode_into(black_box(msg), &mut dst).unwrap())
     });
@@ -37,6 +44,23 @@ fn bench_pair<T: RosMessage>(c: &mut Criterion, name: &str, msg: &T, decode_gene
         b.iter(|| encode_into(black_box(&dynamic), &mut dst).unwrap())
     });
     group.finish();
+}
+
+/// Read every field of a view, nested messages included: what a reader of
+/// the whole message does after the view has checked it. Returns how many
+/// values were read.
+fn read_all(message: &StructView<'_, '_>) -> usize {
+    message
+        .fields()
+        .map(|(_, field)| match field {
+            FieldView::Value(value) => {
+                black_box(value.read().unwrap());
+                1
+            }
+            FieldView::Message(nested) => read_all(&nested),
+            FieldView::Messages(nested) => nested.iter().map(|m| read_all(&m)).sum(),
+        })
+        .sum()
 }
 
 fn pairs(c: &mut Criterion) {

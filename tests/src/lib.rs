@@ -126,9 +126,10 @@ pub mod fuzzing {
         assert_eq!(bytes.len(), shm_cdr::encoded_size(&value));
     }
 
-    /// Decode `data` as `T` and as the run-time type built from `T`'s
-    /// description: both must fail, or both succeed and encode the same bytes,
-    /// the dynamic message sized exactly.
+    /// Decode `data` as `T`, as the run-time type built from `T`'s
+    /// description and through a view of it: all must fail (the dynamic two
+    /// with the same error), or all succeed and give the same message, encoded
+    /// to the same bytes, the dynamic message sized exactly.
     fn decode_dynamic_as<T>(data: &[u8])
     where
         T: shm_cdr::DecodeOwned + RosMessage,
@@ -137,6 +138,22 @@ pub mod fuzzing {
             .expect("every generated type is a valid dynamic type");
         let generated = from_bytes::<T>(data).map(|v| shm_cdr::to_vec(&v));
         let dynamic = ty.decode(data);
+        // The view checks what `decode` checks and reads what it gives.
+        match (ty.view(data), &dynamic) {
+            (Ok(view), Ok(message)) => {
+                let read = view.to_message().expect("a checked view reads");
+                // Compared as bytes: NaN is not equal to itself.
+                assert_eq!(
+                    shm_cdr::to_vec(&read).ok(),
+                    shm_cdr::to_vec(message).ok(),
+                    "{}: the view reads otherwise",
+                    T::TYPE_NAME
+                );
+            }
+            (Err(a), Err(b)) => assert_eq!(a, *b, "{}: the view refuses otherwise", T::TYPE_NAME),
+            (Ok(_), Err(e)) => panic!("{}: only the view accepted: {e}", T::TYPE_NAME),
+            (Err(e), Ok(_)) => panic!("{}: only the view refused: {e}", T::TYPE_NAME),
+        }
         match (generated, dynamic) {
             (Ok(Ok(expected)), Ok(message)) => {
                 let bytes =

@@ -7,7 +7,7 @@ use std::borrow::Cow;
 
 use shm_cdr::describe::FullDescription;
 use shm_cdr::describe::{Field, FieldType, TypeDescription, TypeSource};
-use shm_cdr::dynamic::{DynamicType, Value};
+use shm_cdr::dynamic::{DynamicType, FieldView, Value};
 use shm_cdr::msgs::{sensor_msgs, std_msgs, test_msgs};
 use shm_cdr::{DecodeErrorKind, RosMessage};
 
@@ -66,6 +66,71 @@ fn byte_and_number_arrays_borrow_from_the_input() {
 }
 
 #[test]
+fn a_view_reads_fields_where_they_lie_and_builds_nothing_else() {
+    let cloud = sensor_msgs::msg::PointCloud2 {
+        header: std_msgs::msg::Header {
+            frame_id: "lidar".into(),
+            ..Default::default()
+        },
+        fields: ["x", "y", "z"]
+            .iter()
+            .zip(0u32..)
+            .map(|(name, i)| sensor_msgs::msg::PointField {
+                name: (*name).into(),
+                offset: 4 * i,
+                datatype: 7,
+                count: 1,
+            })
+            .collect(),
+        data: vec![3; 4096],
+        ..Default::default()
+    };
+    let bytes = shm_cdr::to_vec(&cloud).unwrap();
+    let ty = dynamic::<sensor_msgs::msg::PointCloud2>();
+    let view = ty.view(&bytes).unwrap();
+    assert_eq!(view.root().type_name(), "sensor_msgs/msg/PointCloud2");
+    let Some(FieldView::Message(header)) = view.get("header") else {
+        panic!("header is a message");
+    };
+    assert_eq!(header.type_name(), "std_msgs/msg/Header");
+    match header.get("frame_id").map(|f| f.read().unwrap()) {
+        Some(Value::String(Cow::Borrowed("lidar"))) => {}
+        other => panic!("frame_id not borrowed: {other:?}"),
+    }
+    let Some(FieldView::Messages(fields)) = view.get("fields") else {
+        panic!("fields is a sequence of messages");
+    };
+    assert_eq!(fields.len(), 3);
+    let offsets: Vec<Value> = fields
+        .iter()
+        .map(|f| f.get("offset").unwrap().read().unwrap())
+        .collect();
+    assert_eq!(offsets, [Value::U32(0), Value::U32(4), Value::U32(8)]);
+    assert!(fields.get(3).is_none());
+    match view.get("data").map(|f| f.read().unwrap()) {
+        Some(Value::U8s(Cow::Borrowed(data))) => assert_eq!(data, &cloud.data[..]),
+        other => panic!("data not borrowed: {other:?}"),
+    }
+    assert!(view.get("no_such_field").is_none());
+    // Built in full, it is what `decode` gives.
+    assert_eq!(view.to_message().unwrap(), ty.decode(&bytes).unwrap());
+
+    // From shared memory, strings are copied when read, as `decode_shared` copies them.
+    let shared = ty.view_shared(&bytes).unwrap();
+    let Some(FieldView::Message(header)) = shared.get("header") else {
+        panic!("header is a message");
+    };
+    assert!(matches!(
+        header.get("frame_id").map(|f| f.read().unwrap()),
+        Some(Value::String(Cow::Owned(_)))
+    ));
+    assert_eq!(
+        shared.to_message().unwrap(),
+        ty.decode_shared(&bytes).unwrap()
+    );
+}
+
+#[test]
 fn bad_input_is_an_error_never_a_panic() {
     let ty = dynamic::<test_msgs::msg::MultiNested>();
     let bytes = shm_cdr::to_vec(&test_msgs::msg::MultiNested::default()).unwrap();
@@ -74,6 +139,11 @@ fn bad_input_is_an_error_never_a_panic() {
         if let Ok(m) = ty.decode(&bytes[..end]) {
             assert_eq!(shm_cdr::to_vec(&m).unwrap(), bytes);
         }
+        // A view refuses what `decode` refuses, with the same error.
+        assert_eq!(
+            ty.view(&bytes[..end]).and_then(|v| v.to_message()),
+            ty.decode(&bytes[..end])
+        );
     }
     // A length prefix far beyond the input is refused before anything is
     // allocated for it.
@@ -81,6 +151,7 @@ fn bad_input_is_an_error_never_a_panic() {
     let mut hostile = shm_cdr::to_vec(&std_msgs::msg::Header::default()).unwrap();
     hostile[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
     assert!(strings.decode(&hostile).is_err());
+    assert!(strings.view(&hostile).is_err());
     // Bounds are enforced on decode as the generated types enforce them.
     let bounded = dynamic::<test_msgs::msg::BoundedPlainSequences>();
     let value = test_msgs::msg::BoundedPlainSequences {
@@ -91,6 +162,10 @@ fn bad_input_is_an_error_never_a_panic() {
     let at = 4; // the first field's count
     bytes[at..at + 4].copy_from_slice(&4u32.to_le_bytes());
     bytes.insert(at + 4 + 3, 1);
+    assert_eq!(
+        bounded.view(&bytes).unwrap_err(),
+        bounded.decode(&bytes).unwrap_err()
+    );
     let e = bounded.decode(&bytes).unwrap_err();
     assert!(
         matches!(

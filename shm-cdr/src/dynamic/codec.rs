@@ -5,7 +5,7 @@
 
 use std::borrow::Cow;
 
-use super::model::{DynamicType, Element};
+use super::model::{Check, DynamicType, Element};
 use super::value::{Message, Value};
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::Container;
@@ -17,7 +17,7 @@ use crate::wire::string::{string_end, write_string};
 use crate::wire::wstring::{read_wstring, write_wstring, wstring_end};
 
 /// The member rosidl gives a message with no fields.
-const EMPTY_MESSAGE_MEMBER: &str = "structure_needs_at_least_one_member";
+pub(crate) const EMPTY_MESSAGE_MEMBER: &str = "structure_needs_at_least_one_member";
 
 impl DynamicType {
     /// Decode a CDR payload (encapsulation header included) as this type,
@@ -59,9 +59,21 @@ impl DynamicType {
         index: usize,
     ) -> Result<Message<'de>, DecodeError> {
         let def = &self.inner.structs[index];
+        let checks = self.inner.checks.get(index).map_or(&[][..], Vec::as_slice);
         let mut values = Vec::with_capacity(def.fields.len());
-        for field in &def.fields {
-            values.push(self.decode_field(r, field.element, field.container)?);
+        for (field, check) in def.fields.iter().zip(checks) {
+            values.push(match *check {
+                Check::Message { index, .. } => Value::Message(self.decode_message(r, index)?),
+                Check::Many {
+                    element,
+                    container,
+                    min,
+                } => {
+                    let n = read_len(r, container, min)?;
+                    self.decode_elements(r, element, n)?
+                }
+                _ => self.decode_single(r, field.element)?,
+            });
         }
         // rosidl's placeholder member of an empty message carries no value:
         // read as 0 whatever the byte, as the generated types read it.
@@ -77,39 +89,14 @@ impl DynamicType {
         })
     }
 
-    fn decode_field<'de, B: ByteOrder>(
+    /// Read `n` elements (of an array or sequence whose count is read).
+    #[inline]
+    pub(crate) fn decode_elements<'de, B: ByteOrder>(
         &self,
         r: &mut Reader<'de, B>,
         element: Element,
-        container: Container,
+        n: usize,
     ) -> Result<Value<'de>, DecodeError> {
-        let n = match container {
-            Container::Single => return self.decode_single(r, element),
-            Container::Array(n) => {
-                // No count on the wire: check the input holds them before reading.
-                let min = element.min_wire_size(&self.inner.structs);
-                let needed = n.saturating_mul(min);
-                if needed > r.remaining() {
-                    return Err(r.error_at(
-                        r.position(),
-                        DecodeErrorKind::UnexpectedEof {
-                            needed,
-                            remaining: r.remaining(),
-                        },
-                    ));
-                }
-                n
-            }
-            Container::BoundedSequence(bound) => {
-                let at = r.position();
-                let n = r.read_count(element.min_wire_size(&self.inner.structs))?;
-                if n > bound {
-                    return Err(r.error_at(at, DecodeErrorKind::BoundExceeded { len: n, bound }));
-                }
-                n
-            }
-            Container::Sequence => r.read_count(element.min_wire_size(&self.inner.structs))?,
-        };
         Ok(match element {
             Element::Bool => Value::Bools(bool::decode_vec(r, n)?),
             Element::Byte | Element::Char | Element::U8 => Value::U8s(u8::decode_cow_slice(r, n)?),
@@ -146,7 +133,8 @@ impl DynamicType {
         })
     }
 
-    fn decode_single<'de, B: ByteOrder>(
+    #[inline]
+    pub(crate) fn decode_single<'de, B: ByteOrder>(
         &self,
         r: &mut Reader<'de, B>,
         element: Element,
@@ -170,7 +158,44 @@ impl DynamicType {
     }
 }
 
-fn decode_string<'de, B: ByteOrder>(
+/// How many elements an array or sequence field holds whose elements take at
+/// least `min` bytes each: a sequence's count is read; either way, so many
+/// must fit in the rest of the input, and a bounded sequence's count within
+/// its bound.
+#[inline]
+pub(crate) fn read_len<B: ByteOrder>(
+    r: &mut Reader<'_, B>,
+    container: Container,
+    min: usize,
+) -> Result<usize, DecodeError> {
+    match container {
+        Container::Array(n) => {
+            let needed = n.saturating_mul(min);
+            if needed > r.remaining() {
+                return Err(r.error_at(
+                    r.position(),
+                    DecodeErrorKind::UnexpectedEof {
+                        needed,
+                        remaining: r.remaining(),
+                    },
+                ));
+            }
+            Ok(n)
+        }
+        Container::BoundedSequence(bound) => {
+            let at = r.position();
+            let n = r.read_count(min)?;
+            if n > bound {
+                return Err(r.error_at(at, DecodeErrorKind::BoundExceeded { len: n, bound }));
+            }
+            Ok(n)
+        }
+        // A single value is never read as many (`Check::Many` is not made for it).
+        Container::Sequence | Container::Single => r.read_count(min),
+    }
+}
+
+pub(crate) fn decode_string<'de, B: ByteOrder>(
     r: &mut Reader<'de, B>,
     bound: Option<usize>,
 ) -> Result<Cow<'de, str>, DecodeError> {

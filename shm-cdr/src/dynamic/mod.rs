@@ -31,12 +31,14 @@ mod model;
 #[cfg(feature = "serde")]
 mod serde_impl;
 mod value;
+mod view;
 #[cfg(feature = "yaml")]
 mod yaml_in;
 mod yaml_out;
 
 pub use model::{DynamicType, Element, FieldDef, StructDef, TypeError};
 pub use value::{Message, Value, ValueError};
+pub use view::{FieldView, MessageView, SequenceView, StructView, ValueView};
 #[cfg(feature = "yaml")]
 pub use yaml_in::TextError;
 pub use yaml_out::{python_float, YamlOptions, YamlValue};

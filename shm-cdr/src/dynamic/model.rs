@@ -129,6 +129,32 @@ pub struct DynamicType {
 pub(crate) struct Types {
     /// The root first, then the referenced types sorted by name.
     pub(crate) structs: Vec<StructDef>,
+    /// For each struct, how a view checks each of its fields.
+    pub(crate) checks: Vec<Vec<Check>>,
+    /// For each struct, the slots a view of it takes with every sequence empty.
+    pub(crate) least_slots: Vec<usize>,
+}
+
+/// How a view checks one field: the field's element and container folded
+/// into one choice, sizes worked out when the type is built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Check {
+    /// One number of this many bytes, aligned to its size.
+    Number(usize),
+    /// One `bool`.
+    Bool,
+    /// One `string` (with its bound).
+    String(Option<usize>),
+    /// One `wstring` (with its bound).
+    WString(Option<usize>),
+    /// One nested message: its struct and how many fields it has.
+    Message { index: usize, width: usize },
+    /// An array or sequence; `min` is the fewest bytes one element takes.
+    Many {
+        element: Element,
+        container: Container,
+        min: usize,
+    },
 }
 
 impl fmt::Debug for DynamicType {
@@ -393,8 +419,54 @@ impl DynamicType {
                 .fold(0usize, usize::saturating_add);
             structs[i].min_wire_size = size.max(1);
         }
+        let checks: Vec<Vec<Check>> = structs
+            .iter()
+            .map(|def| {
+                def.fields
+                    .iter()
+                    .map(|f| match (f.container, f.element) {
+                        (Container::Single, Element::Bool) => Check::Bool,
+                        (Container::Single, Element::String(bound)) => Check::String(bound),
+                        (Container::Single, Element::WString(bound)) => Check::WString(bound),
+                        (Container::Single, Element::Message(index)) => Check::Message {
+                            index,
+                            width: structs.get(index).map_or(0, |s| s.fields.len()),
+                        },
+                        (Container::Single, element) => {
+                            Check::Number(element.min_wire_size(&structs))
+                        }
+                        (container, element) => Check::Many {
+                            element,
+                            container,
+                            min: element.min_wire_size(&structs),
+                        },
+                    })
+                    .collect()
+            })
+            .collect();
+        // Innermost types first, as for the sizes.
+        let mut least_slots = vec![0usize; structs.len()];
+        for &i in &order {
+            least_slots[i] = structs[i]
+                .fields
+                .iter()
+                .map(|f| match (f.container, f.element) {
+                    (Container::Single, Element::Message(n)) => {
+                        1 + least_slots.get(n).copied().unwrap_or(0)
+                    }
+                    (Container::Array(len), Element::Message(n)) => 1usize.saturating_add(
+                        len.saturating_mul(least_slots.get(n).copied().unwrap_or(0)),
+                    ),
+                    _ => 1,
+                })
+                .fold(0usize, usize::saturating_add);
+        }
         Ok(Self {
-            inner: Arc::new(Types { structs }),
+            inner: Arc::new(Types {
+                structs,
+                checks,
+                least_slots,
+            }),
         })
     }
 
