@@ -254,13 +254,36 @@ fn send_goal(
         println!("Goal was rejected.");
         return Ok(());
     }
+    // From here Ctrl-C cancels the goal (caught before anything says it is
+    // accepted, so that a Ctrl-C in answer to that is caught).
+    let interrupted = crate::interrupted()?;
     let hex: String = goal_id.iter().map(|b| format!("{b:02x}")).collect();
     println!("Goal accepted with ID: {hex}\n");
     printer.accepted();
 
     let mut result_request = resolved.get_result.request.default_message();
     result_request.set("goal_id", with_uuid(&result_request, goal_id)?)?;
-    let reply = results.call_serialized(&shm_cdr::to_vec(&result_request)?)?;
+    let result_request = shm_cdr::to_vec(&result_request)?;
+    // The result is awaited on a thread of its own, so that Ctrl-C cancels
+    // the goal as ros2action does instead of leaving it running.
+    let (done, result) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = done.send(results.call_serialized(&result_request));
+    });
+    let reply = loop {
+        match result.recv_timeout(std::time::Duration::from_millis(50)) {
+            Ok(reply) => break reply?,
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout)
+                if interrupted.load(std::sync::atomic::Ordering::Relaxed) =>
+            {
+                return cancel(context, &action, goal_id);
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err("the result request ended without an answer".into())
+            }
+        }
+    };
     let bytes = reply.payload().to_bytes();
     let response = resolved.get_result.response.decode(&bytes)?;
     let status = match response.get("status") {
@@ -271,6 +294,34 @@ fn send_goal(
         println!("Result:\n    {}", result.to_yaml());
     }
     println!("Goal finished with status: {}", status_name(status));
+    Ok(())
+}
+
+/// Ask the server to cancel goal `goal_id`, and say what it answered, as
+/// ros2action does at Ctrl-C.
+fn cancel(context: &Context, action: &str, goal_id: [u8; 16]) -> Result<(), Error> {
+    use shm_cdr::msgs::action_msgs::srv::{CancelGoal, CancelGoal_Request};
+    println!("Canceling goal...");
+    let client = context
+        .node()?
+        .declare_client::<CancelGoal>(&format!("{action}/_action/cancel_goal"))
+        .timeout(context.timeout)
+        .wait()?;
+    let mut request = CancelGoal_Request::default();
+    request.goal_info.goal_id.uuid = goal_id;
+    let response = client.call(&request).wait()?;
+    match response.goals_canceling.as_slice() {
+        [] => println!("Failed to cancel goal"),
+        [first, rest @ ..] => {
+            if !rest.is_empty() {
+                println!("More than one goal canceled");
+            }
+            if first.goal_id.uuid != goal_id {
+                println!("Canceled goal with incorrect goal ID");
+            }
+            println!("Goal canceled.");
+        }
+    }
     Ok(())
 }
 

@@ -2,8 +2,7 @@
 //! through shm-bag (MCAP as rosbag2 writes it).
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use clap::{Args, Subcommand, ValueEnum};
@@ -129,15 +128,6 @@ fn regex(flag: &str, text: Option<String>) -> Result<Option<regex::Regex>, Error
         .transpose()
 }
 
-/// Set when Ctrl-C (or SIGTERM) arrives.
-fn interrupted() -> Result<Arc<AtomicBool>, Error> {
-    let flag = Arc::new(AtomicBool::new(false));
-    let set = flag.clone();
-    ctrlc::set_handler(move || set.store(true, Ordering::Relaxed))
-        .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
-    Ok(flag)
-}
-
 fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
     let selection = Selection {
         all: args.all_topics,
@@ -175,7 +165,7 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
             ChunkCompression::Lz4 => Compression::Lz4,
         });
     }
-    let stop = interrupted()?;
+    let stop = crate::interrupted()?;
     let recorder = Recorder::start(&context.session, options)?;
     let started = Instant::now();
     let deadline = args
@@ -248,7 +238,7 @@ fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {
         domain_id: Some(context.domain_id),
         ..PlayOptions::default()
     };
-    let stop = interrupted()?;
+    let stop = crate::interrupted()?;
     let player = Player::new(&context.session, bag, options)?;
     let stats = player.play(&stop)?;
     eprintln!(

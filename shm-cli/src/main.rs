@@ -57,6 +57,17 @@ enum Command {
 /// A failure to report: the message says what happened and what to do.
 pub(crate) type Error = Box<dyn std::error::Error + Send + Sync>;
 
+/// A flag set when Ctrl-C (or SIGTERM) arrives, which then no longer ends
+/// the process: for verbs that finish their work first.
+pub(crate) fn interrupted() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>, Error> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let flag = std::sync::Arc::new(AtomicBool::new(false));
+    let set = flag.clone();
+    ctrlc::set_handler(move || set.store(true, Ordering::Relaxed))
+        .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
+    Ok(flag)
+}
+
 fn main() -> ExitCode {
     shm_runtime::init_logging();
     let cli = Cli::parse();

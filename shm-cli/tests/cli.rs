@@ -571,6 +571,62 @@ fn action_send_goal_prints_feedback_and_result_as_ros2_action_does() {
 }
 
 #[test]
+fn action_send_goal_cancels_the_goal_at_ctrl_c_as_ros2_action_does() {
+    use shm_cdr::msgs::test_msgs::action::{Fibonacci, Fibonacci_Result};
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "slow")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let server = node
+        .declare_action_server::<Fibonacci>("/slow")
+        .wait()
+        .unwrap();
+    let (ended, how) = mpsc::channel();
+    std::thread::spawn(move || {
+        while let Ok(accepted) = server.recv() {
+            let goal = accepted.execute();
+            // Runs until asked to cancel.
+            while !goal.is_cancel_requested() {
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            let id = goal.id();
+            let _ = goal.canceled(Fibonacci_Result::default());
+            let _ = ended.send(id);
+        }
+    });
+    let running = Running::start(
+        port,
+        &[
+            "action",
+            "send_goal",
+            "/slow",
+            "test_msgs/action/Fibonacci",
+            "{order: 3}",
+        ],
+    );
+    let id = loop {
+        if let Some(id) = running.line().strip_prefix("Goal accepted with ID: ") {
+            break id.to_owned();
+        }
+    };
+    assert_eq!(running.line(), "");
+    let interrupt = Command::new("kill")
+        .args(["-INT", &running.child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(interrupt.success());
+    assert_eq!(running.line(), "Canceling goal...");
+    assert_eq!(running.line(), "Goal canceled.");
+    // The server ended the very goal the command sent.
+    let canceled = how
+        .recv_timeout(TIMEOUT)
+        .expect("the server saw the cancel");
+    let hex: String = canceled.iter().map(|b| format!("{b:02x}")).collect();
+    assert_eq!(hex, id);
+}
+
+#[test]
 fn types_come_from_interface_files_when_the_node_does_not_describe_them() {
     let (session, port) = listening_session();
     let node = RosNode::builder(&session, "quiet")
