@@ -270,6 +270,15 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
         reader
     }
 
+    /// Go back to `pos`, a position this reader was at before: to read again
+    /// what a quick check refused, for the exact error. Only for readers over
+    /// one contiguous body ([`at`](Self::at)).
+    #[inline]
+    pub(crate) fn rewind(&mut self, pos: usize) {
+        debug_assert!(self.rest.is_none() && pos <= self.pos);
+        self.pos = pos.min(self.end);
+    }
+
     /// An error of `kind` at body position `pos`.
     #[cold]
     pub fn error_at(&self, pos: usize, kind: DecodeErrorKind) -> DecodeError {

@@ -130,7 +130,7 @@ pub mod fuzzing {
     /// description and through a view of it: all must fail (the dynamic two
     /// with the same error), or all succeed and give the same message, encoded
     /// to the same bytes, the dynamic message sized exactly.
-    fn decode_dynamic_as<T>(data: &[u8])
+    pub fn decode_dynamic_as<T>(data: &[u8])
     where
         T: shm_cdr::DecodeOwned + RosMessage,
     {

@@ -176,6 +176,61 @@ fn bad_input_is_an_error_never_a_panic() {
     );
 }
 
+/// Every cut, and every byte of the payload replaced by values that break
+/// bools, counts and strings, of arbitrary values of `T`: the view (which
+/// checks runs of fixed-size fields at once) accepts and refuses exactly as
+/// `decode` does, field by field.
+fn view_agrees_with_decode_on_damaged_payloads<T>(values: usize)
+where
+    T: shm_cdr::DecodeOwned + RosMessage + for<'a> arbitrary::Arbitrary<'a>,
+{
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let noise: Vec<u8> = (0..4096)
+        .map(|_| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed as u8
+        })
+        .collect();
+    for start in (0..values).map(|k| k * 512) {
+        let Ok(value) = T::arbitrary(&mut arbitrary::Unstructured::new(
+            &noise[start..start + 400],
+        )) else {
+            continue;
+        };
+        let bytes = shm_cdr::to_vec(&value).unwrap();
+        for end in 0..bytes.len() {
+            shm_cdr_tests::fuzzing::decode_dynamic_as::<T>(&bytes[..end]);
+        }
+        let ty = dynamic::<T>();
+        for at in 4..bytes.len() {
+            for damage in [2u8, 0x80, 0xff] {
+                let mut damaged = bytes.clone();
+                damaged[at] = damage;
+                shm_cdr_tests::fuzzing::decode_dynamic_as::<T>(&damaged);
+                // Input other processes write takes the other road for strings.
+                let shared = ty.view_shared(&damaged).and_then(|v| v.to_message());
+                match (shared, ty.decode_shared(&damaged)) {
+                    (Ok(a), Ok(b)) => assert_eq!(shm_cdr::to_vec(&a), shm_cdr::to_vec(&b)),
+                    (a, b) => assert_eq!(a.err(), b.err(), "{}", T::TYPE_NAME),
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn views_check_runs_of_fixed_fields_as_decode_checks_each() {
+    view_agrees_with_decode_on_damaged_payloads::<test_msgs::msg::BasicTypes>(4);
+    view_agrees_with_decode_on_damaged_payloads::<test_msgs::msg::Arrays>(4);
+    // 2.7 KB a value: one is enough.
+    view_agrees_with_decode_on_damaged_payloads::<test_msgs::msg::MultiNested>(1);
+    view_agrees_with_decode_on_damaged_payloads::<test_msgs::msg::BoundedSequences>(4);
+    view_agrees_with_decode_on_damaged_payloads::<sensor_msgs::msg::PointCloud2>(4);
+    view_agrees_with_decode_on_damaged_payloads::<sensor_msgs::msg::Imu>(4);
+}
+
 #[test]
 fn set_keeps_every_value_of_its_fields_kind() {
     let ty = dynamic::<test_msgs::msg::BoundedSequences>();

@@ -131,8 +131,8 @@ pub(crate) struct Types {
     pub(crate) structs: Vec<StructDef>,
     /// For each struct, how a view checks each of its fields.
     pub(crate) checks: Vec<Vec<Check>>,
-    /// For each struct, the slots a view of it takes with every sequence empty.
-    pub(crate) least_slots: Vec<usize>,
+    /// For each struct, how a view checks a message of it.
+    pub(crate) plans: Vec<super::view::StructPlan>,
 }
 
 /// How a view checks one field: the field's element and container folded
@@ -444,28 +444,12 @@ impl DynamicType {
                     .collect()
             })
             .collect();
-        // Innermost types first, as for the sizes.
-        let mut least_slots = vec![0usize; structs.len()];
-        for &i in &order {
-            least_slots[i] = structs[i]
-                .fields
-                .iter()
-                .map(|f| match (f.container, f.element) {
-                    (Container::Single, Element::Message(n)) => {
-                        1 + least_slots.get(n).copied().unwrap_or(0)
-                    }
-                    (Container::Array(len), Element::Message(n)) => 1usize.saturating_add(
-                        len.saturating_mul(least_slots.get(n).copied().unwrap_or(0)),
-                    ),
-                    _ => 1,
-                })
-                .fold(0usize, usize::saturating_add);
-        }
+        let plans = super::view::plans(&structs, &checks, &order);
         Ok(Self {
             inner: Arc::new(Types {
                 structs,
                 checks,
-                least_slots,
+                plans,
             }),
         })
     }

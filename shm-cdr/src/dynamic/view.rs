@@ -6,8 +6,8 @@
 
 use std::fmt;
 
-use super::codec::EMPTY_MESSAGE_MEMBER;
-use super::model::{Check, DynamicType, Element, FieldDef, StructDef};
+use super::codec::{decode_string, read_len, EMPTY_MESSAGE_MEMBER};
+use super::model::{Check, DynamicType, Element, FieldDef, StructDef, Types};
 use super::value::{Message, Value};
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::Container;
@@ -15,17 +15,227 @@ use crate::endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
 use crate::error::DecodeError;
 use crate::wire::wstring::read_wstring;
 
-/// Where one field of one message lies in the body.
+/// Where one field of one message lies in the body, as the check found it.
 #[derive(Debug, Clone, Copy, Default)]
 struct Slot {
-    /// The body position to read the field from: before its alignment, after
-    /// a sequence's count.
+    /// A number, bool, string, or array or sequence of them: the body
+    /// position to read it from (a sequence's after its count). An array or
+    /// sequence of messages: how many there are.
     at: usize,
-    /// The number of elements of an array or sequence (1 for a single field).
+    /// An array or sequence of values: how many there are. A message, or an
+    /// array or sequence of them: the slot of the first field of the (first)
+    /// message; elements follow one another.
+    aux: usize,
+}
+
+/// How a view checks one message of a struct: its fields, and those of the
+/// messages it nests by value, folded into steps; runs of fixed-size fields
+/// checked at once.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct StructPlan {
+    steps: Vec<Step>,
+    /// Slots one message takes before its arrays and sequences of messages:
+    /// one per field, then those of the messages nested by value.
+    block: usize,
+    /// For each field that is a message nested by value, where its slots
+    /// start, counted from the nesting message's first (else 0).
+    children: Vec<usize>,
+}
+
+/// One step of a [`StructPlan`]; `slot`s count from the message's first.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Step {
+    /// Consecutive numbers, bools and arrays of numbers whose offsets from a
+    /// start aligned to `align` are fixed: one bounds check for all of them.
+    Run {
+        align: usize,
+        len: usize,
+        members: Box<[Member]>,
+        /// Whether a member is a bool, whose byte must be 0 or 1.
+        bools: bool,
+    },
+    /// A string.
+    String { slot: usize, bound: Option<usize> },
+    /// A wide string, or an array or sequence of values: checked as
+    /// [`Check`] says.
+    Value { slot: usize, check: Check },
+    /// An array or sequence of messages, whose slots are added when its
+    /// length is known.
+    Messages {
+        slot: usize,
+        index: usize,
+        container: Container,
+        min: usize,
+    },
+}
+
+/// One field of a [`Step::Run`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Member {
+    slot: usize,
+    offset: usize,
+    /// The elements of an array (1 for a single value).
     count: usize,
-    /// For a nested message, or an array or sequence of them, the slot of the
-    /// first field of the first element; elements follow one another.
-    child: usize,
+    bool: bool,
+    /// How the field is checked alone, to find the one at fault.
+    check: Check,
+}
+
+/// A [`Step::Run`] being gathered.
+struct OpenRun {
+    align: usize,
+    len: usize,
+    members: Vec<Member>,
+}
+
+impl OpenRun {
+    fn close(self) -> Step {
+        Step::Run {
+            align: self.align,
+            len: self.len,
+            bools: self.members.iter().any(|m| m.bool),
+            members: self.members.into(),
+        }
+    }
+}
+
+/// The plan of every struct, built innermost first (`order`): a message
+/// nested by value takes its slots inside the nesting message's block, and
+/// its fields' steps join the nesting message's, so that runs of fixed-size
+/// fields continue across it (CDR gives a nested message no alignment of its
+/// own).
+pub(crate) fn plans(
+    structs: &[StructDef],
+    checks: &[Vec<Check>],
+    order: &[usize],
+) -> Vec<StructPlan> {
+    let mut plans = vec![
+        StructPlan {
+            steps: Vec::new(),
+            block: 0,
+            children: Vec::new(),
+        };
+        structs.len()
+    ];
+    for &index in order {
+        let Some(def) = structs.get(index) else {
+            continue;
+        };
+        let mut block = def.fields.len();
+        let mut children = vec![0; def.fields.len()];
+        for (field, child) in def.fields.iter().zip(children.iter_mut()) {
+            if let (Element::Message(nested), Container::Single) = (field.element, field.container)
+            {
+                *child = block;
+                block = block.saturating_add(plans.get(nested).map_or(0, |p| p.block));
+            }
+        }
+        if let Some(plan) = plans.get_mut(index) {
+            plan.block = block;
+            plan.children = children;
+        }
+        let mut fields = Vec::new();
+        flatten(checks, &plans, index, 0, &mut fields);
+        if let Some(plan) = plans.get_mut(index) {
+            plan.steps = steps(&fields);
+        }
+    }
+    plans
+}
+
+/// The fields of struct `index` whose slots start at `base`, in wire order,
+/// with those of the messages it nests by value in their place: (slot,
+/// check), never a single message.
+fn flatten(
+    checks: &[Vec<Check>],
+    plans: &[StructPlan],
+    index: usize,
+    base: usize,
+    out: &mut Vec<(usize, Check)>,
+) {
+    let (Some(fields), Some(plan)) = (checks.get(index), plans.get(index)) else {
+        return;
+    };
+    for (field, (&check, &child)) in fields.iter().zip(&plan.children).enumerate() {
+        match check {
+            // Its plan was made first: its children are known.
+            Check::Message { index: nested, .. } => {
+                flatten(checks, plans, nested, base + child, out)
+            }
+            check => out.push((base + field, check)),
+        }
+    }
+}
+
+/// Fold flattened fields into steps: fixed-size fields into runs, a run
+/// going on while each field's alignment is at most the first's (then every
+/// offset from the run's aligned start is fixed).
+fn steps(fields: &[(usize, Check)]) -> Vec<Step> {
+    let mut steps = Vec::new();
+    let mut run: Option<OpenRun> = None;
+    for &(slot, check) in fields {
+        // A fixed-size value: its size, alignment, element count, and
+        // whether it is a bool.
+        let fixed = match check {
+            Check::Number(size) => Some((size, size, 1, false)),
+            Check::Bool => Some((1, 1, 1, true)),
+            Check::Many {
+                element,
+                container: Container::Array(n),
+                min,
+            } if n > 0
+                // An empty array is not aligned to: it stays out of runs.
+                && !matches!(
+                    element,
+                    Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
+                ) =>
+            {
+                n.checked_mul(min).map(|size| (size, min, n, false))
+            }
+            _ => None,
+        };
+        if let Some((size, align, count, bool)) = fixed {
+            let member = |offset| Member {
+                slot,
+                offset,
+                count,
+                bool,
+                check,
+            };
+            if let Some(open) = run.as_mut().filter(|open| align <= open.align) {
+                let offset = crate::layout::align_up(open.len, align);
+                if let Some(end) = offset.checked_add(size) {
+                    open.members.push(member(offset));
+                    open.len = end;
+                    continue;
+                }
+            }
+            steps.extend(run.take().map(OpenRun::close));
+            run = Some(OpenRun {
+                align,
+                len: size,
+                members: vec![member(0)],
+            });
+            continue;
+        }
+        steps.extend(run.take().map(OpenRun::close));
+        steps.push(match check {
+            Check::String(bound) => Step::String { slot, bound },
+            Check::Many {
+                element: Element::Message(index),
+                container,
+                min,
+            } => Step::Messages {
+                slot,
+                index,
+                container,
+                min,
+            },
+            check => Step::Value { slot, check },
+        });
+    }
+    steps.extend(run.take().map(OpenRun::close));
+    steps
 }
 
 /// A payload of a [`DynamicType`], checked once in full and read field by
@@ -56,15 +266,16 @@ struct Slot {
 /// assert!(matches!(data, std::borrow::Cow::Borrowed(_)));
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub struct MessageView<'de> {
-    ty: DynamicType,
+pub struct MessageView<'t, 'de> {
+    ty: &'t DynamicType,
+    types: &'t Types,
     body: &'de [u8],
     order: Endianness,
     shared: bool,
     slots: Vec<Slot>,
 }
 
-impl fmt::Debug for MessageView<'_> {
+impl fmt::Debug for MessageView<'_, '_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("MessageView")
             .field("type", &self.ty.name())
@@ -77,7 +288,7 @@ impl fmt::Debug for MessageView<'_> {
 /// One message inside a [`MessageView`]: the whole payload, or one it nests.
 #[derive(Clone, Copy)]
 pub struct StructView<'v, 'de> {
-    view: &'v MessageView<'de>,
+    view: &'v MessageView<'v, 'de>,
     index: usize,
     first: usize,
 }
@@ -85,7 +296,7 @@ pub struct StructView<'v, 'de> {
 /// An array or sequence of nested messages inside a [`MessageView`].
 #[derive(Clone, Copy)]
 pub struct SequenceView<'v, 'de> {
-    view: &'v MessageView<'de>,
+    view: &'v MessageView<'v, 'de>,
     index: usize,
     first: usize,
     len: usize,
@@ -94,7 +305,7 @@ pub struct SequenceView<'v, 'de> {
 /// A field that is not a nested message, read with [`read`](Self::read).
 #[derive(Clone, Copy)]
 pub struct ValueView<'v, 'de> {
-    view: &'v MessageView<'de>,
+    view: &'v MessageView<'v, 'de>,
     field: &'v FieldDef,
     slot: Slot,
 }
@@ -113,114 +324,216 @@ pub enum FieldView<'v, 'de> {
 impl DynamicType {
     /// Check a CDR payload (encapsulation header included) as this type and
     /// view it: as [`decode`](Self::decode), without building the values.
-    pub fn view<'de>(&self, bytes: &'de [u8]) -> Result<MessageView<'de>, DecodeError> {
+    pub fn view<'t, 'de>(&'t self, bytes: &'de [u8]) -> Result<MessageView<'t, 'de>, DecodeError> {
         self.view_from(bytes, false)
     }
 
     /// [`view`](Self::view) for input other processes may write (shared
     /// memory): strings are copied before they are checked, when checked and
     /// when read.
-    pub fn view_shared<'de>(&self, bytes: &'de [u8]) -> Result<MessageView<'de>, DecodeError> {
+    pub fn view_shared<'t, 'de>(
+        &'t self,
+        bytes: &'de [u8],
+    ) -> Result<MessageView<'t, 'de>, DecodeError> {
         self.view_from(bytes, true)
     }
 
-    fn view_from<'de>(
-        &self,
+    fn view_from<'t, 'de>(
+        &'t self,
         bytes: &'de [u8],
         shared: bool,
-    ) -> Result<MessageView<'de>, DecodeError> {
+    ) -> Result<MessageView<'t, 'de>, DecodeError> {
         let order = crate::read_header(bytes)?;
         let body = bytes.get(4..).unwrap_or_default();
-        let mut view = MessageView {
-            ty: self.clone(),
+        let types = &*self.inner;
+        let root = types.plans.first().map_or(0, |p| p.block);
+        // Room for the root's slots and a few sequences of messages, so that
+        // most views allocate once, and little.
+        let mut slots = Vec::with_capacity(root.min(1 << 12) + 32);
+        slots.resize(root, Slot::default());
+        let mut checker = Checker { types, slots };
+        match order {
+            Endianness::Little => {
+                checker.check_struct(&mut Reader::<LittleEndian>::at(body, 0, shared), 0, 0)?
+            }
+            Endianness::Big => {
+                checker.check_struct(&mut Reader::<BigEndian>::at(body, 0, shared), 0, 0)?
+            }
+        }
+        Ok(MessageView {
+            ty: self,
+            types,
             body,
             order,
             shared,
-            slots: Vec::new(),
-        };
-        let root = self.inner.structs[0].fields.len();
-        // Room for a message whose sequences are short, so that most views
-        // allocate once.
-        let least = self.inner.least_slots.first().copied().unwrap_or(root);
-        view.slots.reserve(least.min(1 << 12) + 32);
-        view.slots.resize(root, Slot::default());
-        match order {
-            Endianness::Little => {
-                let mut r = Reader::<LittleEndian>::at(body, 0, shared);
-                self.check_struct(&mut r, 0, 0, &mut view.slots)?;
-            }
-            Endianness::Big => {
-                let mut r = Reader::<BigEndian>::at(body, 0, shared);
-                self.check_struct(&mut r, 0, 0, &mut view.slots)?;
-            }
-        }
-        Ok(view)
+            slots: checker.slots,
+        })
     }
+}
 
+/// The one pass of [`DynamicType::view`]: checks a payload step by step,
+/// noting where each field lies.
+struct Checker<'t> {
+    types: &'t Types,
+    slots: Vec<Slot>,
+}
+
+impl Checker<'_> {
     /// Check one message of struct `index` at the reader's position, noting
     /// its fields in `slots[first..]` (already made).
     fn check_struct<B: ByteOrder>(
-        &self,
+        &mut self,
         r: &mut Reader<'_, B>,
         index: usize,
         first: usize,
-        slots: &mut Vec<Slot>,
     ) -> Result<(), DecodeError> {
-        let types = &*self.inner;
-        let Some(checks) = types.checks.get(index) else {
+        let types = self.types;
+        let Some(plan) = types.plans.get(index) else {
             return Ok(());
         };
-        for (i, check) in checks.iter().enumerate() {
-            let mut slot = Slot {
-                at: r.position(),
-                count: 1,
-                child: 0,
-            };
-            match *check {
-                Check::Number(size) => {
-                    r.read_aligned_bytes(size, size)?;
+        for step in &plan.steps {
+            match step {
+                Step::Run {
+                    align,
+                    len,
+                    members,
+                    bools,
+                } => {
+                    let at = r.position();
+                    let fits = match r.read_aligned_bytes(*align, *len) {
+                        Ok(bytes) => {
+                            !*bools
+                                || members.iter().all(|m| {
+                                    !m.bool || bytes.get(m.offset).is_some_and(|&b| b <= 1)
+                                })
+                        }
+                        Err(_) => false,
+                    };
+                    if fits {
+                        let start = r.position() - len;
+                        for m in members.iter() {
+                            if let Some(slot) = self.slots.get_mut(first + m.slot) {
+                                *slot = Slot {
+                                    at: start + m.offset,
+                                    aux: m.count,
+                                };
+                            }
+                        }
+                    } else {
+                        // Field by field, for the error `decode` gives.
+                        r.rewind(at);
+                        for m in members.iter() {
+                            let slot = check_value(r, m.check)?;
+                            if let Some(place) = self.slots.get_mut(first + m.slot) {
+                                *place = slot;
+                            }
+                        }
+                    }
                 }
-                Check::Bool => {
-                    bool::decode(r)?;
+                &Step::String { slot, bound } => {
+                    let at = check_string(r, bound)?;
+                    if let Some(place) = self.slots.get_mut(first + slot) {
+                        *place = Slot { at, aux: 1 };
+                    }
                 }
-                Check::String(bound) => {
-                    super::codec::decode_string(r, bound)?;
+                &Step::Value { slot, check } => {
+                    let value = check_value(r, check)?;
+                    if let Some(place) = self.slots.get_mut(first + slot) {
+                        *place = value;
+                    }
                 }
-                Check::WString(bound) => {
-                    read_wstring(r, bound)?;
-                }
-                Check::Message { index, width } => {
-                    slot.child = slots.len();
-                    slots.resize(slot.child + width, Slot::default());
-                    self.check_struct(r, index, slot.child, slots)?;
-                }
-                Check::Many {
-                    element,
+                &Step::Messages {
+                    slot,
+                    index,
                     container,
                     min,
                 } => {
-                    let count = super::codec::read_len(r, container, min)?;
-                    slot.at = r.position();
-                    slot.count = count;
-                    if let Element::Message(nested) = element {
-                        // The count was checked against the input: so many fit.
-                        let width = types.structs.get(nested).map_or(0, |s| s.fields.len());
-                        slot.child = slots.len();
-                        slots.resize(slot.child + count.saturating_mul(width), Slot::default());
-                        for k in 0..count {
-                            self.check_struct(r, nested, slot.child + k * width, slots)?;
-                        }
-                    } else {
-                        skip_elements(r, element, count)?;
+                    let count = read_len(r, container, min)?;
+                    let width = types.plans.get(index).map_or(0, |p| p.block);
+                    // The count was checked against the input: so many fit.
+                    let child = self.slots.len();
+                    self.slots
+                        .resize(child + count.saturating_mul(width), Slot::default());
+                    if let Some(place) = self.slots.get_mut(first + slot) {
+                        *place = Slot {
+                            at: count,
+                            aux: child,
+                        };
+                    }
+                    for k in 0..count {
+                        self.check_struct(r, index, child + k * width)?;
                     }
                 }
-            }
-            if let Some(place) = slots.get_mut(first + i) {
-                *place = slot;
             }
         }
         Ok(())
     }
+}
+
+/// Check a string as [`decode_string`] reads it, without building it, and
+/// give where it starts. Input other processes write, and any fault, go
+/// through `decode_string` itself: it copies what it checks, and its error
+/// is the one `decode` gives.
+#[inline(always)]
+fn check_string<B: ByteOrder>(
+    r: &mut Reader<'_, B>,
+    bound: Option<usize>,
+) -> Result<usize, DecodeError> {
+    let at = r.position();
+    if !r.is_shared() {
+        if let Ok(bytes) = r.read_count(1).and_then(|n| r.read_bytes(n)) {
+            let contents = match bytes.split_last() {
+                None => Some(&[][..]),
+                Some((0, contents)) => Some(contents),
+                Some(_) => None,
+            };
+            if let Some(contents) = contents {
+                let within = match bound {
+                    Some(bound) => contents.len() <= bound,
+                    None => true,
+                };
+                if within && (contents.is_ascii() || std::str::from_utf8(contents).is_ok()) {
+                    return Ok(at);
+                }
+            }
+        }
+        r.rewind(at);
+    }
+    decode_string(r, bound)?;
+    Ok(at)
+}
+
+/// Check one field that is not a message as `decode` reads it, and note
+/// where it lies.
+fn check_value<B: ByteOrder>(r: &mut Reader<'_, B>, check: Check) -> Result<Slot, DecodeError> {
+    let at = r.position();
+    match check {
+        Check::Number(size) => {
+            r.read_aligned_bytes(size, size)?;
+        }
+        Check::Bool => {
+            bool::decode(r)?;
+        }
+        Check::String(bound) => {
+            check_string(r, bound)?;
+        }
+        Check::WString(bound) => {
+            read_wstring(r, bound)?;
+        }
+        Check::Many {
+            element,
+            container,
+            min,
+        } => {
+            let count = read_len(r, container, min)?;
+            let at = r.position();
+            skip_elements(r, element, count)?;
+            return Ok(Slot { at, aux: count });
+        }
+        // Messages are steps of their own.
+        Check::Message { .. } => {}
+    }
+    Ok(Slot { at, aux: 1 })
 }
 
 /// Check `n` elements without keeping them: the readers `decode` uses, so
@@ -242,18 +555,16 @@ fn skip_elements<B: ByteOrder>(
         Element::U64 => u64::decode_cow_slice(r, n).map(drop),
         Element::F32 => f32::decode_cow_slice(r, n).map(drop),
         Element::F64 => f64::decode_cow_slice(r, n).map(drop),
-        Element::String(bound) => {
-            (0..n).try_for_each(|_| super::codec::decode_string(r, bound).map(drop))
-        }
+        Element::String(bound) => (0..n).try_for_each(|_| decode_string(r, bound).map(drop)),
         Element::WString(bound) => (0..n).try_for_each(|_| read_wstring(r, bound).map(drop)),
         Element::Message(_) => Ok(()),
     }
 }
 
-impl<'de> MessageView<'de> {
+impl<'t, 'de> MessageView<'t, 'de> {
     /// The type viewed.
-    pub fn ty(&self) -> &DynamicType {
-        &self.ty
+    pub fn ty(&self) -> &'t DynamicType {
+        self.ty
     }
 
     /// The payload's message itself.
@@ -283,7 +594,7 @@ impl<'de> MessageView<'de> {
 
 impl<'v, 'de> StructView<'v, 'de> {
     fn def(&self) -> &'v StructDef {
-        &self.view.ty.inner.structs[self.index]
+        &self.view.types.structs[self.index]
     }
 
     /// The message's type name (`pkg/msg/Name`).
@@ -314,13 +625,13 @@ impl<'v, 'de> StructView<'v, 'de> {
             (Element::Message(index), Container::Single) => FieldView::Message(StructView {
                 view: self.view,
                 index,
-                first: slot.child,
+                first: self.first + self.view.types.plans.get(self.index)?.children.get(i)?,
             }),
             (Element::Message(index), _) => FieldView::Messages(SequenceView {
                 view: self.view,
                 index,
-                first: slot.child,
-                len: slot.count,
+                first: slot.aux,
+                len: slot.at,
             }),
             _ => FieldView::Value(ValueView {
                 view: self.view,
@@ -360,7 +671,7 @@ impl<'v, 'de> SequenceView<'v, 'de> {
         (i < self.len).then(|| StructView {
             view: self.view,
             index: self.index,
-            first: self.first + i * self.view.ty.inner.structs[self.index].fields.len(),
+            first: self.first + i * self.view.types.plans[self.index].block,
         })
     }
 
@@ -394,7 +705,7 @@ impl<'de> ValueView<'_, 'de> {
             Container::Single => view.ty.decode_single(&mut r, self.field.element),
             _ => view
                 .ty
-                .decode_elements(&mut r, self.field.element, self.slot.count),
+                .decode_elements(&mut r, self.field.element, self.slot.aux),
         }
     }
 }
