@@ -4,6 +4,7 @@
 //! and no nested message is allocated, so viewing a message costs about what
 //! the generated borrowed decoder costs.
 
+use std::cell::Cell;
 use std::fmt;
 
 use super::codec::{decode_string, read_len, EMPTY_MESSAGE_MEMBER};
@@ -22,9 +23,9 @@ struct Slot {
     /// position to read it from (a sequence's after its count). An array or
     /// sequence of messages: how many there are.
     at: usize,
-    /// An array or sequence of values: how many there are. A message, or an
-    /// array or sequence of them: the slot of the first field of the (first)
-    /// message; elements follow one another.
+    /// A sequence of values: how many there are (an array's length is its
+    /// type's). An array or sequence of messages: the slot of the first
+    /// field of the first message; elements follow one another.
     aux: usize,
 }
 
@@ -51,6 +52,8 @@ enum Step {
         align: usize,
         len: usize,
         members: Box<[Member]>,
+        /// How each member is checked alone, to find the one at fault.
+        checks: Box<[Check]>,
         /// Whether a member is a bool, whose byte must be 0 or 1.
         bools: bool,
     },
@@ -74,11 +77,7 @@ enum Step {
 struct Member {
     slot: usize,
     offset: usize,
-    /// The elements of an array (1 for a single value).
-    count: usize,
     bool: bool,
-    /// How the field is checked alone, to find the one at fault.
-    check: Check,
 }
 
 /// A [`Step::Run`] being gathered.
@@ -86,6 +85,7 @@ struct OpenRun {
     align: usize,
     len: usize,
     members: Vec<Member>,
+    checks: Vec<Check>,
 }
 
 impl OpenRun {
@@ -95,6 +95,7 @@ impl OpenRun {
             len: self.len,
             bools: self.members.iter().any(|m| m.bool),
             members: self.members.into(),
+            checks: self.checks.into(),
         }
     }
 }
@@ -174,11 +175,10 @@ fn steps(fields: &[(usize, Check)]) -> Vec<Step> {
     let mut steps = Vec::new();
     let mut run: Option<OpenRun> = None;
     for &(slot, check) in fields {
-        // A fixed-size value: its size, alignment, element count, and
-        // whether it is a bool.
+        // A fixed-size value: its size, alignment, and whether it is a bool.
         let fixed = match check {
-            Check::Number(size) => Some((size, size, 1, false)),
-            Check::Bool => Some((1, 1, 1, true)),
+            Check::Number(size) => Some((size, size, false)),
+            Check::Bool => Some((1, 1, true)),
             Check::Many {
                 element,
                 container: Container::Array(n),
@@ -190,22 +190,17 @@ fn steps(fields: &[(usize, Check)]) -> Vec<Step> {
                     Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
                 ) =>
             {
-                n.checked_mul(min).map(|size| (size, min, n, false))
+                n.checked_mul(min).map(|size| (size, min, false))
             }
             _ => None,
         };
-        if let Some((size, align, count, bool)) = fixed {
-            let member = |offset| Member {
-                slot,
-                offset,
-                count,
-                bool,
-                check,
-            };
+        if let Some((size, align, bool)) = fixed {
+            let member = |offset| Member { slot, offset, bool };
             if let Some(open) = run.as_mut().filter(|open| align <= open.align) {
                 let offset = crate::layout::align_up(open.len, align);
                 if let Some(end) = offset.checked_add(size) {
                     open.members.push(member(offset));
+                    open.checks.push(check);
                     open.len = end;
                     continue;
                 }
@@ -215,6 +210,7 @@ fn steps(fields: &[(usize, Check)]) -> Vec<Step> {
                 align,
                 len: size,
                 members: vec![member(0)],
+                checks: vec![check],
             });
             continue;
         }
@@ -273,6 +269,26 @@ pub struct MessageView<'t, 'de> {
     order: Endianness,
     shared: bool,
     slots: Vec<Slot>,
+}
+
+thread_local! {
+    /// The table of the last view dropped on this thread, kept for the next
+    /// view: a view that reads one message after another allocates nothing.
+    static SPARE_SLOTS: Cell<Vec<Slot>> = const { Cell::new(Vec::new()) };
+}
+
+/// Tables above this many slots are freed, not kept.
+const KEPT_SLOTS: usize = 1 << 12;
+
+impl Drop for MessageView<'_, '_> {
+    fn drop(&mut self) {
+        if self.slots.capacity() <= KEPT_SLOTS {
+            let mut slots = std::mem::take(&mut self.slots);
+            slots.clear();
+            // During thread teardown the spare may be gone: then it is freed.
+            let _ = SPARE_SLOTS.try_with(|spare| spare.set(slots));
+        }
+    }
 }
 
 impl fmt::Debug for MessageView<'_, '_> {
@@ -347,9 +363,12 @@ impl DynamicType {
         let body = bytes.get(4..).unwrap_or_default();
         let types = &*self.inner;
         let root = types.plans.first().map_or(0, |p| p.block);
-        // Room for the root's slots and a few sequences of messages, so that
-        // most views allocate once, and little.
-        let mut slots = Vec::with_capacity(root.min(1 << 12) + 32);
+        let mut slots = SPARE_SLOTS.with(Cell::take);
+        if slots.capacity() == 0 {
+            // Room for the root's slots and a few sequences of messages, so
+            // that most views allocate once, and little.
+            slots.reserve(root.min(1 << 12) + 32);
+        }
         slots.resize(root, Slot::default());
         let mut checker = Checker { types, slots };
         match order {
@@ -397,6 +416,7 @@ impl Checker<'_> {
                     align,
                     len,
                     members,
+                    checks,
                     bools,
                 } => {
                     let at = r.position();
@@ -411,19 +431,17 @@ impl Checker<'_> {
                     };
                     if fits {
                         let start = r.position() - len;
+                        // An array's length is its type's: only `at` is noted.
                         for m in members.iter() {
                             if let Some(slot) = self.slots.get_mut(first + m.slot) {
-                                *slot = Slot {
-                                    at: start + m.offset,
-                                    aux: m.count,
-                                };
+                                slot.at = start + m.offset;
                             }
                         }
                     } else {
                         // Field by field, for the error `decode` gives.
                         r.rewind(at);
-                        for m in members.iter() {
-                            let slot = check_value(r, m.check)?;
+                        for (m, &check) in members.iter().zip(checks.iter()) {
+                            let slot = check_value(r, check)?;
                             if let Some(place) = self.slots.get_mut(first + m.slot) {
                                 *place = slot;
                             }
@@ -703,6 +721,7 @@ impl<'de> ValueView<'_, 'de> {
         let mut r = Reader::<B>::at(view.body, self.slot.at, view.shared);
         match self.field.container {
             Container::Single => view.ty.decode_single(&mut r, self.field.element),
+            Container::Array(n) => view.ty.decode_elements(&mut r, self.field.element, n),
             _ => view
                 .ty
                 .decode_elements(&mut r, self.field.element, self.slot.aux),
