@@ -26,7 +26,7 @@ pub mod qos;
 pub mod types;
 
 pub use metadata::BagMetadata;
-pub use player::{Bag, PlayOptions, PlayStats, Player, RecordedTopic};
+pub use player::{Bag, ClockTrigger, PlayOptions, PlayStats, Player, RecordedTopic};
 pub use recorder::{RecordOptions, RecordStats, Recorder, Selection};
 pub use writer::{BagWriter, Compression, TopicId, WriteOptions};
 

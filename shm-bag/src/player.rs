@@ -5,8 +5,11 @@
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use shm_cdr::msgs::builtin_interfaces::msg::Time;
+use shm_cdr::msgs::rosgraph_msgs::msg::Clock;
 use shm_runtime::rmw::Qos;
 use shm_runtime::{PayloadKind, RosNode, RosPublisher, Serialized, ShmConfig, ShmContext};
 use zenoh::Wait;
@@ -238,6 +241,41 @@ pub struct PlayOptions {
     /// Before the first message, wait up to this long until every topic's
     /// publisher has a subscriber (default: do not wait).
     pub wait_for_subscribers: Option<Duration>,
+    /// Publish the playback's time on `/clock` this many times a second (a
+    /// ROS time source for nodes with `use_sim_time`); recorded `/clock`
+    /// messages are then not played (default: do not publish).
+    pub clock_hz: Option<f64>,
+    /// Publish the time on `/clock` just before each message of these topics.
+    pub clock_on: ClockTrigger,
+    /// Start this far into the recording (default 0): earlier messages are
+    /// skipped, and the playback's time starts there.
+    pub start_offset: Duration,
+    /// Play this much of the recording from the start (after the offset),
+    /// then stop (default: all of it).
+    pub duration: Option<Duration>,
+}
+
+/// Which played messages the playback's time is published on `/clock`
+/// before ([`PlayOptions::clock_on`]), as `ros2 bag play --clock-topics`.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub enum ClockTrigger {
+    /// None (the default).
+    #[default]
+    Never,
+    /// Every one.
+    AllTopics,
+    /// Those of these topics.
+    Topics(Vec<String>),
+}
+
+impl ClockTrigger {
+    fn fires_on(&self, topic: &str) -> bool {
+        match self {
+            Self::Never => false,
+            Self::AllTopics => true,
+            Self::Topics(topics) => topics.iter().any(|t| t == topic),
+        }
+    }
 }
 
 impl Default for PlayOptions {
@@ -250,6 +288,10 @@ impl Default for PlayOptions {
             domain_id: None,
             node_name: "shm_bag_player".to_owned(),
             wait_for_subscribers: None,
+            clock_hz: None,
+            clock_on: ClockTrigger::Never,
+            start_offset: Duration::ZERO,
+            duration: None,
         }
     }
 }
@@ -286,6 +328,9 @@ pub struct Player {
     options: PlayOptions,
     _node: RosNode,
     publishers: HashMap<String, RosPublisher<Serialized>>,
+    clock: Option<RosPublisher<Clock>>,
+    /// The recording's first message time (ns since the Unix epoch).
+    bag_start: u64,
 }
 
 impl std::fmt::Debug for Player {
@@ -305,6 +350,12 @@ impl Player {
         if !(options.rate > 0.0 && options.rate.is_finite()) {
             return Err(format!("rate {}: give a number above 0", options.rate).into());
         }
+        if let Some(hz) = options.clock_hz {
+            if !(hz > 0.0 && hz.is_finite()) {
+                return Err(format!("clock rate {hz} Hz: give a number above 0").into());
+            }
+        }
+        let publishes_clock = options.clock_hz.is_some() || options.clock_on != ClockTrigger::Never;
         let topics = bag.topics()?;
         for wanted in &options.topics {
             if !topics.contains_key(wanted) {
@@ -329,6 +380,10 @@ impl Player {
             if !options.topics.is_empty() && !options.topics.contains(&topic.name) {
                 continue;
             }
+            // The playback's own clock replaces the recorded one.
+            if publishes_clock && topic.name == "/clock" {
+                continue;
+            }
             let hash = if topic.type_hash.is_empty() {
                 // Recorded without a hash (an older rosbag2): the standard
                 // type of that name, if there is one.
@@ -349,37 +404,97 @@ impl Player {
                 .wait()?;
             publishers.insert(topic.name.clone(), publisher);
         }
+        let clock = publishes_clock
+            .then(|| {
+                node.declare_publisher_with_qos::<Clock>("/clock", Qos::clock())
+                    .wait()
+            })
+            .transpose()?;
+        let bag_start = bag_start(&bag)?;
         Ok(Self {
             bag,
             options,
             _node: node,
             publishers,
+            clock,
+            bag_start,
         })
     }
 
     /// Publish the recording, each message at its recorded time from the
     /// start (divided by the rate), until its end (or, looping, until `stop`
     /// is set). Messages come from the file as mapped: from the page cache
-    /// into the publisher's buffer is their one copy.
+    /// into the publisher's buffer is their one copy. With a clock
+    /// ([`PlayOptions::clock_hz`]), the playback's time goes out on `/clock`
+    /// from the first call on, the start's until the first message is due.
     pub fn play(&self, stop: &AtomicBool) -> Result<PlayStats, Error> {
+        let begin = self.bag_start.saturating_add(
+            u64::try_from(self.options.start_offset.as_nanos()).unwrap_or(u64::MAX),
+        );
+        let end = self
+            .options
+            .duration
+            .map(|d| begin.saturating_add(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)));
+        let timeline = Timeline {
+            begin,
+            rate: self.options.rate,
+            started: Mutex::new(None),
+        };
+        let finished = AtomicBool::new(false);
+        std::thread::scope(|scope| {
+            if let (Some(clock), Some(hz)) = (&self.clock, self.options.clock_hz) {
+                let period = Duration::from_secs_f64(1.0 / hz);
+                let (timeline, finished) = (&timeline, &finished);
+                scope.spawn(move || {
+                    let mut next = Instant::now();
+                    while !finished.load(Ordering::Relaxed) && !stop.load(Ordering::Relaxed) {
+                        publish_clock(clock, timeline.now());
+                        next += period;
+                        let now = Instant::now();
+                        if next > now {
+                            std::thread::sleep(next - now);
+                        } else {
+                            next = now;
+                        }
+                    }
+                });
+            }
+            let played = self.play_passes(stop, &timeline, end);
+            finished.store(true, Ordering::Relaxed);
+            played
+        })
+    }
+
+    fn play_passes(
+        &self,
+        stop: &AtomicBool,
+        timeline: &Timeline,
+        end: Option<u64>,
+    ) -> Result<PlayStats, Error> {
         if let Some(timeout) = self.options.wait_for_subscribers {
             let deadline = Instant::now() + timeout;
             for publisher in self.publishers.values() {
                 publisher.wait_for_subscribers(deadline.saturating_duration_since(Instant::now()));
             }
+            if let Some(clock) = &self.clock {
+                clock.wait_for_subscribers(deadline.saturating_duration_since(Instant::now()));
+            }
         }
         std::thread::sleep(self.options.delay);
         let mut stats = PlayStats::default();
         loop {
-            let start = Instant::now();
-            let mut first: Option<u64> = None;
-            for path in &self.bag.files {
+            let start = timeline.restart();
+            'files: for path in &self.bag.files {
                 let file = map(path)?;
                 let summary = summary(path, &file)?;
-                let by_channel: HashMap<u16, &RosPublisher<Serialized>> = summary
+                let by_channel: HashMap<u16, (&str, &RosPublisher<Serialized>)> = summary
                     .channels
                     .iter()
-                    .filter_map(|(id, c)| self.publishers.get(&c.topic).map(|p| (*id, p)))
+                    .filter_map(|(id, c)| {
+                        self.publishers
+                            .get(&c.topic)
+                            .map(|p| (*id, (c.topic.as_str(), p)))
+                    })
                     .collect();
                 let stream = mcap::read::RawMessageStream::new(&file)
                     .map_err(|e| format!("{}: {e}", path.display()))?;
@@ -388,16 +503,27 @@ impl Player {
                         return Ok(stats);
                     }
                     let message = message.map_err(|e| format!("{}: {e}", path.display()))?;
-                    let Some(publisher) = by_channel.get(&message.header.channel_id) else {
+                    let Some(&(topic, publisher)) = by_channel.get(&message.header.channel_id)
+                    else {
                         continue;
                     };
-                    let t0 = *first.get_or_insert(message.header.log_time);
-                    let offset =
-                        message.header.log_time.saturating_sub(t0) as f64 / self.options.rate;
-                    let due = start + Duration::from_nanos(offset as u64);
+                    let time = message.header.log_time;
+                    if time < timeline.begin {
+                        continue;
+                    }
+                    if end.is_some_and(|end| time > end) {
+                        // Files hold messages in time order: none is due after.
+                        break 'files;
+                    }
+                    let due = start + timeline.wall_offset(time);
                     let now = Instant::now();
                     if due > now {
                         std::thread::sleep(due - now);
+                    }
+                    if let Some(clock) = &self.clock {
+                        if self.options.clock_on.fires_on(topic) {
+                            publish_clock(clock, time);
+                        }
                     }
                     match publisher.publish_serialized(&message.data) {
                         Ok(outcome) => {
@@ -419,6 +545,66 @@ impl Player {
             }
         }
     }
+}
+
+/// The playback's time: the recording's time `begin` when the current pass
+/// started, running `rate` times as fast as the wall clock.
+struct Timeline {
+    begin: u64,
+    rate: f64,
+    started: Mutex<Option<Instant>>,
+}
+
+impl Timeline {
+    /// Start a pass now; its start.
+    fn restart(&self) -> Instant {
+        let now = Instant::now();
+        *self.started.lock().unwrap_or_else(|e| e.into_inner()) = Some(now);
+        now
+    }
+
+    /// How long after a pass's start the recording's `time` is due.
+    fn wall_offset(&self, time: u64) -> Duration {
+        Duration::from_nanos((time.saturating_sub(self.begin) as f64 / self.rate) as u64)
+    }
+
+    /// The recording's time now (its start before the first pass).
+    fn now(&self) -> u64 {
+        let started = *self.started.lock().unwrap_or_else(|e| e.into_inner());
+        let elapsed = started.map_or(0.0, |s| s.elapsed().as_nanos() as f64 * self.rate);
+        self.begin.saturating_add(elapsed as u64)
+    }
+}
+
+/// Publish `time` (ns since the Unix epoch) on `/clock`.
+fn publish_clock(clock: &RosPublisher<Clock>, time: u64) {
+    const NANOS: u64 = 1_000_000_000;
+    let msg = Clock {
+        clock: Time {
+            sec: i32::try_from(time / NANOS).unwrap_or(i32::MAX),
+            nanosec: (time % NANOS) as u32,
+        },
+    };
+    if let Err(e) = clock.publish(&msg).wait() {
+        tracing::warn!("publishing /clock failed: {e}");
+    }
+}
+
+/// The time of the recording's first message: the earliest in the files'
+/// statistics.
+fn bag_start(bag: &Bag) -> Result<u64, Error> {
+    let mut start = None::<u64>;
+    for path in &bag.files {
+        let file = map(path)?;
+        if let Some(stats) = summary(path, &file)?.stats {
+            if stats.message_count > 0 {
+                start = Some(start.map_or(stats.message_start_time, |s| {
+                    s.min(stats.message_start_time)
+                }));
+            }
+        }
+    }
+    Ok(start.unwrap_or(0))
 }
 
 /// The QoS to publish a recorded topic with: the recorded publishers'

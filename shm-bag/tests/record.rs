@@ -8,6 +8,8 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use shm_bag::{metadata, Bag, PlayOptions, Player, RecordOptions, Recorder, Selection};
+use shm_cdr::msgs::builtin_interfaces::msg::Time;
+use shm_cdr::msgs::rosgraph_msgs::msg::Clock;
 use shm_cdr::msgs::sensor_msgs::msg::Image;
 use shm_cdr::msgs::std_msgs::msg::String as RosString;
 use shm_cdr::RosMessage;
@@ -313,6 +315,143 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
         );
         assert!(sample.payload().to_bytes()[..] == want[..], "image {i}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A bag of 20 `/battery` messages 50 ms apart from `T0` (each labelled
+/// with its number), and one recorded `/clock` message far from them.
+const T0: u64 = 1_700_000_000_000_000_000;
+const STEP: u64 = 50_000_000;
+
+fn timed_bag(dir: &std::path::Path) {
+    use shm_bag::metadata::TopicMetadata;
+    let mut writer = shm_bag::BagWriter::create(dir, shm_bag::WriteOptions::default()).unwrap();
+    let topic = |name: &str, type_name: &str, hash: &str| TopicMetadata {
+        name: name.into(),
+        type_name: type_name.into(),
+        serialization_format: "cdr".into(),
+        offered_qos_profiles: Vec::new(),
+        type_description_hash: hash.into(),
+    };
+    let battery = writer
+        .add_topic(
+            topic("/battery", Battery::TYPE_NAME, Battery::type_hash()),
+            shm_bag::definition::of_description(&Battery::full_description()),
+        )
+        .unwrap();
+    let clock = writer
+        .add_topic(
+            topic("/clock", Clock::TYPE_NAME, Clock::type_hash()),
+            shm_bag::definition::of_description(&Clock::full_description()),
+        )
+        .unwrap();
+    let recorded_clock = Clock {
+        clock: Time {
+            sec: 42,
+            nanosec: 0,
+        },
+    };
+    writer
+        .write(clock, T0, T0, 0, &shm_cdr::to_vec(&recorded_clock).unwrap())
+        .unwrap();
+    for k in 0..20u64 {
+        let msg = Battery {
+            label: k.to_string(),
+            ..Battery::default()
+        };
+        let time = T0 + k * STEP;
+        writer
+            .write(
+                battery,
+                time,
+                time,
+                k as u32,
+                &shm_cdr::to_vec(&msg).unwrap(),
+            )
+            .unwrap();
+    }
+    writer.finish().unwrap();
+}
+
+fn nanos(time: &Time) -> u64 {
+    time.sec as u64 * 1_000_000_000 + u64::from(time.nanosec)
+}
+
+#[test]
+fn playback_publishes_its_time_on_clock_from_the_start_offset_for_the_duration() {
+    let (a, b) = sessions();
+    let dir = std::env::temp_dir().join(format!("shm_bag_clock_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    timed_bag(&dir);
+    let listener = RosNode::builder(&a, "listener")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let batteries = listener
+        .declare_subscriber::<Battery>("/battery")
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    let clocks = listener
+        .declare_subscriber_with_qos::<Clock>("/clock", Qos::clock())
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    let drain = |clocks: &shm_runtime::RosSubscriber<Clock>| {
+        let mut times = Vec::new();
+        while let Some(sample) = clocks.recv_timeout(Duration::from_millis(300)).unwrap() {
+            times.push(nanos(&sample.decode::<Clock>().unwrap().clock));
+        }
+        times
+    };
+
+    // From 200 ms in, 500 ms of the bag, twice as fast, /clock at 100 Hz.
+    let options = PlayOptions {
+        rate: 2.0,
+        domain_id: Some(0),
+        wait_for_subscribers: Some(TIMEOUT),
+        clock_hz: Some(100.0),
+        start_offset: Duration::from_millis(200),
+        duration: Some(Duration::from_millis(500)),
+        ..PlayOptions::default()
+    };
+    let player = Player::new(&b, Bag::open(&dir).unwrap(), options).unwrap();
+    let played = player.play(&AtomicBool::new(false)).unwrap();
+    // Messages 4 (200 ms) to 14 (700 ms); the recorded /clock is not played.
+    assert_eq!(played.published, 11);
+    for k in 4..=14 {
+        let sample = batteries.recv_timeout(TIMEOUT).unwrap().unwrap();
+        assert_eq!(sample.decode::<Battery>().unwrap().label, k.to_string());
+    }
+    let times = drain(&clocks);
+    // 250 ms of playback at 100 Hz: some ticks, all on the bag's timeline
+    // from the offset on, never going back, and the recorded /clock absent.
+    assert!(times.len() >= 5, "{} /clock ticks", times.len());
+    assert!(times.windows(2).all(|w| w[0] <= w[1]), "{times:?}");
+    let (begin, end) = (T0 + 4 * STEP, T0 + 14 * STEP);
+    assert!(
+        times.iter().all(|&t| (begin..=end + 2 * STEP).contains(&t)),
+        "{times:?} outside {begin}..{end}"
+    );
+    assert!(
+        times.iter().any(|&t| t > begin),
+        "the clock runs: {times:?}"
+    );
+
+    // Before each message: its own time, exactly.
+    let options = PlayOptions {
+        rate: 4.0,
+        domain_id: Some(0),
+        wait_for_subscribers: Some(TIMEOUT),
+        clock_on: shm_bag::ClockTrigger::AllTopics,
+        duration: Some(Duration::from_millis(250)),
+        ..PlayOptions::default()
+    };
+    let player = Player::new(&b, Bag::open(&dir).unwrap(), options).unwrap();
+    assert_eq!(player.play(&AtomicBool::new(false)).unwrap().published, 6);
+    let times = drain(&clocks);
+    let expected: Vec<u64> = (0..=5).map(|k| T0 + k * STEP).collect();
+    assert_eq!(times, expected);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -7,7 +7,8 @@ use std::time::{Duration, Instant};
 
 use clap::{Args, Subcommand, ValueEnum};
 use shm_bag::{
-    Bag, BagMetadata, Compression, PlayOptions, Player, RecordOptions, Recorder, Selection,
+    Bag, BagMetadata, ClockTrigger, Compression, PlayOptions, Player, RecordOptions, Recorder,
+    Selection,
 };
 
 use crate::context::Context;
@@ -107,6 +108,26 @@ pub(crate) struct PlayArgs {
     /// Sleep this many seconds before playing.
     #[arg(short = 'd', long, default_value_t = 0.0)]
     delay: f64,
+    /// Publish the playback's time on /clock this many times a second (40
+    /// when given without a value), as a ROS time source; the recorded
+    /// /clock is then not played.
+    #[arg(long, value_name = "HZ", num_args = 0..=1, default_missing_value = "40",
+          conflicts_with_all = ["clock_topics", "clock_topics_all"])]
+    clock: Option<f64>,
+    /// Publish the playback's time on /clock just before each message of
+    /// these topics.
+    #[arg(long, num_args = 1.., conflicts_with = "clock_topics_all")]
+    clock_topics: Vec<String>,
+    /// Publish the playback's time on /clock just before each message.
+    #[arg(long)]
+    clock_topics_all: bool,
+    /// Start the playback this many seconds into the bag.
+    #[arg(long, default_value_t = 0.0, value_name = "SECONDS")]
+    start_offset: f64,
+    /// Play this many seconds of the bag, from the start offset (negative:
+    /// all of it).
+    #[arg(long, default_value_t = -1.0, value_name = "SECONDS", allow_negative_numbers = true)]
+    playback_duration: f64,
 }
 
 pub(crate) fn run(context: Option<&Context>, command: BagCommand) -> Result<(), Error> {
@@ -230,12 +251,29 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
 
 fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {
     let bag = Bag::open(&args.bag_path)?;
+    let seconds = |flag: &str, value: f64| {
+        Duration::try_from_secs_f64(value)
+            .map_err(|_| format!("{flag} {value}: give a number of seconds, 0 or more"))
+    };
+    let clock_on = if args.clock_topics_all {
+        ClockTrigger::AllTopics
+    } else if !args.clock_topics.is_empty() {
+        ClockTrigger::Topics(args.clock_topics.clone())
+    } else {
+        ClockTrigger::Never
+    };
     let options = PlayOptions {
         rate: args.rate,
         loop_playback: args.loop_playback,
         topics: args.topics.clone(),
-        delay: Duration::from_secs_f64(args.delay.max(0.0)),
+        delay: seconds("--delay", args.delay)?,
         domain_id: Some(context.domain_id),
+        clock_hz: args.clock,
+        clock_on,
+        start_offset: seconds("--start-offset", args.start_offset)?,
+        duration: (args.playback_duration >= 0.0)
+            .then(|| seconds("--playback-duration", args.playback_duration))
+            .transpose()?,
         ..PlayOptions::default()
     };
     let stop = crate::interrupted()?;

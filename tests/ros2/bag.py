@@ -15,7 +15,8 @@ them; the recording is then read by:
   equal, each one deserialized to the values rclpy has.
 
 Then `shm-ros2 bag info` is compared with the facts, and `shm-ros2 bag play`
-publishes the recording to the peer, which reads it with rclpy.
+publishes the recording to the peer, which reads it with rclpy; with
+`--clock`, the peer reads the recording's timeline on `/clock`.
 
     python tests/ros2/bag.py <dir with the shm-ros2 binary>
 """
@@ -275,6 +276,32 @@ def main():
     check(proc.returncode == 0 and got == sent["/chatter"],
           f"bag play: exit {proc.returncode} {proc.stderr[-300:]!r}, the peer read {len(got)} of {COUNT}")
     print(f"bag play: the peer read {len(got)}/{COUNT} /chatter messages, byte-identical: {got == sent['/chatter']}")
+
+    # bag play --clock: the recording's timeline on /clock, from the start
+    # offset on, as rclpy reads rosgraph_msgs/Clock.
+    from rosgraph_msgs.msg import Clock
+    starts, ends = [], []
+    for path in files:
+        with open(path, "rb") as f:
+            stats = make_reader(f).get_summary().statistics
+            starts.append(stats.message_start_time)
+            ends.append(stats.message_end_time)
+    begin, end = min(starts) + 200_000_000, max(ends)
+    ticks = []
+    peer.subscriber("/clock", "rosgraph_msgs/msg/Clock", ticks.append)
+    proc = subprocess.run([str(BIN), "--connect", endpoint, "--domain-id", "0", "bag", "play", str(bag),
+                           "--topics", "/chatter", "--clock", "100", "--start-offset", "0.2", "-r", "5", "-d", "1"],
+                          capture_output=True, text=True, timeout=120)
+    time.sleep(0.5)
+    times = [c.clock.sec * 1_000_000_000 + c.clock.nanosec
+             for c in (deserialize_message(t, Clock) for t in list(ticks))]
+    check(proc.returncode == 0 and len(times) >= 20 and times == sorted(times)
+          and all(begin <= t <= end + 200_000_000 for t in times) and times[-1] > begin,
+          f"bag play --clock: exit {proc.returncode} {proc.stderr[-300:]!r}, {len(times)} ticks "
+          f"{times[:3]}..{times[-3:]} against {begin}..{end}")
+    print(f"bag play --clock: {len(times)} /clock ticks read with rclpy, from the start offset "
+          f"({(times[0] - begin) / 1e6 if times else 0:.0f} ms after it) to "
+          f"{(end - times[-1]) / 1e6 if times else 0:.0f} ms before the recording's end, never going back")
     if not failures:
         shutil.rmtree(work, ignore_errors=True)
 

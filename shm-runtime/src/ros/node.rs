@@ -751,7 +751,7 @@ impl SimTimeSwitch {
             &self.info,
             &self.remaps,
             "/clock",
-            crate::ros::time::CLOCK_QOS,
+            Qos::clock(),
             TopicType::of::<ClockMsg>(),
             Some(
                 self.types

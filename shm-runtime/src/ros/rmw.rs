@@ -334,6 +334,16 @@ impl Qos {
         )
     }
 
+    /// `rclcpp::ClockQoS` (and rclpy's time source): `/clock`'s profile, best
+    /// effort, volatile, keep last 1.
+    pub const fn clock() -> Self {
+        Self::with_history(
+            Reliability::BestEffort,
+            Durability::Volatile,
+            History::KeepLast(1),
+        )
+    }
+
     /// A latched topic (`/tf_static`, `/map`): reliable, transient local, keep
     /// last `depth`; late subscribers receive the last `depth` messages.
     pub const fn transient_local(depth: usize) -> Self {

@@ -11,15 +11,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use shm_cdr::msgs::builtin_interfaces::msg::Time;
 
-use crate::ros::rmw::{Durability, History, Qos, Reliability};
 use crate::CallbackSubscriber;
-
-/// rclcpp's and rclpy's `/clock` QoS: best effort, the last one.
-pub(crate) const CLOCK_QOS: Qos = Qos::with_history(
-    Reliability::BestEffort,
-    Durability::Volatile,
-    History::KeepLast(1),
-);
 
 /// A point in time on a [`Clock`]: nanoseconds since the Unix epoch (system
 /// time), or since the simulation's start (simulated time).
