@@ -178,8 +178,8 @@ fn bad_input_is_an_error_never_a_panic() {
 
 /// Every cut, and every byte of the payload replaced by values that break
 /// bools, counts and strings, of arbitrary values of `T`: the view (which
-/// checks runs of fixed-size fields at once) accepts and refuses exactly as
-/// `decode` does, field by field.
+/// checks runs of fixed-size fields, and sequences of numbers, at once)
+/// accepts and refuses exactly as `decode` does, field by field.
 fn view_agrees_with_decode_on_damaged_payloads<T>(values: usize)
 where
     T: shm_cdr::DecodeOwned + RosMessage + for<'a> arbitrary::Arbitrary<'a>,
@@ -221,12 +221,13 @@ where
 }
 
 #[test]
-fn views_check_runs_of_fixed_fields_as_decode_checks_each() {
+fn views_check_at_once_what_decode_checks_field_by_field() {
     view_agrees_with_decode_on_damaged_payloads::<test_msgs::msg::BasicTypes>(4);
     view_agrees_with_decode_on_damaged_payloads::<test_msgs::msg::Arrays>(4);
     // 2.7 KB a value: one is enough.
     view_agrees_with_decode_on_damaged_payloads::<test_msgs::msg::MultiNested>(1);
     view_agrees_with_decode_on_damaged_payloads::<test_msgs::msg::BoundedSequences>(4);
+    view_agrees_with_decode_on_damaged_payloads::<test_msgs::msg::UnboundedSequences>(4);
     view_agrees_with_decode_on_damaged_payloads::<sensor_msgs::msg::PointCloud2>(4);
     view_agrees_with_decode_on_damaged_payloads::<sensor_msgs::msg::Imu>(4);
 }

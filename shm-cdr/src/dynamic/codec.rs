@@ -162,7 +162,7 @@ impl DynamicType {
 /// least `min` bytes each: a sequence's count is read; either way, so many
 /// must fit in the rest of the input, and a bounded sequence's count within
 /// its bound.
-#[inline]
+#[inline(always)]
 pub(crate) fn read_len<B: ByteOrder>(
     r: &mut Reader<'_, B>,
     container: Container,

@@ -59,6 +59,14 @@ enum Step {
     },
     /// A string.
     String { slot: usize, bound: Option<usize> },
+    /// A sequence of numbers of `size` bytes each: one bounds check for
+    /// them all (any bit pattern is a number). `check` finds the fault.
+    Numbers {
+        slot: usize,
+        container: Container,
+        size: usize,
+        check: Check,
+    },
     /// A wide string, or an array or sequence of values: checked as
     /// [`Check`] says.
     Value { slot: usize, check: Check },
@@ -227,6 +235,22 @@ fn steps(fields: &[(usize, Check)]) -> Vec<Step> {
                 container,
                 min,
             },
+            Check::Many {
+                element,
+                container: container @ (Container::Sequence | Container::BoundedSequence(_)),
+                min,
+            } if !matches!(
+                element,
+                Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
+            ) =>
+            {
+                Step::Numbers {
+                    slot,
+                    container,
+                    size: min,
+                    check,
+                }
+            }
             check => Step::Value { slot, check },
         });
     }
@@ -452,6 +476,35 @@ impl Checker<'_> {
                     let at = check_string(r, bound)?;
                     if let Some(place) = self.slots.get_mut(first + slot) {
                         *place = Slot { at, aux: 1 };
+                    }
+                }
+                &Step::Numbers {
+                    slot,
+                    container,
+                    size,
+                    check,
+                } => {
+                    let at = r.position();
+                    // The count is checked against the input by `read_len`;
+                    // an empty sequence is not aligned to, as `decode` reads it.
+                    let fits = read_len(r, container, size).ok().and_then(|count| {
+                        let first = r.position();
+                        (count == 0 || r.read_aligned_bytes(size, count * size).is_ok()).then_some(
+                            Slot {
+                                at: first,
+                                aux: count,
+                            },
+                        )
+                    });
+                    let value = match fits {
+                        Some(value) => value,
+                        None => {
+                            r.rewind(at);
+                            check_value(r, check)?
+                        }
+                    };
+                    if let Some(place) = self.slots.get_mut(first + slot) {
+                        *place = value;
                     }
                 }
                 &Step::Value { slot, check } => {
