@@ -1,6 +1,7 @@
 //! Values as Python prints them, for the verbs whose output is Python's
 //! `repr` (`ros2 param get`, `ros2 service call`).
 
+use shm_cdr::describe::Container;
 use shm_cdr::dynamic::{python_float, DynamicType, Element, FieldDef, Message, Value};
 use shm_codegen::python::string_repr;
 
@@ -37,8 +38,12 @@ pub(crate) fn message_repr(message: &Message<'_>, ty: &DynamicType) -> String {
 }
 
 fn value_repr(field: &FieldDef, value: &Value<'_>, ty: &DynamicType) -> String {
-    // A sequence of numbers is an `array` and a fixed array a numpy array in
-    // rclpy: both print here as the list they hold.
+    // A fixed array of numbers is a numpy array in rclpy, printed as numpy
+    // prints it. A sequence of them is an `array.array`, which rclpy's
+    // `__repr__` prints as the list it holds.
+    if let (Container::Array(_), Some(numbers)) = (field.container, numbers(field, value)) {
+        return numpy_repr(numbers);
+    }
     let list = |items: Vec<String>| format!("[{}]", items.join(", "));
     match value {
         Value::Bool(b) => bool_repr(*b).to_owned(),
@@ -76,10 +81,370 @@ fn value_repr(field: &FieldDef, value: &Value<'_>, ty: &DynamicType) -> String {
     }
 }
 
+/// The numbers of a value rclpy holds in a numpy array when the field is a
+/// fixed array: every number type but `byte` (a list of `bytes`).
+fn numbers<'a>(field: &FieldDef, value: &'a Value<'_>) -> Option<Numbers<'a>> {
+    Some(match value {
+        Value::U8s(_) if field.element == Element::Byte => return None,
+        Value::U8s(v) => Numbers::U8(v),
+        Value::I8s(v) => Numbers::I8(v),
+        Value::I16s(v) => Numbers::I16(v),
+        Value::U16s(v) => Numbers::U16(v),
+        Value::I32s(v) => Numbers::I32(v),
+        Value::U32s(v) => Numbers::U32(v),
+        Value::I64s(v) => Numbers::I64(v),
+        Value::U64s(v) => Numbers::U64(v),
+        Value::F32s(v) => Numbers::F32(v),
+        Value::F64s(v) => Numbers::F64(v),
+        _ => return None,
+    })
+}
+
 fn bool_repr(b: bool) -> &'static str {
     if b {
         "True"
     } else {
         "False"
     }
+}
+
+/// The numbers of a fixed-size array, which rclpy holds as a numpy array.
+#[derive(Clone, Copy)]
+enum Numbers<'a> {
+    U8(&'a [u8]),
+    I8(&'a [i8]),
+    I16(&'a [i16]),
+    U16(&'a [u16]),
+    I32(&'a [i32]),
+    U32(&'a [u32]),
+    I64(&'a [i64]),
+    U64(&'a [u64]),
+    F32(&'a [f32]),
+    F64(&'a [f64]),
+}
+
+/// Arrays longer than this print their first and last [`EDGE_ITEMS`] only
+/// (numpy's `threshold`).
+const THRESHOLD: usize = 1000;
+const EDGE_ITEMS: usize = 3;
+/// numpy's `linewidth`.
+const LINE_WIDTH: usize = 75;
+
+impl Numbers<'_> {
+    fn len(self) -> usize {
+        match self {
+            Self::U8(v) => v.len(),
+            Self::I8(v) => v.len(),
+            Self::I16(v) => v.len(),
+            Self::U16(v) => v.len(),
+            Self::I32(v) => v.len(),
+            Self::U32(v) => v.len(),
+            Self::I64(v) => v.len(),
+            Self::U64(v) => v.len(),
+            Self::F32(v) => v.len(),
+            Self::F64(v) => v.len(),
+        }
+    }
+
+    /// The dtype numpy names after the values, unless the values imply it.
+    fn dtype(self) -> Option<&'static str> {
+        match self {
+            Self::U8(_) => Some("uint8"),
+            Self::I8(_) => Some("int8"),
+            Self::I16(_) => Some("int16"),
+            Self::U16(_) => Some("uint16"),
+            Self::I32(_) => Some("int32"),
+            Self::U32(_) => Some("uint32"),
+            Self::U64(_) => Some("uint64"),
+            Self::F32(_) => Some("float32"),
+            Self::I64(_) | Self::F64(_) => None,
+        }
+    }
+
+    /// Each value printed, as wide as the widest: of the first and last
+    /// [`EDGE_ITEMS`] only when the array is summarized.
+    fn words(self, summarized: bool) -> Vec<String> {
+        fn shown<T: Copy>(v: &[T], summarized: bool) -> Vec<T> {
+            if summarized {
+                let tail = v.len().saturating_sub(EDGE_ITEMS);
+                v.iter()
+                    .take(EDGE_ITEMS)
+                    .chain(v.iter().skip(tail))
+                    .copied()
+                    .collect()
+            } else {
+                v.to_vec()
+            }
+        }
+        fn integers<T: Copy + Ord + ToString>(v: &[T], summarized: bool) -> Vec<String> {
+            let v = shown(v, summarized);
+            let words: Vec<String> = v.iter().map(T::to_string).collect();
+            // numpy's width is that of the largest and of the smallest value.
+            let width = [v.iter().max(), v.iter().min()]
+                .into_iter()
+                .flatten()
+                .map(|x| x.to_string().len())
+                .max()
+                .unwrap_or(0);
+            words.into_iter().map(|w| format!("{w:>width$}")).collect()
+        }
+        match self {
+            Self::U8(v) => integers(v, summarized),
+            Self::I8(v) => integers(v, summarized),
+            Self::I16(v) => integers(v, summarized),
+            Self::U16(v) => integers(v, summarized),
+            Self::I32(v) => integers(v, summarized),
+            Self::U32(v) => integers(v, summarized),
+            Self::I64(v) => integers(v, summarized),
+            Self::U64(v) => integers(v, summarized),
+            Self::F32(v) => floats(&shown(v, summarized)),
+            Self::F64(v) => floats(&shown(v, summarized)),
+        }
+    }
+}
+
+/// numpy's `repr` of a one-dimensional array (`array([…], dtype=…)`), its
+/// lines wrapped at 75 columns as numpy wraps them.
+fn numpy_repr(numbers: Numbers<'_>) -> String {
+    const PREFIX: &str = "array(";
+    let len = numbers.len();
+    let summarized = len > THRESHOLD;
+    let words = numbers.words(summarized);
+    let list = if words.is_empty() {
+        "[]".to_owned()
+    } else {
+        // One column less for the closing parenthesis, and one for the
+        // separator or bracket after each word.
+        let width = LINE_WIDTH - 1 - 1;
+        let indent = " ".repeat(PREFIX.len() + 1);
+        let (mut text, mut line) = (String::new(), indent.clone());
+        let extend = |text: &mut String, line: &mut String, word: &str| {
+            if line.len() + word.len() > width && line.len() > indent.len() {
+                text.push_str(line.trim_end());
+                text.push('\n');
+                line.clone_from(&indent);
+            }
+            line.push_str(word);
+        };
+        let last = words.len() - 1;
+        for (i, word) in words.iter().enumerate() {
+            extend(&mut text, &mut line, word);
+            if i < last {
+                line.push_str(", ");
+            }
+            if summarized && i + 1 == EDGE_ITEMS {
+                extend(&mut text, &mut line, "...");
+                line.push_str(", ");
+            }
+        }
+        text.push_str(&line);
+        format!("[{}]", &text[indent.len()..])
+    };
+    let mut extras = Vec::new();
+    if summarized {
+        extras.push(format!("shape=({len},)"));
+    }
+    if let Some(dtype) = numbers.dtype() {
+        extras.push(format!("dtype={dtype}"));
+    }
+    if extras.is_empty() {
+        return format!("{PREFIX}{list})");
+    }
+    let head = format!("{PREFIX}{list},");
+    let extra = format!("{})", extras.join(", "));
+    let last_line = head.len() - head.rfind('\n').map_or(0, |at| at + 1);
+    let spacer = if last_line + extra.len() + 1 > LINE_WIDTH {
+        format!("\n{}", " ".repeat(PREFIX.len()))
+    } else {
+        " ".to_owned()
+    };
+    format!("{head}{spacer}{extra}")
+}
+
+/// A float type as numpy prints it.
+trait NumpyFloat: Copy + PartialOrd + std::fmt::LowerExp + std::fmt::Display {
+    /// `10 ** min(8, finfo.precision)`: from here up, scientific notation.
+    const EXP_CUTOFF: Self;
+    const SMALL: Self;
+    const RATIO: Self;
+    const ZERO: Self;
+    fn finite(self) -> bool;
+    fn abs(self) -> Self;
+    fn div(self, other: Self) -> Self;
+    fn negative(self) -> bool;
+    fn nan(self) -> bool;
+}
+
+macro_rules! numpy_float {
+    ($t:ty, $cutoff:expr) => {
+        impl NumpyFloat for $t {
+            const EXP_CUTOFF: Self = $cutoff;
+            const SMALL: Self = 0.0001;
+            const RATIO: Self = 1000.0;
+            const ZERO: Self = 0.0;
+            fn finite(self) -> bool {
+                self.is_finite()
+            }
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            fn div(self, other: Self) -> Self {
+                self / other
+            }
+            fn negative(self) -> bool {
+                self.is_sign_negative()
+            }
+            fn nan(self) -> bool {
+                self.is_nan()
+            }
+        }
+    };
+}
+numpy_float!(f32, 1e6);
+numpy_float!(f64, 1e8);
+
+/// The fewest significant digits that read back to `x` (the nearest such,
+/// as Dragon4 gives them: Rust's exact formatting at that many digits), and
+/// the power of ten of the first.
+fn shortest<T: NumpyFloat>(x: T) -> (String, i32) {
+    let count = split_exp(&format!("{x:e}")).0.len();
+    split_exp(&format!("{:.*e}", count.saturating_sub(1), x))
+}
+
+/// The digits and exponent of Rust's `{:e}` text of a non-negative number.
+fn split_exp(text: &str) -> (String, i32) {
+    let (mantissa, exponent) = text.split_once('e').unwrap_or((text, "0"));
+    let digits = mantissa.chars().filter(char::is_ascii_digit).collect();
+    (digits, exponent.parse().unwrap_or(0))
+}
+
+/// `|x|` positionally, as numpy's Dragon4 with `unique` and at most
+/// `max_fraction` decimals: (integer part, fraction without trailing zeros).
+fn positional<T: NumpyFloat>(x: T, max_fraction: usize) -> (String, String) {
+    let (digits, exponent) = shortest(x);
+    if digits.len() as i64 - 1 - i64::from(exponent) > max_fraction as i64 {
+        // Too many decimals: the exact value rounded, half to even.
+        let fixed = format!("{:.*}", max_fraction, x);
+        let (int, frac) = fixed.split_once('.').unwrap_or((fixed.as_str(), ""));
+        return (int.to_owned(), frac.trim_end_matches('0').to_owned());
+    }
+    let point = exponent + 1;
+    if point <= 0 {
+        let zeros = "0".repeat(point.unsigned_abs() as usize);
+        return ("0".to_owned(), format!("{zeros}{digits}"));
+    }
+    let point = point as usize;
+    if digits.len() <= point {
+        return (format!("{digits:0<point$}"), String::new());
+    }
+    let (int, frac) = digits.split_at(point);
+    (int.to_owned(), frac.trim_end_matches('0').to_owned())
+}
+
+/// `|x|` in scientific notation, as numpy's Dragon4 with `unique` and at
+/// most `max_fraction` decimals after the first digit: (digits without
+/// trailing zeros, exponent).
+fn exponential<T: NumpyFloat>(x: T, max_fraction: usize) -> (String, i32) {
+    let (mut digits, mut exponent) = shortest(x);
+    if digits.len() > 1 + max_fraction {
+        (digits, exponent) = split_exp(&format!("{:.*e}", max_fraction, x));
+    }
+    while digits.len() > 1 && digits.ends_with('0') {
+        digits.pop();
+    }
+    (digits, exponent)
+}
+
+/// numpy's `FloatingFormat` with its defaults (precision 8, `maxprec`):
+/// every value positional, or all scientific, aligned on the point.
+fn floats<T: NumpyFloat>(values: &[T]) -> Vec<String> {
+    const PRECISION: usize = 8;
+    let finite: Vec<T> = values.iter().copied().filter(|x| x.finite()).collect();
+    let nonzero = finite.iter().map(|x| x.abs()).filter(|x| *x != T::ZERO);
+    let (min, max) = nonzero.fold((None::<T>, None::<T>), |(lo, hi), x| {
+        (
+            Some(lo.map_or(x, |lo| if x < lo { x } else { lo })),
+            Some(hi.map_or(x, |hi| if x > hi { x } else { hi })),
+        )
+    });
+    let scientific = match (min, max) {
+        (Some(min), Some(max)) => max >= T::EXP_CUTOFF || min < T::SMALL || max.div(min) > T::RATIO,
+        _ => false,
+    };
+    let sign = |x: T| if x.negative() { "-" } else { "" };
+    // Each finite value as (integer part with its sign, fraction, exponent).
+    let parts: Vec<(String, String, String)> = finite
+        .iter()
+        .map(|&x| {
+            let magnitude = x.abs();
+            if scientific {
+                let (digits, exponent) = exponential(magnitude, PRECISION);
+                let (first, rest) = digits.split_at(1.min(digits.len()));
+                let exp_sign = if exponent < 0 { '-' } else { '+' };
+                (
+                    format!("{}{first}", sign(x)),
+                    rest.to_owned(),
+                    format!("{exp_sign}{:02}", exponent.unsigned_abs()),
+                )
+            } else {
+                let (int, frac) = positional(magnitude, PRECISION);
+                (format!("{}{int}", sign(x)), frac, String::new())
+            }
+        })
+        .collect();
+    let pad_left = parts.iter().map(|p| p.0.len()).max().unwrap_or(0);
+    let frac_width = parts.iter().map(|p| p.1.len()).max().unwrap_or(0);
+    let exp_width = parts
+        .iter()
+        .map(|p| p.2.len())
+        .max()
+        .unwrap_or(1)
+        .saturating_sub(1);
+    let pad_right = if scientific {
+        exp_width + 2 + frac_width
+    } else {
+        frac_width
+    };
+    // Room for `nan`, `inf` and `-inf` beside the numbers.
+    let neginf = values
+        .iter()
+        .any(|x| !x.finite() && !x.nan() && x.negative());
+    let pad_left = if finite.len() < values.len() {
+        let offset = pad_right + 1;
+        pad_left
+            .max(3usize.saturating_sub(offset))
+            .max((3 + usize::from(neginf)).saturating_sub(offset))
+    } else {
+        pad_left
+    };
+    let mut parts = parts.into_iter();
+    values
+        .iter()
+        .map(|&x| {
+            if !x.finite() {
+                let text = if x.nan() {
+                    "nan"
+                } else if x.negative() {
+                    "-inf"
+                } else {
+                    "inf"
+                };
+                return format!("{text:>width$}", width = pad_left + pad_right + 1);
+            }
+            let (int, frac, _) = parts.next().unwrap_or_default();
+            if scientific {
+                // Every value gets as many decimals as the one needing most:
+                // the exact value's next digits, not zeros, as Dragon4's
+                // `min_digits` gives them.
+                let (digits, exponent) = split_exp(&format!("{:.*e}", frac_width, x.abs()));
+                let (first, rest) = digits.split_at(1.min(digits.len()));
+                let int = format!("{}{first}", sign(x));
+                let exp_sign = if exponent < 0 { '-' } else { '+' };
+                let exp_digits = exponent.unsigned_abs();
+                format!("{int:>pad_left$}.{rest}e{exp_sign}{exp_digits:0>exp_width$}")
+            } else {
+                format!("{int:>pad_left$}.{frac:<pad_right$}")
+            }
+        })
+        .collect()
 }

@@ -317,6 +317,54 @@ def check_service_call(endpoint, peer):
           f"service call of the wrong type: {proc.returncode} {proc.stderr!r}")
     print("service call: test_msgs/srv/BasicTypes (every scalar kind) and std_srvs/srv/Trigger answered by the "
           "peer, request and response printed as rclpy's repr")
+    check_numpy_arrays(endpoint, peer)
+
+
+def check_numpy_arrays(endpoint, peer):
+    """Fixed arrays of numbers are numpy arrays in rclpy: `service call`
+    prints them as numpy's repr does (padding, scientific notation, nan and
+    inf, dtype, lines wrapped at 75 columns), for random and chosen values."""
+    from sensor_msgs.msg import CameraInfo
+    from sensor_msgs.srv import SetCameraInfo
+    from test_msgs.srv import Arrays
+    nan, inf = float("nan"), float("inf")
+    floats = [[1e-7, 123456.789, inf], [nan, -inf, 0.5], [-0.0, 0.1, 1.5], [1e8, 1.0, 2.0], [0.001953125, 3.0, -2.5],
+              [1 / 3, 2 / 3, 1e5], [1e300, -1e-300, 0.0], [0.0, 0.0, 0.0], [nan, nan, nan], [-inf, 1e16, 7.0]]
+    responses = []
+    for i, values in enumerate(floats):
+        response = random_value(Arrays.Response)
+        response.float64_values = values
+        response.float32_values = [v * 1.0000001 if v == v else v for v in reversed(values)]
+        responses.append(deserialize_message(serialize_message(response), Arrays.Response))
+    for _ in range(6):
+        responses.append(deserialize_message(serialize_message(random_value(Arrays.Response)), Arrays.Response))
+    served = iter(responses)
+    peer.serve("/demo/arrays", Arrays, "test_msgs/srv/Arrays", lambda request, response: next(served))
+    for response in responses:
+        proc = cli(endpoint, "service", "call", "/demo/arrays", "test_msgs/srv/Arrays")
+        expected = f"requester: making request: {Arrays.Request()!r}\n\nresponse:\n{response!r}\n\n"
+        check(proc.returncode == 0 and proc.stdout == expected,
+              f"service call /demo/arrays: exit {proc.returncode} {proc.stderr[-300:]!r}\n"
+              f"    ours:     {proc.stdout!r}\n    expected: {expected!r}")
+    # Long arrays wrap: a camera's matrices, sent in the request.
+    k = [512.345678, 0.0, 320.5, 0.0, 511.98765, 240.25, 0.0, 0.0, 1.0]
+    r = [0.99998, -0.00123, 0.00456, 0.00123, 0.99999, -0.00789, -0.00456, 0.00789, 0.99997]
+    p = [512.345678, 0.0, 320.5, -35.123456, 0.0, 511.98765, 240.25, 0.0, 0.0, 0.0, 1.0, 0.0]
+    info = CameraInfo(k=k, r=r, p=p, width=640, height=480)
+    request = SetCameraInfo.Request(camera_info=info)
+    peer.serve("/demo/set_camera_info", SetCameraInfo, "sensor_msgs/srv/SetCameraInfo",
+               lambda request, response: SetCameraInfo.Response(success=True, status_message="stored"))
+    text = "{camera_info: {width: 640, height: 480, k: %s, r: %s, p: %s}}" % (
+        [repr(v) for v in k], [repr(v) for v in r], [repr(v) for v in p])
+    proc = cli(endpoint, "service", "call", "/demo/set_camera_info", "sensor_msgs/srv/SetCameraInfo",
+               text.replace("'", ""))
+    response = SetCameraInfo.Response(success=True, status_message="stored")
+    expected = f"requester: making request: {request!r}\n\nresponse:\n{response!r}\n\n"
+    check(proc.returncode == 0 and proc.stdout == expected,
+          f"service call /demo/set_camera_info: exit {proc.returncode} {proc.stderr[-300:]!r}\n"
+          f"    ours:     {proc.stdout!r}\n    expected: {expected!r}")
+    print(f"service call: {len(responses)} test_msgs/srv/Arrays responses and a sensor_msgs/CameraInfo request "
+          "with fixed arrays printed as numpy's repr (padding, scientific notation, nan, inf, dtype, wrapping)")
 
 
 def check_send_goal(endpoint, peer):
