@@ -448,3 +448,42 @@ fn floats<T: NumpyFloat>(values: &[T]) -> Vec<String> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{numpy_repr, Numbers};
+
+    /// What numpy 2.4's `repr` prints for these arrays (`tests/ros2/cli.py`
+    /// compares with numpy itself, through rclpy).
+    #[test]
+    fn fixed_arrays_print_as_numpy_prints_them() {
+        let wrapped: Vec<f64> = (0..30).map(|i| f64::from(i) * 1.1).collect();
+        let cases: [(Numbers<'_>, &str); 8] = [
+            (Numbers::F64(&[1.0, 2.5, -3.0]), "array([ 1. ,  2.5, -3. ])"),
+            (Numbers::F64(&[1e-5, 1.5e10]), "array([1.0e-05, 1.5e+10])"),
+            (
+                Numbers::F64(&[0.1, f64::NAN, f64::NEG_INFINITY]),
+                "array([ 0.1,  nan, -inf])",
+            ),
+            (
+                Numbers::I32(&[1, -20, 3]),
+                "array([  1, -20,   3], dtype=int32)",
+            ),
+            (Numbers::F64(&[0.001953125]), "array([0.00195312])"),
+            (Numbers::F32(&[1.5]), "array([1.5], dtype=float32)"),
+            (
+                Numbers::F64(&wrapped),
+                "array([ 0. ,  1.1,  2.2,  3.3,  4.4,  5.5,  6.6,  7.7,  8.8,  9.9, 11. ,\n       \
+                 12.1, 13.2, 14.3, 15.4, 16.5, 17.6, 18.7, 19.8, 20.9, 22. , 23.1,\n       \
+                 24.2, 25.3, 26.4, 27.5, 28.6, 29.7, 30.8, 31.9])",
+            ),
+            (
+                Numbers::F64(&[0.0; 1001]),
+                "array([0., 0., 0., ..., 0., 0., 0.], shape=(1001,))",
+            ),
+        ];
+        for (numbers, numpy) in cases {
+            assert_eq!(numpy_repr(numbers), numpy);
+        }
+    }
+}
