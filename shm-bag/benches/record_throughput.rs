@@ -25,19 +25,7 @@ const PUBLISHERS: usize = 2;
 const ROLE: &str = "SHM_BAG_BENCH_ROLE";
 
 fn config(port: u16, listen: bool) -> zenoh::Config {
-    let mut config = zenoh::Config::default();
-    let key = if listen {
-        "listen/endpoints"
-    } else {
-        "connect/endpoints"
-    };
-    config
-        .insert_json5(key, &format!("[\"tcp/127.0.0.1:{port}\"]"))
-        .expect("a valid endpoint");
-    config
-        .insert_json5("scouting/multicast/enabled", "false")
-        .expect("a valid setting");
-    config
+    shm_runtime::testing::peer_config(port, listen).expect("a peer configuration")
 }
 
 /// A camera: 8 MiB `rgba8` images from its own pool of 8 of them, as fast
@@ -115,10 +103,7 @@ struct Run {
 }
 
 fn record(dir: &Path, seconds: f64, sync: bool) -> Run {
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port");
+    let port = shm_runtime::testing::free_port().expect("a free port");
     let session = zenoh::open(config(port, true)).wait().expect("a session");
     let bag = dir.join("shm_bag_bench");
     let _ = std::fs::remove_dir_all(&bag);

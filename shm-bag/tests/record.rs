@@ -14,7 +14,7 @@ use shm_cdr::msgs::sensor_msgs::msg::Image;
 use shm_cdr::msgs::std_msgs::msg::String as RosString;
 use shm_cdr::RosMessage;
 use shm_runtime::rmw::Qos;
-use shm_runtime::{RosNode, ShmConfig, ShmContext};
+use shm_runtime::{testing, RosNode, ShmConfig, ShmContext};
 use zenoh::{Session, Wait};
 
 /// A type the recorder was not built with: described by its publisher's
@@ -39,30 +39,13 @@ fn unlimited() -> bool {
 }
 const COUNT: usize = 20;
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .unwrap_or(17448)
-}
-
 /// Two peer sessions on a local port, as two processes would be.
 fn sessions() -> (Session, Session) {
-    let port = free_port();
-    let open = |listen: bool| {
-        let mut config = zenoh::Config::default();
-        let key = if listen {
-            "listen/endpoints"
-        } else {
-            "connect/endpoints"
-        };
-        config
-            .insert_json5(key, &format!("[\"tcp/127.0.0.1:{port}\"]"))
-            .unwrap();
-        config
-            .insert_json5("scouting/multicast/enabled", "false")
-            .unwrap();
-        zenoh::open(config).wait().unwrap()
+    let port = testing::free_port().unwrap();
+    let open = |listen| {
+        zenoh::open(testing::peer_config(port, listen).unwrap())
+            .wait()
+            .unwrap()
     };
     let a = open(true);
     (a, open(false))

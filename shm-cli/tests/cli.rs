@@ -10,7 +10,7 @@ use std::time::Duration;
 use shm_cdr::msgs::std_msgs::String as RosString;
 use shm_cdr::RosMessage;
 use shm_runtime::parameters::ParameterValue;
-use shm_runtime::RosNode;
+use shm_runtime::{testing, RosNode};
 use zenoh::{Session, Wait};
 
 /// A message type the binary was not built with: its type is read from the
@@ -25,23 +25,10 @@ struct Battery {
 
 const TIMEOUT: Duration = Duration::from_secs(15);
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .unwrap_or(17447)
-}
-
 /// A session listening on a local port, as a router would for the command.
 fn listening_session() -> (Session, u16) {
-    let port = free_port();
-    let mut config = zenoh::Config::default();
-    config
-        .insert_json5("listen/endpoints", &format!("[\"tcp/127.0.0.1:{port}\"]"))
-        .unwrap();
-    config
-        .insert_json5("scouting/multicast/enabled", "false")
-        .unwrap();
+    let port = testing::free_port().unwrap();
+    let config = testing::peer_config(port, true).unwrap();
     (zenoh::open(config).wait().unwrap(), port)
 }
 

@@ -33,6 +33,7 @@ mod logging;
 pub mod msgs;
 pub mod prelude;
 mod ros;
+pub mod testing;
 mod transport;
 
 pub use ros::{action, graph, lifecycle, log_levels, names, parameters, rmw, service, time};

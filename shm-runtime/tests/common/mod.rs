@@ -67,31 +67,14 @@ impl Drop for ShmSerial {
     }
 }
 
-/// A TCP port on loopback that nothing is bound to right now, chosen by the
-/// kernel. Fixed ranges derived from the process id collided with the kernel's
-/// ephemeral ports (32768 and up), which outgoing connections were holding.
+/// [`shm_runtime::testing::free_port`], for tests.
 pub fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|listener| listener.local_addr())
-        .map(|addr| addr.port())
-        .expect("no free TCP port on loopback")
+    shm_runtime::testing::free_port().expect("no free TCP port on loopback")
 }
 
-/// A peer on TCP loopback with multicast scouting off, listening on or
-/// connecting to `port`.
+/// [`shm_runtime::testing::peer_config`], for tests.
 pub fn peer_config(port: u16, listen: bool) -> Config {
-    let mut c = Config::default();
-    c.insert_json5("mode", "\"peer\"").unwrap();
-    c.insert_json5("scouting/multicast/enabled", "false")
-        .unwrap();
-    let key = if listen {
-        "listen/endpoints"
-    } else {
-        "connect/endpoints"
-    };
-    c.insert_json5(key, &format!("[\"tcp/127.0.0.1:{port}\"]"))
-        .unwrap();
-    c
+    shm_runtime::testing::peer_config(port, listen).expect("a peer configuration")
 }
 
 /// `config` with Zenoh's implicit SHM copy of large non-SHM payloads turned
