@@ -81,6 +81,53 @@ fn value_repr(field: &FieldDef, value: &Value<'_>, ty: &DynamicType) -> String {
     }
 }
 
+/// Python's `str` of a field's value as rclpy holds it, which `print`
+/// shows (`ros2 topic echo --field` of a field that is not a message).
+pub(crate) fn value_str(field: &FieldDef, value: &Value<'_>, ty: &DynamicType) -> String {
+    match (value, field.container) {
+        (Value::String(s), _) => s.to_string(),
+        (Value::WString(s), _) => s.clone(),
+        (_, Container::Array(_)) => match numbers(field, value) {
+            Some(numbers) => numpy_str(numbers),
+            None => value_repr(field, value, ty),
+        },
+        (_, Container::Sequence | Container::BoundedSequence(_)) => {
+            match (numbers(field, value), typecode(field.element)) {
+                (Some(_), Some(code)) => {
+                    // An `array.array`: `array('d', [1.0, 2.0])`, or
+                    // `array('d')` when empty.
+                    let list = value_repr(field, value, ty);
+                    if list == "[]" {
+                        format!("array('{code}')")
+                    } else {
+                        format!("array('{code}', {list})")
+                    }
+                }
+                _ => value_repr(field, value, ty),
+            }
+        }
+        // For the rest (numbers, bools, bytes, lists, messages) `str` is `repr`.
+        _ => value_repr(field, value, ty),
+    }
+}
+
+/// The `array.array` type code rclpy keeps a sequence of these numbers in.
+fn typecode(element: Element) -> Option<char> {
+    Some(match element {
+        Element::I8 => 'b',
+        Element::U8 => 'B',
+        Element::I16 => 'h',
+        Element::U16 => 'H',
+        Element::I32 => 'i',
+        Element::U32 => 'I',
+        Element::I64 => 'q',
+        Element::U64 => 'Q',
+        Element::F32 => 'f',
+        Element::F64 => 'd',
+        _ => return None,
+    })
+}
+
 /// The numbers of a value rclpy holds in a numpy array when the field is a
 /// fixed array: every number type but `byte` (a list of `bytes`).
 fn numbers<'a>(field: &FieldDef, value: &'a Value<'_>) -> Option<Numbers<'a>> {
@@ -208,40 +255,10 @@ impl Numbers<'_> {
 fn numpy_repr(numbers: Numbers<'_>) -> String {
     const PREFIX: &str = "array(";
     let len = numbers.len();
-    let summarized = len > THRESHOLD;
-    let words = numbers.words(summarized);
-    let list = if words.is_empty() {
-        "[]".to_owned()
-    } else {
-        // One column less for the closing parenthesis, and one for the
-        // separator or bracket after each word.
-        let width = LINE_WIDTH - 1 - 1;
-        let indent = " ".repeat(PREFIX.len() + 1);
-        let (mut text, mut line) = (String::new(), indent.clone());
-        let extend = |text: &mut String, line: &mut String, word: &str| {
-            if line.len() + word.len() > width && line.len() > indent.len() {
-                text.push_str(line.trim_end());
-                text.push('\n');
-                line.clone_from(&indent);
-            }
-            line.push_str(word);
-        };
-        let last = words.len() - 1;
-        for (i, word) in words.iter().enumerate() {
-            extend(&mut text, &mut line, word);
-            if i < last {
-                line.push_str(", ");
-            }
-            if summarized && i + 1 == EDGE_ITEMS {
-                extend(&mut text, &mut line, "...");
-                line.push_str(", ");
-            }
-        }
-        text.push_str(&line);
-        format!("[{}]", &text[indent.len()..])
-    };
+    // One column less for the closing parenthesis.
+    let list = numpy_list(numbers, ", ", PREFIX.len(), LINE_WIDTH - 1);
     let mut extras = Vec::new();
-    if summarized {
+    if len > THRESHOLD {
         extras.push(format!("shape=({len},)"));
     }
     if let Some(dtype) = numbers.dtype() {
@@ -259,6 +276,47 @@ fn numpy_repr(numbers: Numbers<'_>) -> String {
         " ".to_owned()
     };
     format!("{head}{spacer}{extra}")
+}
+
+/// numpy's `str` of a one-dimensional array (`[1. 2. 3.]`), as `print`
+/// shows it.
+fn numpy_str(numbers: Numbers<'_>) -> String {
+    numpy_list(numbers, " ", 0, LINE_WIDTH)
+}
+
+/// numpy's `[…]` of an array after `prefix_len` columns of prefix: words
+/// between `separator`s, lines wrapped before `width` columns and indented
+/// under the first word.
+fn numpy_list(numbers: Numbers<'_>, separator: &str, prefix_len: usize, width: usize) -> String {
+    let summarized = numbers.len() > THRESHOLD;
+    let words = numbers.words(summarized);
+    let Some(last) = words.len().checked_sub(1) else {
+        return "[]".to_owned();
+    };
+    // One column for the separator or bracket after each word.
+    let width = width - separator.trim_end().len().max(1);
+    let indent = " ".repeat(prefix_len + 1);
+    let (mut text, mut line) = (String::new(), indent.clone());
+    let extend = |text: &mut String, line: &mut String, word: &str| {
+        if line.len() + word.len() > width && line.len() > indent.len() {
+            text.push_str(line.trim_end());
+            text.push('\n');
+            line.clone_from(&indent);
+        }
+        line.push_str(word);
+    };
+    for (i, word) in words.iter().enumerate() {
+        extend(&mut text, &mut line, word);
+        if i < last {
+            line.push_str(separator);
+        }
+        if summarized && i + 1 == EDGE_ITEMS {
+            extend(&mut text, &mut line, "...");
+            line.push_str(separator);
+        }
+    }
+    text.push_str(&line);
+    format!("[{}]", &text[indent.len()..])
 }
 
 /// A float type as numpy prints it.

@@ -5,7 +5,8 @@ use std::io::Write;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use clap::{Args, Subcommand};
-use shm_cdr::dynamic::{DynamicType, YamlOptions};
+use shm_cdr::describe::Container;
+use shm_cdr::dynamic::{DynamicType, Element, FieldDef, FieldView, YamlOptions};
 use shm_runtime::graph::Graph;
 use shm_runtime::rmw::{Durability, EntityKind, Qos, Reliability};
 use zenoh::Wait;
@@ -89,8 +90,13 @@ pub(crate) struct EchoArgs {
     #[arg(long)]
     flow_style: bool,
     /// Print each message as one line of JSON instead of YAML.
-    #[arg(long, conflicts_with_all = ["flow_style", "no_arr", "no_str"])]
+    #[arg(long, conflicts_with_all = ["flow_style", "no_arr", "no_str", "field"])]
     json: bool,
+    /// Echo a selected field of a message. Use '.' to select sub-fields. For
+    /// example, to echo the position field of a nav_msgs/msg/Odometry
+    /// message: 'shm-ros2 topic echo /odom --field pose.pose.position'.
+    #[arg(long)]
+    field: Option<String>,
 }
 
 #[derive(Debug, Args)]
@@ -292,13 +298,33 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
         .no_arr(args.no_arr)
         .no_str(args.no_str)
         .flow_style(args.flow_style);
+    let path = args
+        .field
+        .as_deref()
+        .map(|text| field_path(&ty, text))
+        .transpose()?;
     let mut out = std::io::stdout().lock();
     loop {
         let sample = subscriber.recv()?;
         let bytes = sample.payload().to_bytes();
-        match ty.decode(&bytes) {
-            Ok(message) if args.json => writeln!(out, "{}", serde_json::to_string(&message)?)?,
-            Ok(message) => writeln!(out, "{}---", message.to_yaml_with(&options))?,
+        // Shared memory another process may write is read as such.
+        let shared = sample.is_shm();
+        let text = match &path {
+            Some(path) => echo_field(&ty, &bytes, shared, path, &options),
+            None => match if shared {
+                ty.decode_shared(&bytes)
+            } else {
+                ty.decode(&bytes)
+            } {
+                Ok(message) if args.json => serde_json::to_string(&message)
+                    .map(|line| line + "\n")
+                    .map_err(Into::into),
+                Ok(message) => Ok(format!("{}---\n", message.to_yaml_with(&options))),
+                Err(e) => Err(e.into()),
+            },
+        };
+        match text {
+            Ok(text) => out.write_all(text.as_bytes())?,
             Err(e) => eprintln!(
                 "a message on {} is not a {}: {e}",
                 args.topic_name,
@@ -309,6 +335,106 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
         if args.once {
             return Ok(());
         }
+    }
+}
+
+/// `--field`'s names, checked against the type: each but the last names a
+/// message, as ros2topic finds them with `getattr`, and its error when one
+/// is not there.
+struct FieldPath {
+    names: Vec<String>,
+    /// The last field's definition.
+    field: FieldDef,
+}
+
+fn field_path(ty: &DynamicType, text: &str) -> Result<FieldPath, Error> {
+    let names: Vec<String> = text
+        .split('.')
+        .filter(|name| !name.is_empty())
+        .map(str::to_owned)
+        .collect();
+    let invalid = |owner: &str, name: &str| -> Error {
+        format!(
+            "Invalid field '{}': '{owner}' object has no attribute '{name}'",
+            names.join(".")
+        )
+        .into()
+    };
+    let mut def = ty.root();
+    // A field before the next name that is not a message.
+    let mut value: Option<&FieldDef> = None;
+    for (i, name) in names.iter().enumerate() {
+        if let Some(value) = value {
+            return Err(invalid(python_type(value), name));
+        }
+        let Some(field) = def.fields.iter().find(|f| &f.name == name) else {
+            let short = def.name.rsplit('/').next().unwrap_or_default();
+            return Err(invalid(short, name));
+        };
+        if i + 1 == names.len() {
+            let field = field.clone();
+            return Ok(FieldPath { names, field });
+        }
+        match (field.element, field.container) {
+            (Element::Message(index), Container::Single) => {
+                def = ty.structs().get(index).ok_or("a nested type is missing")?;
+            }
+            _ => value = Some(field),
+        }
+    }
+    Err(format!("Invalid field value '{text}'").into())
+}
+
+/// The Python type rclpy holds a field that is not a message in, for
+/// ros2topic's error.
+fn python_type(field: &FieldDef) -> &'static str {
+    match (field.element, field.container) {
+        (Element::Bool, Container::Single) => "bool",
+        (Element::F32 | Element::F64, Container::Single) => "float",
+        (Element::Byte, Container::Single) => "bytes",
+        (Element::String(_) | Element::WString(_), Container::Single) => "str",
+        (Element::Message(_), Container::Single) => "object",
+        (_, Container::Single) => "int",
+        (Element::Bool | Element::Byte | Element::Char, _)
+        | (Element::String(_) | Element::WString(_) | Element::Message(_), _) => "list",
+        (_, Container::Array(_)) => "numpy.ndarray",
+        (_, _) => "array.array",
+    }
+}
+
+/// What ros2topic prints for the field at `path` of a message: a message
+/// as YAML, anything else as Python's `str` of it; read from a view, so the
+/// rest of the message is checked but not built.
+fn echo_field(
+    ty: &DynamicType,
+    bytes: &[u8],
+    shared: bool,
+    path: &FieldPath,
+    options: &YamlOptions,
+) -> Result<String, Error> {
+    let view = if shared {
+        ty.view_shared(bytes)?
+    } else {
+        ty.view(bytes)?
+    };
+    let mut message = view.root();
+    let (last, parents) = path.names.split_last().ok_or("an empty field path")?;
+    for name in parents {
+        match message.get(name) {
+            Some(FieldView::Message(nested)) => message = nested,
+            _ => return Err(format!("no message field {name}").into()),
+        }
+    }
+    match message.get(last) {
+        Some(FieldView::Message(nested)) => Ok(format!(
+            "{}---\n",
+            nested.to_message()?.to_yaml_with(options)
+        )),
+        Some(field) => Ok(format!(
+            "{}\n---\n",
+            crate::python::value_str(&path.field, &field.read()?, ty)
+        )),
+        None => Err(format!("no field {last}").into()),
     }
 }
 

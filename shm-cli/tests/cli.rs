@@ -264,6 +264,28 @@ fn echo_reads_standard_types_and_types_it_was_never_built_with() {
         "{\"voltage\":12.5,\"cells\":[3300,3310,3290],\"label\":\"main\"}\n"
     );
 
+    // One field, as ros2topic prints it: Python's `str` of rclpy's value.
+    let field = |name: &str| {
+        stdout(&run(
+            port,
+            &["topic", "echo", "/battery", "--once", "--field", name],
+        ))
+    };
+    assert_eq!(field("cells"), "array('H', [3300, 3310, 3290])\n---\n");
+    assert_eq!(field("label"), "main\n---\n");
+    assert_eq!(field("voltage"), "12.5\n---\n");
+    let wrong = run(
+        port,
+        &["topic", "echo", "/battery", "--once", "--field", "label.x"],
+    );
+    assert!(!wrong.status.success());
+    assert!(
+        String::from_utf8_lossy(&wrong.stderr)
+            .contains("Invalid field 'label.x': 'str' object has no attribute 'x'"),
+        "{}",
+        String::from_utf8_lossy(&wrong.stderr)
+    );
+
     // A topic nobody publishes, without a type: what to do.
     let nothing = run(port, &["topic", "echo", "/nothing", "--once"]);
     assert!(!nothing.status.success());
