@@ -72,13 +72,6 @@ fn config(mode: &str, key: &str, port: u16) -> Config {
     c
 }
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free port")
-        .port()
-}
-
 /// The tokens of `tokens / 10` nodes of ten tokens each, as rclcpp's nodes
 /// announce them.
 fn system_tokens(zid: &str, tokens: usize) -> Vec<String> {
@@ -232,7 +225,7 @@ fn main() {
     println!("|---|---:|---:|---:|---:|");
     for topology in ["peer to peer", "through a router"] {
         for n in SIZES {
-            let port = free_port();
+            let port = shm_runtime::testing::free_port().expect("a free port");
             let (_router, system, observer) = match topology {
                 "peer to peer" => (
                     None,
