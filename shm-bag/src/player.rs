@@ -351,7 +351,7 @@ impl Player {
             return Err(format!("rate {}: give a number above 0", options.rate).into());
         }
         if let Some(hz) = options.clock_hz {
-            if !(hz > 0.0 && hz.is_finite()) {
+            if !(hz > 0.0 && hz.is_finite()) || Duration::try_from_secs_f64(1.0 / hz).is_err() {
                 return Err(format!("clock rate {hz} Hz: give a number above 0").into());
             }
         }
@@ -443,7 +443,8 @@ impl Player {
         let finished = AtomicBool::new(false);
         std::thread::scope(|scope| {
             if let (Some(clock), Some(hz)) = (&self.clock, self.options.clock_hz) {
-                let period = Duration::from_secs_f64(1.0 / hz);
+                // Checked when the player was made.
+                let period = Duration::try_from_secs_f64(1.0 / hz).unwrap_or(Duration::MAX);
                 let (timeline, finished) = (&timeline, &finished);
                 scope.spawn(move || {
                     let mut next = Instant::now();
