@@ -379,7 +379,9 @@ def check_numpy_arrays(endpoint, peer):
     for i, values in enumerate(floats):
         response = random_value(Arrays.Response)
         response.float64_values = values
-        response.float32_values = [v * 1.0000001 if v == v else v for v in reversed(values)]
+        # Scaled off float64's digits; kept within float32's range.
+        response.float32_values = [max(-3e38, min(3e38, v * 1.0000001)) if abs(v) < inf else v
+                                   for v in reversed(values)]
         responses.append(deserialize_message(serialize_message(response), Arrays.Response))
     for _ in range(6):
         responses.append(deserialize_message(serialize_message(random_value(Arrays.Response)), Arrays.Response))
