@@ -5,7 +5,6 @@
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use shm_cdr::msgs::builtin_interfaces::msg::Time;
@@ -14,6 +13,7 @@ use shm_runtime::rmw::Qos;
 use shm_runtime::{PayloadKind, RosNode, RosPublisher, Serialized, ShmConfig, ShmContext};
 use zenoh::Wait;
 
+use crate::control::{Due, PlayerControl};
 use crate::metadata::BagMetadata;
 use crate::qos;
 use crate::types;
@@ -236,7 +236,7 @@ pub struct PlayOptions {
     pub delay: Duration,
     /// The ROS domain (default `ROS_DOMAIN_ID`, else 0).
     pub domain_id: Option<u32>,
-    /// The player's node name (default `shm_bag_player`).
+    /// The player's node name (default `rosbag2_player`, as `ros2 bag play`'s).
     pub node_name: String,
     /// Before the first message, wait up to this long until every topic's
     /// publisher has a subscriber (default: do not wait).
@@ -253,6 +253,9 @@ pub struct PlayOptions {
     /// Play this much of the recording from the start (after the offset),
     /// then stop (default: all of it).
     pub duration: Option<Duration>,
+    /// Start paused, to be resumed or stepped through the
+    /// [`PlayerControl`] (default: play at once).
+    pub start_paused: bool,
 }
 
 /// Which played messages the playback's time is published on `/clock`
@@ -286,12 +289,13 @@ impl Default for PlayOptions {
             topics: Vec::new(),
             delay: Duration::ZERO,
             domain_id: None,
-            node_name: "shm_bag_player".to_owned(),
+            node_name: "rosbag2_player".to_owned(),
             wait_for_subscribers: None,
             clock_hz: None,
             clock_on: ClockTrigger::Never,
             start_offset: Duration::ZERO,
             duration: None,
+            start_paused: false,
         }
     }
 }
@@ -310,6 +314,12 @@ pub struct PlayStats {
 }
 
 /// Plays a [`Bag`] back through a node of its own.
+///
+/// The node answers rosbag2's player services under its name (`~/pause`,
+/// `~/resume`, `~/toggle_paused`, `~/is_paused`, `~/get_rate`, `~/set_rate`,
+/// `~/play_next`, `~/burst`, `~/seek`, `~/stop`; types in
+/// [`interfaces`](crate::interfaces)), as `ros2 bag play` does; code in the
+/// same process steers it through [`control`](Self::control).
 ///
 /// ```no_run
 /// use std::sync::atomic::AtomicBool;
@@ -331,6 +341,8 @@ pub struct Player {
     clock: Option<RosPublisher<Clock>>,
     /// The recording's first message time (ns since the Unix epoch).
     bag_start: u64,
+    control: PlayerControl,
+    _services: ControlServices,
 }
 
 impl std::fmt::Debug for Player {
@@ -410,7 +422,17 @@ impl Player {
                     .wait()
             })
             .transpose()?;
-        let bag_start = bag_start(&bag)?;
+        let (bag_start, bag_end) = bag_bounds(&bag)?;
+        let begin = bag_start
+            .saturating_add(u64::try_from(options.start_offset.as_nanos()).unwrap_or(u64::MAX));
+        let control = PlayerControl::new(
+            bag_start,
+            bag_end,
+            begin,
+            options.rate,
+            options.start_paused,
+        );
+        let services = ControlServices::declare(&node, &control)?;
         Ok(Self {
             bag,
             options,
@@ -418,15 +440,24 @@ impl Player {
             publishers,
             clock,
             bag_start,
+            control,
+            _services: services,
         })
+    }
+
+    /// A handle to pause, resume, step, seek or stop the playback from
+    /// another thread.
+    pub fn control(&self) -> PlayerControl {
+        self.control.clone()
     }
 
     /// Publish the recording, each message at its recorded time from the
     /// start (divided by the rate), until its end (or, looping, until `stop`
-    /// is set). Messages come from the file as mapped: from the page cache
-    /// into the publisher's buffer is their one copy. With a clock
-    /// ([`PlayOptions::clock_hz`]), the playback's time goes out on `/clock`
-    /// from the first call on, the start's until the first message is due.
+    /// is set or the [`PlayerControl`] stops it). Messages come from the file
+    /// as mapped: from the page cache into the publisher's buffer is their
+    /// one copy. With a clock ([`PlayOptions::clock_hz`]), the playback's time
+    /// goes out on `/clock` from the first call on, the start's until the
+    /// first message is due.
     pub fn play(&self, stop: &AtomicBool) -> Result<PlayStats, Error> {
         let begin = self.bag_start.saturating_add(
             u64::try_from(self.options.start_offset.as_nanos()).unwrap_or(u64::MAX),
@@ -435,21 +466,19 @@ impl Player {
             .options
             .duration
             .map(|d| begin.saturating_add(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)));
-        let timeline = Timeline {
-            begin,
-            rate: self.options.rate,
-            started: Mutex::new(None),
-        };
         let finished = AtomicBool::new(false);
-        std::thread::scope(|scope| {
+        let played = std::thread::scope(|scope| {
             if let (Some(clock), Some(hz)) = (&self.clock, self.options.clock_hz) {
                 // Checked when the player was made.
                 let period = Duration::try_from_secs_f64(1.0 / hz).unwrap_or(Duration::MAX);
-                let (timeline, finished) = (&timeline, &finished);
+                let (control, finished) = (&self.control, &finished);
                 scope.spawn(move || {
                     let mut next = Instant::now();
-                    while !finished.load(Ordering::Relaxed) && !stop.load(Ordering::Relaxed) {
-                        publish_clock(clock, timeline.now());
+                    while !finished.load(Ordering::Relaxed)
+                        && !stop.load(Ordering::Relaxed)
+                        && !control.is_stopped()
+                    {
+                        publish_clock(clock, control.time());
                         next += period;
                         let now = Instant::now();
                         if next > now {
@@ -460,16 +489,18 @@ impl Player {
                     }
                 });
             }
-            let played = self.play_passes(stop, &timeline, end);
+            let played = self.play_passes(stop, begin, end);
             finished.store(true, Ordering::Relaxed);
             played
-        })
+        });
+        self.control.finish();
+        played
     }
 
     fn play_passes(
         &self,
         stop: &AtomicBool,
-        timeline: &Timeline,
+        begin: u64,
         end: Option<u64>,
     ) -> Result<PlayStats, Error> {
         if let Some(timeout) = self.options.wait_for_subscribers {
@@ -483,97 +514,171 @@ impl Player {
         }
         std::thread::sleep(self.options.delay);
         let mut stats = PlayStats::default();
+        let mut from = self.control.start_pass(begin);
         loop {
-            let start = timeline.restart();
-            'files: for path in &self.bag.files {
-                let file = map(path)?;
-                let summary = summary(path, &file)?;
-                let by_channel: HashMap<u16, (&str, &RosPublisher<Serialized>)> = summary
-                    .channels
-                    .iter()
-                    .filter_map(|(id, c)| {
-                        self.publishers
-                            .get(&c.topic)
-                            .map(|p| (*id, (c.topic.as_str(), p)))
-                    })
-                    .collect();
-                let stream = mcap::read::RawMessageStream::new(&file)
-                    .map_err(|e| format!("{}: {e}", path.display()))?;
-                for message in stream {
-                    if stop.load(Ordering::Relaxed) {
+            match self.play_pass(stop, from, end, &mut stats)? {
+                PassEnd::Stopped => return Ok(stats),
+                PassEnd::Seek(to) => from = to,
+                PassEnd::Finished => {
+                    if !self.options.loop_playback || stop.load(Ordering::Relaxed) {
                         return Ok(stats);
                     }
-                    let message = message.map_err(|e| format!("{}: {e}", path.display()))?;
-                    let Some(&(topic, publisher)) = by_channel.get(&message.header.channel_id)
-                    else {
-                        continue;
-                    };
-                    let time = message.header.log_time;
-                    if time < timeline.begin {
-                        continue;
-                    }
-                    if end.is_some_and(|end| time > end) {
-                        // Files hold messages in time order: none is due after.
-                        break 'files;
-                    }
-                    let due = start + timeline.wall_offset(time);
-                    let now = Instant::now();
-                    if due > now {
-                        std::thread::sleep(due - now);
-                    }
-                    if let Some(clock) = &self.clock {
-                        if self.options.clock_on.fires_on(topic) {
-                            publish_clock(clock, time);
-                        }
-                    }
-                    match publisher.publish_serialized(&message.data) {
-                        Ok(outcome) => {
-                            stats.published += 1;
-                            stats.bytes += message.data.len() as u64;
-                            if outcome.kind == PayloadKind::Shm {
-                                stats.shm += 1;
-                            }
-                        }
-                        Err(e) => {
-                            stats.failed += 1;
-                            tracing::warn!("publishing a recorded message failed: {e}");
-                        }
-                    }
+                    from = self.control.start_pass(begin);
                 }
-            }
-            if !self.options.loop_playback || stop.load(Ordering::Relaxed) {
-                return Ok(stats);
             }
         }
     }
+
+    /// Play the messages from the recording's time `from` to `end`.
+    fn play_pass(
+        &self,
+        stop: &AtomicBool,
+        from: u64,
+        end: Option<u64>,
+        stats: &mut PlayStats,
+    ) -> Result<PassEnd, Error> {
+        for path in &self.bag.files {
+            let file = map(path)?;
+            let summary = summary(path, &file)?;
+            let by_channel: HashMap<u16, (&str, &RosPublisher<Serialized>)> = summary
+                .channels
+                .iter()
+                .filter_map(|(id, c)| {
+                    self.publishers
+                        .get(&c.topic)
+                        .map(|p| (*id, (c.topic.as_str(), p)))
+                })
+                .collect();
+            let stream = mcap::read::RawMessageStream::new(&file)
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+            for message in stream {
+                let message = message.map_err(|e| format!("{}: {e}", path.display()))?;
+                let Some(&(topic, publisher)) = by_channel.get(&message.header.channel_id) else {
+                    continue;
+                };
+                let time = message.header.log_time;
+                if time < from {
+                    continue;
+                }
+                if end.is_some_and(|end| time > end) {
+                    // Files hold messages in time order: none is due after.
+                    return Ok(PassEnd::Finished);
+                }
+                let due = self.control.wait_due(time, stop);
+                match due {
+                    Due::Stop => return Ok(PassEnd::Stopped),
+                    Due::Seek(to) => return Ok(PassEnd::Seek(to)),
+                    Due::Play | Due::Step => {}
+                }
+                if let Some(clock) = &self.clock {
+                    if self.options.clock_on.fires_on(topic) {
+                        publish_clock(clock, time);
+                    }
+                }
+                let published = match publisher.publish_serialized(&message.data) {
+                    Ok(outcome) => {
+                        stats.published += 1;
+                        stats.bytes += message.data.len() as u64;
+                        if outcome.kind == PayloadKind::Shm {
+                            stats.shm += 1;
+                        }
+                        true
+                    }
+                    Err(e) => {
+                        stats.failed += 1;
+                        tracing::warn!("publishing a recorded message failed: {e}");
+                        false
+                    }
+                };
+                if due == Due::Step {
+                    self.control.stepped(time, published);
+                }
+            }
+        }
+        Ok(PassEnd::Finished)
+    }
 }
 
-/// The playback's time: the recording's time `begin` when the current pass
-/// started, running `rate` times as fast as the wall clock.
-struct Timeline {
-    begin: u64,
-    rate: f64,
-    started: Mutex<Option<Instant>>,
+/// How a pass through the recording ended.
+enum PassEnd {
+    Finished,
+    Seek(u64),
+    Stopped,
 }
 
-impl Timeline {
-    /// Start a pass now; its start.
-    fn restart(&self) -> Instant {
-        let now = Instant::now();
-        *self.started.lock().unwrap_or_else(|e| e.into_inner()) = Some(now);
-        now
-    }
+/// rosbag2's player services on the player's node, each steering its
+/// [`PlayerControl`].
+struct ControlServices {
+    _servers: Vec<Box<dyn std::any::Any + Send + Sync>>,
+}
 
-    /// How long after a pass's start the recording's `time` is due.
-    fn wall_offset(&self, time: u64) -> Duration {
-        Duration::from_nanos((time.saturating_sub(self.begin) as f64 / self.rate) as u64)
-    }
-
-    /// The recording's time now (its start before the first pass).
-    fn now(&self) -> u64 {
-        let started = *self.started.lock().unwrap_or_else(|e| e.into_inner());
-        let elapsed = started.map_or(0.0, |s| s.elapsed().as_nanos() as f64 * self.rate);
-        self.begin.saturating_add(elapsed as u64)
+impl ControlServices {
+    fn declare(node: &RosNode, control: &PlayerControl) -> Result<Self, Error> {
+        fn serve<S, F>(
+            node: &RosNode,
+            servers: &mut Vec<Box<dyn std::any::Any + Send + Sync>>,
+            name: &str,
+            control: &PlayerControl,
+            answer: F,
+        ) -> Result<(), Error>
+        where
+            S: shm_cdr::RosService,
+            F: Fn(&PlayerControl, S::Request) -> S::Response + Send + 'static,
+        {
+            let control = control.clone();
+            let server = node
+                .declare_service::<S>(name)
+                .handler(move |request| answer(&control, request))
+                .wait()?;
+            servers.push(Box::new(server));
+            Ok(())
+        }
+        use crate::interfaces::rosbag2_interfaces::srv as s;
+        let mut servers = Vec::new();
+        let v = &mut servers;
+        serve::<s::Pause, _>(node, v, "~/pause", control, |c, _| {
+            c.pause();
+            s::Pause_Response
+        })?;
+        serve::<s::Resume, _>(node, v, "~/resume", control, |c, _| {
+            c.resume();
+            s::Resume_Response
+        })?;
+        serve::<s::TogglePaused, _>(node, v, "~/toggle_paused", control, |c, _| {
+            c.toggle_paused();
+            s::TogglePaused_Response
+        })?;
+        serve::<s::IsPaused, _>(node, v, "~/is_paused", control, |c, _| {
+            s::IsPaused_Response {
+                paused: c.is_paused(),
+            }
+        })?;
+        serve::<s::GetRate, _>(node, v, "~/get_rate", control, |c, _| s::GetRate_Response {
+            rate: c.rate(),
+        })?;
+        serve::<s::SetRate, _>(node, v, "~/set_rate", control, |c, r| s::SetRate_Response {
+            success: c.set_rate(r.rate),
+        })?;
+        serve::<s::PlayNext, _>(node, v, "~/play_next", control, |c, _| {
+            s::PlayNext_Response {
+                success: c.play_next(),
+            }
+        })?;
+        serve::<s::Burst, _>(node, v, "~/burst", control, |c, r| s::Burst_Response {
+            actually_burst: c.burst(r.num_messages),
+        })?;
+        serve::<s::Seek, _>(node, v, "~/seek", control, |c, r| {
+            // A time before 1970 is before the recording: its start.
+            let sec = u64::try_from(r.time.sec).unwrap_or(0);
+            s::Seek_Response {
+                success: c.seek(sec * 1_000_000_000 + u64::from(r.time.nanosec)),
+            }
+        })?;
+        serve::<s::Stop, _>(node, v, "~/stop", control, |c, _| {
+            c.stop();
+            s::Stop_Response
+        })?;
+        Ok(Self { _servers: servers })
     }
 }
 
@@ -591,21 +696,20 @@ fn publish_clock(clock: &RosPublisher<Clock>, time: u64) {
     }
 }
 
-/// The time of the recording's first message: the earliest in the files'
+/// The times of the recording's first and last messages, from the files'
 /// statistics.
-fn bag_start(bag: &Bag) -> Result<u64, Error> {
-    let mut start = None::<u64>;
+fn bag_bounds(bag: &Bag) -> Result<(u64, u64), Error> {
+    let mut bounds = None::<(u64, u64)>;
     for path in &bag.files {
         let file = map(path)?;
         if let Some(stats) = summary(path, &file)?.stats {
             if stats.message_count > 0 {
-                start = Some(start.map_or(stats.message_start_time, |s| {
-                    s.min(stats.message_start_time)
-                }));
+                let (first, last) = (stats.message_start_time, stats.message_end_time);
+                bounds = Some(bounds.map_or((first, last), |(f, l)| (f.min(first), l.max(last))));
             }
         }
     }
-    Ok(start.unwrap_or(0))
+    Ok(bounds.unwrap_or((0, 0)))
 }
 
 /// The QoS to publish a recorded topic with: the recorded publishers'

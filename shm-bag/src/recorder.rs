@@ -90,7 +90,7 @@ pub struct RecordOptions {
     pub type_timeout: Duration,
     /// The ROS domain (default `ROS_DOMAIN_ID`, else 0).
     pub domain_id: Option<u32>,
-    /// The recorder's node name (default `shm_bag_recorder`).
+    /// The recorder's node name (default `rosbag2_recorder`).
     pub node_name: String,
     /// Interface files whose types (and definition text) are used for a
     /// topic whose announced hash they match, before asking its node.
@@ -109,7 +109,7 @@ impl RecordOptions {
             discovery_period: Duration::from_millis(100),
             type_timeout: Duration::from_secs(5),
             domain_id: None,
-            node_name: "shm_bag_recorder".to_owned(),
+            node_name: "rosbag2_recorder".to_owned(),
             interfaces: LocalInterfaces::default(),
         }
     }

@@ -452,3 +452,141 @@ fn an_existing_output_directory_is_refused_with_what_to_do() {
         Recorder::start(&b, RecordOptions::new(dir.join("x"), Selection::default())).unwrap_err();
     assert!(err.to_string().contains("nothing to record"), "{err}");
 }
+
+#[test]
+fn a_paused_playback_steps_bursts_seeks_and_changes_rate_through_rosbag2s_services() {
+    use shm_bag::interfaces::rosbag2_interfaces::srv::*;
+    let (a, b) = sessions();
+    let dir = std::env::temp_dir().join(format!("shm_bag_control_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    timed_bag(&dir);
+    let listener = RosNode::builder(&a, "listener")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let batteries = listener
+        .declare_subscriber::<Battery>("/battery")
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    let next_label = || {
+        let sample = batteries.recv_timeout(TIMEOUT).unwrap();
+        sample.map(|s| s.decode::<Battery>().unwrap().label)
+    };
+    let quiet = || {
+        batteries
+            .recv_timeout(Duration::from_millis(300))
+            .unwrap()
+            .is_none()
+    };
+    macro_rules! client {
+        ($srv:ty, $name:literal) => {{
+            let client = listener
+                .declare_client::<$srv>(concat!("/rosbag2_player/", $name))
+                .wait()
+                .unwrap();
+            assert!(client.wait_for_service(TIMEOUT), "{} not found", $name);
+            client
+        }};
+    }
+    let time = |t: u64| Time {
+        sec: (t / 1_000_000_000) as i32,
+        nanosec: (t % 1_000_000_000) as u32,
+    };
+
+    let options = PlayOptions {
+        domain_id: Some(0),
+        topics: vec!["/battery".into()],
+        wait_for_subscribers: Some(TIMEOUT),
+        start_paused: true,
+        ..PlayOptions::default()
+    };
+    let player = Player::new(&b, Bag::open(&dir).unwrap(), options).unwrap();
+    let control = player.control();
+    let is_paused = client!(IsPaused, "is_paused");
+    let play_next = client!(PlayNext, "play_next");
+    let burst = client!(Burst, "burst");
+    let seek = client!(Seek, "seek");
+    let set_rate = client!(SetRate, "set_rate");
+    let get_rate = client!(GetRate, "get_rate");
+    let toggle_paused = client!(TogglePaused, "toggle_paused");
+    let stop = AtomicBool::new(false);
+    let played = std::thread::scope(|s| {
+        let playing = s.spawn(|| player.play(&stop));
+        assert!(is_paused.call(&IsPaused_Request).wait().unwrap().paused);
+        // Refused until the playback runs; then the first message, at once.
+        wait_until("the playback to start", || {
+            play_next.call(&PlayNext_Request).wait().unwrap().success
+        });
+        assert_eq!(next_label().as_deref(), Some("0"));
+        assert_eq!(control.time(), T0, "the time jumps to the message's");
+        assert!(quiet(), "paused: nothing more");
+        let burst_3 = Burst_Request { num_messages: 3 };
+        assert_eq!(burst.call(&burst_3).wait().unwrap().actually_burst, 3);
+        for k in 1..=3 {
+            assert_eq!(next_label(), Some(k.to_string()));
+        }
+        assert_eq!(control.time(), T0 + 3 * STEP);
+        assert!(quiet());
+
+        // Forward, back to before the start, past the end (refused).
+        let to = |t| Seek_Request { time: time(t) };
+        assert!(seek.call(&to(T0 + 10 * STEP)).wait().unwrap().success);
+        assert!(play_next.call(&PlayNext_Request).wait().unwrap().success);
+        assert_eq!(next_label().as_deref(), Some("10"));
+        assert!(seek.call(&to(0)).wait().unwrap().success);
+        assert!(play_next.call(&PlayNext_Request).wait().unwrap().success);
+        assert_eq!(next_label().as_deref(), Some("0"));
+        assert!(!seek.call(&to(T0 + 100 * STEP)).wait().unwrap().success);
+        assert!(quiet());
+
+        let rate = |rate| SetRate_Request { rate };
+        assert!(!set_rate.call(&rate(0.0)).wait().unwrap().success);
+        assert!(!set_rate.call(&rate(f64::NAN)).wait().unwrap().success);
+        assert!(set_rate.call(&rate(4.0)).wait().unwrap().success);
+        assert_eq!(get_rate.call(&GetRate_Request).wait().unwrap().rate, 4.0);
+
+        // Resumed: the rest, from message 1, at four times the recorded pace.
+        toggle_paused.call(&TogglePaused_Request).wait().unwrap();
+        assert!(!is_paused.call(&IsPaused_Request).wait().unwrap().paused);
+        let resumed = Instant::now();
+        for k in 1..20 {
+            assert_eq!(next_label(), Some(k.to_string()));
+        }
+        let took = resumed.elapsed();
+        assert!(
+            took >= Duration::from_millis(19 * 50 / 4 - 20),
+            "19 gaps of 50 ms at rate 4 took {took:?}"
+        );
+        playing.join().unwrap().unwrap()
+    });
+    assert_eq!(played.published, 1 + 3 + 1 + 1 + 19);
+    assert!(!control.play_next(), "over: nothing to step to");
+    drop(player);
+
+    // Stopped by the service in the middle of a slow playback.
+    let options = PlayOptions {
+        domain_id: Some(0),
+        topics: vec!["/battery".into()],
+        wait_for_subscribers: Some(TIMEOUT),
+        rate: 0.1,
+        ..PlayOptions::default()
+    };
+    let player = Player::new(&b, Bag::open(&dir).unwrap(), options).unwrap();
+    let stop_service = client!(Stop, "stop");
+    let pause = client!(Pause, "pause");
+    let resume = client!(Resume, "resume");
+    let played = std::thread::scope(|s| {
+        let playing = s.spawn(|| player.play(&stop));
+        assert_eq!(next_label().as_deref(), Some("0"));
+        pause.call(&Pause_Request).wait().unwrap();
+        assert!(is_paused.call(&IsPaused_Request).wait().unwrap().paused);
+        resume.call(&Resume_Request).wait().unwrap();
+        assert!(!is_paused.call(&IsPaused_Request).wait().unwrap().paused);
+        stop_service.call(&Stop_Request).wait().unwrap();
+        playing.join().unwrap().unwrap()
+    });
+    // The second message is due 500 ms after the first.
+    assert!(played.published <= 2, "{played:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

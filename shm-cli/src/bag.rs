@@ -128,6 +128,13 @@ pub(crate) struct PlayArgs {
     /// all of it).
     #[arg(long, default_value_t = -1.0, value_name = "SECONDS", allow_negative_numbers = true)]
     playback_duration: f64,
+    /// Start the playback paused.
+    #[arg(short = 'p', long)]
+    start_paused: bool,
+    /// Do not read keys from the terminal (space: pause/resume, right:
+    /// next message, up/down: rate ±0.1).
+    #[arg(long)]
+    disable_keyboard_controls: bool,
 }
 
 pub(crate) fn run(context: Option<&Context>, command: BagCommand) -> Result<(), Error> {
@@ -274,11 +281,19 @@ fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {
         duration: (args.playback_duration >= 0.0)
             .then(|| seconds("--playback-duration", args.playback_duration))
             .transpose()?,
+        start_paused: args.start_paused,
         ..PlayOptions::default()
     };
     let stop = crate::interrupted()?;
     let player = Player::new(&context.session, bag, options)?;
-    let stats = player.play(&stop)?;
+    let keys = if args.disable_keyboard_controls {
+        None
+    } else {
+        crate::keyboard::start(player.control())
+    };
+    let stats = player.play(&stop);
+    drop(keys);
+    let stats = stats?;
     eprintln!(
         "Played {} messages ({}), {} from shared memory; {} failed",
         stats.published,

@@ -18,13 +18,9 @@ pub(crate) struct Connection {
     #[arg(long, global = true, env = "ROS_DOMAIN_ID", default_value_t = 0)]
     domain_id: u32,
     /// Zenoh endpoint to connect to (repeatable); rmw_zenoh_cpp's router
-    /// by default.
-    #[arg(
-        long = "connect",
-        short = 'e',
-        global = true,
-        default_value = "tcp/localhost:7447"
-    )]
+    /// by default. (No short form: `-e` is `bag record`'s regular
+    /// expression, as in ros2bag.)
+    #[arg(long = "connect", global = true, default_value = "tcp/localhost:7447")]
     connect: Vec<String>,
     /// A Zenoh configuration file (JSON5) to start from, as rmw_zenoh_cpp's
     /// `ZENOH_SESSION_CONFIG_URI`.

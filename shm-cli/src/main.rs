@@ -8,6 +8,7 @@ mod action;
 mod bag;
 mod context;
 mod interface;
+mod keyboard;
 mod node;
 mod param;
 mod python;
@@ -93,5 +94,17 @@ fn main() -> ExitCode {
             eprintln!("{e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    /// Clap's own checks of every verb's arguments (unique short names, …),
+    /// which otherwise run only when a verb is used in a debug build.
+    #[test]
+    fn every_verbs_arguments_are_consistent() {
+        super::Cli::command().debug_assert();
     }
 }

@@ -302,8 +302,83 @@ def main():
     print(f"bag play --clock: {len(times)} /clock ticks read with rclpy, from the start offset "
           f"({(times[0] - begin) / 1e6 if times else 0:.0f} ms after it) to "
           f"{(end - times[-1]) / 1e6 if times else 0:.0f} ms before the recording's end, never going back")
+    check_player_control(endpoint, peer, bag, got, sent["/chatter"])
     if not failures:
         shutil.rmtree(work, ignore_errors=True)
+
+
+def check_player_control(endpoint, peer, bag, got, sent):
+    """`bag play --start-paused` in a terminal: rosbag2's player services,
+    called with rosidl's hashes of rosbag2_interfaces in their keys and CDR
+    written here, and the keys of `ros2 bag play` pressed on the terminal."""
+    import pty
+    import struct
+    from rmw_zenoh import call_raw, package_hashes
+    source = Path(__file__).resolve().parents[2] / "shm-bag" / "interfaces" / "rosbag2_interfaces"
+    hashes = package_hashes(source, "rosbag2_interfaces", ["builtin_interfaces", "service_msgs"])
+    header = b"\0\1\0\0"  # CDR, little-endian
+    empty = header + b"\0"  # an empty request's placeholder byte
+    seq = [0]
+    gid = os.urandom(16)
+
+    def ask(service, srv, payload=empty):
+        """The reply's CDR body, or None."""
+        seq[0] += 1
+        key = f"0/rosbag2_player/{service}/rosbag2_interfaces::srv::dds_::{srv}_/" \
+              f"{hashes[f'rosbag2_interfaces/srv/{srv}']}"
+        reply = call_raw(peer.session, key, payload, seq[0], gid, tries=200)
+        return None if reply is None else reply[4:]
+
+    def wait_for(count, timeout=20):
+        deadline = time.time() + timeout
+        while len(got) < count and time.time() < deadline:
+            time.sleep(0.02)
+        return len(got)
+
+    del got[:]
+    terminal, child = pty.openpty()
+    proc = subprocess.Popen([str(BIN), "--connect", endpoint, "--domain-id", "0", "bag", "play", str(bag),
+                             "--topics", "/chatter", "--start-paused"],
+                            stdin=child, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    os.close(child)
+    try:
+        paused = ask("is_paused", "IsPaused")
+        check(paused == b"\1", f"is_paused: {paused!r}")
+        time.sleep(0.5)
+        check(not got, f"paused, yet {len(got)} messages came")
+        os.write(terminal, b"\x1b[C")  # cursor right: the next message
+        check(wait_for(1) == 1, f"cursor right: {len(got)} messages")
+        burst = ask("burst", "Burst", header + struct.pack("<Q", 2))
+        check(burst == struct.pack("<Q", 2) and wait_for(3) == 3, f"burst 2: {burst!r}, {len(got)} messages")
+        check(ask("set_rate", "SetRate", header + struct.pack("<d", 0.0)) == b"\0", "set_rate 0 accepted")
+        check(ask("set_rate", "SetRate", header + struct.pack("<d", 5.0)) == b"\1", "set_rate 5 refused")
+        os.write(terminal, b"\x1b[A")  # cursor up: the rate 0.1 higher
+        deadline = time.time() + 10
+        rate = None
+        while time.time() < deadline:
+            rate = struct.unpack("<d", ask("get_rate", "GetRate")[:8])[0]
+            if rate != 5.0:
+                break
+            time.sleep(0.05)
+        check(rate == 5.1, f"get_rate after cursor up: {rate}")
+        time.sleep(0.3)
+        check(len(got) == 3, f"still paused, yet {len(got)} messages")
+        os.write(terminal, b" ")  # space: resume
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        os.close(terminal)
+    wait_for(len(sent), timeout=5)
+    check(proc.returncode == 0 and got == sent,
+          f"bag play --start-paused: exit {proc.returncode}, the peer read {len(got)} of {len(sent)} "
+          f"{err[-500:]!r}")
+    said = ["Press SPACE for Pause/Resume", "Played the next message.", "Set rate to 5.1", "Resuming play."]
+    check(all(line in err.splitlines() for line in said), f"bag play's terminal: {err[-500:]!r}")
+    print(f"bag play --start-paused: is_paused, burst, set_rate and get_rate answered at keys made "
+          f"with rosidl's hashes; cursor right, cursor up and space acted; the peer read {len(got)}/{len(sent)} messages "
+          f"in order")
 
 
 if __name__ == "__main__":

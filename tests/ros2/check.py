@@ -452,30 +452,12 @@ def check_yaml(names):
 
 
 def check_user_package():
-    import tempfile
-    from rosidl_adapter.action import convert_action_to_idl
-    from rosidl_adapter.msg import convert_msg_to_idl
-    from rosidl_adapter.srv import convert_srv_to_idl
-    from rosidl_generator_type_description import generate_type_hash
+    from rmw_zenoh import package_hashes
 
     package = "robot_interfaces"
     source = Path(__file__).resolve().parents[2] / "examples" / "interfaces" / package
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        idl_tuples = []
-        for kind, convert in (("msg", convert_msg_to_idl), ("srv", convert_srv_to_idl),
-                              ("action", convert_action_to_idl)):
-            for f in sorted((source / kind).glob(f"*.{kind}")):
-                idl = convert(source, package, f.relative_to(source), tmp / "idl")
-                idl_tuples.append(f"{tmp / 'idl'}:{idl.relative_to(tmp / 'idl')}")
-        deps = ["std_msgs", "builtin_interfaces", "service_msgs", "unique_identifier_msgs"]
-        args = {"package_name": package, "output_dir": str(tmp / "out"), "idl_tuples": idl_tuples,
-                "include_paths": [f"{d}:{SHARE / d}" for d in deps]}
-        (tmp / "args.json").write_text(json.dumps(args))
-        oracle = {}
-        for path in generate_type_hash(str(tmp / "args.json")):
-            for entry in json.loads(Path(path).read_text())["type_hashes"]:
-                oracle[entry["type_name"]] = entry["hash_string"]
+    oracle = package_hashes(source, package,
+                            ["std_msgs", "builtin_interfaces", "service_msgs", "unique_identifier_msgs"])
     ours = [line.split() for line in subprocess.run([BIN, "user-hashes"], check=True, capture_output=True,
                                                      text=True).stdout.splitlines()]
     bad = [f"{name}: ours {h}, rosidl {oracle.get(name)}" for _, name, h in ours if oracle.get(name) != h]

@@ -56,15 +56,55 @@ def rosidl_hash(type_name):
     return next(h["hash_string"] for h in desc["type_hashes"] if h["type_name"] == type_name)
 
 
+def package_hashes(source, package, deps):
+    """rosidl's RIHS01 hashes of the interface files of `package` in `source`
+    (msg/, srv/, action/), computed by rosidl's own tools: rosidl_adapter to
+    IDL, then rosidl_generator_type_description, with the installed `deps`."""
+    import contextlib
+    import io
+    import tempfile
+    from rosidl_adapter.action import convert_action_to_idl
+    from rosidl_adapter.msg import convert_msg_to_idl
+    from rosidl_adapter.srv import convert_srv_to_idl
+    from rosidl_generator_type_description import generate_type_hash
+
+    source = Path(source).resolve()
+    share = Path(sys.prefix) / "share"
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        idl_tuples = []
+        for kind, convert in (("msg", convert_msg_to_idl), ("srv", convert_srv_to_idl),
+                              ("action", convert_action_to_idl)):
+            for f in sorted((source / kind).glob(f"*.{kind}")):
+                with contextlib.redirect_stdout(io.StringIO()):  # its "Reading input file" lines
+                    idl = convert(source, package, f.relative_to(source), tmp / "idl")
+                idl_tuples.append(f"{tmp / 'idl'}:{idl.relative_to(tmp / 'idl')}")
+        args = {"package_name": package, "output_dir": str(tmp / "out"), "idl_tuples": idl_tuples,
+                "include_paths": [f"{d}:{share / d}" for d in deps]}
+        (tmp / "args.json").write_text(json.dumps(args))
+        hashes = {}
+        for path in generate_type_hash(str(tmp / "args.json")):
+            for entry in json.loads(Path(path).read_text())["type_hashes"]:
+                hashes[entry["type_name"]] = entry["hash_string"]
+        return hashes
+
+
+def call_raw(session, key, payload, seq, gid, tries=50):
+    """Call the rmw_zenoh service on `key` with a serialized request: the first
+    reply's bytes, or None if no server answered in `tries` attempts."""
+    for _ in range(tries):
+        replies = list(session.get(key, payload=payload, attachment=attachment(seq, gid),
+                                   target=zenoh.QueryTarget.ALL_COMPLETE, timeout=10))
+        oks = [r.ok for r in replies if r.ok is not None]
+        if oks:
+            return oks[0].payload.to_bytes()
+        time.sleep(0.1)
+    return None
+
+
 def call(session, key, request, response_type, seq, gid, tries=50):
     """Call the rmw_zenoh service on `key` with rclpy's serialization: the first
     reply as a `response_type`, or None if no server answered in `tries` attempts."""
     from rclpy.serialization import deserialize_message, serialize_message
-    for _ in range(tries):
-        replies = list(session.get(key, payload=serialize_message(request), attachment=attachment(seq, gid),
-                                   target=zenoh.QueryTarget.ALL_COMPLETE, timeout=10))
-        oks = [r.ok for r in replies if r.ok is not None]
-        if oks:
-            return deserialize_message(oks[0].payload.to_bytes(), response_type)
-        time.sleep(0.1)
-    return None
+    reply = call_raw(session, key, serialize_message(request), seq, gid, tries)
+    return None if reply is None else deserialize_message(reply, response_type)

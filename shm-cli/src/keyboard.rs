@@ -1,0 +1,178 @@
+//! `bag play`'s keyboard controls, those of `ros2 bag play`: space pauses
+//! and resumes, → publishes the next message (while paused), ↑ and ↓ change
+//! the rate by 0.1.
+//!
+//! The terminal leaves canonical mode and echo while the playback runs, and
+//! keeps its signals: Ctrl-C still stops the playback.
+
+use std::io::{IsTerminal, Read};
+use std::os::fd::AsFd;
+
+use rustix::termios::{self, LocalModes, OptionalActions, SpecialCodeIndex, Termios};
+use shm_bag::PlayerControl;
+
+/// A key `bag play` acts on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Key {
+    Space,
+    Right,
+    Up,
+    Down,
+}
+
+/// What the keys do, as `ros2 bag play` lists it at the start.
+const HELP: &str = "\
+Press SPACE for Pause/Resume
+Press CURSOR_RIGHT for Play Next Message
+Press CURSOR_UP for Increase Rate 10%
+Press CURSOR_DOWN for Decrease Rate 10%";
+
+/// Splits terminal input into [`Key`]s: a space, or the cursor keys' escape
+/// sequences (`ESC [ A` and, in application mode, `ESC O A`). Anything else
+/// is skipped.
+#[derive(Debug, Default)]
+pub(crate) struct KeyReader {
+    /// How far into an escape sequence the input is.
+    escape: u8,
+}
+
+impl KeyReader {
+    pub(crate) fn push(&mut self, byte: u8) -> Option<Key> {
+        match (self.escape, byte) {
+            (_, 0x1b) => {
+                self.escape = 1;
+                None
+            }
+            (1, b'[' | b'O') => {
+                self.escape = 2;
+                None
+            }
+            (2, b'A' | b'B' | b'C' | b'D') => {
+                self.escape = 0;
+                match byte {
+                    b'A' => Some(Key::Up),
+                    b'B' => Some(Key::Down),
+                    b'C' => Some(Key::Right),
+                    _ => None,
+                }
+            }
+            (0, b' ') => Some(Key::Space),
+            _ => {
+                self.escape = 0;
+                None
+            }
+        }
+    }
+}
+
+/// Act on `key` as `ros2 bag play` does; what to tell the user.
+pub(crate) fn act(control: &PlayerControl, key: Key) -> String {
+    match key {
+        Key::Space => {
+            control.toggle_paused();
+            if control.is_paused() {
+                "Pausing play.".to_owned()
+            } else {
+                "Resuming play.".to_owned()
+            }
+        }
+        Key::Right => {
+            if !control.is_paused() {
+                "Called play next, but not in paused state.".to_owned()
+            } else if control.play_next() {
+                "Played the next message.".to_owned()
+            } else {
+                "No message left to play.".to_owned()
+            }
+        }
+        Key::Up | Key::Down => {
+            let step = if key == Key::Up { 0.1 } else { -0.1 };
+            // Rounded, so that steps of 0.1 land on tenths (1.2, not
+            // 1.2000000000000002).
+            let rate = ((control.rate() + step) * 1e6).round() / 1e6;
+            if control.set_rate(rate) {
+                format!("Set rate to {rate}")
+            } else {
+                format!("Failed to set rate to invalid value {rate}")
+            }
+        }
+    }
+}
+
+/// The terminal's settings before the controls changed them; put back when
+/// dropped.
+pub(crate) struct KeyboardControls {
+    saved: Termios,
+}
+
+impl Drop for KeyboardControls {
+    fn drop(&mut self) {
+        if let Err(e) =
+            termios::tcsetattr(std::io::stdin().as_fd(), OptionalActions::Now, &self.saved)
+        {
+            eprintln!("could not restore the terminal's settings: {e}");
+        }
+    }
+}
+
+/// Read keys from the terminal for `control`, on a thread of their own; `None`
+/// when standard input is not a terminal (or cannot be set up: the playback
+/// then runs without keys).
+pub(crate) fn start(control: PlayerControl) -> Option<KeyboardControls> {
+    let stdin = std::io::stdin();
+    if !stdin.is_terminal() {
+        return None;
+    }
+    let saved = termios::tcgetattr(stdin.as_fd()).ok()?;
+    let mut keys = saved.clone();
+    keys.local_modes &= !(LocalModes::ICANON | LocalModes::ECHO);
+    keys.special_codes[SpecialCodeIndex::VMIN] = 1;
+    keys.special_codes[SpecialCodeIndex::VTIME] = 0;
+    if let Err(e) = termios::tcsetattr(stdin.as_fd(), OptionalActions::Now, &keys) {
+        eprintln!("keyboard controls are off: cannot set up the terminal: {e}");
+        return None;
+    }
+    eprintln!("{HELP}");
+    // Detached: it blocks in `read` until a key comes, and the process ends
+    // after the playback whether or not one does.
+    std::thread::spawn(move || {
+        let mut reader = KeyReader::default();
+        let mut byte = [0u8; 1];
+        let mut stdin = std::io::stdin().lock();
+        while let Ok(1) = stdin.read(&mut byte) {
+            if let Some(key) = reader.push(byte[0]) {
+                eprintln!("{}", act(&control, key));
+            }
+        }
+    });
+    Some(KeyboardControls { saved })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn keys(input: &[u8]) -> Vec<Key> {
+        let mut reader = KeyReader::default();
+        input.iter().filter_map(|&b| reader.push(b)).collect()
+    }
+
+    #[test]
+    fn space_and_the_cursor_keys_in_either_mode_are_keys_and_the_rest_is_skipped() {
+        assert_eq!(
+            keys(b" \x1b[C\x1bOA\x1b[Bx\x1b[D\x1b\x1b[A q"),
+            [
+                Key::Space,
+                Key::Right,
+                Key::Up,
+                Key::Down,
+                Key::Up,
+                Key::Space
+            ]
+        );
+        // The byte that breaks an escape sequence goes with it.
+        assert_eq!(keys(b"\x1b[ "), []);
+        assert_eq!(keys(b"\x1b "), []);
+        assert_eq!(keys(b"\x1bx "), [Key::Space]);
+    }
+}
