@@ -529,7 +529,10 @@ impl Player {
         }
     }
 
-    /// Play the messages from the recording's time `from` to `end`.
+    /// Play the messages from the recording's time `from` to `end`. With a
+    /// chunk index (rosbag2 and this crate write one), chunks wholly before
+    /// `from` or after `end` are not read at all: a seek or a start offset
+    /// costs no decompression of what it skips.
     fn play_pass(
         &self,
         stop: &AtomicBool,
@@ -549,53 +552,87 @@ impl Player {
                         .map(|p| (*id, (c.topic.as_str(), p)))
                 })
                 .collect();
-            let stream = mcap::read::RawMessageStream::new(&file)
-                .map_err(|e| format!("{}: {e}", path.display()))?;
-            for message in stream {
-                let message = message.map_err(|e| format!("{}: {e}", path.display()))?;
-                let Some(&(topic, publisher)) = by_channel.get(&message.header.channel_id) else {
-                    continue;
-                };
-                let time = message.header.log_time;
+            let bad = |e: mcap::McapError| format!("{}: {e}", path.display());
+            let mut play = |channel: u16, time: u64, data: &[u8]| -> Option<PassEnd> {
+                let &(topic, publisher) = by_channel.get(&channel)?;
                 if time < from {
-                    continue;
+                    return None;
                 }
                 if end.is_some_and(|end| time > end) {
                     // Files hold messages in time order: none is due after.
-                    return Ok(PassEnd::Finished);
+                    return Some(PassEnd::Finished);
                 }
-                let due = self.control.wait_due(time, stop);
-                match due {
-                    Due::Stop => return Ok(PassEnd::Stopped),
-                    Due::Seek(to) => return Ok(PassEnd::Seek(to)),
-                    Due::Play | Due::Step => {}
-                }
-                if let Some(clock) = &self.clock {
-                    if self.options.clock_on.fires_on(topic) {
-                        publish_clock(clock, time);
+                self.play_message(stop, topic, publisher, time, data, stats)
+            };
+            if summary.chunk_indexes.is_empty() {
+                for message in mcap::read::RawMessageStream::new(&file).map_err(bad)? {
+                    let message = message.map_err(bad)?;
+                    let header = &message.header;
+                    if let Some(ended) = play(header.channel_id, header.log_time, &message.data) {
+                        return Ok(ended);
                     }
                 }
-                let published = match publisher.publish_serialized(&message.data) {
-                    Ok(outcome) => {
-                        stats.published += 1;
-                        stats.bytes += message.data.len() as u64;
-                        if outcome.kind == PayloadKind::Shm {
-                            stats.shm += 1;
-                        }
-                        true
+                continue;
+            }
+            let mut chunks: Vec<&mcap::records::ChunkIndex> =
+                summary.chunk_indexes.iter().collect();
+            chunks.sort_by_key(|c| c.chunk_start_offset);
+            for chunk in chunks {
+                if chunk.message_end_time < from {
+                    continue;
+                }
+                for message in summary.stream_chunk(&file, chunk).map_err(bad)? {
+                    let message = message.map_err(bad)?;
+                    if let Some(ended) = play(message.channel.id, message.log_time, &message.data) {
+                        return Ok(ended);
                     }
-                    Err(e) => {
-                        stats.failed += 1;
-                        tracing::warn!("publishing a recorded message failed: {e}");
-                        false
-                    }
-                };
-                if due == Due::Step {
-                    self.control.stepped(time, published);
                 }
             }
         }
         Ok(PassEnd::Finished)
+    }
+
+    /// Publish one message of `topic` when it is due; what ends the pass
+    /// instead, if anything.
+    fn play_message(
+        &self,
+        stop: &AtomicBool,
+        topic: &str,
+        publisher: &RosPublisher<Serialized>,
+        time: u64,
+        data: &[u8],
+        stats: &mut PlayStats,
+    ) -> Option<PassEnd> {
+        let due = self.control.wait_due(time, stop);
+        match due {
+            Due::Stop => return Some(PassEnd::Stopped),
+            Due::Seek(to) => return Some(PassEnd::Seek(to)),
+            Due::Play | Due::Step => {}
+        }
+        if let Some(clock) = &self.clock {
+            if self.options.clock_on.fires_on(topic) {
+                publish_clock(clock, time);
+            }
+        }
+        let published = match publisher.publish_serialized(data) {
+            Ok(outcome) => {
+                stats.published += 1;
+                stats.bytes += data.len() as u64;
+                if outcome.kind == PayloadKind::Shm {
+                    stats.shm += 1;
+                }
+                true
+            }
+            Err(e) => {
+                stats.failed += 1;
+                tracing::warn!("publishing a recorded message failed: {e}");
+                false
+            }
+        };
+        if due == Due::Step {
+            self.control.stepped(time, published);
+        }
+        None
     }
 }
 

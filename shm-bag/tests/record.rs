@@ -306,9 +306,9 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
 const T0: u64 = 1_700_000_000_000_000_000;
 const STEP: u64 = 50_000_000;
 
-fn timed_bag(dir: &std::path::Path) {
+fn timed_bag(dir: &std::path::Path, options: shm_bag::WriteOptions) {
     use shm_bag::metadata::TopicMetadata;
-    let mut writer = shm_bag::BagWriter::create(dir, shm_bag::WriteOptions::default()).unwrap();
+    let mut writer = shm_bag::BagWriter::create(dir, options).unwrap();
     let topic = |name: &str, type_name: &str, hash: &str| TopicMetadata {
         name: name.into(),
         type_name: type_name.into(),
@@ -365,7 +365,7 @@ fn playback_publishes_its_time_on_clock_from_the_start_offset_for_the_duration()
     let (a, b) = sessions();
     let dir = std::env::temp_dir().join(format!("shm_bag_clock_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    timed_bag(&dir);
+    timed_bag(&dir, shm_bag::WriteOptions::default());
     let listener = RosNode::builder(&a, "listener")
         .domain_id(0)
         .wait()
@@ -459,7 +459,14 @@ fn a_paused_playback_steps_bursts_seeks_and_changes_rate_through_rosbag2s_servic
     let (a, b) = sessions();
     let dir = std::env::temp_dir().join(format!("shm_bag_control_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    timed_bag(&dir);
+    // A chunk per message, compressed: seeking skips whole chunks by their
+    // index, and reads compressed ones.
+    let options = shm_bag::WriteOptions {
+        chunk_size: 1,
+        compression: Some(shm_bag::Compression::Zstd),
+        ..shm_bag::WriteOptions::default()
+    };
+    timed_bag(&dir, options);
     let listener = RosNode::builder(&a, "listener")
         .domain_id(0)
         .wait()
