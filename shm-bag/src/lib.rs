@@ -36,8 +36,8 @@ pub mod interfaces {
 pub use control::PlayerControl;
 pub use metadata::BagMetadata;
 pub use player::{Bag, ClockTrigger, PlayOptions, PlayStats, Player, RecordedTopic};
-pub use recorder::{RecordOptions, RecordStats, Recorder, Selection};
-pub use writer::{BagWriter, Compression, TopicId, WriteOptions};
+pub use recorder::{RecordOptions, RecordStats, Recorder, RecorderControl, Selection};
+pub use writer::{BagWriter, Compression, FileSplit, TopicId, WriteOptions};
 
 /// A failure to report: the message says what happened and what to do.
 pub type Error = Box<dyn std::error::Error + Send + Sync>;

@@ -14,14 +14,15 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use regex::Regex;
 use shm_runtime::graph::Graph;
 use shm_runtime::rmw::{Durability, History, Qos, Reliability};
-use shm_runtime::{CallbackSubscriber, RosNode, RosSample};
+use shm_runtime::{CallbackSubscriber, RosNode, RosPublisher, RosSample};
 use zenoh::Wait;
 
+use crate::interfaces::rosbag2_interfaces::msg::WriteSplitEvent;
 use crate::local::LocalInterfaces;
 use crate::metadata::{BagMetadata, TopicMetadata};
 use crate::qos::QosProfile;
 use crate::types;
-use crate::writer::{BagWriter, TopicId, WriteOptions};
+use crate::writer::{BagWriter, FileSplit, TopicId, WriteOptions};
 use crate::Error;
 
 /// Which topics to record.
@@ -95,6 +96,9 @@ pub struct RecordOptions {
     /// Interface files whose types (and definition text) are used for a
     /// topic whose announced hash they match, before asking its node.
     pub interfaces: LocalInterfaces,
+    /// Start paused: topics are discovered and subscribed, but nothing is
+    /// written until [`RecorderControl::resume`] (default: record at once).
+    pub start_paused: bool,
 }
 
 impl RecordOptions {
@@ -111,6 +115,7 @@ impl RecordOptions {
             domain_id: None,
             node_name: "rosbag2_recorder".to_owned(),
             interfaces: LocalInterfaces::default(),
+            start_paused: false,
         }
     }
 }
@@ -142,6 +147,7 @@ pub struct RecordStats {
 #[derive(Default)]
 struct Shared {
     stop: AtomicBool,
+    paused: AtomicBool,
     topics: AtomicUsize,
     received: AtomicU64,
     written: AtomicU64,
@@ -163,7 +169,83 @@ enum Event {
         sample: RosSample,
         log_time: u64,
     },
+    /// A message received while paused: not written, yet its sequence
+    /// number is no gap.
+    Unrecorded {
+        gid: [u8; 16],
+        sequence: i64,
+    },
+    /// Move on to a new file now; the answer goes back on `reply`.
+    Split {
+        reply: flume::Sender<Result<FileSplit, Error>>,
+    },
     Stop,
+}
+
+/// A handle to pause, resume or split a [`Recorder`]'s recording from any
+/// thread, as `ros2 bag record`'s keyboard and services do.
+///
+/// ```no_run
+/// use shm_bag::{RecordOptions, Recorder, Selection};
+/// use zenoh::Wait;
+///
+/// let session = zenoh::open(zenoh::Config::default()).wait()?;
+/// let selection = Selection { all: true, ..Selection::default() };
+/// let options = RecordOptions { start_paused: true, ..RecordOptions::new("my_bag", selection) };
+/// let recorder = Recorder::start(&session, options)?;
+/// let control = recorder.control();
+/// control.resume(); // from here on, messages are written
+/// let split = control.split()?; // a new file from here on
+/// println!("closed {}", split.closed.display());
+/// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+/// ```
+#[derive(Clone)]
+pub struct RecorderControl {
+    shared: Arc<Shared>,
+    events: flume::Sender<Event>,
+}
+
+impl std::fmt::Debug for RecorderControl {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RecorderControl")
+            .field("paused", &self.is_paused())
+            .finish_non_exhaustive()
+    }
+}
+
+impl RecorderControl {
+    /// Pause: messages received from now on are not written (nor counted as
+    /// received, dropped or missed).
+    pub fn pause(&self) {
+        self.shared.paused.store(true, Ordering::Relaxed);
+    }
+
+    /// Resume writing.
+    pub fn resume(&self) {
+        self.shared.paused.store(false, Ordering::Relaxed);
+    }
+
+    /// Pause a running recording, resume a paused one.
+    pub fn toggle_paused(&self) {
+        self.shared.paused.fetch_xor(true, Ordering::Relaxed);
+    }
+
+    /// Whether the recording is paused.
+    pub fn is_paused(&self) -> bool {
+        self.shared.paused.load(Ordering::Relaxed)
+    }
+
+    /// Close the current file once the messages received before are
+    /// written, and continue in a new one; which files, once done.
+    pub fn split(&self) -> Result<FileSplit, Error> {
+        let (reply, answer) = flume::bounded(1);
+        self.events
+            .send(Event::Split { reply })
+            .map_err(|_| "the recording is finished")?;
+        answer
+            .recv()
+            .map_err(|_| "the recording finished before the split")?
+    }
 }
 
 /// A recording in progress: topics are discovered and written until
@@ -186,6 +268,7 @@ pub struct Recorder {
     events: flume::Sender<Event>,
     discovery: Option<JoinHandle<()>>,
     writer: Option<JoinHandle<Result<BagMetadata, Error>>>,
+    _services: Vec<Box<dyn std::any::Any + Send + Sync>>,
 }
 
 impl std::fmt::Debug for Recorder {
@@ -213,12 +296,34 @@ impl Recorder {
         let node = builder.wait()?;
         let writer = BagWriter::create(&options.output, options.write.clone())?;
         let shared = Arc::new(Shared::default());
+        shared.paused.store(options.start_paused, Ordering::Relaxed);
         let (events, receiver) = flume::unbounded();
+        let control = RecorderControl {
+            shared: shared.clone(),
+            events: events.clone(),
+        };
+        let services = declare_services(&node, &control)?;
+        let split_events = SplitEvents {
+            publisher: node
+                .declare_publisher_with_qos::<WriteSplitEvent>(
+                    "events/write_split",
+                    Qos::with_history(
+                        Reliability::Reliable,
+                        Durability::Volatile,
+                        History::KeepLast(1),
+                    ),
+                )
+                .wait()?,
+            node_name: match node.info().namespace.as_str() {
+                "/" => format!("/{}", node.info().name),
+                namespace => format!("{namespace}/{}", node.info().name),
+            },
+        };
         let writer = {
             let shared = shared.clone();
             std::thread::Builder::new()
                 .name("shm-bag writer".into())
-                .spawn(move || write_loop(writer, &receiver, &shared))?
+                .spawn(move || write_loop(writer, &receiver, &shared, &split_events))?
         };
         let discovery = {
             let shared = shared.clone();
@@ -232,7 +337,17 @@ impl Recorder {
             events,
             discovery: Some(discovery),
             writer: Some(writer),
+            _services: services,
         })
+    }
+
+    /// A handle to pause, resume or split the recording from another
+    /// thread.
+    pub fn control(&self) -> RecorderControl {
+        RecorderControl {
+            shared: self.shared.clone(),
+            events: self.events.clone(),
+        }
     }
 
     /// What the recording has done so far.
@@ -317,7 +432,12 @@ fn discover(
             if retry.get(&topic).is_some_and(|at| Instant::now() < *at) {
                 continue;
             }
-            if graph.publishers(&topic).is_empty() {
+            let publishers = graph.publishers(&topic);
+            // The recorder's own (its split events) are not recorded.
+            let own = |p: &Arc<shm_runtime::graph::Entity>| {
+                p.zid == node.info().zid && p.node_id == node.info().node_id
+            };
+            if publishers.is_empty() || publishers.iter().all(own) {
                 continue;
             }
             let index = recorded.len();
@@ -429,6 +549,15 @@ fn subscribe(
         // reaches the network, and the budget bounds what waits.
         .callback_inline(move |sample| {
             let shared = &shared_cb;
+            if shared.paused.load(Ordering::Relaxed) {
+                if let Some(Ok(attachment)) = sample.attachment() {
+                    let _ = events_cb.send(Event::Unrecorded {
+                        gid: attachment.gid.0,
+                        sequence: attachment.sequence_number,
+                    });
+                }
+                return;
+            }
             shared.received.fetch_add(1, Ordering::Relaxed);
             let len = sample.payload().len();
             let queued = shared.queued_bytes.fetch_add(len, Ordering::Relaxed);
@@ -451,15 +580,113 @@ fn subscribe(
     Ok(subscriber)
 }
 
+/// Where the recording announces that it moved on to a new file, as
+/// rosbag2's recorder does.
+struct SplitEvents {
+    publisher: RosPublisher<WriteSplitEvent>,
+    /// The recorder node's fully qualified name.
+    node_name: String,
+}
+
+impl SplitEvents {
+    fn publish(&self, splits: Vec<FileSplit>) {
+        let full = |path: &std::path::Path| {
+            std::path::absolute(path)
+                .unwrap_or_else(|_| path.to_owned())
+                .display()
+                .to_string()
+        };
+        for split in splits {
+            let event = WriteSplitEvent {
+                closed_file: full(&split.closed),
+                opened_file: full(&split.opened),
+                node_name: self.node_name.clone(),
+            };
+            if let Err(e) = self.publisher.publish(&event).wait() {
+                tracing::warn!("publishing /events/write_split failed: {e}");
+            }
+        }
+    }
+}
+
+/// Each publisher's last sequence number, and the gaps between them.
+#[derive(Default)]
+struct Sequences(HashMap<[u8; 16], i64>);
+
+impl Sequences {
+    /// Note `sequence` from publisher `gid`; how many messages are missing
+    /// before it.
+    fn gap(&mut self, gid: [u8; 16], sequence: i64) -> u64 {
+        match self.0.insert(gid, sequence) {
+            Some(previous) if sequence > previous + 1 => {
+                u64::try_from(sequence - previous - 1).unwrap_or(0)
+            }
+            Some(previous) if sequence <= previous => {
+                // A kept message replayed: not a gap.
+                self.0.insert(gid, previous);
+                0
+            }
+            _ => 0,
+        }
+    }
+}
+
+/// rosbag2's recorder services on the recorder's node.
+fn declare_services(
+    node: &RosNode,
+    control: &RecorderControl,
+) -> Result<Vec<Box<dyn std::any::Any + Send + Sync>>, Error> {
+    use crate::interfaces::rosbag2_interfaces::srv as s;
+    let mut servers: Vec<Box<dyn std::any::Any + Send + Sync>> = Vec::new();
+    let c = control.clone();
+    servers.push(Box::new(
+        node.declare_service::<s::Pause>("~/pause")
+            .handler(move |_| {
+                c.pause();
+                s::Pause_Response
+            })
+            .wait()?,
+    ));
+    let c = control.clone();
+    servers.push(Box::new(
+        node.declare_service::<s::Resume>("~/resume")
+            .handler(move |_| {
+                c.resume();
+                s::Resume_Response
+            })
+            .wait()?,
+    ));
+    let c = control.clone();
+    servers.push(Box::new(
+        node.declare_service::<s::IsPaused>("~/is_paused")
+            .handler(move |_| s::IsPaused_Response {
+                paused: c.is_paused(),
+            })
+            .wait()?,
+    ));
+    let c = control.clone();
+    servers.push(Box::new(
+        node.declare_service::<s::SplitBagfile>("~/split_bagfile")
+            .handler(move |_| {
+                if let Err(e) = c.split() {
+                    tracing::warn!("split_bagfile: {e}");
+                }
+                s::SplitBagfile_Response
+            })
+            .wait()?,
+    ));
+    Ok(servers)
+}
+
 /// The writer thread: topics and messages in arrival order, until `Stop`.
 fn write_loop(
     mut writer: BagWriter,
     events: &flume::Receiver<Event>,
     shared: &Shared,
+    split_events: &SplitEvents,
 ) -> Result<BagMetadata, Error> {
     let mut topics: HashMap<usize, TopicId> = HashMap::new();
-    // Each publisher's last sequence number, for the gaps.
-    let mut last: HashMap<[u8; 16], i64> = HashMap::new();
+    let mut sequences = Sequences::default();
     let mut failure: Option<Error> = None;
     while let Ok(event) = events.recv() {
         match event {
@@ -485,18 +712,8 @@ fn write_loop(
                 let (publish_time, sequence) = match sample.attachment() {
                     Some(Ok(attachment)) => {
                         let seq = attachment.sequence_number;
-                        let previous = last.insert(attachment.gid.0, seq);
-                        if let Some(previous) = previous {
-                            if seq > previous + 1 {
-                                shared.missed.fetch_add(
-                                    u64::try_from(seq - previous - 1).unwrap_or(0),
-                                    Ordering::Relaxed,
-                                );
-                            } else if seq <= previous {
-                                // A kept message replayed: not a gap.
-                                last.insert(attachment.gid.0, previous);
-                            }
-                        }
+                        let missed = sequences.gap(attachment.gid.0, seq);
+                        shared.missed.fetch_add(missed, Ordering::Relaxed);
                         (
                             u64::try_from(attachment.source_timestamp).unwrap_or(log_time),
                             seq as u32,
@@ -526,6 +743,23 @@ fn write_loop(
                 } else {
                     shared.dropped.fetch_add(1, Ordering::Relaxed);
                 }
+                split_events.publish(writer.take_splits());
+            }
+            Event::Unrecorded { gid, sequence } => {
+                sequences.gap(gid, sequence);
+            }
+            Event::Split { reply } => {
+                let split = match &failure {
+                    Some(e) => Err(format!("the recording stopped writing: {e}").into()),
+                    None => writer.split().map_err(|e| {
+                        let said = e.to_string();
+                        tracing::error!("recording stops writing: {said}");
+                        failure = Some(e);
+                        said.into()
+                    }),
+                };
+                split_events.publish(writer.take_splits());
+                let _ = reply.send(split);
             }
             Event::Stop => break,
         }

@@ -74,6 +74,15 @@ struct Current {
     bytes: u64,
 }
 
+/// A recording moved on from one file to the next.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FileSplit {
+    /// The file finished and closed.
+    pub closed: PathBuf,
+    /// The file the recording continues in.
+    pub opened: PathBuf,
+}
+
 /// Writes a recording: a bag directory of MCAP files and `metadata.yaml`.
 pub struct BagWriter {
     dir: PathBuf,
@@ -85,6 +94,8 @@ pub struct BagWriter {
     first: Option<u64>,
     last: u64,
     count: u64,
+    /// Splits not yet taken by [`BagWriter::take_splits`].
+    splits: Vec<FileSplit>,
 }
 
 impl std::fmt::Debug for BagWriter {
@@ -127,6 +138,7 @@ impl BagWriter {
             first: None,
             last: 0,
             count: 0,
+            splits: Vec::new(),
         };
         writer.open_file()?;
         Ok(writer)
@@ -201,6 +213,21 @@ impl BagWriter {
         Ok(())
     }
 
+    /// Close the current file now and continue in a new one, as rosbag2's
+    /// `~/split_bagfile` does (an empty file is closed too).
+    pub fn split(&mut self) -> Result<FileSplit, Error> {
+        if self.current.is_none() {
+            return Err("the recording is finished".into());
+        }
+        self.split_file()
+    }
+
+    /// The splits since the last call, by size, by duration or by
+    /// [`split`](Self::split), oldest first.
+    pub fn take_splits(&mut self) -> Vec<FileSplit> {
+        std::mem::take(&mut self.splits)
+    }
+
     /// Messages written so far.
     pub fn message_count(&self) -> u64 {
         self.count
@@ -263,10 +290,27 @@ impl BagWriter {
             })
         });
         if by_size || by_duration {
-            self.close_file()?;
-            self.open_file()?;
+            self.split_file()?;
         }
         Ok(())
+    }
+
+    fn split_file(&mut self) -> Result<FileSplit, Error> {
+        let closed = self.current_path();
+        self.close_file()?;
+        self.open_file()?;
+        let split = FileSplit {
+            closed,
+            opened: self.current_path(),
+        };
+        self.splits.push(split.clone());
+        Ok(split)
+    }
+
+    /// The path of the file being written (the last one once finished).
+    fn current_path(&self) -> PathBuf {
+        let name = self.files.last().map_or("", |f| f.path.as_str());
+        self.dir.join(name)
     }
 
     fn open_file(&mut self) -> Result<(), Error> {

@@ -597,3 +597,142 @@ fn a_paused_playback_steps_bursts_seeks_and_changes_rate_through_rosbag2s_servic
     assert!(played.published <= 2, "{played:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_paused_recording_writes_nothing_and_splits_on_request_announcing_it() {
+    use shm_bag::interfaces::rosbag2_interfaces::msg::WriteSplitEvent;
+    use shm_bag::interfaces::rosbag2_interfaces::srv::*;
+    let (a, b) = sessions();
+    let talker = RosNode::builder(&a, "talker").domain_id(0).wait().unwrap();
+    let chatter = talker
+        .declare_publisher::<RosString>("/chatter")
+        .wait()
+        .unwrap();
+    let splits = talker
+        .declare_subscriber::<WriteSplitEvent>("/events/write_split")
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    macro_rules! client {
+        ($srv:ty, $name:literal) => {{
+            let client = talker
+                .declare_client::<$srv>(concat!("/rosbag2_recorder/", $name))
+                .wait()
+                .unwrap();
+            assert!(client.wait_for_service(TIMEOUT), "{} not found", $name);
+            client
+        }};
+    }
+
+    let dir = std::env::temp_dir().join(format!("shm_bag_pause_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let selection = Selection {
+        topics: vec!["/chatter".into(), "/events/write_split".into()],
+        ..Selection::default()
+    };
+    let mut options = RecordOptions::new(dir.join("bag"), selection);
+    options.domain_id = Some(0);
+    options.start_paused = true;
+    let recorder = Recorder::start(&b, options).unwrap();
+    // In the recorder's session: once it has a message, so has the recorder.
+    let probe_node = RosNode::builder(&b, "probe").domain_id(0).wait().unwrap();
+    let probe = probe_node
+        .declare_subscriber::<RosString>("/chatter")
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    let delivered = |n: usize| {
+        for _ in 0..n {
+            assert!(probe.recv_timeout(TIMEOUT).unwrap().is_some());
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let is_paused = client!(IsPaused, "is_paused");
+    let pause = client!(Pause, "pause");
+    let resume = client!(Resume, "resume");
+    let split = client!(SplitBagfile, "split_bagfile");
+    wait_until("the recorder to subscribe", || recorder.stats().topics == 1);
+    assert!(chatter.wait_for_subscribers(TIMEOUT));
+    assert!(splits.wait_for_publishers(TIMEOUT));
+    let mut sent = 0;
+    let mut say = |n: usize| {
+        for _ in 0..n {
+            let text = RosString {
+                data: format!("message {sent}"),
+            };
+            chatter.publish(&text).wait().unwrap();
+            sent += 1;
+        }
+    };
+
+    assert!(is_paused.call(&IsPaused_Request).wait().unwrap().paused);
+    say(5); // 0..5, paused: not written
+    delivered(5);
+    assert_eq!(recorder.stats().written, 0);
+    resume.call(&Resume_Request).wait().unwrap();
+    assert!(!is_paused.call(&IsPaused_Request).wait().unwrap().paused);
+    say(5); // 5..10 into the first file
+    delivered(5);
+    wait_until("five written", || recorder.stats().written == 5);
+
+    split.call(&SplitBagfile_Request).wait().unwrap();
+    let event = splits
+        .recv_timeout(TIMEOUT)
+        .unwrap()
+        .expect("a split event");
+    let event = event.decode::<WriteSplitEvent>().unwrap();
+    let bag = std::path::absolute(dir.join("bag")).unwrap();
+    assert_eq!(
+        event.closed_file,
+        bag.join("bag_0.mcap").display().to_string()
+    );
+    assert_eq!(
+        event.opened_file,
+        bag.join("bag_1.mcap").display().to_string()
+    );
+    assert_eq!(event.node_name, "/rosbag2_recorder");
+
+    say(3); // 10..13 into the second file
+    delivered(3);
+    wait_until("eight written", || recorder.stats().written == 8);
+    pause.call(&Pause_Request).wait().unwrap();
+    say(2); // 13..15, paused
+    delivered(2);
+    resume.call(&Resume_Request).wait().unwrap();
+    say(1); // 15: the paused ones are no gap
+    delivered(1);
+    wait_until("nine written", || recorder.stats().written == 9);
+    let stats = recorder.stats();
+    assert_eq!(
+        (stats.received, stats.dropped, stats.missed),
+        (9, 0, 0),
+        "{stats:?}"
+    );
+    let written = recorder.stop().unwrap();
+    assert_eq!(written.relative_file_paths, ["bag_0.mcap", "bag_1.mcap"]);
+    assert_eq!(
+        written.topics_with_message_count.len(),
+        1,
+        "the recorder's own split events are not recorded"
+    );
+
+    let texts = |file: &str| -> Vec<String> {
+        let bytes = std::fs::read(dir.join("bag").join(file)).unwrap();
+        mcap::MessageStream::new(&bytes)
+            .unwrap()
+            .map(|m| {
+                shm_cdr::from_bytes::<RosString>(&m.unwrap().data)
+                    .unwrap()
+                    .data
+            })
+            .collect()
+    };
+    let numbered = |range: std::ops::Range<usize>| -> Vec<String> {
+        range.map(|k| format!("message {k}")).collect()
+    };
+    assert_eq!(texts("bag_0.mcap"), numbered(5..10));
+    let mut second = numbered(10..13);
+    second.extend(numbered(15..16));
+    assert_eq!(texts("bag_1.mcap"), second);
+    let _ = std::fs::remove_dir_all(&dir);
+}

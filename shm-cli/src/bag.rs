@@ -90,6 +90,13 @@ pub(crate) struct RecordArgs {
     /// Print no progress line.
     #[arg(long)]
     no_progress: bool,
+    /// Start paused: nothing is written until resumed (space, or the
+    /// recorder's ~/resume service).
+    #[arg(long)]
+    start_paused: bool,
+    /// Do not read keys from the terminal (space: pause/resume).
+    #[arg(long)]
+    disable_keyboard_controls: bool,
 }
 
 #[derive(Debug, Args)]
@@ -193,8 +200,18 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
             ChunkCompression::Lz4 => Compression::Lz4,
         });
     }
+    options.start_paused = args.start_paused;
     let stop = crate::interrupted()?;
     let recorder = Recorder::start(&context.session, options)?;
+    let control = recorder.control();
+    let keys = if args.disable_keyboard_controls {
+        None
+    } else {
+        let control = control.clone();
+        crate::keyboard::start(crate::keyboard::RECORD_HELP, move |key| {
+            crate::keyboard::record_key(&control, key)
+        })
+    };
     let started = Instant::now();
     let deadline = args
         .duration
@@ -218,7 +235,12 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
                 last = (now, stats.bytes);
             }
             bar.set_message(format!(
-                "Recording {} topics: {} messages, {}, {}/s | dropped {} | missed {}{}",
+                "{} {} topics: {} messages, {}, {}/s | dropped {} | missed {}{}",
+                if control.is_paused() {
+                    "Paused:"
+                } else {
+                    "Recording"
+                },
                 stats.topics,
                 stats.written,
                 size(stats.bytes),
@@ -234,6 +256,7 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
             bar.tick();
         }
     }
+    drop(keys);
     let stats = recorder.stats();
     let metadata = recorder.stop()?;
     let final_stats_dropped = stats.dropped;
@@ -289,7 +312,10 @@ fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {
     let keys = if args.disable_keyboard_controls {
         None
     } else {
-        crate::keyboard::start(player.control())
+        let control = player.control();
+        crate::keyboard::start(crate::keyboard::PLAY_HELP, move |key| {
+            crate::keyboard::play_key(&control, key)
+        })
     };
     let stats = player.play(&stop);
     drop(keys);

@@ -1,6 +1,6 @@
-//! `bag play`'s keyboard controls, those of `ros2 bag play`: space pauses
-//! and resumes, → publishes the next message (while paused), ↑ and ↓ change
-//! the rate by 0.1.
+//! The keyboard controls of `bag play` and `bag record`, those of `ros2 bag`:
+//! space pauses and resumes; in playback, → publishes the next message
+//! (while paused), ↑ and ↓ change the rate by 0.1.
 //!
 //! The terminal leaves canonical mode and echo while the playback runs, and
 //! keeps its signals: Ctrl-C still stops the playback.
@@ -9,9 +9,9 @@ use std::io::{IsTerminal, Read};
 use std::os::fd::AsFd;
 
 use rustix::termios::{self, LocalModes, OptionalActions, SpecialCodeIndex, Termios};
-use shm_bag::PlayerControl;
+use shm_bag::{PlayerControl, RecorderControl};
 
-/// A key `bag play` acts on.
+/// A key `bag play` or `bag record` acts on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Key {
     Space,
@@ -20,12 +20,15 @@ pub(crate) enum Key {
     Down,
 }
 
-/// What the keys do, as `ros2 bag play` lists it at the start.
-const HELP: &str = "\
+/// What the keys do in playback, as `ros2 bag play` lists it at the start.
+pub(crate) const PLAY_HELP: &str = "\
 Press SPACE for Pause/Resume
 Press CURSOR_RIGHT for Play Next Message
 Press CURSOR_UP for Increase Rate 10%
 Press CURSOR_DOWN for Decrease Rate 10%";
+
+/// What the keys do in recording, as `ros2 bag record` says it.
+pub(crate) const RECORD_HELP: &str = "Press SPACE for pausing/resuming";
 
 /// Splits terminal input into [`Key`]s: a space, or the cursor keys' escape
 /// sequences (`ESC [ A` and, in application mode, `ESC O A`). Anything else
@@ -65,9 +68,21 @@ impl KeyReader {
     }
 }
 
+/// Act on `key` as `ros2 bag record` does; what to tell the user.
+pub(crate) fn record_key(control: &RecorderControl, key: Key) -> Option<String> {
+    (key == Key::Space).then(|| {
+        control.toggle_paused();
+        if control.is_paused() {
+            "Pausing recording.".to_owned()
+        } else {
+            "Resuming recording.".to_owned()
+        }
+    })
+}
+
 /// Act on `key` as `ros2 bag play` does; what to tell the user.
-pub(crate) fn act(control: &PlayerControl, key: Key) -> String {
-    match key {
+pub(crate) fn play_key(control: &PlayerControl, key: Key) -> Option<String> {
+    Some(match key {
         Key::Space => {
             control.toggle_paused();
             if control.is_paused() {
@@ -96,7 +111,7 @@ pub(crate) fn act(control: &PlayerControl, key: Key) -> String {
                 format!("Failed to set rate to invalid value {rate}")
             }
         }
-    }
+    })
 }
 
 /// The terminal's settings before the controls changed them; put back when
@@ -115,10 +130,13 @@ impl Drop for KeyboardControls {
     }
 }
 
-/// Read keys from the terminal for `control`, on a thread of their own; `None`
-/// when standard input is not a terminal (or cannot be set up: the playback
-/// then runs without keys).
-pub(crate) fn start(control: PlayerControl) -> Option<KeyboardControls> {
+/// Read keys from the terminal on a thread of their own, print `help`, and
+/// hand each key to `act`, printing what it says; `None` when standard input
+/// is not a terminal (or cannot be set up: the verb then runs without keys).
+pub(crate) fn start<F>(help: &str, mut act: F) -> Option<KeyboardControls>
+where
+    F: FnMut(Key) -> Option<String> + Send + 'static,
+{
     let stdin = std::io::stdin();
     if !stdin.is_terminal() {
         return None;
@@ -132,16 +150,16 @@ pub(crate) fn start(control: PlayerControl) -> Option<KeyboardControls> {
         eprintln!("keyboard controls are off: cannot set up the terminal: {e}");
         return None;
     }
-    eprintln!("{HELP}");
+    eprintln!("{help}");
     // Detached: it blocks in `read` until a key comes, and the process ends
-    // after the playback whether or not one does.
+    // after the verb whether or not one does.
     std::thread::spawn(move || {
         let mut reader = KeyReader::default();
         let mut byte = [0u8; 1];
         let mut stdin = std::io::stdin().lock();
         while let Ok(1) = stdin.read(&mut byte) {
-            if let Some(key) = reader.push(byte[0]) {
-                eprintln!("{}", act(&control, key));
+            if let Some(said) = reader.push(byte[0]).and_then(&mut act) {
+                eprintln!("{said}");
             }
         }
     });
