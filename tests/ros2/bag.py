@@ -16,7 +16,10 @@ them; the recording is then read by:
 
 Then `shm-ros2 bag info` is compared with the facts, and `shm-ros2 bag play`
 publishes the recording to the peer, which reads it with rclpy; with
-`--clock`, the peer reads the recording's timeline on `/clock`.
+`--clock`, the peer reads the recording's timeline on `/clock`. Last,
+`bag play -p` and `bag record --start-paused` run in a pseudo-terminal and
+are steered by their keys and by rosbag2's services, called at keys made
+with the hashes rosidl's own tools compute for rosbag2_interfaces.
 
     python tests/ros2/bag.py <dir with the shm-ros2 binary>
 """
@@ -302,32 +305,48 @@ def main():
     print(f"bag play --clock: {len(times)} /clock ticks read with rclpy, from the start offset "
           f"({(times[0] - begin) / 1e6 if times else 0:.0f} ms after it) to "
           f"{(end - times[-1]) / 1e6 if times else 0:.0f} ms before the recording's end, never going back")
-    check_player_control(endpoint, peer, bag, got, sent["/chatter"])
+    hashes = rosbag2_interfaces_hashes()
+    check_player_control(endpoint, peer, bag, got, sent["/chatter"], hashes)
+    check_recorder_control(endpoint, peer, work, hashes)
     if not failures:
         shutil.rmtree(work, ignore_errors=True)
 
 
-def check_player_control(endpoint, peer, bag, got, sent):
+CDR_HEADER = b"\0\1\0\0"  # CDR, little-endian
+EMPTY_REQUEST = CDR_HEADER + b"\0"  # an empty request's placeholder byte
+
+
+def rosbag2_interfaces_hashes():
+    """rosidl's hashes of shm-bag's copy of rosbag2_interfaces, from rosidl's own tools."""
+    from rmw_zenoh import package_hashes
+    source = Path(__file__).resolve().parents[2] / "shm-bag" / "interfaces" / "rosbag2_interfaces"
+    return package_hashes(source, "rosbag2_interfaces", ["builtin_interfaces", "service_msgs"])
+
+
+def asker(peer, node, hashes):
+    """Calls of `node`'s rosbag2 services, with CDR written by the caller:
+    `ask(service, Srv, payload)` is the reply's CDR body, or None."""
+    from rmw_zenoh import call_raw
+    seq = [0]
+    gid = os.urandom(16)
+
+    def ask(service, srv, payload=EMPTY_REQUEST):
+        seq[0] += 1
+        key = f"0/{node}/{service}/rosbag2_interfaces::srv::dds_::{srv}_/" \
+              f"{hashes[f'rosbag2_interfaces/srv/{srv}']}"
+        reply = call_raw(peer.session, key, payload, seq[0], gid, tries=200)
+        return None if reply is None else reply[4:]
+    return ask
+
+
+def check_player_control(endpoint, peer, bag, got, sent, hashes):
     """`bag play --start-paused` in a terminal: rosbag2's player services,
     called with rosidl's hashes of rosbag2_interfaces in their keys and CDR
     written here, and the keys of `ros2 bag play` pressed on the terminal."""
     import pty
     import struct
-    from rmw_zenoh import call_raw, package_hashes
-    source = Path(__file__).resolve().parents[2] / "shm-bag" / "interfaces" / "rosbag2_interfaces"
-    hashes = package_hashes(source, "rosbag2_interfaces", ["builtin_interfaces", "service_msgs"])
-    header = b"\0\1\0\0"  # CDR, little-endian
-    empty = header + b"\0"  # an empty request's placeholder byte
-    seq = [0]
-    gid = os.urandom(16)
-
-    def ask(service, srv, payload=empty):
-        """The reply's CDR body, or None."""
-        seq[0] += 1
-        key = f"0/rosbag2_player/{service}/rosbag2_interfaces::srv::dds_::{srv}_/" \
-              f"{hashes[f'rosbag2_interfaces/srv/{srv}']}"
-        reply = call_raw(peer.session, key, payload, seq[0], gid, tries=200)
-        return None if reply is None else reply[4:]
+    header = CDR_HEADER
+    ask = asker(peer, "rosbag2_player", hashes)
 
     def wait_for(count, timeout=20):
         deadline = time.time() + timeout
@@ -379,6 +398,87 @@ def check_player_control(endpoint, peer, bag, got, sent):
     print(f"bag play --start-paused: is_paused, burst, set_rate and get_rate answered at keys made "
           f"with rosidl's hashes; cursor right, cursor up and space acted; the peer read {len(got)}/{len(sent)} messages "
           f"in order")
+
+
+
+def cdr_strings(body, count):
+    """`count` CDR strings from a message body (each 4-aligned)."""
+    import struct
+    out, at = [], 0
+    for _ in range(count):
+        at += -at % 4
+        (n,) = struct.unpack_from("<I", body, at)
+        out.append(body[at + 4:at + 4 + n - 1].decode())
+        at += 4 + n
+    return out
+
+
+def check_recorder_control(endpoint, peer, work, hashes):
+    """`bag record --start-paused` in a terminal: space resumes it,
+    rosbag2's `~/is_paused` and `~/split_bagfile` answer at keys made with
+    rosidl's hashes, and the split is announced on `/events/write_split` as
+    a WriteSplitEvent of rosidl's hash, read here from its CDR."""
+    import pty
+    from mcap.reader import make_reader
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import String
+    ask = asker(peer, "rosbag2_recorder", hashes)
+    publish = peer.publisher("/paced", "std_msgs/msg/String")
+    events = []
+    event_key = "0/events/write_split/rosbag2_interfaces::msg::dds_::WriteSplitEvent_/" \
+                + hashes["rosbag2_interfaces/msg/WriteSplitEvent"]
+    peer.keep.append(peer.session.declare_subscriber(event_key, lambda s: events.append(s.payload.to_bytes())))
+    sent = [serialize_message(String(data=f"paced {i}")) for i in range(9)]
+    bag = work / "paused"
+    terminal, child = pty.openpty()
+    proc = subprocess.Popen([str(BIN), "--connect", endpoint, "--domain-id", "0", "bag", "record", "/paced",
+                             "-o", str(bag), "--start-paused", "--no-progress"],
+                            stdin=child, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    os.close(child)
+    err = ""
+    try:
+        check(wait_subscribed(endpoint, ["/paced"]), "bag record did not subscribe to /paced")
+        check(ask("is_paused", "IsPaused") == b"\1", "bag record --start-paused is not paused")
+        for data in sent[:3]:
+            publish(None, data)
+        time.sleep(0.5)
+        os.write(terminal, b" ")  # space: resume
+        deadline = time.time() + 10
+        while ask("is_paused", "IsPaused") != b"\0" and time.time() < deadline:
+            time.sleep(0.05)
+        for data in sent[3:7]:
+            publish(None, data)
+        time.sleep(0.5)
+        check(ask("split_bagfile", "SplitBagfile") is not None, "split_bagfile: no answer")
+        deadline = time.time() + 10
+        while not events and time.time() < deadline:
+            time.sleep(0.05)
+        split = cdr_strings(events[0][4:], 3) if events else None
+        check(split == [str((bag / "paused_0.mcap").resolve()), str((bag / "paused_1.mcap").resolve()),
+                        "/rosbag2_recorder"], f"the split event: {split}")
+        for data in sent[7:]:
+            publish(None, data)
+        time.sleep(0.5)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            _, err = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            _, err = proc.communicate()
+        os.close(terminal)
+    files = []
+    for name in ("paused_0.mcap", "paused_1.mcap"):
+        with open(bag / name, "rb") as f:
+            files.append([m.data for _, _, m in make_reader(f).iter_messages()])
+    check(proc.returncode == 0 and files == [sent[3:7], sent[7:]],
+          f"bag record --start-paused: exit {proc.returncode}, files hold {[len(f) for f in files]} messages "
+          f"{err[-500:]!r}")
+    check(all(line in err.splitlines() for line in ["Press SPACE for pausing/resuming", "Resuming recording."]),
+          f"bag record's terminal: {err[-500:]!r}")
+    print(f"bag record --start-paused: space resumed it, split_bagfile split it ({len(events)} WriteSplitEvent "
+          f"read), the two files hold the {len(files[0])} + {len(files[1])} messages sent while recording "
+          f"and none of the 3 sent while paused")
 
 
 if __name__ == "__main__":
