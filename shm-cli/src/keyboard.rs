@@ -132,13 +132,20 @@ impl Drop for KeyboardControls {
 
 /// Read keys from the terminal on a thread of their own, print `help`, and
 /// hand each key to `act`, printing what it says; `None` when standard input
-/// is not a terminal (or cannot be set up: the verb then runs without keys).
+/// is not a terminal, or not this process's (started in the background with
+/// `&`: reading it would stop the process), or cannot be set up: the verb
+/// then runs without keys.
 pub(crate) fn start<F>(help: &str, mut act: F) -> Option<KeyboardControls>
 where
     F: FnMut(Key) -> Option<String> + Send + 'static,
 {
     let stdin = std::io::stdin();
     if !stdin.is_terminal() {
+        return None;
+    }
+    // A terminal that is not our controlling one (no process group of its
+    // own for us) sends no job-control stops: keys are safe there too.
+    if termios::tcgetpgrp(stdin.as_fd()).is_ok_and(|group| group != rustix::process::getpgrp()) {
         return None;
     }
     let saved = termios::tcgetattr(stdin.as_fd()).ok()?;

@@ -308,6 +308,7 @@ def main():
     hashes = rosbag2_interfaces_hashes()
     check_player_control(endpoint, peer, bag, got, sent["/chatter"], hashes)
     check_recorder_control(endpoint, peer, work, hashes)
+    check_background_playback(endpoint, bag)
     if not failures:
         shutil.rmtree(work, ignore_errors=True)
 
@@ -479,6 +480,42 @@ def check_recorder_control(endpoint, peer, work, hashes):
     print(f"bag record --start-paused: space resumed it, split_bagfile split it ({len(events)} WriteSplitEvent "
           f"read), the two files hold the {len(files[0])} + {len(files[1])} messages sent while recording "
           f"and none of the 3 sent while paused")
+
+
+
+def check_background_playback(endpoint, bag):
+    """`bag play` started in the background of a terminal (`… &` in a shell)
+    leaves the terminal alone and runs to its end: reading keys there would
+    have the kernel stop it (SIGTTIN, SIGTTOU)."""
+    import fcntl
+    import pty
+    import termios
+    terminal, child = pty.openpty()
+    pid = os.fork()
+    if pid == 0:
+        # A session with the pty as its controlling terminal, this process's
+        # group in the foreground and the player in a group of its own.
+        code = 2
+        try:
+            os.setsid()
+            fcntl.ioctl(child, termios.TIOCSCTTY, 0)
+            player = subprocess.Popen([str(BIN), "--connect", endpoint, "--domain-id", "0", "bag", "play", str(bag),
+                                       "--topics", "/chatter", "-r", "20"],
+                                      stdin=child, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                      process_group=0)
+            try:
+                code = player.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                player.kill()
+                code = 3
+        finally:
+            os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    os.close(child)
+    os.close(terminal)
+    code = os.waitstatus_to_exitcode(status)
+    check(code == 0, f"bag play in the background: exit {code} (3: stopped by its terminal)")
+    print(f"bag play in a terminal's background: exit {code} (0: it ran to its end, its terminal left alone)")
 
 
 if __name__ == "__main__":
