@@ -339,8 +339,9 @@ pub struct Player {
     _node: RosNode,
     publishers: HashMap<String, RosPublisher<Serialized>>,
     clock: Option<RosPublisher<Clock>>,
-    /// The recording's first message time (ns since the Unix epoch).
-    bag_start: u64,
+    /// Where the playback starts: the recording's first message time (ns
+    /// since the Unix epoch), plus the start offset.
+    begin: u64,
     control: PlayerControl,
     _services: ControlServices,
 }
@@ -439,7 +440,7 @@ impl Player {
             _node: node,
             publishers,
             clock,
-            bag_start,
+            begin,
             control,
             _services: services,
         })
@@ -459,9 +460,7 @@ impl Player {
     /// goes out on `/clock` from the first call on, the start's until the
     /// first message is due.
     pub fn play(&self, stop: &AtomicBool) -> Result<PlayStats, Error> {
-        let begin = self.bag_start.saturating_add(
-            u64::try_from(self.options.start_offset.as_nanos()).unwrap_or(u64::MAX),
-        );
+        let begin = self.begin;
         let end = self
             .options
             .duration
