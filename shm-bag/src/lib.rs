@@ -18,6 +18,7 @@
 mod control;
 mod player;
 mod recorder;
+mod split_events;
 mod writer;
 
 pub mod definition;

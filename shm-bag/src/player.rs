@@ -14,9 +14,12 @@ use shm_runtime::{PayloadKind, RosNode, RosPublisher, Serialized, ShmConfig, Shm
 use zenoh::Wait;
 
 use crate::control::{Due, PlayerControl};
+use crate::interfaces::rosbag2_interfaces::msg::ReadSplitEvent;
 use crate::metadata::BagMetadata;
 use crate::qos;
+use crate::split_events::SplitEvents;
 use crate::types;
+use crate::writer::FileSplit;
 use crate::Error;
 
 /// A recording on disk: a bag directory (with `metadata.yaml`) or one MCAP
@@ -319,7 +322,9 @@ pub struct PlayStats {
 /// `~/resume`, `~/toggle_paused`, `~/is_paused`, `~/get_rate`, `~/set_rate`,
 /// `~/play_next`, `~/burst`, `~/seek`, `~/stop`; types in
 /// [`interfaces`](crate::interfaces)), as `ros2 bag play` does; code in the
-/// same process steers it through [`control`](Self::control).
+/// same process steers it through [`control`](Self::control). Moving on from
+/// one file of the recording to the next, it says so on
+/// `/events/read_split`.
 ///
 /// ```no_run
 /// use std::sync::atomic::AtomicBool;
@@ -344,6 +349,7 @@ pub struct Player {
     begin: u64,
     control: PlayerControl,
     _services: ControlServices,
+    read_splits: SplitEvents<ReadSplitEvent>,
 }
 
 impl std::fmt::Debug for Player {
@@ -434,6 +440,7 @@ impl Player {
             options.start_paused,
         );
         let services = ControlServices::declare(&node, &control)?;
+        let read_splits = SplitEvents::declare(&node)?;
         Ok(Self {
             bag,
             options,
@@ -443,6 +450,7 @@ impl Player {
             begin,
             control,
             _services: services,
+            read_splits,
         })
     }
 
@@ -539,7 +547,14 @@ impl Player {
         end: Option<u64>,
         stats: &mut PlayStats,
     ) -> Result<PassEnd, Error> {
+        let mut previous: Option<&PathBuf> = None;
         for path in &self.bag.files {
+            if let Some(closed) = previous.replace(path) {
+                self.read_splits.publish(&FileSplit {
+                    closed: closed.clone(),
+                    opened: path.clone(),
+                });
+            }
             let file = map(path)?;
             let summary = summary(path, &file)?;
             let by_channel: HashMap<u16, (&str, &RosPublisher<Serialized>)> = summary

@@ -14,13 +14,14 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use regex::Regex;
 use shm_runtime::graph::Graph;
 use shm_runtime::rmw::{Durability, History, Qos, Reliability};
-use shm_runtime::{CallbackSubscriber, RosNode, RosPublisher, RosSample};
+use shm_runtime::{CallbackSubscriber, RosNode, RosSample};
 use zenoh::Wait;
 
 use crate::interfaces::rosbag2_interfaces::msg::WriteSplitEvent;
 use crate::local::LocalInterfaces;
 use crate::metadata::{BagMetadata, TopicMetadata};
 use crate::qos::QosProfile;
+use crate::split_events::SplitEvents;
 use crate::types;
 use crate::writer::{BagWriter, FileSplit, TopicId, WriteOptions};
 use crate::Error;
@@ -303,22 +304,7 @@ impl Recorder {
             events: events.clone(),
         };
         let services = declare_services(&node, &control)?;
-        let split_events = SplitEvents {
-            publisher: node
-                .declare_publisher_with_qos::<WriteSplitEvent>(
-                    "events/write_split",
-                    Qos::with_history(
-                        Reliability::Reliable,
-                        Durability::Volatile,
-                        History::KeepLast(1),
-                    ),
-                )
-                .wait()?,
-            node_name: match node.info().namespace.as_str() {
-                "/" => format!("/{}", node.info().name),
-                namespace => format!("{namespace}/{}", node.info().name),
-            },
-        };
+        let split_events = SplitEvents::<WriteSplitEvent>::declare(&node)?;
         let writer = {
             let shared = shared.clone();
             std::thread::Builder::new()
@@ -580,35 +566,6 @@ fn subscribe(
     Ok(subscriber)
 }
 
-/// Where the recording announces that it moved on to a new file, as
-/// rosbag2's recorder does.
-struct SplitEvents {
-    publisher: RosPublisher<WriteSplitEvent>,
-    /// The recorder node's fully qualified name.
-    node_name: String,
-}
-
-impl SplitEvents {
-    fn publish(&self, splits: Vec<FileSplit>) {
-        let full = |path: &std::path::Path| {
-            std::path::absolute(path)
-                .unwrap_or_else(|_| path.to_owned())
-                .display()
-                .to_string()
-        };
-        for split in splits {
-            let event = WriteSplitEvent {
-                closed_file: full(&split.closed),
-                opened_file: full(&split.opened),
-                node_name: self.node_name.clone(),
-            };
-            if let Err(e) = self.publisher.publish(&event).wait() {
-                tracing::warn!("publishing /events/write_split failed: {e}");
-            }
-        }
-    }
-}
-
 /// Each publisher's last sequence number, and the gaps between them.
 #[derive(Default)]
 struct Sequences(HashMap<[u8; 16], i64>);
@@ -683,7 +640,7 @@ fn write_loop(
     mut writer: BagWriter,
     events: &flume::Receiver<Event>,
     shared: &Shared,
-    split_events: &SplitEvents,
+    split_events: &SplitEvents<WriteSplitEvent>,
 ) -> Result<BagMetadata, Error> {
     let mut topics: HashMap<usize, TopicId> = HashMap::new();
     let mut sequences = Sequences::default();
@@ -743,7 +700,9 @@ fn write_loop(
                 } else {
                     shared.dropped.fetch_add(1, Ordering::Relaxed);
                 }
-                split_events.publish(writer.take_splits());
+                for split in writer.take_splits() {
+                    split_events.publish(&split);
+                }
             }
             Event::Unrecorded { gid, sequence } => {
                 sequences.gap(gid, sequence);
@@ -758,7 +717,9 @@ fn write_loop(
                         said.into()
                     }),
                 };
-                split_events.publish(writer.take_splits());
+                for split in writer.take_splits() {
+                    split_events.publish(&split);
+                }
                 let _ = reply.send(split);
             }
             Event::Stop => break,

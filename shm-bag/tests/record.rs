@@ -600,7 +600,7 @@ fn a_paused_playback_steps_bursts_seeks_and_changes_rate_through_rosbag2s_servic
 
 #[test]
 fn a_paused_recording_writes_nothing_and_splits_on_request_announcing_it() {
-    use shm_bag::interfaces::rosbag2_interfaces::msg::WriteSplitEvent;
+    use shm_bag::interfaces::rosbag2_interfaces::msg::{ReadSplitEvent, WriteSplitEvent};
     use shm_bag::interfaces::rosbag2_interfaces::srv::*;
     let (a, b) = sessions();
     let talker = RosNode::builder(&a, "talker").domain_id(0).wait().unwrap();
@@ -734,5 +734,33 @@ fn a_paused_recording_writes_nothing_and_splits_on_request_announcing_it() {
     let mut second = numbered(10..13);
     second.extend(numbered(15..16));
     assert_eq!(texts("bag_1.mcap"), second);
+
+    // Played back: the move from one file to the next is announced.
+    let read_splits = talker
+        .declare_subscriber::<ReadSplitEvent>("/events/read_split")
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    let options = PlayOptions {
+        domain_id: Some(0),
+        rate: 100.0,
+        ..PlayOptions::default()
+    };
+    let player = Player::new(&b, Bag::open(&dir.join("bag")).unwrap(), options).unwrap();
+    assert!(read_splits.wait_for_publishers(TIMEOUT));
+    assert_eq!(player.play(&AtomicBool::new(false)).unwrap().published, 9);
+    let event = read_splits
+        .recv_timeout(TIMEOUT)
+        .unwrap()
+        .expect("a read split event");
+    let event = event.decode::<ReadSplitEvent>().unwrap();
+    assert_eq!(
+        (event.closed_file.as_str(), event.opened_file.as_str()),
+        (
+            bag.join("bag_0.mcap").display().to_string().as_str(),
+            bag.join("bag_1.mcap").display().to_string().as_str()
+        )
+    );
+    assert_eq!(event.node_name, "/rosbag2_player");
     let _ = std::fs::remove_dir_all(&dir);
 }
