@@ -4,7 +4,7 @@
 //! written by one thread, with memory bounded and every message that could
 //! not be kept counted.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
@@ -100,6 +100,11 @@ pub struct RecordOptions {
     /// Start paused: topics are discovered and subscribed, but nothing is
     /// written until [`RecorderControl::resume`] (default: record at once).
     pub start_paused: bool,
+    /// Snapshot mode, as rosbag2's: keep the newest messages in memory, up
+    /// to [`max_queued_bytes`](Self::max_queued_bytes), and write them only
+    /// on [`RecorderControl::snapshot`] (or the `~/snapshot` service). At
+    /// most as much again may wait for the writer meanwhile.
+    pub snapshot: bool,
 }
 
 impl RecordOptions {
@@ -117,6 +122,7 @@ impl RecordOptions {
             node_name: "rosbag2_recorder".to_owned(),
             interfaces: LocalInterfaces::default(),
             start_paused: false,
+            snapshot: false,
         }
     }
 }
@@ -143,12 +149,15 @@ pub struct RecordStats {
     /// Topics selected but not recorded, with why (a type no node
     /// describes, say).
     pub skipped: BTreeMap<String, String>,
+    /// In snapshot mode, the messages held for the next snapshot.
+    pub buffered: u64,
 }
 
 #[derive(Default)]
 struct Shared {
     stop: AtomicBool,
     paused: AtomicBool,
+    buffered: AtomicU64,
     topics: AtomicUsize,
     received: AtomicU64,
     written: AtomicU64,
@@ -170,8 +179,8 @@ enum Event {
         sample: RosSample,
         log_time: u64,
     },
-    /// A message received while paused: not written, yet its sequence
-    /// number is no gap.
+    /// A message received but not written (while paused, or dropped over
+    /// the budget): its sequence number is no gap.
     Unrecorded {
         gid: [u8; 16],
         sequence: i64,
@@ -179,6 +188,10 @@ enum Event {
     /// Move on to a new file now; the answer goes back on `reply`.
     Split {
         reply: flume::Sender<Result<FileSplit, Error>>,
+    },
+    /// Write the snapshot buffer; how many messages, back on `reply`.
+    Snapshot {
+        reply: flume::Sender<Result<u64, Error>>,
     },
     Stop,
 }
@@ -234,6 +247,19 @@ impl RecorderControl {
     /// Whether the recording is paused.
     pub fn is_paused(&self) -> bool {
         self.shared.paused.load(Ordering::Relaxed)
+    }
+
+    /// In snapshot mode, write the messages held in memory (the newest,
+    /// oldest first) into the current file, and start holding anew; how
+    /// many were written. An error when not in snapshot mode.
+    pub fn snapshot(&self) -> Result<u64, Error> {
+        let (reply, answer) = flume::bounded(1);
+        self.events
+            .send(Event::Snapshot { reply })
+            .map_err(|_| "the recording is finished")?;
+        answer
+            .recv()
+            .map_err(|_| "the recording finished before the snapshot")?
     }
 
     /// Close the current file once the messages received before are
@@ -303,13 +329,16 @@ impl Recorder {
             shared: shared.clone(),
             events: events.clone(),
         };
-        let services = declare_services(&node, &control)?;
+        let services = declare_services(&node, &control, options.snapshot)?;
         let split_events = SplitEvents::<WriteSplitEvent>::declare(&node)?;
+        let snapshot_budget = options.snapshot.then_some(options.max_queued_bytes);
         let writer = {
             let shared = shared.clone();
             std::thread::Builder::new()
                 .name("shm-bag writer".into())
-                .spawn(move || write_loop(writer, &receiver, &shared, &split_events))?
+                .spawn(move || {
+                    write_loop(writer, &receiver, &shared, &split_events, snapshot_budget)
+                })?
         };
         let discovery = {
             let shared = shared.clone();
@@ -348,6 +377,7 @@ impl Recorder {
             missed: s.missed.load(Ordering::Relaxed),
             queued_bytes: s.queued_bytes.load(Ordering::Relaxed),
             skipped: s.skipped.lock().unwrap_or_else(|e| e.into_inner()).clone(),
+            buffered: s.buffered.load(Ordering::Relaxed),
         }
     }
 
@@ -550,6 +580,13 @@ fn subscribe(
             if queued.saturating_add(len) > budget {
                 shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
                 shared.dropped.fetch_add(1, Ordering::Relaxed);
+                // Counted as dropped, so not as missed too.
+                if let Some(Ok(attachment)) = sample.attachment() {
+                    let _ = events_cb.send(Event::Unrecorded {
+                        gid: attachment.gid.0,
+                        sequence: attachment.sequence_number,
+                    });
+                }
                 return;
             }
             let event = Event::Sample {
@@ -592,9 +629,23 @@ impl Sequences {
 fn declare_services(
     node: &RosNode,
     control: &RecorderControl,
+    snapshot: bool,
 ) -> Result<Vec<Box<dyn std::any::Any + Send + Sync>>, Error> {
     use crate::interfaces::rosbag2_interfaces::srv as s;
     let mut servers: Vec<Box<dyn std::any::Any + Send + Sync>> = Vec::new();
+    if snapshot {
+        let c = control.clone();
+        servers.push(Box::new(
+            node.declare_service::<s::Snapshot>("~/snapshot")
+                .handler(move |_| s::Snapshot_Response {
+                    success: c
+                        .snapshot()
+                        .map_err(|e| tracing::warn!("snapshot: {e}"))
+                        .is_ok(),
+                })
+                .wait()?,
+        ));
+    }
     let c = control.clone();
     servers.push(Box::new(
         node.declare_service::<s::Pause>("~/pause")
@@ -637,90 +688,53 @@ fn declare_services(
 
 /// The writer thread: topics and messages in arrival order, until `Stop`.
 fn write_loop(
-    mut writer: BagWriter,
+    writer: BagWriter,
     events: &flume::Receiver<Event>,
     shared: &Shared,
     split_events: &SplitEvents<WriteSplitEvent>,
+    snapshot_budget: Option<usize>,
 ) -> Result<BagMetadata, Error> {
-    let mut topics: HashMap<usize, TopicId> = HashMap::new();
-    let mut sequences = Sequences::default();
-    let mut failure: Option<Error> = None;
+    let mut writing = Writing {
+        writer,
+        shared,
+        split_events,
+        topics: HashMap::new(),
+        sequences: Sequences::default(),
+        failure: None,
+        snapshot: snapshot_budget.map(|budget| SnapshotBuffer {
+            messages: VecDeque::new(),
+            bytes: 0,
+            budget,
+        }),
+    };
     while let Ok(event) = events.recv() {
         match event {
             Event::Topic {
                 index,
                 metadata,
                 definition,
-            } => match writer.add_topic(metadata, definition) {
+            } => match writing.writer.add_topic(metadata, definition) {
                 Ok(id) => {
-                    topics.insert(index, id);
+                    writing.topics.insert(index, id);
                 }
                 Err(e) => {
-                    failure.get_or_insert(e);
+                    writing.failure.get_or_insert(e);
                 }
             },
             Event::Sample {
                 index,
                 sample,
                 log_time,
-            } => {
-                let payload = sample.payload().to_bytes();
-                let len = payload.len();
-                let (publish_time, sequence) = match sample.attachment() {
-                    Some(Ok(attachment)) => {
-                        let seq = attachment.sequence_number;
-                        let missed = sequences.gap(attachment.gid.0, seq);
-                        shared.missed.fetch_add(missed, Ordering::Relaxed);
-                        (
-                            u64::try_from(attachment.source_timestamp).unwrap_or(log_time),
-                            seq as u32,
-                        )
-                    }
-                    _ => (log_time, 0),
-                };
-                let written = match (failure.is_none(), topics.get(&index)) {
-                    (true, Some(&id)) => {
-                        match writer.write(id, log_time, publish_time, sequence, &payload) {
-                            Ok(()) => true,
-                            Err(e) => {
-                                tracing::error!("recording stops writing: {e}");
-                                failure = Some(e);
-                                false
-                            }
-                        }
-                    }
-                    _ => false,
-                };
-                drop(payload);
-                drop(sample);
-                shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
-                if written {
-                    shared.written.fetch_add(1, Ordering::Relaxed);
-                    shared.bytes.fetch_add(len as u64, Ordering::Relaxed);
-                } else {
-                    shared.dropped.fetch_add(1, Ordering::Relaxed);
-                }
-                for split in writer.take_splits() {
-                    split_events.publish(&split);
-                }
-            }
+            } => writing.sample(index, &sample, log_time),
             Event::Unrecorded { gid, sequence } => {
-                sequences.gap(gid, sequence);
+                writing.sequences.gap(gid, sequence);
             }
             Event::Split { reply } => {
-                let split = match &failure {
-                    Some(e) => Err(format!("the recording stopped writing: {e}").into()),
-                    None => writer.split().map_err(|e| {
-                        let said = e.to_string();
-                        tracing::error!("recording stops writing: {said}");
-                        failure = Some(e);
-                        said.into()
-                    }),
-                };
-                for split in writer.take_splits() {
-                    split_events.publish(&split);
-                }
+                let split = writing.split();
                 let _ = reply.send(split);
+            }
+            Event::Snapshot { reply } => {
+                let _ = reply.send(writing.snapshot());
             }
             Event::Stop => break,
         }
@@ -734,9 +748,165 @@ fn write_loop(
             shared.dropped.fetch_add(1, Ordering::Relaxed);
         }
     }
-    let metadata = writer.finish()?;
-    match failure {
+    let metadata = writing.writer.finish()?;
+    match writing.failure {
         Some(e) => Err(e),
         None => Ok(metadata),
+    }
+}
+
+/// The writer thread's state.
+struct Writing<'a> {
+    writer: BagWriter,
+    shared: &'a Shared,
+    split_events: &'a SplitEvents<WriteSplitEvent>,
+    topics: HashMap<usize, TopicId>,
+    sequences: Sequences,
+    /// The first write failure: nothing is written after it.
+    failure: Option<Error>,
+    /// In snapshot mode, the messages held for the next snapshot.
+    snapshot: Option<SnapshotBuffer>,
+}
+
+/// The newest messages received, up to a byte budget, as copies (a
+/// shared-memory sample is not held: its publisher's pool needs it back).
+struct SnapshotBuffer {
+    messages: VecDeque<Held>,
+    bytes: usize,
+    budget: usize,
+}
+
+/// A message waiting in the snapshot buffer.
+struct Held {
+    index: usize,
+    log_time: u64,
+    publish_time: u64,
+    sequence: u32,
+    data: Vec<u8>,
+}
+
+impl Writing<'_> {
+    fn sample(&mut self, index: usize, sample: &RosSample, log_time: u64) {
+        let payload = sample.payload().to_bytes();
+        let len = payload.len();
+        let (publish_time, sequence) = match sample.attachment() {
+            Some(Ok(attachment)) => {
+                let seq = attachment.sequence_number;
+                let missed = self.sequences.gap(attachment.gid.0, seq);
+                self.shared.missed.fetch_add(missed, Ordering::Relaxed);
+                (
+                    u64::try_from(attachment.source_timestamp).unwrap_or(log_time),
+                    seq as u32,
+                )
+            }
+            _ => (log_time, 0),
+        };
+        if let Some(buffer) = self.snapshot.as_mut() {
+            buffer.bytes += len;
+            buffer.messages.push_back(Held {
+                index,
+                log_time,
+                publish_time,
+                sequence,
+                data: payload.to_vec(),
+            });
+            // The oldest make room: a snapshot holds the newest messages.
+            while buffer.bytes > buffer.budget {
+                match buffer.messages.pop_front() {
+                    Some(old) => buffer.bytes -= old.data.len(),
+                    None => break,
+                }
+            }
+            self.shared
+                .buffered
+                .store(buffer.messages.len() as u64, Ordering::Relaxed);
+            self.shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
+            return;
+        }
+        let written = self.write(index, log_time, publish_time, sequence, &payload);
+        drop(payload);
+        self.shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
+        self.count(written, len);
+    }
+
+    fn write(
+        &mut self,
+        index: usize,
+        log_time: u64,
+        publish_time: u64,
+        sequence: u32,
+        data: &[u8],
+    ) -> bool {
+        let written = match (self.failure.is_none(), self.topics.get(&index)) {
+            (true, Some(&id)) => {
+                match self
+                    .writer
+                    .write(id, log_time, publish_time, sequence, data)
+                {
+                    Ok(()) => true,
+                    Err(e) => {
+                        tracing::error!("recording stops writing: {e}");
+                        self.failure = Some(e);
+                        false
+                    }
+                }
+            }
+            _ => false,
+        };
+        for split in self.writer.take_splits() {
+            self.split_events.publish(&split);
+        }
+        written
+    }
+
+    fn count(&self, written: bool, len: usize) {
+        if written {
+            self.shared.written.fetch_add(1, Ordering::Relaxed);
+            self.shared.bytes.fetch_add(len as u64, Ordering::Relaxed);
+        } else {
+            self.shared.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    fn split(&mut self) -> Result<FileSplit, Error> {
+        let split = match &self.failure {
+            Some(e) => Err(format!("the recording stopped writing: {e}").into()),
+            None => self.writer.split().map_err(|e| {
+                let said = e.to_string();
+                tracing::error!("recording stops writing: {said}");
+                self.failure = Some(e);
+                said.into()
+            }),
+        };
+        for split in self.writer.take_splits() {
+            self.split_events.publish(&split);
+        }
+        split
+    }
+
+    /// Write the snapshot buffer's messages, oldest first, and empty it.
+    fn snapshot(&mut self) -> Result<u64, Error> {
+        let Some(buffer) = self.snapshot.as_mut() else {
+            return Err("not in snapshot mode: record with --snapshot-mode".into());
+        };
+        let held = std::mem::take(&mut buffer.messages);
+        buffer.bytes = 0;
+        self.shared.buffered.store(0, Ordering::Relaxed);
+        let mut written = 0;
+        for message in held {
+            let ok = self.write(
+                message.index,
+                message.log_time,
+                message.publish_time,
+                message.sequence,
+                &message.data,
+            );
+            self.count(ok, message.data.len());
+            written += u64::from(ok);
+        }
+        match &self.failure {
+            Some(e) => Err(format!("the recording stopped writing: {e}").into()),
+            None => Ok(written),
+        }
     }
 }

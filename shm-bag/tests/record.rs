@@ -708,6 +708,8 @@ fn a_paused_recording_writes_nothing_and_splits_on_request_announcing_it() {
         (9, 0, 0),
         "{stats:?}"
     );
+    let refused = recorder.control().snapshot().unwrap_err().to_string();
+    assert!(refused.contains("--snapshot-mode"), "{refused}");
     let written = recorder.stop().unwrap();
     assert_eq!(written.relative_file_paths, ["bag_0.mcap", "bag_1.mcap"]);
     assert_eq!(
@@ -762,5 +764,127 @@ fn a_paused_recording_writes_nothing_and_splits_on_request_announcing_it() {
         )
     );
     assert_eq!(event.node_name, "/rosbag2_player");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_snapshot_recording_writes_the_newest_messages_when_asked() {
+    use shm_bag::interfaces::rosbag2_interfaces::srv::*;
+    let (a, b) = sessions();
+    let talker = RosNode::builder(&a, "talker").domain_id(0).wait().unwrap();
+    let chatter = talker
+        .declare_publisher::<RosString>("/chatter")
+        .wait()
+        .unwrap();
+    let probe_node = RosNode::builder(&b, "probe").domain_id(0).wait().unwrap();
+    let probe = probe_node
+        .declare_subscriber::<RosString>("/chatter")
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    let message = |k: usize| RosString {
+        data: format!("message {k:02}"),
+    };
+    let size = shm_cdr::to_vec(&message(0)).unwrap().len();
+
+    let dir = std::env::temp_dir().join(format!("shm_bag_snapshot_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let selection = Selection {
+        topics: vec!["/chatter".into()],
+        ..Selection::default()
+    };
+    let mut options = RecordOptions::new(dir.join("bag"), selection);
+    options.domain_id = Some(0);
+    options.snapshot = true;
+    options.max_queued_bytes = 5 * size; // the newest five
+    let recorder = Recorder::start(&b, options).unwrap();
+    let snapshot = talker
+        .declare_client::<Snapshot>("/rosbag2_recorder/snapshot")
+        .wait()
+        .unwrap();
+    assert!(snapshot.wait_for_service(TIMEOUT));
+    wait_until("the recorder to subscribe", || recorder.stats().topics == 1);
+    assert!(chatter.wait_for_subscribers(TIMEOUT));
+    let mut sent = 0;
+    // One at a time, each in the buffer before the next: what waits for the
+    // writer stays within the budget too.
+    let mut say = |n: usize| {
+        for _ in 0..n {
+            chatter.publish(&message(sent)).wait().unwrap();
+            sent += 1;
+            assert!(probe.recv_timeout(TIMEOUT).unwrap().is_some());
+            wait_until("the writer to take it", || {
+                recorder.stats().queued_bytes == 0
+            });
+        }
+    };
+
+    say(12);
+    wait_until("five held", || recorder.stats().buffered == 5);
+    assert_eq!(recorder.stats().written, 0);
+    assert!(snapshot.call(&Snapshot_Request).wait().unwrap().success);
+    assert_eq!(recorder.stats().written, 5);
+    say(2);
+    wait_until("two held", || recorder.stats().buffered == 2);
+    assert_eq!(recorder.control().snapshot().unwrap(), 2);
+    say(1);
+    wait_until("one held", || recorder.stats().buffered == 1);
+    let stats = recorder.stats();
+    assert_eq!((stats.dropped, stats.missed), (0, 0), "{stats:?}");
+    let written = recorder.stop().unwrap();
+    assert_eq!(written.message_count, 7);
+
+    let bytes = std::fs::read(dir.join("bag").join("bag_0.mcap")).unwrap();
+    let texts: Vec<String> = mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| {
+            shm_cdr::from_bytes::<RosString>(&m.unwrap().data)
+                .unwrap()
+                .data
+        })
+        .collect();
+    let expected: Vec<String> = (7..14).map(|k| message(k).data).collect();
+    assert_eq!(texts, expected, "the newest five, then the next two");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_message_over_the_budget_is_counted_as_dropped_and_not_as_missed() {
+    let (a, b) = sessions();
+    let talker = RosNode::builder(&a, "talker").domain_id(0).wait().unwrap();
+    let chatter = talker
+        .declare_publisher::<RosString>("/chatter")
+        .wait()
+        .unwrap();
+    let dir = std::env::temp_dir().join(format!("shm_bag_budget_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let selection = Selection {
+        topics: vec!["/chatter".into()],
+        ..Selection::default()
+    };
+    let mut options = RecordOptions::new(dir.join("bag"), selection);
+    options.domain_id = Some(0);
+    let text = |data: &str| RosString { data: data.into() };
+    // Room for a short message, not for a long one.
+    options.max_queued_bytes = shm_cdr::to_vec(&text("short")).unwrap().len();
+    let recorder = Recorder::start(&b, options).unwrap();
+    wait_until("the recorder to subscribe", || recorder.stats().topics == 1);
+    assert!(chatter.wait_for_subscribers(TIMEOUT));
+    for (k, data) in ["short", "much too long", "much too long", "short"]
+        .into_iter()
+        .enumerate()
+    {
+        chatter.publish(&text(data)).wait().unwrap();
+        wait_until("the writer to take it", || {
+            let stats = recorder.stats();
+            stats.received == k as u64 + 1 && stats.written + stats.dropped == stats.received
+        });
+    }
+    let stats = recorder.stats();
+    assert_eq!(
+        (stats.written, stats.dropped, stats.missed),
+        (2, 2, 0),
+        "{stats:?}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -97,6 +97,10 @@ pub(crate) struct RecordArgs {
     /// Do not read keys from the terminal (space: pause/resume).
     #[arg(long)]
     disable_keyboard_controls: bool,
+    /// Keep the newest messages in memory (up to --max-cache-size) and write
+    /// them only when the recorder's ~/snapshot service is called.
+    #[arg(long)]
+    snapshot_mode: bool,
 }
 
 #[derive(Debug, Args)]
@@ -201,6 +205,8 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
         });
     }
     options.start_paused = args.start_paused;
+    options.snapshot = args.snapshot_mode;
+    let snapshot_mode = args.snapshot_mode;
     let stop = crate::interrupted()?;
     let recorder = Recorder::start(&context.session, options)?;
     let control = recorder.control();
@@ -235,7 +241,7 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
                 last = (now, stats.bytes);
             }
             bar.set_message(format!(
-                "{} {} topics: {} messages, {}, {}/s | dropped {} | missed {}{}",
+                "{} {} topics: {} messages, {}, {}/s | dropped {} | missed {}{}{}",
                 if control.is_paused() {
                     "Paused:"
                 } else {
@@ -247,6 +253,11 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
                 size(rate as u64),
                 stats.dropped,
                 stats.missed,
+                if snapshot_mode {
+                    format!(" | held for a snapshot: {}", stats.buffered)
+                } else {
+                    String::new()
+                },
                 if stats.skipped.is_empty() {
                     String::new()
                 } else {
@@ -273,6 +284,12 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
         final_stats_dropped,
         stats.missed,
     );
+    if stats.buffered > 0 {
+        eprintln!(
+            "Not written: {} messages held for a snapshot that was not taken",
+            stats.buffered
+        );
+    }
     for (topic, why) in &stats.skipped {
         eprintln!("Not recorded: {topic}: {why}");
     }
