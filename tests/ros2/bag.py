@@ -19,7 +19,10 @@ publishes the recording to the peer, which reads it with rclpy; with
 `--clock`, the peer reads the recording's timeline on `/clock`. Last,
 `bag play -p` and `bag record --start-paused` run in a pseudo-terminal and
 are steered by their keys and by rosbag2's services, called at keys made
-with the hashes rosidl's own tools compute for rosbag2_interfaces.
+with the hashes rosidl's own tools compute for rosbag2_interfaces (and
+every such type they announce in the graph carries that hash); `bag record
+--snapshot-mode` writes on `~/snapshot`; `bag play` in a terminal's
+background runs to its end.
 
     python tests/ros2/bag.py <dir with the shm-ros2 binary>
 """
@@ -308,6 +311,7 @@ def main():
     hashes = rosbag2_interfaces_hashes()
     check_player_control(endpoint, peer, bag, got, sent["/chatter"], hashes)
     check_recorder_control(endpoint, peer, work, hashes)
+    check_snapshot(endpoint, peer, work, hashes)
     check_background_playback(endpoint, bag)
     if not failures:
         shutil.rmtree(work, ignore_errors=True)
@@ -340,6 +344,26 @@ def asker(peer, node, hashes):
     return ask
 
 
+def check_announced_hashes(peer, node, hashes, expected):
+    """Every rosbag2_interfaces type `node` announces in the graph (its
+    liveliness tokens: `…/<kind>/<enclave>/<ns>/<node>/<name>/<dds type>/<hash>/…`)
+    carries rosidl's hash; `expected` of them are there."""
+    announced = {}
+    deadline = time.time() + 20
+    while len(announced) < expected and time.time() < deadline:
+        for reply in peer.session.liveliness().get("@ros2_lv/0/**", timeout=5):
+            if reply.ok is None:
+                continue
+            parts = str(reply.ok.key_expr).split("/")
+            if len(parts) > 11 and parts[8] == node and parts[10].startswith("rosbag2_interfaces::"):
+                pkg, kind, _, name = parts[10].split("::")
+                announced[f"{pkg}/{kind}/{name.rstrip('_')}"] = parts[11]
+    wrong = {t: h for t, h in announced.items() if hashes.get(t) != h}
+    check(len(announced) == expected and not wrong,
+          f"{node} announces {len(announced)} of {expected} rosbag2_interfaces types, wrong hashes: {wrong}")
+    return len(announced) - len(wrong)
+
+
 def check_player_control(endpoint, peer, bag, got, sent, hashes):
     """`bag play --start-paused` in a terminal: rosbag2's player services,
     called with rosidl's hashes of rosbag2_interfaces in their keys and CDR
@@ -364,6 +388,8 @@ def check_player_control(endpoint, peer, bag, got, sent, hashes):
     try:
         paused = ask("is_paused", "IsPaused")
         check(paused == b"\1", f"is_paused: {paused!r}")
+        # Ten services and /events/read_split.
+        same = check_announced_hashes(peer, "rosbag2_player", hashes, 11)
         time.sleep(0.5)
         check(not got, f"paused, yet {len(got)} messages came")
         os.write(terminal, b"\x1b[C")  # cursor right: the next message
@@ -396,8 +422,8 @@ def check_player_control(endpoint, peer, bag, got, sent, hashes):
           f"{err[-500:]!r}")
     said = ["Press SPACE for Pause/Resume", "Played the next message.", "Set rate to 5.1", "Resuming play."]
     check(all(line in err.splitlines() for line in said), f"bag play's terminal: {err[-500:]!r}")
-    print(f"bag play --start-paused: is_paused, burst, set_rate and get_rate answered at keys made "
-          f"with rosidl's hashes; cursor right, cursor up and space acted; the peer read {len(got)}/{len(sent)} messages "
+    print(f"bag play --start-paused: {same}/11 rosbag2_interfaces types announced with rosidl's hashes; "
+          f"is_paused, burst, set_rate and get_rate answered at keys made with rosidl's hashes; cursor right, cursor up and space acted; the peer read {len(got)}/{len(sent)} messages "
           f"in order")
 
 
@@ -481,6 +507,48 @@ def check_recorder_control(endpoint, peer, work, hashes):
           f"read), the two files hold the {len(files[0])} + {len(files[1])} messages sent while recording "
           f"and none of the 3 sent while paused")
 
+
+
+def check_snapshot(endpoint, peer, work, hashes):
+    """`bag record --snapshot-mode`: its six rosbag2_interfaces types carry
+    rosidl's hashes, `~/snapshot` writes what was held, and what is held at
+    the end is reported, not written."""
+    from mcap.reader import make_reader
+    from rclpy.serialization import serialize_message
+    from std_msgs.msg import String
+    ask = asker(peer, "rosbag2_recorder", hashes)
+    publish = peer.publisher("/snapped", "std_msgs/msg/String")
+    sent = [serialize_message(String(data=f"snapped {i}")) for i in range(7)]
+    bag = work / "snapshots"
+    proc = subprocess.Popen([str(BIN), "--connect", endpoint, "--domain-id", "0", "bag", "record", "/snapped",
+                             "-o", str(bag), "--snapshot-mode", "--no-progress"],
+                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    err = ""
+    try:
+        check(wait_subscribed(endpoint, ["/snapped"]), "bag record --snapshot-mode did not subscribe")
+        # pause, resume, is_paused, split_bagfile, snapshot; /events/write_split.
+        same = check_announced_hashes(peer, "rosbag2_recorder", hashes, 6)
+        for data in sent[:5]:
+            publish(None, data)
+        time.sleep(0.5)
+        check(ask("snapshot", "Snapshot") == b"\1", "snapshot: not a success")
+        for data in sent[5:]:
+            publish(None, data)
+        time.sleep(0.5)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            _, err = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            _, err = proc.communicate()
+    with open(bag / "snapshots_0.mcap", "rb") as f:
+        written = [m.data for _, _, m in make_reader(f).iter_messages()]
+    check(proc.returncode == 0 and written == sent[:5]
+          and "Not written: 2 messages held for a snapshot that was not taken" in err,
+          f"bag record --snapshot-mode: exit {proc.returncode}, {len(written)} written {err[-500:]!r}")
+    print(f"bag record --snapshot-mode: {same}/6 rosbag2_interfaces types announced with rosidl's hashes; "
+          f"~/snapshot wrote the {len(written)} messages held, the 2 after it reported as not written")
 
 
 def check_background_playback(endpoint, bag):
