@@ -196,8 +196,8 @@ enum Event {
     Stop,
 }
 
-/// A handle to pause, resume or split a [`Recorder`]'s recording from any
-/// thread, as `ros2 bag record`'s keyboard and services do.
+/// A handle to pause, resume, split or snapshot a [`Recorder`]'s recording
+/// from any thread, as `ros2 bag record`'s keyboard and services do.
 ///
 /// ```no_run
 /// use shm_bag::{RecordOptions, Recorder, Selection};
@@ -356,8 +356,8 @@ impl Recorder {
         })
     }
 
-    /// A handle to pause, resume or split the recording from another
-    /// thread.
+    /// A handle to pause, resume, split or snapshot the recording from
+    /// another thread.
     pub fn control(&self) -> RecorderControl {
         RecorderControl {
             shared: self.shared.clone(),
