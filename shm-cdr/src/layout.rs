@@ -200,6 +200,9 @@ mod tests {
     }
 
     #[test]
+    // Arithmetic only, no unsafe code: Miri would spend a minute on it for
+    // nothing. It runs in the ordinary test suite.
+    #[cfg_attr(miri, ignore)]
     fn repeat_end_matches_element_by_element_walk() {
         // {u8, f64}, {u32, f64}, {f64, u8}, {u16, u8}, {u8}: every phase, many counts.
         let p = FixedLayout::primitive;
