@@ -603,11 +603,7 @@ fn a_paused_recording_writes_nothing_and_splits_on_request_announcing_it() {
     use shm_bag::interfaces::rosbag2_interfaces::msg::{ReadSplitEvent, WriteSplitEvent};
     use shm_bag::interfaces::rosbag2_interfaces::srv::*;
     let (a, b) = sessions();
-    let talker = RosNode::builder(&a, "talker").domain_id(0).wait().unwrap();
-    let chatter = talker
-        .declare_publisher::<RosString>("/chatter")
-        .wait()
-        .unwrap();
+    let (talker, chatter) = chatter_talker(&a);
     let splits = talker
         .declare_subscriber::<WriteSplitEvent>("/events/write_split")
         .history(shm_runtime::History::KeepAll)
@@ -624,23 +620,13 @@ fn a_paused_recording_writes_nothing_and_splits_on_request_announcing_it() {
         }};
     }
 
-    let dir = std::env::temp_dir().join(format!("shm_bag_pause_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let selection = Selection {
-        topics: vec!["/chatter".into(), "/events/write_split".into()],
-        ..Selection::default()
-    };
-    let mut options = RecordOptions::new(dir.join("bag"), selection);
-    options.domain_id = Some(0);
+    let (dir, mut options) = recording(
+        "shm_bag_pause",
+        vec!["/chatter".into(), "/events/write_split".into()],
+    );
     options.start_paused = true;
     let recorder = Recorder::start(&b, options).unwrap();
-    // In the recorder's session: once it has a message, so has the recorder.
-    let probe_node = RosNode::builder(&b, "probe").domain_id(0).wait().unwrap();
-    let probe = probe_node
-        .declare_subscriber::<RosString>("/chatter")
-        .history(shm_runtime::History::KeepAll)
-        .wait()
-        .unwrap();
+    let (_probe_node, probe) = chatter_probe(&b);
     let delivered = |n: usize| {
         for _ in 0..n {
             assert!(probe.recv_timeout(TIMEOUT).unwrap().is_some());
@@ -771,30 +757,14 @@ fn a_paused_recording_writes_nothing_and_splits_on_request_announcing_it() {
 fn a_snapshot_recording_writes_the_newest_messages_when_asked() {
     use shm_bag::interfaces::rosbag2_interfaces::srv::*;
     let (a, b) = sessions();
-    let talker = RosNode::builder(&a, "talker").domain_id(0).wait().unwrap();
-    let chatter = talker
-        .declare_publisher::<RosString>("/chatter")
-        .wait()
-        .unwrap();
-    let probe_node = RosNode::builder(&b, "probe").domain_id(0).wait().unwrap();
-    let probe = probe_node
-        .declare_subscriber::<RosString>("/chatter")
-        .history(shm_runtime::History::KeepAll)
-        .wait()
-        .unwrap();
+    let (talker, chatter) = chatter_talker(&a);
+    let (_probe_node, probe) = chatter_probe(&b);
     let message = |k: usize| RosString {
         data: format!("message {k:02}"),
     };
     let size = shm_cdr::to_vec(&message(0)).unwrap().len();
 
-    let dir = std::env::temp_dir().join(format!("shm_bag_snapshot_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let selection = Selection {
-        topics: vec!["/chatter".into()],
-        ..Selection::default()
-    };
-    let mut options = RecordOptions::new(dir.join("bag"), selection);
-    options.domain_id = Some(0);
+    let (dir, mut options) = recording("shm_bag_snapshot", vec!["/chatter".into()]);
     options.snapshot = true;
     options.max_queued_bytes = 5 * size; // the newest five
     let recorder = Recorder::start(&b, options).unwrap();
@@ -851,19 +821,8 @@ fn a_snapshot_recording_writes_the_newest_messages_when_asked() {
 #[test]
 fn a_message_over_the_budget_is_counted_as_dropped_and_not_as_missed() {
     let (a, b) = sessions();
-    let talker = RosNode::builder(&a, "talker").domain_id(0).wait().unwrap();
-    let chatter = talker
-        .declare_publisher::<RosString>("/chatter")
-        .wait()
-        .unwrap();
-    let dir = std::env::temp_dir().join(format!("shm_bag_budget_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let selection = Selection {
-        topics: vec!["/chatter".into()],
-        ..Selection::default()
-    };
-    let mut options = RecordOptions::new(dir.join("bag"), selection);
-    options.domain_id = Some(0);
+    let (_talker, chatter) = chatter_talker(&a);
+    let (dir, mut options) = recording("shm_bag_budget", vec!["/chatter".into()]);
     let text = |data: &str| RosString { data: data.into() };
     // Room for a short message, not for a long one.
     options.max_queued_bytes = shm_cdr::to_vec(&text("short")).unwrap().len();
@@ -887,4 +846,46 @@ fn a_message_over_the_budget_is_counted_as_dropped_and_not_as_missed() {
         "{stats:?}"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A node of `session` publishing `/chatter`.
+fn chatter_talker(session: &Session) -> (RosNode, shm_runtime::RosPublisher<RosString>) {
+    let talker = RosNode::builder(session, "talker")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let chatter = talker
+        .declare_publisher::<RosString>("/chatter")
+        .wait()
+        .unwrap();
+    (talker, chatter)
+}
+
+/// A subscriber of `/chatter` in the recorder's `session`: once it has a
+/// message, so has the recorder.
+fn chatter_probe(session: &Session) -> (RosNode, shm_runtime::RosSubscriber<RosString>) {
+    let node = RosNode::builder(session, "probe")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let probe = node
+        .declare_subscriber::<RosString>("/chatter")
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    (node, probe)
+}
+
+/// A fresh directory for a recording named `name`, and options recording
+/// `topics` into it on domain 0.
+fn recording(name: &str, topics: Vec<String>) -> (std::path::PathBuf, RecordOptions) {
+    let dir = std::env::temp_dir().join(format!("{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let selection = Selection {
+        topics,
+        ..Selection::default()
+    };
+    let mut options = RecordOptions::new(dir.join("bag"), selection);
+    options.domain_id = Some(0);
+    (dir, options)
 }

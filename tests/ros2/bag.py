@@ -440,6 +440,16 @@ def cdr_strings(body, count):
     return out
 
 
+def interrupt(proc):
+    """Ctrl-C to `proc` (killed if it has not ended a minute later); its stderr."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        return proc.communicate(timeout=60)[1]
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return proc.communicate()[1]
+
+
 def check_recorder_control(endpoint, peer, work, hashes):
     """`bag record --start-paused` in a terminal: space resumes it,
     rosbag2's `~/is_paused` and `~/split_bagfile` answer at keys made with
@@ -487,12 +497,7 @@ def check_recorder_control(endpoint, peer, work, hashes):
             publish(None, data)
         time.sleep(0.5)
     finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            _, err = proc.communicate(timeout=60)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            _, err = proc.communicate()
+        err = interrupt(proc)
         os.close(terminal)
     files = []
     for name in ("paused_0.mcap", "paused_1.mcap"):
@@ -536,12 +541,7 @@ def check_snapshot(endpoint, peer, work, hashes):
             publish(None, data)
         time.sleep(0.5)
     finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            _, err = proc.communicate(timeout=60)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            _, err = proc.communicate()
+        err = interrupt(proc)
     with open(bag / "snapshots_0.mcap", "rb") as f:
         written = [m.data for _, _, m in make_reader(f).iter_messages()]
     check(proc.returncode == 0 and written == sent[:5]
