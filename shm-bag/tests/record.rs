@@ -366,15 +366,7 @@ fn playback_publishes_its_time_on_clock_from_the_start_offset_for_the_duration()
     let dir = std::env::temp_dir().join(format!("shm_bag_clock_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     timed_bag(&dir, shm_bag::WriteOptions::default());
-    let listener = RosNode::builder(&a, "listener")
-        .domain_id(0)
-        .wait()
-        .unwrap();
-    let batteries = listener
-        .declare_subscriber::<Battery>("/battery")
-        .history(shm_runtime::History::KeepAll)
-        .wait()
-        .unwrap();
+    let (listener, batteries) = battery_listener(&a);
     let clocks = listener
         .declare_subscriber_with_qos::<Clock>("/clock", Qos::clock())
         .history(shm_runtime::History::KeepAll)
@@ -467,15 +459,7 @@ fn a_paused_playback_steps_bursts_seeks_and_changes_rate_through_rosbag2s_servic
         ..shm_bag::WriteOptions::default()
     };
     timed_bag(&dir, options);
-    let listener = RosNode::builder(&a, "listener")
-        .domain_id(0)
-        .wait()
-        .unwrap();
-    let batteries = listener
-        .declare_subscriber::<Battery>("/battery")
-        .history(shm_runtime::History::KeepAll)
-        .wait()
-        .unwrap();
+    let (listener, batteries) = battery_listener(&a);
     let next_label = || {
         let sample = batteries.recv_timeout(TIMEOUT).unwrap();
         sample.map(|s| s.decode::<Battery>().unwrap().label)
@@ -888,4 +872,18 @@ fn recording(name: &str, topics: Vec<String>) -> (std::path::PathBuf, RecordOpti
     let mut options = RecordOptions::new(dir.join("bag"), selection);
     options.domain_id = Some(0);
     (dir, options)
+}
+
+/// A node of `session` keeping every `/battery` message it receives.
+fn battery_listener(session: &Session) -> (RosNode, shm_runtime::RosSubscriber<Battery>) {
+    let listener = RosNode::builder(session, "listener")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let batteries = listener
+        .declare_subscriber::<Battery>("/battery")
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    (listener, batteries)
 }
