@@ -51,9 +51,17 @@ fn inner_layout(
 }
 
 /// The POSIX (talc) backend, with message chunks shifted by 4 bytes.
-#[derive(Debug)]
 pub struct CdrBackend {
     inner: PosixShmProviderBackend,
+}
+
+// By hand: Zenoh 1.9's POSIX backend has no `Debug`.
+impl std::fmt::Debug for CdrBackend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CdrBackend")
+            .field("protocol", &self.inner.id())
+            .finish_non_exhaustive()
+    }
 }
 
 impl CdrBackend {
