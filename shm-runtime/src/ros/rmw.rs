@@ -526,6 +526,16 @@ pub fn counterpart_tokens_key_expr(token: &str, kind: EntityKind) -> Option<Stri
     ))
 }
 
+/// The Zenoh session that declared a liveliness token of the ROS graph:
+/// `@ros2_lv/<domain>/<zid>/…`.
+pub(crate) fn token_session(token: &str) -> Option<zenoh::session::ZenohId> {
+    let mut fields = token.split('/');
+    match (fields.next(), fields.next(), fields.next()) {
+        (Some("@ros2_lv"), Some(_domain), Some(zid)) => zid.parse().ok(),
+        _ => None,
+    }
+}
+
 /// The kind of an entity in a liveliness token.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum EntityKind {

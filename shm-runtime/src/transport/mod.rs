@@ -6,6 +6,7 @@ pub(crate) mod config;
 pub(crate) mod executor;
 pub(crate) mod inline_limit;
 pub(crate) mod limits;
+pub(crate) mod links;
 pub(crate) mod loan;
 pub(crate) mod matching;
 pub(crate) mod memlock;

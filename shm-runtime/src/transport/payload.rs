@@ -106,6 +106,16 @@ impl ShmPolicy {
         }
         gate
     }
+
+    /// How many subscribing sessions get a message sent through the pool as
+    /// a copy, counted in the pool's stats when any does.
+    pub(crate) fn copied_to(&self) -> usize {
+        let copied = self.receivers.as_ref().map_or(0, |r| r.copied_to());
+        if copied > 0 {
+            self.context.count_copied();
+        }
+        copied
+    }
 }
 
 /// Encode `msg` for publishing under `policy`.

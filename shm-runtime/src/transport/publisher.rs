@@ -18,7 +18,10 @@ use zenoh::sample::SourceInfo;
 use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, MissDetectionConfig};
 
-use crate::ros::rmw::{Attachment, Durability, Gid, History, Qos, Reliability};
+use crate::ros::rmw::{
+    counterpart_tokens_key_expr, Attachment, Durability, EntityKind, Gid, History, Qos,
+    Reliability,
+};
 use crate::ros::type_description::TypeUse;
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
@@ -101,6 +104,12 @@ pub struct PublishOutcome {
     pub size: usize,
     /// The rmw_zenoh sequence number attached, for ROS-style publishers.
     pub sequence_number: Option<i64>,
+    /// How many subscribing sessions get this shared-memory message as a
+    /// copy, because the link to them carries no shared memory (another
+    /// host or user, or a Zenoh whose shared memory differs; see
+    /// [`Reach::Bytes`](crate::Reach::Bytes)). 0 for a message sent from the
+    /// heap, which every subscriber gets as a copy.
+    pub copied_to: usize,
 }
 
 /// The shared-memory settings of one publisher, server or client, as its
@@ -143,24 +152,27 @@ impl ShmSettings {
     /// default, with the pool's threshold unless overridden; heap only if the
     /// session does not carry shared memory.
     pub(crate) fn resolve(&self, session: &Session, key_expr: &str) -> Option<ShmPolicy> {
-        self.resolve_with(session, key_expr, false).ok().flatten()
+        self.resolve_with(session, key_expr, None).ok().flatten()
     }
 
     /// [`resolve`](Self::resolve) for a publisher: its messages go through the
     /// pool only to subscribing sessions that map it (see [`Receivers`]).
+    /// `ros_subscribers` is the key expression of the graph tokens of the
+    /// ROS subscribers it matches, for those that answer no probe.
     pub(crate) fn resolve_for_publisher(
         &self,
         session: &Session,
         key_expr: &str,
+        ros_subscribers: Option<&str>,
     ) -> zenoh::Result<Option<ShmPolicy>> {
-        self.resolve_with(session, key_expr, true)
+        self.resolve_with(session, key_expr, Some(ros_subscribers))
     }
 
     fn resolve_with(
         &self,
         session: &Session,
         key_expr: &str,
-        follow_receivers: bool,
+        follow_receivers: Option<Option<&str>>,
     ) -> zenoh::Result<Option<ShmPolicy>> {
         let context = match &self.choice {
             ShmChoice::Inherit => match self.inherited.clone() {
@@ -179,9 +191,11 @@ impl ShmSettings {
             return Ok(None);
         }
         let threshold = self.threshold.unwrap_or(context.config().threshold);
-        let receivers = match follow_receivers && context.pool_size().is_some() {
-            true => Some(Arc::new(Receivers::follow(session, key_expr, &context)?)),
-            false => None,
+        let receivers = match follow_receivers {
+            Some(ros_subscribers) if context.pool_size().is_some() => Some(Arc::new(
+                Receivers::follow(session, key_expr, &context, ros_subscribers)?,
+            )),
+            _ => None,
         };
         Ok(Some(ShmPolicy {
             context,
@@ -325,9 +339,15 @@ impl<'a, T> PublisherBuilder<'a, T> {
         if let Some(rmw) = &self.rmw {
             check_key_expr("liveliness token", &rmw.token)?;
         }
-        let policy = self
-            .shm
-            .resolve_for_publisher(self.session, &self.key_expr)?;
+        let ros_subscribers = self
+            .rmw
+            .as_ref()
+            .and_then(|rmw| counterpart_tokens_key_expr(&rmw.token, EntityKind::Subscriber));
+        let policy = self.shm.resolve_for_publisher(
+            self.session,
+            &self.key_expr,
+            ros_subscribers.as_deref(),
+        )?;
         let encoding =
             crate::transport::queue::type_encoding(&self.topic_type.name, &self.topic_type.hash);
         let inline_limit =
@@ -634,11 +654,14 @@ impl<T> RosPublisher<T> {
 
     /// The sessions that subscribe to this publisher, each with how it gets
     /// the messages that go through shared memory: mapped in place, copied into
-    /// a link that carries no shared memory (another user, another host), or
-    /// from the heap because it cannot map the pool (see [`Reach`](crate::Reach)). Empty
-    /// for a publisher without a pool. Sessions of this project's subscribers
-    /// are listed; other ROS 2 subscribers (rmw_zenoh_cpp's) are not, and get
-    /// what Zenoh sends them.
+    /// a link that carries no shared memory (another host or user, a Zenoh
+    /// whose shared memory differs), or from the heap because it cannot map
+    /// the pool (see [`Reach`](crate::Reach)). Empty for a publisher without
+    /// a pool. This project's subscribers are checked by a probe; on a node,
+    /// the other ROS 2 subscribers of the topic (rmw_zenoh_cpp's) are listed
+    /// too, by their graph tokens, with what the link to their session
+    /// negotiated ([`Reach::SharedMemoryUnprobed`](crate::Reach::SharedMemoryUnprobed)
+    /// or [`Reach::Bytes`](crate::Reach::Bytes)).
     pub fn receivers(&self) -> Vec<Receiver> {
         self.policy
             .as_ref()
@@ -668,10 +691,15 @@ impl<T> RosPublisher<T> {
         encoded: EncodedPayload,
     ) -> Result<Prepared, PublishError> {
         inline_limit::check(self.inline_limit, encoded.inline)?;
+        let copied_to = match encoded.kind.is_shm() {
+            true => self.policy.as_ref().map_or(0, ShmPolicy::copied_to),
+            false => 0,
+        };
         let mut outcome = PublishOutcome {
             kind: encoded.kind,
             size: encoded.size,
             sequence_number: None,
+            copied_to,
         };
         let attachment = self.rmw.as_ref().map(|rmw| {
             let sequence_number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;

@@ -17,6 +17,11 @@
 //! Receiving sessions announce themselves per key expression with a
 //! liveliness token `<key>/@shm_cdr_rx/<zid>/<n>`, so a publisher checks only
 //! the sessions that subscribe to what it publishes.
+//!
+//! Subscribers of other ROS 2 implementations (rmw_zenoh_cpp's) answer no
+//! probe; a ROS publisher follows their graph tokens instead, and tells how
+//! each gets its messages from the transport to its session ([`Links`]):
+//! one that carries no shared memory gets copies, which every publish counts.
 
 use std::collections::HashMap;
 use std::fmt;
@@ -30,7 +35,9 @@ use zenoh::sample::SampleKind;
 use zenoh::session::ZenohId;
 use zenoh::{Session, Wait};
 
+use crate::ros::rmw::token_session;
 use crate::transport::limits::check_key_expr;
+use crate::transport::links::{LinkReach, Links};
 use crate::transport::payload::PayloadKind;
 use crate::transport::pool::ShmContext;
 
@@ -62,10 +69,19 @@ pub enum Reach {
     Checking,
     /// The session maps the pool: messages reach it in place.
     SharedMemory,
-    /// The link to the session carries no shared memory (another user,
-    /// another host, a router without it): Zenoh copies each message into
-    /// that link. Nothing is lost.
+    /// The link to the session carries no shared memory (another host,
+    /// another user, a router without it, shared memory off in that session,
+    /// or a Zenoh whose shared memory differs: 1.10 and later cannot share
+    /// memory with the 1.8 of rmw_zenoh_cpp and this crate's 1.9): Zenoh
+    /// copies each message into that link, counted in
+    /// [`PublishOutcome::copied_to`](crate::PublishOutcome::copied_to) and
+    /// [`ShmStats::copied`](crate::ShmStats::copied). Nothing is lost.
     Bytes,
+    /// A subscriber that answers no probe (another ROS 2 implementation's,
+    /// such as rmw_zenoh_cpp's), over a link that carries shared memory: its
+    /// Zenoh maps the pool's messages in place, unless its own process
+    /// limits stop it, which it does not tell.
+    SharedMemoryUnprobed,
     /// The session could not map the pool (its process's memory-lock or
     /// open-files limit, most often; that process's log names the cause):
     /// messages go from the heap so that it gets every one
@@ -79,6 +95,7 @@ impl fmt::Display for Reach {
             Self::Checking => "being checked",
             Self::SharedMemory => "shared memory",
             Self::Bytes => "bytes (the link carries no shared memory)",
+            Self::SharedMemoryUnprobed => "shared memory (link negotiated; the subscriber answers no probe)",
             Self::CannotMap => "cannot map the pool",
         })
     }
@@ -204,6 +221,7 @@ impl ReceiverMark {
 pub(crate) struct Receivers {
     shared: Arc<Shared>,
     _subscriber: zenoh::pubsub::Subscriber<()>,
+    _ros_subscriber: Option<zenoh::pubsub::Subscriber<()>>,
 }
 
 struct Shared {
@@ -212,12 +230,72 @@ struct Shared {
     key_expr: String,
     /// Alive receiver tokens and their session.
     tokens: Mutex<HashMap<String, ZenohId>>,
+    /// Alive graph tokens of ROS subscribers that match, and their session.
+    ros_subscribers: Mutex<HashMap<String, ZenohId>>,
+    links: Arc<Links>,
+    /// Sessions already warned about for getting copies.
+    warned: Mutex<Vec<ZenohId>>,
+}
+
+fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    // Each entry is written whole.
+    mutex.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 impl Shared {
     fn tokens(&self) -> MutexGuard<'_, HashMap<String, ZenohId>> {
-        // Each entry is written whole.
-        self.tokens.lock().unwrap_or_else(|e| e.into_inner())
+        lock(&self.tokens)
+    }
+
+    /// Sessions of matching ROS subscribers that announce no receiver token:
+    /// they answer no probe.
+    fn unprobed(&self) -> Vec<ZenohId> {
+        let probed: Vec<ZenohId> = self.tokens().values().copied().collect();
+        let mut sessions: Vec<ZenohId> = lock(&self.ros_subscribers)
+            .values()
+            .copied()
+            .filter(|zid| !probed.contains(zid))
+            .collect();
+        sessions.sort_unstable();
+        sessions.dedup();
+        sessions
+    }
+
+    /// How an unprobed session gets the pool's messages.
+    fn unprobed_reach(&self, session: ZenohId) -> Reach {
+        match self.links.reach(session) {
+            LinkReach::SharedMemory => Reach::SharedMemoryUnprobed,
+            LinkReach::Bytes => Reach::Bytes,
+            LinkReach::Unknown => Reach::Checking,
+        }
+    }
+
+    /// Say once per session that it gets this publisher's messages as copies.
+    fn warn_copies(&self, session: ZenohId) {
+        {
+            let mut warned = lock(&self.warned);
+            if warned.contains(&session) {
+                return;
+            }
+            warned.push(session);
+        }
+        if self.links.is_local(session) {
+            tracing::warn!(
+                key_expr = %self.key_expr,
+                %session,
+                "a subscribing session on this host is linked without shared memory: it gets each shared-memory message as a copy \
+                 (PublishOutcome::copied_to, ShmStats::copied). Its Zenoh's shared memory differs from this program's \
+                 (Zenoh 1.10 and later cannot share memory with 1.8, which every rmw_zenoh_cpp release ships, nor with this program's 1.9), \
+                 shared memory is off there (transport/shared_memory/enabled), or it runs as another user"
+            );
+        } else {
+            tracing::info!(
+                key_expr = %self.key_expr,
+                %session,
+                "a subscribing session is linked without shared memory (another host, another user, or a router without it): \
+                 it gets each shared-memory message as a copy"
+            );
+        }
     }
 }
 
@@ -229,18 +307,28 @@ fn session_of(token: &str) -> Option<ZenohId> {
 
 impl Receivers {
     /// Follow the sessions that subscribe to `key_expr`, checking each one
-    /// against `pool` as it appears.
+    /// against `pool` as it appears; with `ros_subscribers` (the key
+    /// expression of the graph tokens of the ROS subscribers that match), also
+    /// those that answer no probe.
     pub(crate) fn follow(
         session: &Session,
         key_expr: &str,
         pool: &ShmContext,
+        ros_subscribers: Option<&str>,
     ) -> zenoh::Result<Self> {
         let shared = Arc::new(Shared {
             session: session.clone(),
             pool: pool.clone(),
             key_expr: key_expr.to_owned(),
             tokens: Mutex::default(),
+            ros_subscribers: Mutex::default(),
+            links: Links::of(session)?,
+            warned: Mutex::default(),
         });
+        let ros_subscriber = match ros_subscribers {
+            Some(selector) => Some(follow_ros_subscribers(session, selector, &shared)?),
+            None => None,
+        };
         let selector = format!("{key_expr}/{RECEIVER_CHUNK}/**");
         check_key_expr("key expression", &selector)?;
         let on_sample = Arc::downgrade(&shared);
@@ -271,6 +359,7 @@ impl Receivers {
         Ok(Self {
             shared,
             _subscriber: subscriber,
+            _ros_subscriber: ros_subscriber,
         })
     }
 
@@ -279,14 +368,38 @@ impl Receivers {
         let mut sessions: Vec<ZenohId> = self.shared.tokens().values().copied().collect();
         sessions.sort_unstable();
         sessions.dedup();
-        let table = self.shared.pool.reach_table().lock();
-        sessions
+        let unprobed = self.shared.unprobed();
+        let mut receivers: Vec<Receiver> = {
+            let table = self.shared.pool.reach_table().lock();
+            sessions
+                .into_iter()
+                .map(|session| Receiver {
+                    session,
+                    reach: table.get(&session).map_or(Reach::Checking, |c| c.reach),
+                })
+                .collect()
+        };
+        receivers.extend(unprobed.into_iter().map(|session| Receiver {
+            session,
+            reach: self.shared.unprobed_reach(session),
+        }));
+        receivers.sort_unstable_by_key(|r| r.session);
+        receivers
+    }
+
+    /// How many subscribing sessions get a message sent through the pool as
+    /// a copy (their link carries no shared memory), each warned about once.
+    pub(crate) fn copied_to(&self) -> usize {
+        let copied: Vec<ZenohId> = self
+            .list()
             .into_iter()
-            .map(|session| Receiver {
-                session,
-                reach: table.get(&session).map_or(Reach::Checking, |c| c.reach),
-            })
-            .collect()
+            .filter(|r| r.reach == Reach::Bytes)
+            .map(|r| r.session)
+            .collect();
+        for session in &copied {
+            self.shared.warn_copies(*session);
+        }
+        copied.len()
     }
 
     /// Why a message above the threshold must go from the heap now, if it
@@ -316,7 +429,7 @@ impl Receivers {
                             }
                             gate = Some(PayloadKind::ReceiverCannotMap);
                         }
-                        Reach::SharedMemory | Reach::Bytes => {}
+                        Reach::SharedMemory | Reach::Bytes | Reach::SharedMemoryUnprobed => {}
                     },
                 }
             }
@@ -326,6 +439,39 @@ impl Receivers {
         }
         gate
     }
+}
+
+/// Follow the graph tokens of the ROS subscribers matching `selector`.
+fn follow_ros_subscribers(
+    session: &Session,
+    selector: &str,
+    shared: &Arc<Shared>,
+) -> zenoh::Result<zenoh::pubsub::Subscriber<()>> {
+    let own = session.zid();
+    let on_sample = Arc::downgrade(shared);
+    session
+        .liveliness()
+        .declare_subscriber(selector)
+        .history(true)
+        .callback(move |sample| {
+            let Some(shared) = on_sample.upgrade() else {
+                return;
+            };
+            let token = sample.key_expr().as_str();
+            let Some(zid) = token_session(token).filter(|zid| *zid != own) else {
+                return;
+            };
+            let mut subscribers = lock(&shared.ros_subscribers);
+            match sample.kind() {
+                SampleKind::Put => {
+                    subscribers.insert(token.to_owned(), zid);
+                }
+                SampleKind::Delete => {
+                    subscribers.remove(token);
+                }
+            }
+        })
+        .wait()
 }
 
 /// Ask `session` whether it maps `shared`'s pool, unless a check is under

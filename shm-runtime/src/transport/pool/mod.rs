@@ -72,6 +72,7 @@ struct Counters {
     unavailable: AtomicU64,
     pending: AtomicU64,
     cannot_map: AtomicU64,
+    copied: AtomicU64,
 }
 
 /// How many messages went where (see [`ShmContext::stats`]).
@@ -98,6 +99,10 @@ pub struct ShmStats {
     /// Messages above the threshold published from the heap because a
     /// subscribing session cannot map the pool (see [`Reach::CannotMap`](crate::Reach::CannotMap)).
     pub cannot_map: u64,
+    /// Messages sent through the pool that at least one subscribing session
+    /// got as a copy, its link carrying no shared memory (see
+    /// [`Reach::Bytes`](crate::Reach::Bytes)); also counted in `shm`.
+    pub copied: u64,
 }
 
 impl std::fmt::Debug for ShmContext {
@@ -375,6 +380,7 @@ impl ShmContext {
             unavailable: c.unavailable.load(Ordering::Relaxed),
             pending: c.pending.load(Ordering::Relaxed),
             cannot_map: c.cannot_map.load(Ordering::Relaxed),
+            copied: c.copied.load(Ordering::Relaxed),
         }
     }
 
@@ -472,6 +478,11 @@ impl ShmContext {
 
     /// Count a published message of `size` bytes that went as `kind`, warning
     /// where it went from the heap against the settings' intent.
+    /// Count a message sent through the pool that a session got as a copy.
+    pub(crate) fn count_copied(&self) {
+        self.inner.stats.copied.fetch_add(1, Ordering::Relaxed);
+    }
+
     pub(crate) fn count(&self, kind: PayloadKind, size: usize) {
         let c = &self.inner.stats;
         match kind {
