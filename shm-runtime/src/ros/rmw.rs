@@ -526,6 +526,51 @@ pub fn counterpart_tokens_key_expr(token: &str, kind: EntityKind) -> Option<Stri
     ))
 }
 
+/// A ROS 2 distribution's released rmw_zenoh_cpp and the Zenoh it is built on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct Distribution {
+    /// The distribution (`"jazzy"`).
+    pub name: &'static str,
+    /// The rmw_zenoh_cpp release.
+    pub rmw_zenoh_cpp: &'static str,
+    /// The zenoh-c commit its `zenoh_cpp_vendor` builds.
+    pub zenoh_c_commit: &'static str,
+    /// The Zenoh (Rust) commit that zenoh-c commit pins.
+    pub zenoh_commit: &'static str,
+    /// That commit's Zenoh version. Its shared memory is 1.8's, which this
+    /// crate's Zenoh 1.9 shares; Zenoh 1.10 and later do not.
+    pub zenoh_version: &'static str,
+}
+
+/// Every distribution with an rmw_zenoh_cpp release, as its
+/// `zenoh_cpp_vendor/CMakeLists.txt` says (the release repository
+/// `ros2-gbp/rmw_zenoh-release`, tags `release/<distro>/zenoh_cpp_vendor/<version>`):
+/// all build zenoh-c 1.8.0 "plus a few fixes", on Zenoh commit `2687c51`,
+/// a branch of 1.8.0 whose shared memory is 1.8.0's.
+/// `tests/zenoh-lines/1.8` pins its peer to this version, and
+/// `tests/zenoh-lines/check.py` proves shared memory with it both ways.
+pub const DISTRIBUTIONS: &[Distribution] = &[
+    Distribution::on_zenoh_1_8("humble", "0.1.9"),
+    Distribution::on_zenoh_1_8("jazzy", "0.2.10"),
+    Distribution::on_zenoh_1_8("kilted", "0.6.7"),
+    Distribution::on_zenoh_1_8("lyrical", "0.10.5"),
+    Distribution::on_zenoh_1_8("rolling", "0.12.0"),
+];
+
+impl Distribution {
+    /// A release on the zenoh-c every release to date builds.
+    const fn on_zenoh_1_8(name: &'static str, rmw_zenoh_cpp: &'static str) -> Self {
+        Self {
+            name,
+            rmw_zenoh_cpp,
+            zenoh_c_commit: "05bd370343b5161ca9269649b9a914c9c2dc4170",
+            zenoh_commit: "2687c51352121f006e3a603ce07925a8ad0b295c",
+            zenoh_version: "1.8.0",
+        }
+    }
+}
+
 /// The Zenoh session that declared a liveliness token of the ROS graph:
 /// `@ros2_lv/<domain>/<zid>/…`.
 pub(crate) fn token_session(token: &str) -> Option<zenoh::session::ZenohId> {
