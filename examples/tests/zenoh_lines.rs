@@ -22,6 +22,9 @@ fn the_zenoh_peer_of_rmw_zenoh_cpp_is_pinned_to_what_every_distribution_ships() 
     }
     // The workspace is on a line whose shared memory is 1.8's: 1.9.
     let ours = locked_zenoh("Cargo.lock");
-    assert!(ours.starts_with("1.9."), "the workspace's Zenoh is {ours}: \
-        check tests/zenoh-lines/check.py against rmw_zenoh_cpp's 1.8 before moving");
+    assert!(
+        ours.starts_with("1.9."),
+        "the workspace's Zenoh is {ours}: \
+        check tests/zenoh-lines/check.py against rmw_zenoh_cpp's 1.8 before moving"
+    );
 }

@@ -74,10 +74,10 @@ impl ShmConfig {
     pub const ENV_ALLOC_SIZE: &'static str = "ZENOH_SHM_ALLOC_SIZE";
     /// Environment variable holding the threshold (setting it enables SHM).
     pub const ENV_THRESHOLD: &'static str = "ZENOH_SHM_MESSAGE_SIZE_THRESHOLD";
-    /// The smallest pool Zenoh 1.10's allocator accepts (1 KiB fails, 2 KiB
+    /// The smallest pool Zenoh 1.9's allocator accepts (1 KiB fails, 2 KiB
     /// works; a page keeps a margin).
     pub const MIN_POOL_SIZE: usize = 4096;
-    /// The largest pool Zenoh 1.10 accepts: its chunk index is 32 bits.
+    /// The largest pool Zenoh 1.9 accepts: its chunk index is 32 bits.
     pub const MAX_POOL_SIZE: usize = 1 << 32;
     /// Below this, a [`PoolSize::AtMost`] pool is not created at all: it could
     /// hold no more than a few small messages.
@@ -120,7 +120,7 @@ impl ShmConfig {
                 setting: "ShmConfig::pool_size",
                 value: size.to_string(),
                 reason: format!(
-                    "the pool size must be between {} bytes and {} bytes (4 GiB), Zenoh 1.10's limits",
+                    "the pool size must be between {} bytes and {} bytes (4 GiB), Zenoh 1.9's limits",
                     Self::MIN_POOL_SIZE,
                     Self::MAX_POOL_SIZE
                 ),

@@ -4,7 +4,7 @@
 //! batches. Its lowlatency transport (`transport/unicast/lowlatency: true`)
 //! writes every message as one frame and cannot: the receiver refuses a frame
 //! larger than its batch size and closes the link, while the sender's put has
-//! already returned `Ok` (Zenoh 1.10). Shared-memory data travels as a
+//! already returned `Ok` (Zenoh 1.9). Shared-memory data travels as a
 //! descriptor of a few dozen bytes, so only the inline part counts. Publishers,
 //! service clients and servers declared on such a session refuse a message whose
 //! inline part would not fit, with [`Unfragmentable`], instead of losing it.

@@ -4,7 +4,7 @@
 use std::fmt;
 
 /// The longest key expression (or liveliness token) Zenoh can carry: its wire
-/// format gives a key expression a 16-bit length, and Zenoh 1.10 panics,
+/// format gives a key expression a 16-bit length, and Zenoh 1.9 panics,
 /// aborting the process, on a longer one.
 pub const MAX_KEY_EXPR_LEN: usize = u16::MAX as usize;
 

@@ -162,9 +162,9 @@ impl Links {
     /// a Unix socket: then only a differing Zenoh, shared memory off over
     /// there, or another user keeps it from carrying shared memory.
     pub(crate) fn is_local(&self, session: ZenohId) -> bool {
-        lock(&self.transports).get(&session).is_some_and(|state| {
-            state.remotes.iter().any(|remote| is_loopback(remote))
-        })
+        lock(&self.transports)
+            .get(&session)
+            .is_some_and(|state| state.remotes.iter().any(|remote| is_loopback(remote)))
     }
 }
 

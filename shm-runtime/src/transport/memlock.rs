@@ -1,6 +1,6 @@
 //! The memory-lock budget shared memory runs under.
 //!
-//! Zenoh 1.10 `mlock`s every shared-memory segment a process touches: the pool
+//! Zenoh 1.9 `mlock`s every shared-memory segment a process touches: the pool
 //! it creates, the per-process metadata segment that holds its chunks'
 //! reference counts, and every segment (pool and metadata) it maps to read
 //! another process's messages. What the process may lock is its
@@ -17,7 +17,7 @@ use rlimit::Resource;
 
 /// What Zenoh locks for a process's own metadata segment, once, when it first
 /// allocates shared memory: 32 768 chunk headers of 32 bytes and as many 8-byte
-/// watchdogs (`zenoh-shm` 1.10's `MetadataSegment`). A reader locks as much
+/// watchdogs (`zenoh-shm` 1.9's `MetadataSegment`). A reader locks as much
 /// again for each publishing process whose messages it maps.
 pub const ZENOH_METADATA_SEGMENT: u64 = 32_768 * (32 + 8);
 

@@ -19,8 +19,7 @@ use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, MissDetectionConfig};
 
 use crate::ros::rmw::{
-    counterpart_tokens_key_expr, Attachment, Durability, EntityKind, Gid, History, Qos,
-    Reliability,
+    counterpart_tokens_key_expr, Attachment, Durability, EntityKind, Gid, History, Qos, Reliability,
 };
 use crate::ros::type_description::TypeUse;
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
@@ -298,7 +297,7 @@ impl<'a, T> PublisherBuilder<'a, T> {
     /// [`congestion_control`](Self::congestion_control) says otherwise), as a
     /// DDS keep-last writer does: a dropped message is repaired from the cache
     /// once the reader reads again, whereas `Block` waiting past Zenoh's
-    /// `wait_before_close` (5 s) closes the whole transport, and Zenoh 1.10.2
+    /// `wait_before_close` (5 s) closes the whole transport, and Zenoh
     /// can corrupt a message in that close (see the README). `publish` never
     /// waits on a stalled reader.
     ///

@@ -95,7 +95,9 @@ impl fmt::Display for Reach {
             Self::Checking => "being checked",
             Self::SharedMemory => "shared memory",
             Self::Bytes => "bytes (the link carries no shared memory)",
-            Self::SharedMemoryUnprobed => "shared memory (link negotiated; the subscriber answers no probe)",
+            Self::SharedMemoryUnprobed => {
+                "shared memory (link negotiated; the subscriber answers no probe)"
+            }
             Self::CannotMap => "cannot map the pool",
         })
     }

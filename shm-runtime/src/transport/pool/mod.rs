@@ -439,7 +439,7 @@ impl ShmContext {
 
     /// Reclaim buffers whose readers are gone: chunks still counted as borrowed
     /// whose Zenoh watchdog has expired because no process confirmed them for a
-    /// watchdog period (100 ms in Zenoh 1.10). This is how a publisher gets back
+    /// watchdog period (100 ms in Zenoh 1.9). This is how a publisher gets back
     /// the shared memory that a crashed subscriber process was holding; the
     /// automatic collection never does it, because a dead reader's reference is
     /// never released. Returns the size of the largest chunk reclaimed (0 if none).
@@ -548,7 +548,7 @@ fn dev_shm_free() -> Option<u64> {
 /// Make Zenoh create (and lock) this process's metadata segment now, while
 /// the budget says there is room for it, rather than in the middle of a later
 /// publish: Zenoh creates it on a process's first allocation and panics if it
-/// cannot (`zenoh-shm` 1.10 unwraps the error), so a failure here is turned
+/// cannot (`zenoh-shm` 1.9 unwraps the error), so a failure here is turned
 /// into an error instead.
 fn lock_own_metadata(
     provider: &ShmProvider<CdrBackend>,
