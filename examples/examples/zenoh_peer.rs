@@ -74,11 +74,9 @@ fn write_image(out: &mut [u8], seq: u32, data: usize) {
     };
     put(&(seq as i32).to_le_bytes(), 4, &mut pos);
     put(&0u32.to_le_bytes(), 4, &mut pos);
-    for text in [FRAME_ID] {
-        put(&(text.len() as u32 + 1).to_le_bytes(), 4, &mut pos);
-        put(text.as_bytes(), 1, &mut pos);
-        put(&[0], 1, &mut pos);
-    }
+    put(&(FRAME_ID.len() as u32 + 1).to_le_bytes(), 4, &mut pos);
+    put(FRAME_ID.as_bytes(), 1, &mut pos);
+    put(&[0], 1, &mut pos);
     put(&1u32.to_le_bytes(), 4, &mut pos);
     put(&(data as u32).to_le_bytes(), 4, &mut pos);
     put(&(ENCODING.len() as u32 + 1).to_le_bytes(), 4, &mut pos);
