@@ -11,7 +11,7 @@
 //! zenoh_peer pub <connect> <key> <token template> <count> <data bytes>
 //! ```
 //!
-//! `{zid}` in the token template is replaced by this session's id: the
+//! `{zid}` in the token template is replaced by the peer's Zenoh session id: the
 //! liveliness token an rmw_zenoh_cpp endpoint declares, so that the other
 //! side's graph sees this one. Each mode prints one JSON line: `sub` how many
 //! images arrived, how many in shared memory (`ZBytes::as_shm`), how many

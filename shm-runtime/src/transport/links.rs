@@ -129,9 +129,9 @@ impl Links {
         Ok(links)
     }
 
-    /// How messages travel from this session to `session`: over the transport
-    /// to it, or else over those to the routers in between (all of them must
-    /// carry shared memory, as any may route).
+    /// How messages travel from the table's own Zenoh session to `session`:
+    /// over the transport to it, or else over those to the routers in between
+    /// (all of them must carry shared memory, as any may route).
     pub(crate) fn reach(&self, session: ZenohId) -> LinkReach {
         if session == self.session {
             // Delivered within the process: the buffer itself.
