@@ -45,8 +45,14 @@ type Table = Mutex<HashMap<ZenohId, TransportState>>;
 pub(crate) struct Links {
     session: ZenohId,
     transports: Arc<Table>,
-    _transport_events: zenoh::session::TransportEventsListener<()>,
-    _link_events: zenoh::session::LinkEventsListener<()>,
+    /// None in Zenoh's low-latency mode: listing its transports panics
+    /// outside Zenoh's own threads (zenoh-transport 1.9,
+    /// `TransportUnicastLowlatency::get_links`), so they are not followed and
+    /// every session's link stays unknown.
+    _events: Option<(
+        zenoh::session::TransportEventsListener<()>,
+        zenoh::session::LinkEventsListener<()>,
+    )>,
 }
 
 type Registry = HashMap<ZenohId, Weak<Links>>;
@@ -67,6 +73,19 @@ impl Links {
         }
         registry.retain(|_, l| l.strong_count() > 0);
         let transports = Arc::new(Table::default());
+        let lowlatency = session
+            .config()
+            .get_typed::<bool>("transport/unicast/lowlatency")
+            .unwrap_or(false);
+        if lowlatency {
+            let links = Arc::new(Self {
+                session: session.zid(),
+                transports,
+                _events: None,
+            });
+            registry.insert(session.zid(), Arc::downgrade(&links));
+            return Ok(links);
+        }
         let on_transport = Arc::downgrade(&transports);
         let on_link = Arc::downgrade(&transports);
         // Callbacks with history: every open transport and link is replayed
@@ -122,8 +141,7 @@ impl Links {
         let links = Arc::new(Self {
             session: session.zid(),
             transports,
-            _transport_events: transport_events,
-            _link_events: link_events,
+            _events: Some((transport_events, link_events)),
         });
         registry.insert(session.zid(), Arc::downgrade(&links));
         Ok(links)
@@ -136,6 +154,9 @@ impl Links {
         if session == self.session {
             // Delivered within the process: the buffer itself.
             return LinkReach::SharedMemory;
+        }
+        if self._events.is_none() {
+            return LinkReach::Unknown;
         }
         let table = lock(&self.transports);
         let shm = |state: &TransportState| match state.shm {

@@ -65,7 +65,10 @@ const AS_BYTES: &[u8] = b"bytes";
 #[non_exhaustive]
 pub enum Reach {
     /// The check is under way (it takes one round trip): messages go from
-    /// the heap meanwhile ([`PayloadKind::ReceiverPending`]).
+    /// the heap meanwhile ([`PayloadKind::ReceiverPending`]). A subscriber
+    /// that answers no probe stays here until a transport to it opens, and
+    /// for good on a session in Zenoh's low-latency mode, whose transports
+    /// Zenoh 1.9 cannot list for it (its messages are not held back).
     Checking,
     /// The session maps the pool: messages reach it in place.
     SharedMemory,
