@@ -395,12 +395,28 @@ impl Receivers {
     /// How many subscribing sessions get a message sent through the pool as
     /// a copy (their link carries no shared memory), each warned about once.
     pub(crate) fn copied_to(&self) -> usize {
-        let copied: Vec<ZenohId> = self
-            .list()
-            .into_iter()
-            .filter(|r| r.reach == Reach::Bytes)
-            .map(|r| r.session)
-            .collect();
+        // Runs on every publish through the pool: no allocation unless a
+        // session gets copies or a ROS subscriber answers no probe.
+        let mut copied: Vec<ZenohId> = Vec::new();
+        {
+            // Lock order: tokens, then the pool's table (as `probe` takes them).
+            let tokens = self.shared.tokens();
+            let table = self.shared.pool.reach_table().lock();
+            for session in tokens.values() {
+                let bytes = table.get(session).is_some_and(|c| c.reach == Reach::Bytes);
+                if bytes && !copied.contains(session) {
+                    copied.push(*session);
+                }
+            }
+        }
+        if !lock(&self.shared.ros_subscribers).is_empty() {
+            copied.extend(
+                self.shared
+                    .unprobed()
+                    .into_iter()
+                    .filter(|s| self.shared.unprobed_reach(*s) == Reach::Bytes),
+            );
+        }
         for session in &copied {
             self.shared.warn_copies(*session);
         }
