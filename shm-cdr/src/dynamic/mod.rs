@@ -27,6 +27,7 @@
 
 mod codec;
 mod defaults;
+mod limits;
 mod model;
 #[cfg(feature = "serde")]
 mod serde_impl;
@@ -36,6 +37,7 @@ mod view;
 mod yaml_in;
 mod yaml_out;
 
+pub use limits::TypeLimits;
 pub use model::{DynamicType, Element, FieldDef, StructDef, TypeError};
 pub use value::{Message, Value, ValueError};
 pub use view::{FieldView, MessageView, SequenceView, StructView, ValueView};

@@ -5,6 +5,7 @@ use std::collections::HashMap;
 use std::fmt;
 use std::sync::Arc;
 
+use super::limits::{quoted, TypeLimits, MAX_FIELDS_PER_BYTE};
 use crate::describe::{self, Container, DescribedField, FullDescription, TypeId};
 
 /// What one element of a field is.
@@ -188,53 +189,90 @@ impl fmt::Display for TypeError {
 
 impl std::error::Error for TypeError {}
 
+impl TypeError {
+    /// An error in type `type_name` (and `field`), the names quoted as
+    /// outside text is: cut if long.
+    pub(crate) fn new(type_name: &str, field: Option<&str>, reason: String) -> Self {
+        Self {
+            type_name: quoted(type_name),
+            field: field.map(quoted),
+            reason,
+        }
+    }
+}
+
 impl DynamicType {
     /// The type described by `description` (e.g. `T::full_description()` of a
-    /// compiled type).
+    /// compiled type), within the default [`TypeLimits`].
     pub fn from_description(description: &FullDescription) -> Result<Self, TypeError> {
+        Self::from_description_with(description, &TypeLimits::DEFAULT)
+    }
+
+    /// [`from_description`](Self::from_description) within `limits`.
+    pub fn from_description_with(
+        description: &FullDescription,
+        limits: &TypeLimits,
+    ) -> Result<Self, TypeError> {
         let all = std::iter::once(&description.own).chain(&description.referenced);
-        Self::build(all.map(|d| {
-            (
-                d.type_name,
-                d.fields
-                    .iter()
-                    .map(|f| DescribedField {
-                        name: f.name,
-                        type_id: f.field_type.type_id(),
-                        capacity: f.field_type.capacity() as u64,
-                        string_capacity: f.field_type.string_capacity as u64,
-                        nested_type_name: f.field_type.nested_type_name,
-                        default_value: f.default_value,
-                    })
-                    .collect::<Vec<_>>(),
-            )
-        }))
+        Self::build(
+            all.map(|d| {
+                (
+                    d.type_name,
+                    d.fields
+                        .iter()
+                        .map(|f| DescribedField {
+                            name: f.name,
+                            type_id: f.field_type.type_id(),
+                            capacity: f.field_type.capacity() as u64,
+                            string_capacity: f.field_type.string_capacity as u64,
+                            nested_type_name: f.field_type.nested_type_name,
+                            default_value: f.default_value,
+                        })
+                        .collect::<Vec<_>>(),
+                )
+            }),
+            limits,
+        )
     }
 
     /// The type a `type_description_interfaces/msg/TypeDescription` describes:
-    /// what a node's `~/get_type_description` returns.
+    /// what a node's `~/get_type_description` returns. Any node can answer
+    /// with any description: it is built within the default [`TypeLimits`].
     #[cfg(feature = "type_description_interfaces")]
     pub fn from_type_description_msg(
         description: &crate::msgs::type_description_interfaces::msg::TypeDescription,
     ) -> Result<Self, TypeError> {
+        Self::from_type_description_msg_with(description, &TypeLimits::DEFAULT)
+    }
+
+    /// [`from_type_description_msg`](Self::from_type_description_msg) within
+    /// `limits`.
+    #[cfg(feature = "type_description_interfaces")]
+    pub fn from_type_description_msg_with(
+        description: &crate::msgs::type_description_interfaces::msg::TypeDescription,
+        limits: &TypeLimits,
+    ) -> Result<Self, TypeError> {
         let all = std::iter::once(&description.type_description)
             .chain(&description.referenced_type_descriptions);
-        Self::build(all.map(|d| {
-            (
-                d.type_name.as_str(),
-                d.fields
-                    .iter()
-                    .map(|f| DescribedField {
-                        name: &f.name,
-                        type_id: f.r#type.type_id,
-                        capacity: f.r#type.capacity,
-                        string_capacity: f.r#type.string_capacity,
-                        nested_type_name: f.r#type.nested_type_name.as_str(),
-                        default_value: &f.default_value,
-                    })
-                    .collect::<Vec<_>>(),
-            )
-        }))
+        Self::build(
+            all.map(|d| {
+                (
+                    d.type_name.as_str(),
+                    d.fields
+                        .iter()
+                        .map(|f| DescribedField {
+                            name: &f.name,
+                            type_id: f.r#type.type_id,
+                            capacity: f.r#type.capacity,
+                            string_capacity: f.r#type.string_capacity,
+                            nested_type_name: f.r#type.nested_type_name.as_str(),
+                            default_value: &f.default_value,
+                        })
+                        .collect::<Vec<_>>(),
+                )
+            }),
+            limits,
+        )
     }
 
     /// The type a rosidl `.json` type description describes (what rosidl
@@ -255,6 +293,12 @@ impl DynamicType {
     /// ```
     #[cfg(feature = "yaml")]
     pub fn from_rosidl_json(text: &str) -> Result<Self, TypeError> {
+        Self::from_rosidl_json_with(text, &TypeLimits::DEFAULT)
+    }
+
+    /// [`from_rosidl_json`](Self::from_rosidl_json) within `limits`.
+    #[cfg(feature = "yaml")]
+    pub fn from_rosidl_json_with(text: &str, limits: &TypeLimits) -> Result<Self, TypeError> {
         use serde_yaml::Value;
         let error = |reason: String| TypeError {
             type_name: "(rosidl JSON)".into(),
@@ -289,15 +333,15 @@ impl DynamicType {
         for description in std::iter::once(own).chain(referenced) {
             let name = str_of(description, "type_name")?;
             let Some(Value::Sequence(fields)) = description.get("fields") else {
-                return Err(error(format!("{name}: no list `fields`")));
+                return Err(error(format!("{}: no list `fields`", quoted(&name))));
             };
             let mut out = Vec::with_capacity(fields.len());
             for field in fields {
                 let ty = field
                     .get("type")
-                    .ok_or_else(|| error(format!("{name}: a field without `type`")))?;
+                    .ok_or_else(|| error(format!("{}: a field without `type`", quoted(&name))))?;
                 let type_id = u8::try_from(u64_of(ty, "type_id")?)
-                    .map_err(|_| error(format!("{name}: a type_id beyond 255")))?;
+                    .map_err(|_| error(format!("{}: a type_id beyond 255", quoted(&name))))?;
                 out.push((
                     str_of(field, "name")?,
                     type_id,
@@ -313,22 +357,25 @@ impl DynamicType {
             }
             types.push((name, out));
         }
-        let ty = Self::build(types.iter().map(|(name, fields)| {
-            (
-                name.as_str(),
-                fields
-                    .iter()
-                    .map(|(n, id, cap, scap, nested, default)| DescribedField {
-                        name: n,
-                        type_id: *id,
-                        capacity: *cap,
-                        string_capacity: *scap,
-                        nested_type_name: nested,
-                        default_value: default,
-                    })
-                    .collect::<Vec<_>>(),
-            )
-        }))?;
+        let ty = Self::build(
+            types.iter().map(|(name, fields)| {
+                (
+                    name.as_str(),
+                    fields
+                        .iter()
+                        .map(|(n, id, cap, scap, nested, default)| DescribedField {
+                            name: n,
+                            type_id: *id,
+                            capacity: *cap,
+                            string_capacity: *scap,
+                            nested_type_name: nested,
+                            default_value: default,
+                        })
+                        .collect::<Vec<_>>(),
+                )
+            }),
+            limits,
+        )?;
         // rosidl's own hash of the type, where the file gives it.
         let listed = root
             .get("type_hashes")
@@ -352,40 +399,60 @@ impl DynamicType {
         Ok(ty)
     }
 
-    /// Build from (type name, fields) pairs, the root first.
+    /// Build from (type name, fields) pairs, the root first, within `limits`.
     pub(crate) fn build<'a>(
         types: impl Iterator<Item = (&'a str, Vec<DescribedField<'a>>)>,
+        limits: &TypeLimits,
     ) -> Result<Self, TypeError> {
-        let types: Vec<(&str, Vec<DescribedField<'_>>)> = types.collect();
+        let mut described: Vec<(&str, Vec<DescribedField<'_>>)> = Vec::new();
+        let mut total_fields = 0usize;
+        for (name, fields) in types {
+            check_described(name, &fields, limits)?;
+            if described.len() == limits.max_types {
+                return Err(TypeError::new(
+                    name,
+                    None,
+                    format!(
+                        "the description holds more than {} types (`TypeLimits::max_types`)",
+                        limits.max_types
+                    ),
+                ));
+            }
+            total_fields = total_fields.saturating_add(fields.len());
+            if total_fields > limits.max_fields {
+                return Err(TypeError::new(
+                    name,
+                    None,
+                    format!(
+                        "the description's types have more than {} fields together \
+                         (`TypeLimits::max_fields`)",
+                        limits.max_fields
+                    ),
+                ));
+            }
+            described.push((name, fields));
+        }
+        let types = described;
         let mut index: HashMap<&str, usize> = HashMap::new();
         for (i, (name, _)) in types.iter().enumerate() {
             if index.insert(name, i).is_some() {
-                return Err(TypeError {
-                    type_name: (*name).to_owned(),
-                    field: None,
-                    reason: "described twice".into(),
-                });
+                return Err(TypeError::new(name, None, "described twice".into()));
             }
         }
         let mut structs = Vec::with_capacity(types.len());
         for (name, fields) in &types {
-            let error = |field: &str, reason: String| TypeError {
-                type_name: (*name).to_owned(),
-                field: Some(field.to_owned()),
-                reason,
-            };
             if fields.is_empty() {
-                return Err(TypeError {
-                    type_name: (*name).to_owned(),
-                    field: None,
-                    reason:
-                        "no fields (an empty message lists `structure_needs_at_least_one_member`)"
-                            .into(),
-                });
+                return Err(TypeError::new(
+                    name,
+                    None,
+                    "no fields (an empty message lists `structure_needs_at_least_one_member`)"
+                        .into(),
+                ));
             }
             let mut defs = Vec::with_capacity(fields.len());
             for f in fields {
-                let (element, container) = field_kind(f, &index).map_err(|r| error(f.name, r))?;
+                let (element, container) =
+                    field_kind(f, &index).map_err(|r| TypeError::new(name, Some(f.name), r))?;
                 defs.push(FieldDef {
                     name: f.name.to_owned(),
                     element,
@@ -406,19 +473,7 @@ impl DynamicType {
             });
         }
         let order = nesting_order(&structs)?;
-        // Sizes from the innermost types out.
-        for &i in &order {
-            let size = structs[i]
-                .fields
-                .iter()
-                .map(|f| match f.container {
-                    Container::Single => f.element.min_wire_size(&structs),
-                    Container::Array(n) => n.saturating_mul(f.element.min_wire_size(&structs)),
-                    Container::BoundedSequence(_) | Container::Sequence => 4,
-                })
-                .fold(0usize, usize::saturating_add);
-            structs[i].min_wire_size = size.max(1);
-        }
+        let blocks = measure(&mut structs, &order, limits)?;
         let checks: Vec<Vec<Check>> = structs
             .iter()
             .map(|def| {
@@ -444,7 +499,7 @@ impl DynamicType {
                     .collect()
             })
             .collect();
-        let plans = super::view::plans(&structs, &checks, &order);
+        let plans = super::view::plans(&structs, &checks, &order, &blocks);
         Ok(Self {
             inner: Arc::new(Types {
                 structs,
@@ -517,12 +572,15 @@ impl DynamicType {
         let structs = &self.inner.structs;
         let at = structs.iter().position(|s| s.name == name)?;
         let order = std::iter::once(at).chain((0..structs.len()).filter(|&i| i != at));
-        Self::build(order.map(|i| {
-            (
-                structs[i].name.as_str(),
-                structs[i].fields.iter().map(FieldDef::described).collect(),
-            )
-        }))
+        Self::build(
+            order.map(|i| {
+                (
+                    structs[i].name.as_str(),
+                    structs[i].fields.iter().map(FieldDef::described).collect(),
+                )
+            }),
+            &TypeLimits::UNLIMITED,
+        )
         .ok()
     }
 
@@ -569,6 +627,158 @@ impl DynamicType {
         }
         reached
     }
+}
+
+/// A described type's names and default texts checked against `limits`
+/// before anything is made of them.
+fn check_described(
+    name: &str,
+    fields: &[DescribedField<'_>],
+    limits: &TypeLimits,
+) -> Result<(), TypeError> {
+    let max = limits.max_name_len;
+    let too_long = |what: &str, len: usize| {
+        format!("{what} is {len} bytes long, more than {max} (`TypeLimits::max_name_len`)")
+    };
+    if name.len() > max {
+        return Err(TypeError::new(
+            name,
+            None,
+            too_long("the type name", name.len()),
+        ));
+    }
+    for f in fields {
+        let error = |reason| Err(TypeError::new(name, Some(f.name), reason));
+        if f.name.len() > max {
+            return error(too_long("the field name", f.name.len()));
+        }
+        if f.nested_type_name.len() > max {
+            return error(too_long("the nested type name", f.nested_type_name.len()));
+        }
+        if f.default_value.len() > limits.max_default_len {
+            return error(format!(
+                "the default value is {} bytes long, more than {} (`TypeLimits::max_default_len`)",
+                f.default_value.len(),
+                limits.max_default_len
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Each type's depth, least size on the wire and in memory and how many
+/// fields a message of it holds, worked out from the innermost types out
+/// (`order`) and checked against `limits`; the least wire sizes are kept in
+/// `structs`, the field counts (a view's block of slots) returned.
+fn measure(
+    structs: &mut [StructDef],
+    order: &[usize],
+    limits: &TypeLimits,
+) -> Result<Vec<usize>, TypeError> {
+    let n = structs.len();
+    let mut depth = vec![1usize; n];
+    let mut blocks = vec![0usize; n];
+    let mut memory = vec![0usize; n];
+    let value = std::mem::size_of::<super::value::Value<'static>>();
+    let message = std::mem::size_of::<super::value::Message<'static>>();
+    for &i in order {
+        let def = &structs[i];
+        let error = |field: Option<&str>, reason| Err(TypeError::new(&def.name, field, reason));
+        let mut wire = 0usize;
+        let mut block = def.fields.len();
+        let mut bytes = message.saturating_add(def.fields.len().saturating_mul(value));
+        // The field that adds most memory, named when there is too much.
+        let mut largest = ("", 0usize);
+        for f in &def.fields {
+            let n = match f.container {
+                Container::Array(n) => n,
+                _ => 1,
+            };
+            // Memory one element takes beyond its `Value`, or in an array.
+            let (element_bytes, element_wire) = match f.element {
+                Element::Message(j) => {
+                    if depth[j] >= depth[i] {
+                        depth[i] = depth[j] + 1;
+                        if depth[i] > limits.max_depth {
+                            return error(
+                                Some(&f.name),
+                                format!(
+                                    "messages nest more than {} levels deep through this field \
+                                     (`TypeLimits::max_depth`)",
+                                    limits.max_depth
+                                ),
+                            );
+                        }
+                    }
+                    if f.container == Container::Single {
+                        block = block.saturating_add(blocks[j]);
+                    }
+                    (memory[j], structs[j].min_wire_size)
+                }
+                Element::String(_) => (std::mem::size_of::<std::borrow::Cow<'_, str>>(), 4),
+                Element::WString(_) => (std::mem::size_of::<String>(), 4),
+                element => {
+                    let size = element.min_wire_size(structs);
+                    (size, size)
+                }
+            };
+            let field_wire = match f.container {
+                Container::BoundedSequence(_) | Container::Sequence => 4,
+                _ => n.saturating_mul(element_wire),
+            };
+            wire = wire.saturating_add(field_wire);
+            let field_bytes = match f.container {
+                Container::Single => match f.element {
+                    Element::Message(_) => element_bytes,
+                    _ => f.default_value.len(),
+                },
+                Container::Array(_) => n.saturating_mul(element_bytes),
+                // A sequence starts as its default text gives it: as many
+                // items as the text has characters, at most.
+                Container::BoundedSequence(_) | Container::Sequence => {
+                    f.default_value.len().saturating_mul(value)
+                }
+            };
+            bytes = bytes.saturating_add(field_bytes);
+            if field_bytes >= largest.1 {
+                largest = (&f.name, field_bytes);
+            }
+        }
+        if bytes > limits.max_default_size {
+            return error(
+                Some(largest.0),
+                format!(
+                    "a message of this type takes at least {bytes} bytes, more than {} \
+                     (`TypeLimits::max_default_size`)",
+                    limits.max_default_size
+                ),
+            );
+        }
+        if block > limits.max_message_fields {
+            return error(
+                None,
+                format!(
+                    "a message of this type holds {block} fields with those it nests, more \
+                     than {} (`TypeLimits::max_message_fields`)",
+                    limits.max_message_fields
+                ),
+            );
+        }
+        let wire = wire.max(1);
+        if block > wire.saturating_mul(MAX_FIELDS_PER_BYTE) {
+            return error(
+                None,
+                format!(
+                    "a message of this type holds {block} fields in as few as {wire} bytes: \
+                     more than {MAX_FIELDS_PER_BYTE} per byte (empty arrays?)"
+                ),
+            );
+        }
+        blocks[i] = block;
+        memory[i] = bytes;
+        structs[i].min_wire_size = wire;
+    }
+    Ok(blocks)
 }
 
 /// The element and container of a described field, or why it has none.
@@ -668,14 +878,11 @@ fn nesting_order(structs: &[StructDef]) -> Result<Vec<usize>, TypeError> {
                             stack.push((j, 0));
                         }
                         Mark::Open => {
-                            return Err(TypeError {
-                                type_name: structs[i].name.clone(),
-                                field: Some(f.name.clone()),
-                                reason: format!(
-                                    "`{}` contains itself through this field",
-                                    structs[j].name
-                                ),
-                            })
+                            return Err(TypeError::new(
+                                &structs[i].name,
+                                Some(&f.name),
+                                format!("`{}` contains itself through this field", structs[j].name),
+                            ))
                         }
                         Mark::Done => {}
                     }

@@ -70,6 +70,9 @@ enum Step {
     /// A wide string, or an array or sequence of values: checked as
     /// [`Check`] says.
     Value { slot: usize, check: Check },
+    /// A message nested by value, checked by its own plan, its slots from
+    /// `first` on.
+    Nested { first: usize, index: usize },
     /// An array or sequence of messages, whose slots are added when its
     /// length is known.
     Messages {
@@ -108,15 +111,44 @@ impl OpenRun {
     }
 }
 
-/// The plan of every struct, built innermost first (`order`): a message
-/// nested by value takes its slots inside the nesting message's block, and
-/// its fields' steps join the nesting message's, so that runs of fixed-size
-/// fields continue across it (CDR gives a nested message no alignment of its
-/// own).
+/// A nested message whose plan has at most this many entries is copied
+/// into the plan of the message that nests it by value, so that runs of
+/// fixed-size fields continue across it (CDR gives a nested message no
+/// alignment of its own: a `Pose` is one run of seven numbers); a larger one
+/// is one step that follows its own plan, so that plans take memory linear
+/// in the description however its types nest.
+const INLINED_ENTRIES: usize = 32;
+
+/// One entry of a plan before it is folded into steps; slots count from the
+/// message's first.
+#[derive(Debug, Clone, Copy)]
+enum Flat {
+    /// A field that is not a message nested by value, and how it is checked.
+    Field(usize, Check),
+    /// A message nested by value, checked by its own plan; its slots start
+    /// at `first`.
+    Nested { first: usize, index: usize },
+}
+
+impl Flat {
+    fn shifted(self, by: usize) -> Self {
+        match self {
+            Self::Field(slot, check) => Self::Field(slot + by, check),
+            Self::Nested { first, index } => Self::Nested {
+                first: first + by,
+                index,
+            },
+        }
+    }
+}
+
+/// The plan of every struct, built innermost first (`order`); `blocks` are
+/// the slots a message of each takes (see [`StructPlan::block`]).
 pub(crate) fn plans(
     structs: &[StructDef],
     checks: &[Vec<Check>],
     order: &[usize],
+    blocks: &[usize],
 ) -> Vec<StructPlan> {
     let mut plans = vec![
         StructPlan {
@@ -126,63 +158,60 @@ pub(crate) fn plans(
         };
         structs.len()
     ];
+    let mut flats: Vec<Vec<Flat>> = vec![Vec::new(); structs.len()];
     for &index in order {
-        let Some(def) = structs.get(index) else {
+        let (Some(def), Some(fields)) = (structs.get(index), checks.get(index)) else {
             continue;
         };
         let mut block = def.fields.len();
         let mut children = vec![0; def.fields.len()];
-        for (field, child) in def.fields.iter().zip(children.iter_mut()) {
-            if let (Element::Message(nested), Container::Single) = (field.element, field.container)
-            {
-                *child = block;
-                block = block.saturating_add(plans.get(nested).map_or(0, |p| p.block));
+        let mut flat = Vec::with_capacity(def.fields.len());
+        for (slot, (&check, child)) in fields.iter().zip(children.iter_mut()).enumerate() {
+            match check {
+                // Its plan was made first: its block and entries are known.
+                Check::Message { index: nested, .. } => {
+                    *child = block;
+                    block = block.saturating_add(blocks.get(nested).copied().unwrap_or(0));
+                    let inner = flats.get(nested).map_or(&[][..], Vec::as_slice);
+                    if inner.len() <= INLINED_ENTRIES {
+                        flat.extend(inner.iter().map(|entry| entry.shifted(*child)));
+                    } else {
+                        flat.push(Flat::Nested {
+                            first: *child,
+                            index: nested,
+                        });
+                    }
+                }
+                check => flat.push(Flat::Field(slot, check)),
             }
         }
         if let Some(plan) = plans.get_mut(index) {
             plan.block = block;
             plan.children = children;
+            plan.steps = steps(&flat);
         }
-        let mut fields = Vec::new();
-        flatten(checks, &plans, index, 0, &mut fields);
-        if let Some(plan) = plans.get_mut(index) {
-            plan.steps = steps(&fields);
+        if let Some(place) = flats.get_mut(index) {
+            *place = flat;
         }
     }
     plans
 }
 
-/// The fields of struct `index` whose slots start at `base`, in wire order,
-/// with those of the messages it nests by value in their place: (slot,
-/// check), never a single message.
-fn flatten(
-    checks: &[Vec<Check>],
-    plans: &[StructPlan],
-    index: usize,
-    base: usize,
-    out: &mut Vec<(usize, Check)>,
-) {
-    let (Some(fields), Some(plan)) = (checks.get(index), plans.get(index)) else {
-        return;
-    };
-    for (field, (&check, &child)) in fields.iter().zip(&plan.children).enumerate() {
-        match check {
-            // Its plan was made first: its children are known.
-            Check::Message { index: nested, .. } => {
-                flatten(checks, plans, nested, base + child, out)
-            }
-            check => out.push((base + field, check)),
-        }
-    }
-}
-
 /// Fold flattened fields into steps: fixed-size fields into runs, a run
 /// going on while each field's alignment is at most the first's (then every
 /// offset from the run's aligned start is fixed).
-fn steps(fields: &[(usize, Check)]) -> Vec<Step> {
+fn steps(fields: &[Flat]) -> Vec<Step> {
     let mut steps = Vec::new();
     let mut run: Option<OpenRun> = None;
-    for &(slot, check) in fields {
+    for &entry in fields {
+        let (slot, check) = match entry {
+            Flat::Field(slot, check) => (slot, check),
+            Flat::Nested { first, index } => {
+                steps.extend(run.take().map(OpenRun::close));
+                steps.push(Step::Nested { first, index });
+                continue;
+            }
+        };
         // A fixed-size value: its size, alignment, and whether it is a bool.
         let fixed = match check {
             Check::Number(size) => Some((size, size, false)),
@@ -512,6 +541,9 @@ impl Checker<'_> {
                     if let Some(place) = self.slots.get_mut(first + slot) {
                         *place = value;
                     }
+                }
+                &Step::Nested { first: at, index } => {
+                    self.check_struct(r, index, first + at)?;
                 }
                 &Step::Messages {
                     slot,

@@ -1,0 +1,116 @@
+//! Bounds on a run-time type: a description can come from any node on the
+//! network, and the hash it is announced with is the sender's own, so what a
+//! type may cost is checked before anything is built from it.
+
+/// Limits a [`DynamicType`](super::DynamicType) is built within. A
+/// description past any of them is refused with a
+/// [`TypeError`](super::TypeError) naming the limit, the type and the field.
+///
+/// The defaults hold every type of ROS 2's interface packages many times
+/// over (the deepest nest five levels) and keep what a type can cost small:
+/// built, a type takes memory linear in its description, every walk over it
+/// or its messages recurses at most [`max_depth`](Self::max_depth) levels,
+/// and its default message takes at most
+/// [`max_default_size`](Self::max_default_size) bytes.
+///
+/// ```
+/// use shm_cdr::dynamic::{DynamicType, TypeLimits};
+/// use shm_cdr::msgs::nav_msgs::Odometry;
+/// use shm_cdr::RosMessage;
+///
+/// let mut limits = TypeLimits::default();
+/// limits.max_depth = 3;
+/// let refused = DynamicType::from_description_with(&Odometry::full_description(), &limits)
+///     .unwrap_err();
+/// assert!(refused.reason.contains("max_depth"), "{refused}");
+/// assert!(DynamicType::from_description(&Odometry::full_description()).is_ok());
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct TypeLimits {
+    /// How many levels messages may nest, the type itself being level 1.
+    pub max_depth: usize,
+    /// How many types a description may hold, the type itself included.
+    pub max_types: usize,
+    /// How many fields all the types together may have.
+    pub max_fields: usize,
+    /// How many fields one message may hold, counting those of the messages
+    /// it nests by value (not those in arrays or sequences, whose number the
+    /// payload gives and its length bounds).
+    pub max_message_fields: usize,
+    /// The longest type or field name, in bytes (`type_description_interfaces`
+    /// bounds type names to 255).
+    pub max_name_len: usize,
+    /// The longest default value text, in bytes.
+    pub max_default_len: usize,
+    /// The most memory, in bytes, a message of the type may take at its
+    /// smallest: its default, with every element of its fixed arrays. A
+    /// message of a larger type could never be made, nor carried whole.
+    pub max_default_size: usize,
+}
+
+impl TypeLimits {
+    /// The defaults.
+    pub const DEFAULT: Self = Self {
+        max_depth: 32,
+        max_types: 1024,
+        max_fields: 1 << 16,
+        max_message_fields: 1 << 16,
+        max_name_len: 255,
+        max_default_len: 1 << 16,
+        max_default_size: 64 << 20,
+    };
+
+    /// No limits: for a type already built within some (one of its members,
+    /// say).
+    pub(crate) const UNLIMITED: Self = Self {
+        max_depth: usize::MAX,
+        max_types: usize::MAX,
+        max_fields: usize::MAX,
+        max_message_fields: usize::MAX,
+        max_name_len: usize::MAX,
+        max_default_len: usize::MAX,
+        max_default_size: usize::MAX,
+    };
+}
+
+impl Default for TypeLimits {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// The most fields a message may hold per byte of its smallest encoding (a
+/// message nested `max_depth` deep holds one field per level): what bounds
+/// the table a [view](super::MessageView) keeps by the payload's length.
+pub(crate) const MAX_FIELDS_PER_BYTE: usize = 64;
+
+/// The longest part of outside text an error quotes.
+const QUOTED: usize = 96;
+
+/// `text` as an error quotes it: whole if short, else its start and its
+/// length.
+pub(crate) fn quoted(text: &str) -> String {
+    if text.len() <= QUOTED {
+        return text.to_owned();
+    }
+    let mut end = QUOTED;
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}… ({} bytes)", &text[..end], text.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::quoted;
+
+    #[test]
+    fn quoted_cuts_long_text_at_a_char_boundary() {
+        assert_eq!(quoted("geometry_msgs/msg/Pose"), "geometry_msgs/msg/Pose");
+        let long = "é".repeat(1000);
+        let shown = quoted(&long);
+        assert!(shown.len() < 120, "{shown}");
+        assert!(shown.ends_with("… (2000 bytes)"), "{shown}");
+    }
+}
