@@ -215,7 +215,8 @@ fn ask(
         )
         .into());
     }
-    let ty = DynamicType::from_type_description_msg(&reply.type_description)?;
+    let ty = DynamicType::from_type_description_msg(&reply.type_description)
+        .map_err(|e| format!("{service}'s description of {name} is refused: {e}"))?;
     if ty.type_hash() != hash {
         return Err(format!(
             "{service} described {name} with hash {}, not the announced {hash}",

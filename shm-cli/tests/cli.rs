@@ -713,3 +713,178 @@ fn interface_show_expands_nested_types_as_ros2_interface_does() {
         "derived types are not interface files"
     );
 }
+
+/// Descriptions a hostile node serves for its topics: a chain of types nested
+/// deeper than any real type, and a fan-out whose message would hold 100^4
+/// fields (each type's description is small; what it would build is not).
+mod hostile {
+    use shm_cdr::dynamic::{DynamicType, TypeLimits};
+    use shm_cdr::msgs::type_description_interfaces::msg::{
+        Field, FieldType, IndividualTypeDescription, TypeDescription,
+    };
+
+    fn field(name: String, type_id: u8, nested: &str) -> Field {
+        Field {
+            name,
+            r#type: FieldType {
+                type_id,
+                capacity: 0,
+                string_capacity: 0,
+                nested_type_name: nested.to_owned().into(),
+            },
+            default_value: String::new(),
+        }
+    }
+
+    /// `depth` types named `pkg/msg/{stem}{i}` of `width` fields each, every
+    /// field nesting the next type; the last type's fields are bytes.
+    pub fn nest(stem: &str, depth: usize, width: usize) -> TypeDescription {
+        let name = |i: usize| format!("hostile_msgs/msg/{stem}{i}");
+        let mut types: Vec<IndividualTypeDescription> = (0..depth)
+            .map(|i| IndividualTypeDescription {
+                type_name: name(i).into(),
+                fields: (0..width)
+                    .map(|k| match i + 1 < depth {
+                        true => field(format!("f{k}"), 1, &name(i + 1)),
+                        false => field(format!("f{k}"), 3, ""),
+                    })
+                    .collect(),
+            })
+            .collect();
+        let root = types.remove(0);
+        TypeDescription {
+            type_description: root,
+            referenced_type_descriptions: types,
+        }
+    }
+
+    /// The type as its sender builds it, within no practical limit: what it
+    /// announces (its hash) and publishes (its default).
+    pub fn as_sent(description: &TypeDescription) -> DynamicType {
+        let mut limits = TypeLimits::default();
+        limits.max_depth = usize::MAX;
+        limits.max_message_fields = usize::MAX;
+        DynamicType::from_type_description_msg_with(description, &limits).unwrap()
+    }
+}
+
+#[test]
+fn a_hostile_nodes_descriptions_are_refused_and_the_tools_keep_running() {
+    use shm_cdr::msgs::type_description_interfaces::srv::{
+        GetTypeDescription, GetTypeDescription_Response,
+    };
+    use shm_runtime::rmw::Qos;
+
+    let (session, port) = listening_session();
+    // Its own description service off: the hostile one answers instead.
+    let node = RosNode::builder(&session, "hostile")
+        .domain_id(0)
+        .type_description_service(false)
+        .wait()
+        .unwrap();
+    let deep = hostile::nest("Deep", 40, 1);
+    let wide = hostile::nest("Wide", 4, 100);
+    let deep_type = hostile::as_sent(&deep);
+    // The fan-out is refused even by its sender's build (100^4 fields): it
+    // announces a hash of its own making, as a hostile node would.
+    let wide_hash = "RIHS01_".to_owned() + &"ab".repeat(32);
+    let served = [
+        (deep_type.type_hash(), deep.clone()),
+        (wide_hash.clone(), wide),
+    ];
+    let _server = node
+        .declare_service::<GetTypeDescription>("~/get_type_description")
+        .handler(
+            move |request| match served.iter().find(|(hash, _)| *hash == request.type_hash) {
+                Some((_, description)) => GetTypeDescription_Response {
+                    successful: true,
+                    type_description: description.clone(),
+                    ..Default::default()
+                },
+                None => GetTypeDescription_Response::default(),
+            },
+        )
+        .wait()
+        .unwrap();
+    let deep_bytes = shm_cdr::to_vec(&deep_type.default_message()).unwrap();
+    let publishers = [
+        ("/deep", deep_type.name().to_owned(), deep_type.type_hash()),
+        ("/wide", "hostile_msgs/msg/Wide0".to_owned(), wide_hash),
+    ]
+    .map(|(topic, name, hash)| {
+        node.declare_serialized_publisher(topic, &name, &hash, Qos::default())
+            .wait()
+            .unwrap()
+    });
+    let _chatter = keep_publishing(&node, "/chatter", RosString { data: "ok".into() });
+    let alive = std::sync::Arc::new(());
+    let weak = std::sync::Arc::downgrade(&alive);
+    std::thread::spawn(move || {
+        while weak.upgrade().is_some() {
+            for publisher in &publishers {
+                let _ = publisher.publish_serialized(&deep_bytes);
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    });
+
+    let refusal = |output: &Output, limit: &str| {
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        println!("{stderr}");
+        assert_eq!(output.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains(limit), "{stderr}");
+        assert!(stderr.len() < 2000, "{stderr}");
+    };
+    refusal(
+        &run(port, &["topic", "echo", "/deep", "--once"]),
+        "max_depth",
+    );
+    refusal(
+        &run(port, &["topic", "echo", "/wide", "--once"]),
+        "max_message_fields",
+    );
+    refusal(
+        &run(port, &["topic", "pub", "--once", "/deep", "{}"]),
+        "max_depth",
+    );
+    refusal(&run(port, &["topic", "hz", "/wide"]), "max_message_fields");
+
+    // The recorder records the other topics and says why these are not.
+    let dir = std::env::temp_dir().join(format!("shm_cli_hostile_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let bag = dir.join("bag");
+    let output = run(
+        port,
+        &[
+            "bag",
+            "record",
+            "-o",
+            bag.to_str().unwrap(),
+            "--duration",
+            "4",
+            "--no-progress",
+            "--disable-keyboard-controls",
+            "/chatter",
+            "/deep",
+            "/wide",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("Not recorded: /deep") && stderr.contains("max_depth"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("Not recorded: /wide"), "{stderr}");
+    let recorded = shm_bag::Bag::open(&bag).unwrap();
+    let counts: std::collections::BTreeMap<String, u64> = recorded
+        .topics()
+        .unwrap()
+        .into_values()
+        .map(|t| (t.name, t.message_count))
+        .collect();
+    assert!(counts.get("/chatter").is_some_and(|n| *n > 0), "{counts:?}");
+    assert!(!counts.contains_key("/deep"), "{counts:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+    drop(alive);
+}
