@@ -57,9 +57,9 @@ fn tracing_events_reach_rosout_as_rcl_log_messages() {
         tracing::error!(target: "zenoh::transport", "not published: Zenoh's own");
         tracing::debug!("not published: below the default level, INFO");
         // A level for the node's logger's parent applies to it.
-        log_levels::set_logger_level("demo", LogLevel::Debug);
+        log_levels::set_logger_level("demo", LogLevel::Debug).unwrap();
         tracing::debug!(id = "x7", "details");
-        log_levels::set_logger_level("demo.talker", LogLevel::Warn);
+        log_levels::set_logger_level("demo.talker", LogLevel::Warn).unwrap();
         tracing::info!("not published: below the node's own level");
     });
 

@@ -9,9 +9,10 @@
 //! ```
 //! use shm_runtime::log_levels::{self, LogLevel};
 //!
-//! log_levels::set_logger_level("demo.talker", LogLevel::Debug);
+//! log_levels::set_logger_level("demo.talker", LogLevel::Debug)?;
 //! assert_eq!(log_levels::effective_logger_level("demo.talker.planner"), LogLevel::Debug);
 //! assert_eq!(log_levels::logger_level("demo.talker.planner"), LogLevel::Unset);
+//! # Ok::<(), log_levels::LoggerLevelError>(())
 //! ```
 //!
 //! [`RosNodeBuilder::logger_service`]: crate::RosNodeBuilder::logger_service
@@ -111,14 +112,56 @@ fn table() -> MutexGuard<'static, Table> {
         .unwrap_or_else(|e| e.into_inner())
 }
 
+/// The most loggers the table keeps a level for: `~/set_logger_levels`
+/// may be called by any node, and each name it gives is kept.
+pub const MAX_LOGGERS: usize = 4096;
+
+/// The longest logger name the table keeps, in bytes.
+pub const MAX_LOGGER_NAME_LEN: usize = 1024;
+
+/// Why a logger's level was not set.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LoggerLevelError(String);
+
+impl fmt::Display for LoggerLevelError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for LoggerLevelError {}
+
 /// Set the level of logger `name`; the empty name sets the default level.
-pub fn set_logger_level(name: &str, level: LogLevel) {
+/// [`LogLevel::Unset`] forgets the logger's level, so the table holds only
+/// loggers with one; it holds at most [`MAX_LOGGERS`] names of at most
+/// [`MAX_LOGGER_NAME_LEN`] bytes, and refuses more.
+pub fn set_logger_level(name: &str, level: LogLevel) -> Result<(), LoggerLevelError> {
     let mut table = table();
     if name.is_empty() {
         table.default = level;
-    } else {
-        table.levels.insert(name.to_owned(), level);
+        return Ok(());
     }
+    if level == LogLevel::Unset {
+        table.levels.remove(name);
+        // A table emptied of many names gives their memory back.
+        if table.levels.capacity() > 4 * table.levels.len().max(64) {
+            table.levels.shrink_to_fit();
+        }
+        return Ok(());
+    }
+    if name.len() > MAX_LOGGER_NAME_LEN {
+        return Err(LoggerLevelError(format!(
+            "a logger name of {} bytes: at most {MAX_LOGGER_NAME_LEN} are kept",
+            name.len()
+        )));
+    }
+    if table.levels.len() >= MAX_LOGGERS && !table.levels.contains_key(name) {
+        return Err(LoggerLevelError(format!(
+            "levels are kept for {MAX_LOGGERS} loggers at most: unset some first"
+        )));
+    }
+    table.levels.insert(name.to_owned(), level);
+    Ok(())
 }
 
 /// The level set for logger `name` (`Unset` if none was); the empty name
@@ -197,13 +240,16 @@ pub(crate) fn set_levels(request: &SetLoggerLevels_Request) -> SetLoggerLevels_R
             .levels
             .iter()
             .map(|wanted| match LogLevel::from_number(wanted.level) {
-                Some(level) => {
-                    set_logger_level(&wanted.name, level);
-                    SetLoggerLevelsResult {
+                Some(level) => match set_logger_level(&wanted.name, level) {
+                    Ok(()) => SetLoggerLevelsResult {
                         successful: true,
                         reason: String::new(),
-                    }
-                }
+                    },
+                    Err(e) => SetLoggerLevelsResult {
+                        successful: false,
+                        reason: format!("Failed reason: {e}."),
+                    },
+                },
                 None => SetLoggerLevelsResult {
                     successful: false,
                     reason: "Failed reason: Invalid logger level.".into(),
@@ -221,8 +267,8 @@ mod tests {
 
     #[test]
     fn a_logger_takes_its_nearest_ancestors_level() {
-        set_logger_level("t1.robot", LogLevel::Warn);
-        set_logger_level("t1.robot.arm.joint", LogLevel::Unset);
+        set_logger_level("t1.robot", LogLevel::Warn).unwrap();
+        set_logger_level("t1.robot.arm.joint", LogLevel::Unset).unwrap();
         assert_eq!(effective_logger_level("t1.robot.arm.joint"), LogLevel::Warn);
         assert_eq!(logger_level("t1.robot.arm"), LogLevel::Unset);
         assert_eq!(effective_logger_level("t1.robotic"), logger_level(""));
@@ -250,6 +296,39 @@ mod tests {
         });
         let numbers: Vec<u32> = levels.levels.iter().map(|l| l.level).collect();
         assert_eq!(numbers, [0, 40]);
+    }
+
+    #[test]
+    fn the_table_keeps_only_loggers_with_a_level_and_at_most_so_many() {
+        let request = |names: std::ops::Range<usize>, level: u32| SetLoggerLevels_Request {
+            levels: names
+                .map(|i| LoggerLevel {
+                    name: format!("t3.n{i}"),
+                    level,
+                })
+                .collect(),
+        };
+        let held = || table().levels.len();
+        let before = held();
+        // Unset names are forgotten, not kept at level 0.
+        let reply = set_levels(&request(0..10_000, 0));
+        assert!(reply.results.iter().all(|r| r.successful));
+        assert_eq!(held(), before);
+        // Past the cap, each further name is refused with the reason.
+        let reply = set_levels(&request(0..MAX_LOGGERS + 10, 10));
+        let refused: Vec<_> = reply.results.iter().filter(|r| !r.successful).collect();
+        assert!(refused.len() >= 10, "{} refused", refused.len());
+        assert!(
+            refused[0].reason.contains("4096 loggers"),
+            "{}",
+            refused[0].reason
+        );
+        assert!(held() <= MAX_LOGGERS);
+        // Unset again: the room is free once more.
+        set_levels(&request(0..MAX_LOGGERS + 10, 0));
+        assert!(held() <= before);
+        let long = "x".repeat(MAX_LOGGER_NAME_LEN + 1);
+        assert!(set_logger_level(&long, LogLevel::Debug).is_err());
     }
 
     #[test]

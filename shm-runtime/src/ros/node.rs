@@ -919,7 +919,8 @@ impl RosNodeBuilder<'_> {
         }
         // Process-wide, as rcl applies them at init.
         for (name, level) in &self.log_levels {
-            log_levels::set_logger_level(name, *level);
+            log_levels::set_logger_level(name, *level)
+                .map_err(|e| format!("--log-level {name}: {e}"))?;
         }
         names::validate_node_name(&self.name)?;
         // As rcl: the name first, then the namespace rules of the renamed node.

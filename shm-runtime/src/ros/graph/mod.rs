@@ -227,6 +227,18 @@ impl Entity {
 /// foreign program on `@ros2_lv` must not grow the graph without bound).
 pub const MAX_UNREADABLE: usize = 1024;
 
+/// The longest token read, in bytes: rmw_zenoh_cpp's longest (255-byte
+/// names, a namespace, a type name, a hash and a QoS) is well within it.
+/// A longer one is unreadable, and only its start is kept.
+pub const MAX_TOKEN_LEN: usize = 4096;
+
+/// The most entities a graph holds: any program on the network can declare
+/// tokens. Past it, new tokens are unreadable until others leave.
+pub const MAX_ENTITIES: usize = 1 << 17;
+
+/// The part of a token an unreadable entry keeps.
+const KEPT_TOKEN: usize = 256;
+
 /// Entities by token.
 type ByToken = BTreeMap<Arc<str>, Arc<Entity>>;
 
@@ -258,8 +270,17 @@ pub struct Graph {
     nodes: BTreeMap<String, ByToken>,
     /// Endpoints by their node's fully qualified name.
     by_node: HashMap<String, ByToken>,
-    unreadable: BTreeMap<String, TokenError>,
+    /// By a hash of the whole token: a long one is not kept whole.
+    unreadable: BTreeMap<u64, TokenError>,
     counts: HashMap<EntityKind, usize>,
+}
+
+/// The key of a token among the unreadable.
+fn token_key(token: &str) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+    token.hash(&mut hasher);
+    hasher.finish()
 }
 
 impl Graph {
@@ -278,11 +299,32 @@ impl Graph {
         if self.entities.contains_key(token) {
             return None;
         }
-        let entity = match Entity::parse(token) {
+        let parsed = if token.len() > MAX_TOKEN_LEN {
+            Err("longer than any rmw_zenoh_cpp token (4096 bytes)")
+        } else if self.entities.len() >= MAX_ENTITIES {
+            Err("the graph holds as many entities as it may (131072)")
+        } else {
+            Entity::parse(token).map_err(|e| e.reason)
+        };
+        let entity = match parsed {
             Ok(entity) => Arc::new(entity),
-            Err(e) => {
+            Err(reason) => {
                 if self.unreadable.len() < MAX_UNREADABLE {
-                    self.unreadable.insert(token.to_owned(), e);
+                    let mut end = token.len().min(KEPT_TOKEN);
+                    while !token.is_char_boundary(end) {
+                        end -= 1;
+                    }
+                    let kept = match token.get(..end) {
+                        Some(start) if end < token.len() => format!("{start}…"),
+                        _ => token.to_owned(),
+                    };
+                    self.unreadable.insert(
+                        token_key(token),
+                        TokenError {
+                            token: kept,
+                            reason,
+                        },
+                    );
                 }
                 return None;
             }
@@ -306,7 +348,7 @@ impl Graph {
     /// Remove the entity of `token`; `Some` if it was there.
     pub(crate) fn remove(&mut self, token: &str) -> Option<Arc<Entity>> {
         let Some(entity) = self.entities.remove(token) else {
-            self.unreadable.remove(token);
+            self.unreadable.remove(&token_key(token));
             return None;
         };
         if let Some(count) = self.counts.get_mut(&entity.kind) {
@@ -334,6 +376,14 @@ impl Graph {
                 }
             }
         }
+        // Indexes emptied of many entries give their memory back.
+        fn fit<K: Eq + std::hash::Hash, V>(index: &mut HashMap<K, V>) {
+            if index.capacity() > 4 * index.len().max(64) {
+                index.shrink_to_fit();
+            }
+        }
+        fit(&mut self.by_name);
+        fit(&mut self.by_node);
         Some(entity)
     }
 
@@ -641,5 +691,55 @@ mod tests {
         }
         assert!(graph.is_empty());
         assert!(graph.by_name.is_empty() && graph.by_node.is_empty() && graph.nodes.is_empty());
+    }
+
+    /// Tokens a hostile program declares: long ones are unreadable and kept
+    /// short, the graph holds a bounded number of entities, and everything
+    /// goes when the tokens go.
+    #[test]
+    fn hostile_tokens_are_bounded_and_forgotten() {
+        let long = "x".repeat(60_000);
+        let tokens: Vec<String> = (0..2200)
+            .map(|i| {
+                let name = if i % 7 == 0 { long.as_str() } else { "chatter" };
+                format!(
+                    "@ros2_lv/0/ab/1/{i}/MP/%/%/n/%{name}/std_msgs::msg::dds_::String_/RIHS01_00/::,10:,:,:,,"
+                )
+            })
+            .collect();
+        let mut graph = Graph::from_tokens(tokens.iter().map(String::as_str));
+        let long_ones = tokens.iter().filter(|t| t.len() > MAX_TOKEN_LEN).count();
+        assert_eq!(graph.len(), tokens.len() - long_ones);
+        assert_eq!(graph.unreadable().len(), long_ones);
+        for e in graph.unreadable() {
+            assert!(
+                e.token.len() <= KEPT_TOKEN + 3,
+                "{} bytes kept",
+                e.token.len()
+            );
+            assert!(e.to_string().contains("4096 bytes"), "{e}");
+        }
+        for token in &tokens {
+            graph.remove(token);
+        }
+        assert!(graph.is_empty() && graph.unreadable().len() == 0);
+        assert!(graph.by_name.capacity() < 1024);
+
+        // At the entity cap, further tokens wait among the unreadable.
+        let node = |i: usize| format!("@ros2_lv/0/ab/{i}/{i}/NN/%/%/n{i}");
+        let mut graph = Graph::from_tokens(
+            (0..MAX_ENTITIES + 5)
+                .map(node)
+                .collect::<Vec<_>>()
+                .iter()
+                .map(String::as_str),
+        );
+        assert_eq!(graph.len(), MAX_ENTITIES);
+        assert_eq!(graph.unreadable().len(), 5);
+        assert!(graph
+            .unreadable()
+            .all(|e| e.reason.contains("as many entities")));
+        graph.remove(&node(0));
+        assert!(graph.insert(&node(MAX_ENTITIES + 9)).is_some());
     }
 }
