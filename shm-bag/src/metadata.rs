@@ -128,6 +128,7 @@ impl BagMetadata {
 
     /// Read `metadata.yaml` text.
     pub fn from_yaml(text: &str) -> Result<Self, Error> {
+        shm_cdr::text_limits::check_yaml(text).map_err(|e| format!("{FILE_NAME}: {e}"))?;
         let file: File = serde_yaml::from_str(text)
             .map_err(|e| format!("{FILE_NAME} is not a rosbag2 metadata file: {e}"))?;
         Ok(file.rosbag2_bagfile_information)
@@ -136,7 +137,7 @@ impl BagMetadata {
     /// Read the `metadata.yaml` of the bag directory `dir`.
     pub fn read(dir: &Path) -> Result<Self, Error> {
         let path = dir.join(FILE_NAME);
-        let text = std::fs::read_to_string(&path)
+        let text = shm_cdr::text_limits::read_text_file(&path)
             .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         Self::from_yaml(&text)
     }

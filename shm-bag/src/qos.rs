@@ -133,11 +133,12 @@ pub fn to_yaml(profiles: &[QosProfile]) -> String {
 }
 
 /// The profiles an MCAP channel's `offered_qos_profiles` holds.
-pub fn from_yaml(text: &str) -> Result<Vec<QosProfile>, serde_yaml::Error> {
+pub fn from_yaml(text: &str) -> Result<Vec<QosProfile>, crate::Error> {
     if text.trim().is_empty() {
         return Ok(Vec::new());
     }
-    serde_yaml::from_str(text)
+    shm_cdr::text_limits::check_yaml(text)?;
+    Ok(serde_yaml::from_str(text)?)
 }
 
 #[cfg(test)]

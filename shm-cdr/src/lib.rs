@@ -48,6 +48,7 @@ mod registry;
 #[cfg(any(feature = "proptest", feature = "arbitrary"))]
 mod strategies;
 pub mod testing;
+pub mod text_limits;
 mod wire;
 
 pub use bounded::{BoundedString, BoundedVec, BoundedWString, WString};

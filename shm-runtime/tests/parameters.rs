@@ -81,14 +81,21 @@ fn another_node_reads_and_sets_parameters_under_their_descriptors() {
         double_value: v,
         ..Default::default()
     };
-    let request = SetParameters_Request {
-        parameters: [2.0, 4.0, 2.5]
-            .map(|v| Parameter {
-                name: "max_speed".into(),
-                value: double(v),
-            })
-            .to_vec(),
-    };
+    let mut parameters: Vec<Parameter> = [2.0, 4.0, 2.5]
+        .map(|v| Parameter {
+            name: "max_speed".into(),
+            value: double(v),
+        })
+        .to_vec();
+    // A type code rcl_interfaces does not define: refused as such.
+    parameters.push(Parameter {
+        name: "max_speed".into(),
+        value: ValueMsg {
+            r#type: 255,
+            ..Default::default()
+        },
+    });
+    let request = SetParameters_Request { parameters };
     let results = set.call(&request).wait().unwrap().results;
     let outcome: Vec<(bool, &str)> = results
         .iter()
@@ -103,6 +110,10 @@ fn another_node_reads_and_sets_parameters_under_their_descriptors() {
                 "Parameter max_speed out of range Min: 0.0, Max: 3.0, value: 4.0"
             ),
             (false, "2.5 is reserved"),
+            (
+                false,
+                "Parameter max_speed has type 255: rcl_interfaces/msg/ParameterType defines 0 to 9"
+            ),
         ]
     );
     assert_eq!(

@@ -329,3 +329,31 @@ fn limits_are_the_callers_to_set() {
     let ty = DynamicType::from_type_description_msg_with(&description, &limits).expect("built");
     assert_eq!(ty.structs().len(), 40);
 }
+
+#[test]
+fn message_text_nested_past_any_type_is_refused_before_it_is_parsed() {
+    bounded(
+        "message_text_nested_past_any_type_is_refused_before_it_is_parsed",
+        || {
+            let ty = DynamicType::from_type_description_msg(&chain(3)).expect("built");
+            for open in ["[", "{a: ", "- ["] {
+                let text = format!("x: {}", open.repeat(100_000));
+                let error = ty.message_from_yaml(&text).expect_err("refused");
+                assert!(error.reason.contains("nest more than 128"), "{error}");
+            }
+            // An alias bomb: refused by the YAML reader.
+            let mut bomb = String::from("a: &a [x, x]\n");
+            for i in 0..30 {
+                bomb += &format!("b{i}: &b{i} [*{}, *{}]\n", prev(i), prev(i));
+            }
+            fn prev(i: usize) -> String {
+                if i == 0 {
+                    "a".into()
+                } else {
+                    format!("b{}", i - 1)
+                }
+            }
+            assert!(ty.message_from_yaml(&bomb).is_err());
+        },
+    );
+}

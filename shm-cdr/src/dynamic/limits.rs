@@ -84,33 +84,3 @@ impl Default for TypeLimits {
 /// message nested `max_depth` deep holds one field per level): what bounds
 /// the table a [view](super::MessageView) keeps by the payload's length.
 pub(crate) const MAX_FIELDS_PER_BYTE: usize = 64;
-
-/// The longest part of outside text an error quotes.
-const QUOTED: usize = 96;
-
-/// `text` as an error quotes it: whole if short, else its start and its
-/// length.
-pub(crate) fn quoted(text: &str) -> String {
-    if text.len() <= QUOTED {
-        return text.to_owned();
-    }
-    let mut end = QUOTED;
-    while !text.is_char_boundary(end) {
-        end -= 1;
-    }
-    format!("{}… ({} bytes)", &text[..end], text.len())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::quoted;
-
-    #[test]
-    fn quoted_cuts_long_text_at_a_char_boundary() {
-        assert_eq!(quoted("geometry_msgs/msg/Pose"), "geometry_msgs/msg/Pose");
-        let long = "é".repeat(1000);
-        let shown = quoted(&long);
-        assert!(shown.len() < 120, "{shown}");
-        assert!(shown.ends_with("… (2000 bytes)"), "{shown}");
-    }
-}

@@ -5,8 +5,9 @@ use std::collections::HashMap;
 use std::fmt;
 use std::sync::Arc;
 
-use super::limits::{quoted, TypeLimits, MAX_FIELDS_PER_BYTE};
+use super::limits::{TypeLimits, MAX_FIELDS_PER_BYTE};
 use crate::describe::{self, Container, DescribedField, FullDescription, TypeId};
+use crate::text_limits::quoted;
 
 /// What one element of a field is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -305,6 +306,7 @@ impl DynamicType {
             field: None,
             reason,
         };
+        crate::text_limits::check_yaml(text).map_err(|e| error(e.reason))?;
         let root: Value =
             serde_yaml::from_str(text).map_err(|e| error(format!("not JSON: {e}")))?;
         let msg = root.get("type_description_msg").unwrap_or(&root);

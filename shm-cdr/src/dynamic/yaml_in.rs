@@ -89,6 +89,10 @@ impl DynamicType {
         text: &str,
         now: Option<(i32, u32)>,
     ) -> Result<Message<'static>, TextError> {
+        crate::text_limits::check_yaml(text).map_err(|e| TextError {
+            path: String::new(),
+            reason: e.reason,
+        })?;
         let mut message = self.default_message();
         if text.trim().is_empty() {
             return Ok(message);

@@ -119,6 +119,7 @@ impl ParameterOverrides {
         if name.is_empty() {
             return Err(error("the name is empty"));
         }
+        shm_cdr::text_limits::check_yaml(text).map_err(|e| error(&e.reason))?;
         let yaml: Value = serde_yaml::from_str(text).map_err(|e| error(&e.to_string()))?;
         let value = yaml_value(&yaml).map_err(|reason| error(&reason))?;
         self.entries.push((None, name.to_owned(), value));
@@ -134,7 +135,7 @@ impl ParameterOverrides {
             source: source.clone(),
             reason,
         };
-        let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
+        let text = shm_cdr::text_limits::read_text_file(path).map_err(|e| error(e.to_string()))?;
         self.add_yaml(&text).map_err(error)
     }
 
@@ -147,6 +148,7 @@ impl ParameterOverrides {
     }
 
     fn add_yaml(&mut self, text: &str) -> Result<(), String> {
+        shm_cdr::text_limits::check_yaml(text).map_err(|e| e.reason)?;
         let document: Value = serde_yaml::from_str(text).map_err(|e| e.to_string())?;
         let Value::Mapping(nodes) = document else {
             return Err("the top level must map node names to their parameters".into());
@@ -236,6 +238,7 @@ fn flatten(
 
 /// [`ParameterValue::from_yaml_text`].
 pub(crate) fn value_from_yaml_text(text: &str) -> Result<ParameterValue, String> {
+    shm_cdr::text_limits::check_yaml(text).map_err(|e| e.reason)?;
     let yaml: Value = serde_yaml::from_str(text).map_err(|e| e.to_string())?;
     yaml_value(&yaml)
 }
@@ -286,6 +289,32 @@ fn yaml_value(value: &Value) -> Result<ParameterValue, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn endless_or_deep_parameter_files_are_refused_before_they_are_parsed() {
+        let mut o = ParameterOverrides::default();
+        let error = o.add_file(Path::new("/dev/zero")).unwrap_err();
+        assert!(
+            error.to_string().contains("the most read as text"),
+            "{error}"
+        );
+        let deep = format!(
+            "/**:\n  ros__parameters:\n    a: {}{}\n",
+            "[".repeat(100_000),
+            "]".repeat(100_000)
+        );
+        // Refused by a linear scan: parsing it would take minutes.
+        let error = o.add_yaml_text(&deep).unwrap_err();
+        assert!(error.to_string().contains("nest more than 128"), "{error}");
+        let error = ParameterOverrides::from_ros_args([
+            "prog".to_owned(),
+            "--ros-args".to_owned(),
+            "-p".to_owned(),
+            format!("a:={}", "{a: ".repeat(1000)),
+        ])
+        .unwrap_err();
+        assert!(error.to_string().contains("nest more than 128"), "{error}");
+    }
 
     #[test]
     fn command_line_values_are_read_as_yaml() {

@@ -55,14 +55,30 @@ impl Shared {
         self.publish(changes);
         result
     }
+
+    /// A set asked through the services.
+    fn set_msgs(&self, set: &[Parameter]) -> SetResult {
+        // A type code rcl_interfaces does not define is refused as such,
+        // not read as "not set" (which would undeclare the parameter).
+        if let Some(p) = set.iter().find(|p| p.value.r#type > MAX_TYPE_CODE) {
+            return SetResult::refused(format!(
+                "Parameter {} has type {}: rcl_interfaces/msg/ParameterType defines 0 to \
+                 {MAX_TYPE_CODE}",
+                shm_cdr::text_limits::quoted(&p.name),
+                p.value.r#type
+            ));
+        }
+        let set: Vec<(String, ParameterValue)> = set
+            .iter()
+            .map(|p| (p.name.clone(), ParameterValue::from_msg(&p.value)))
+            .collect();
+        self.set(&set)
+    }
 }
 
-fn pairs(parameters: &[Parameter]) -> Vec<(String, ParameterValue)> {
-    parameters
-        .iter()
-        .map(|p| (p.name.clone(), ParameterValue::from_msg(&p.value)))
-        .collect()
-}
+/// The highest type code of `rcl_interfaces/msg/ParameterType`
+/// (`PARAMETER_STRING_ARRAY`).
+const MAX_TYPE_CODE: u8 = 9;
 
 /// A node's parameters with their services, started with the node (or, with
 /// `parameter_services(false)`, on first use).
@@ -121,9 +137,10 @@ impl ParameterServer {
             node.declare_service::<SetParameters>("~/set_parameters")
                 // One at a time, each on its own, as rclpy answers.
                 .handler(move |request| SetParameters_Response {
-                    results: pairs(&request.parameters)
-                        .into_iter()
-                        .map(|one| s.set(&[one]).to_msg())
+                    results: request
+                        .parameters
+                        .iter()
+                        .map(|one| s.set_msgs(std::slice::from_ref(one)).to_msg())
                         .collect(),
                 })
                 .wait()?,
@@ -132,7 +149,7 @@ impl ParameterServer {
         services.push(Box::new(
             node.declare_service::<SetParametersAtomically>("~/set_parameters_atomically")
                 .handler(move |request| SetParametersAtomically_Response {
-                    result: s.set(&pairs(&request.parameters)).to_msg(),
+                    result: s.set_msgs(&request.parameters).to_msg(),
                 })
                 .wait()?,
         ));
