@@ -15,6 +15,7 @@
 //! - [`Player`]: publish a recording with its timing and QoS.
 //! - [`BagWriter`] and [`BagMetadata`]: the files themselves.
 
+mod chunk;
 mod control;
 mod player;
 mod recorder;

@@ -3,6 +3,7 @@
 //! rate), from an exact-size shared-memory buffer when it is large.
 
 use std::collections::{BTreeMap, HashMap};
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -150,6 +151,74 @@ impl Bag {
             .filter_map(|p| std::fs::metadata(p).ok())
             .map(|m| m.len())
             .sum()
+    }
+
+    /// Read the messages from the recording's time `from` on, file by file:
+    /// `on_file` is told of each file as it is opened, `each` is given every
+    /// message's topic, log time and bytes, and may stop the reading with
+    /// what it breaks with. With a chunk index (rosbag2 and this crate write
+    /// one), chunks wholly before `from` are not read at all: a seek or a
+    /// start offset costs no decompression of what it skips. Messages before
+    /// `from` in a chunk that is read are given too.
+    pub fn read_messages<T>(
+        &self,
+        from: u64,
+        mut on_file: impl FnMut(&Path),
+        mut each: impl FnMut(&str, u64, &[u8]) -> ControlFlow<T>,
+    ) -> Result<Option<T>, Error> {
+        for path in &self.files {
+            on_file(path);
+            let file = map(path)?;
+            let summary = summary(path, &file)?;
+            let topics: HashMap<u16, &str> = summary
+                .channels
+                .iter()
+                .map(|(id, c)| (*id, c.topic.as_str()))
+                .collect();
+            let bad = |e: mcap::McapError| format!("{}: {e}", path.display());
+            let mut give = |channel: u16, time: u64, data: &[u8]| match topics.get(&channel) {
+                Some(topic) => each(topic, time, data),
+                None => ControlFlow::Continue(()),
+            };
+            let mut scratch = Vec::new();
+            if summary.chunk_indexes.is_empty() {
+                // No index: every record in file order, chunks as they come.
+                for record in mcap::read::LinearReader::new(&file).map_err(bad)? {
+                    let ended = match record.map_err(bad)? {
+                        mcap::records::Record::Message { header, data } => {
+                            match give(header.channel_id, header.log_time, &data) {
+                                ControlFlow::Break(ended) => Some(ended),
+                                ControlFlow::Continue(()) => None,
+                            }
+                        }
+                        mcap::records::Record::Chunk { header, data } => {
+                            let records = crate::chunk::contents(&header, &data, &mut scratch)
+                                .map_err(|e| format!("{}: {e}", path.display()))?;
+                            crate::chunk::each_message(records, &mut give).map_err(bad)?
+                        }
+                        _ => None,
+                    };
+                    if ended.is_some() {
+                        return Ok(ended);
+                    }
+                }
+                continue;
+            }
+            let mut chunks: Vec<&mcap::records::ChunkIndex> =
+                summary.chunk_indexes.iter().collect();
+            chunks.sort_by_key(|c| c.chunk_start_offset);
+            for chunk in chunks {
+                if chunk.message_end_time < from {
+                    continue;
+                }
+                let records = crate::chunk::records(&file, chunk, &mut scratch)
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
+                if let Some(ended) = crate::chunk::each_message(records, &mut give).map_err(bad)? {
+                    return Ok(Some(ended));
+                }
+            }
+        }
+        Ok(None)
     }
 
     /// The topics in all files, by name, from the files' summaries.
@@ -547,63 +616,35 @@ impl Player {
         end: Option<u64>,
         stats: &mut PlayStats,
     ) -> Result<PassEnd, Error> {
-        let mut previous: Option<&PathBuf> = None;
-        for path in &self.bag.files {
-            if let Some(closed) = previous.replace(path) {
-                self.read_splits.publish(&FileSplit {
-                    closed: closed.clone(),
-                    opened: path.clone(),
-                });
-            }
-            let file = map(path)?;
-            let summary = summary(path, &file)?;
-            let by_channel: HashMap<u16, (&str, &RosPublisher<Serialized>)> = summary
-                .channels
-                .iter()
-                .filter_map(|(id, c)| {
-                    self.publishers
-                        .get(&c.topic)
-                        .map(|p| (*id, (c.topic.as_str(), p)))
-                })
-                .collect();
-            let bad = |e: mcap::McapError| format!("{}: {e}", path.display());
-            let mut play = |channel: u16, time: u64, data: &[u8]| -> Option<PassEnd> {
-                let &(topic, publisher) = by_channel.get(&channel)?;
+        let mut previous: Option<PathBuf> = None;
+        let ended = self.bag.read_messages(
+            from,
+            |path| {
+                if let Some(closed) = previous.replace(path.to_owned()) {
+                    self.read_splits.publish(&FileSplit {
+                        closed,
+                        opened: path.to_owned(),
+                    });
+                }
+            },
+            |topic, time, data| {
+                let Some(publisher) = self.publishers.get(topic) else {
+                    return ControlFlow::Continue(());
+                };
                 if time < from {
-                    return None;
+                    return ControlFlow::Continue(());
                 }
                 if end.is_some_and(|end| time > end) {
                     // Files hold messages in time order: none is due after.
-                    return Some(PassEnd::Finished);
+                    return ControlFlow::Break(PassEnd::Finished);
                 }
-                self.play_message(stop, topic, publisher, time, data, stats)
-            };
-            if summary.chunk_indexes.is_empty() {
-                for message in mcap::read::RawMessageStream::new(&file).map_err(bad)? {
-                    let message = message.map_err(bad)?;
-                    let header = &message.header;
-                    if let Some(ended) = play(header.channel_id, header.log_time, &message.data) {
-                        return Ok(ended);
-                    }
+                match self.play_message(stop, topic, publisher, time, data, stats) {
+                    Some(ended) => ControlFlow::Break(ended),
+                    None => ControlFlow::Continue(()),
                 }
-                continue;
-            }
-            let mut chunks: Vec<&mcap::records::ChunkIndex> =
-                summary.chunk_indexes.iter().collect();
-            chunks.sort_by_key(|c| c.chunk_start_offset);
-            for chunk in chunks {
-                if chunk.message_end_time < from {
-                    continue;
-                }
-                for message in summary.stream_chunk(&file, chunk).map_err(bad)? {
-                    let message = message.map_err(bad)?;
-                    if let Some(ended) = play(message.channel.id, message.log_time, &message.data) {
-                        return Ok(ended);
-                    }
-                }
-            }
-        }
-        Ok(PassEnd::Finished)
+            },
+        )?;
+        Ok(ended.unwrap_or(PassEnd::Finished))
     }
 
     /// Publish one message of `topic` when it is due; what ends the pass

@@ -577,6 +577,37 @@ pub struct FullDescription {
 }
 
 impl FullDescription {
+    /// The description as `type_description_interfaces/msg/TypeDescription`:
+    /// what a node's `~/get_type_description` answers with.
+    #[cfg(feature = "type_description_interfaces")]
+    pub fn to_msg(&self) -> crate::msgs::type_description_interfaces::msg::TypeDescription {
+        use crate::msgs::type_description_interfaces::msg as td;
+        let individual = |description: &TypeDescription| td::IndividualTypeDescription {
+            type_name: description.type_name.into(),
+            fields: description
+                .fields
+                .iter()
+                .map(|field| {
+                    let t = &field.field_type;
+                    td::Field {
+                        name: field.name.to_owned(),
+                        r#type: td::FieldType {
+                            type_id: t.type_id(),
+                            capacity: t.capacity() as u64,
+                            string_capacity: t.string_capacity as u64,
+                            nested_type_name: t.nested_type_name.into(),
+                        },
+                        default_value: field.default_value.to_owned(),
+                    }
+                })
+                .collect(),
+        };
+        td::TypeDescription {
+            type_description: individual(&self.own),
+            referenced_type_descriptions: self.referenced.iter().map(individual).collect(),
+        }
+    }
+
     /// The description of `own` with the types `register` adds (a type's
     /// `register_types`).
     pub fn collect(own: TypeDescription, register: impl FnOnce(&mut TypeRegistry)) -> Self {

@@ -6,8 +6,11 @@
 
 use std::fmt;
 
-/// The longest text read, in bytes.
-pub const MAX_TEXT_LEN: usize = 64 << 20;
+/// The longest text read, in bytes. Parsed, YAML takes some thirty times
+/// its length in memory: this keeps a reader within about 256 MiB, and
+/// holds any parameter file, message value or `metadata.yaml` many times
+/// over.
+pub const MAX_TEXT_LEN: usize = 8 << 20;
 
 /// How deep `[…]` and `{…}` may nest (the YAML reader refuses more than 128
 /// levels of any nesting anyway, once it has parsed them).

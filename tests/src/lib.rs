@@ -99,6 +99,11 @@ pub mod fuzzing {
 
     use crate::msgs::*;
 
+    mod outside;
+    pub use outside::{
+        bag, join, liveliness_tokens, message_text, parameter_text, split, type_description,
+    };
+
     /// Decode `data` as `T`; if that succeeds, the value must satisfy every
     /// invariant of `check_roundtrip`.
     fn decode_as<T>(data: &[u8])
@@ -138,22 +143,7 @@ pub mod fuzzing {
             .expect("every generated type is a valid dynamic type");
         let generated = from_bytes::<T>(data).map(|v| shm_cdr::to_vec(&v));
         let dynamic = ty.decode(data);
-        // The view checks what `decode` checks and reads what it gives.
-        match (ty.view(data), &dynamic) {
-            (Ok(view), Ok(message)) => {
-                let read = view.to_message().expect("a checked view reads");
-                // Compared as bytes: NaN is not equal to itself.
-                assert_eq!(
-                    shm_cdr::to_vec(&read).ok(),
-                    shm_cdr::to_vec(message).ok(),
-                    "{}: the view reads otherwise",
-                    T::TYPE_NAME
-                );
-            }
-            (Err(a), Err(b)) => assert_eq!(a, *b, "{}: the view refuses otherwise", T::TYPE_NAME),
-            (Ok(_), Err(e)) => panic!("{}: only the view accepted: {e}", T::TYPE_NAME),
-            (Err(e), Ok(_)) => panic!("{}: only the view refused: {e}", T::TYPE_NAME),
-        }
+        view_agrees(&ty, data, &dynamic);
         match (generated, dynamic) {
             (Ok(Ok(expected)), Ok(message)) => {
                 let bytes =
@@ -164,6 +154,30 @@ pub mod fuzzing {
             (Err(_), Err(_)) | (Ok(Err(_)), _) => {}
             (Ok(_), Err(e)) => panic!("{}: only the dynamic decoder refused: {e}", T::TYPE_NAME),
             (Err(e), Ok(_)) => panic!("{}: only the generated decoder refused: {e}", T::TYPE_NAME),
+        }
+    }
+
+    /// The view of `data` as `ty` checks what `decode` checks (`decoded`) and
+    /// reads what it gives.
+    pub(crate) fn view_agrees(
+        ty: &shm_cdr::dynamic::DynamicType,
+        data: &[u8],
+        decoded: &Result<shm_cdr::dynamic::Message<'_>, shm_cdr::DecodeError>,
+    ) {
+        let name = ty.name();
+        match (ty.view(data), decoded) {
+            (Ok(view), Ok(message)) => {
+                let read = view.to_message().expect("a checked view reads");
+                // Compared as bytes: NaN is not equal to itself.
+                assert_eq!(
+                    shm_cdr::to_vec(&read).ok(),
+                    shm_cdr::to_vec(message).ok(),
+                    "{name}: the view reads otherwise",
+                );
+            }
+            (Err(a), Err(b)) => assert_eq!(a, *b, "{name}: the view refuses otherwise"),
+            (Ok(_), Err(e)) => panic!("{name}: only the view accepted: {e}"),
+            (Err(e), Ok(_)) => panic!("{name}: only the view refused: {e}"),
         }
     }
 

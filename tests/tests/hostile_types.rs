@@ -321,6 +321,20 @@ fn arrays_no_message_could_carry_are_refused_when_the_type_is_built() {
 }
 
 #[test]
+fn a_field_named_twice_is_refused() {
+    let twice = TypeDescription {
+        type_description: described(
+            "hostile_msgs/msg/Twice",
+            vec![field("x", UINT8, 0, ""), field("x", FLOAT64, 0, "")],
+        ),
+        referenced_type_descriptions: Vec::new(),
+    };
+    let error = refused(&twice);
+    assert_eq!(error.field.as_deref(), Some("x"));
+    assert!(error.reason.contains("second field"), "{error}");
+}
+
+#[test]
 fn limits_are_the_callers_to_set() {
     let description = chain(40);
     assert!(DynamicType::from_type_description_msg(&description).is_err());

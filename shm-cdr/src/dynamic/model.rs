@@ -452,7 +452,15 @@ impl DynamicType {
                 ));
             }
             let mut defs = Vec::with_capacity(fields.len());
+            let mut names = std::collections::HashSet::with_capacity(fields.len());
             for f in fields {
+                if !names.insert(f.name) {
+                    return Err(TypeError::new(
+                        name,
+                        Some(f.name),
+                        "a second field of this name".into(),
+                    ));
+                }
                 let (element, container) =
                     field_kind(f, &index).map_err(|r| TypeError::new(name, Some(f.name), r))?;
                 defs.push(FieldDef {

@@ -11,7 +11,7 @@
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, MutexGuard, Weak};
 
-use shm_cdr::describe::{FullDescription, TypeDescription};
+use shm_cdr::describe::FullDescription;
 use shm_cdr::msgs::type_description_interfaces::msg as td;
 use shm_cdr::msgs::type_description_interfaces::srv::{
     GetTypeDescription_Request, GetTypeDescription_Response,
@@ -88,7 +88,7 @@ impl TypeCache {
         };
         GetTypeDescription_Response {
             successful: true,
-            type_description: to_msg(&description),
+            type_description: description.to_msg(),
             type_sources: if request.include_type_sources {
                 description
                     .sources()
@@ -138,36 +138,6 @@ fn parse_rihs01(text: &str) -> Option<String> {
         return None;
     }
     Some(format!("RIHS01_{}", text.get(7..)?.to_ascii_lowercase()))
-}
-
-fn to_msg(description: &FullDescription) -> td::TypeDescription {
-    td::TypeDescription {
-        type_description: individual(&description.own),
-        referenced_type_descriptions: description.referenced.iter().map(individual).collect(),
-    }
-}
-
-fn individual(description: &TypeDescription) -> td::IndividualTypeDescription {
-    td::IndividualTypeDescription {
-        type_name: description.type_name.into(),
-        fields: description
-            .fields
-            .iter()
-            .map(|field| {
-                let t = &field.field_type;
-                td::Field {
-                    name: field.name.to_owned(),
-                    r#type: td::FieldType {
-                        type_id: t.type_id(),
-                        capacity: t.capacity() as u64,
-                        string_capacity: t.string_capacity as u64,
-                        nested_type_name: t.nested_type_name.into(),
-                    },
-                    default_value: field.default_value.to_owned(),
-                }
-            })
-            .collect(),
-    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,4 @@
+//! See `shm_cdr_tests::fuzzing::bag`.
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| shm_cdr_tests::fuzzing::bag(data));

@@ -1,0 +1,4 @@
+//! See `shm_cdr_tests::fuzzing::message_text`.
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| shm_cdr_tests::fuzzing::message_text(data));
