@@ -371,3 +371,27 @@ fn message_text_nested_past_any_type_is_refused_before_it_is_parsed() {
         },
     );
 }
+
+#[test]
+fn a_large_message_is_written_as_yaml_in_memory_linear_in_it() {
+    bounded(
+        "a_large_message_is_written_as_yaml_in_memory_linear_in_it",
+        || {
+            // 16 MiB of bytes: 64 MiB of YAML, one line per byte.
+            let description = TypeDescription {
+                type_description: described(
+                    "hostile_msgs/msg/Bytes",
+                    vec![field("data", ARRAY + UINT8, 16 << 20, "")],
+                ),
+                referenced_type_descriptions: Vec::new(),
+            };
+            let ty = DynamicType::from_type_description_msg(&description).expect("built");
+            let message = ty.default_message();
+            let yaml = message.to_yaml();
+            assert_eq!(yaml.len(), "data:\n".len() + 4 * (16 << 20));
+            // Text that long is not read back.
+            let error = ty.message_from_yaml(&yaml).expect_err("refused");
+            assert!(error.reason.contains("bytes long"), "{error}");
+        },
+    );
+}

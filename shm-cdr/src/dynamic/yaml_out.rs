@@ -8,7 +8,7 @@
 //! scalars.
 
 use std::borrow::Cow;
-use std::fmt::Write as _;
+use std::fmt::{self, Write as _};
 
 use super::model::{Element, FieldDef};
 use super::value::{Message, Value};
@@ -188,7 +188,42 @@ enum Node<'m> {
     /// A number or boolean, in the form PyYAML writes it.
     Plain(String),
     Seq(Vec<Node<'m>>),
+    /// A message's array or sequence: its items are made one at a time as
+    /// they are written, so that writing a message takes memory for its
+    /// depth, not for its elements.
+    List(List<'m>),
     Map(Vec<(&'m str, Node<'m>)>),
+}
+
+struct List<'m> {
+    /// Items shown (`...` follows when some are cut).
+    len: usize,
+    cut: bool,
+    item: Box<dyn Fn(usize) -> Node<'m> + 'm>,
+}
+
+impl fmt::Debug for List<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("List")
+            .field("len", &self.len)
+            .field("cut", &self.cut)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'m> List<'m> {
+    /// How many items are written, `...` included.
+    fn written(&self) -> usize {
+        self.len + usize::from(self.cut)
+    }
+
+    fn node(&self, i: usize) -> Node<'m> {
+        if i < self.len {
+            (self.item)(i)
+        } else {
+            Node::Str(Cow::Borrowed("..."))
+        }
+    }
 }
 
 /// rclpy leaves the placeholder field of an empty message out.
@@ -260,6 +295,8 @@ fn abbreviate(message: &Message<'_>, field: &FieldDef, value: &Value<'_>) -> Str
 
 fn value_node<'m>(element: Element, value: &'m Value<'_>, options: &YamlOptions) -> Node<'m> {
     let byte_text = matches!(element, Element::Byte | Element::Char);
+    // Lists make their items as they are written: they keep the options.
+    let owned = *options;
     match value {
         Value::Bool(v) => bool_node(*v),
         Value::U8(v) if byte_text => byte_node(*v, options),
@@ -277,7 +314,7 @@ fn value_node<'m>(element: Element, value: &'m Value<'_>, options: &YamlOptions)
         Value::WString(s) => string_node(s, options),
         Value::Message(m) => message_node(m, options),
         Value::Bools(v) => list(v, options, |b| bool_node(*b)),
-        Value::U8s(v) if byte_text => list(v, options, |b| byte_node(*b, options)),
+        Value::U8s(v) if byte_text => list(v, options, move |b| byte_node(*b, &owned)),
         Value::U8s(v) => list(v, options, |n| Node::Plain(n.to_string())),
         Value::I8s(v) => list(v, options, |n| Node::Plain(n.to_string())),
         Value::I16s(v) => list(v, options, |n| Node::Plain(n.to_string())),
@@ -288,25 +325,26 @@ fn value_node<'m>(element: Element, value: &'m Value<'_>, options: &YamlOptions)
         Value::U64s(v) => list(v, options, |n| Node::Plain(n.to_string())),
         Value::F32s(v) => list(v, options, |x| float_node(f64::from(*x))),
         Value::F64s(v) => list(v, options, |x| float_node(*x)),
-        Value::Strings(v) => list(v, options, |s| string_node(s, options)),
-        Value::WStrings(v) => list(v, options, |s| string_node(s, options)),
-        Value::Messages(v) => list(v, options, |m| message_node(m, options)),
+        Value::Strings(v) => list(v, options, move |s| string_node(s, &owned)),
+        Value::WStrings(v) => list(v, options, move |s| string_node(s, &owned)),
+        Value::Messages(v) => list(v, options, move |m| message_node(m, &owned)),
     }
 }
 
 fn list<'m, T>(
     items: &'m [T],
     options: &YamlOptions,
-    node: impl Fn(&'m T) -> Node<'m>,
+    node: impl Fn(&'m T) -> Node<'m> + 'm,
 ) -> Node<'m> {
-    match options.truncate_length {
-        Some(n) if items.len() > n => {
-            let mut out: Vec<Node<'m>> = items[..n].iter().map(node).collect();
-            out.push(Node::Str(Cow::Borrowed("...")));
-            Node::Seq(out)
-        }
-        _ => Node::Seq(items.iter().map(node).collect()),
-    }
+    let len = match options.truncate_length {
+        Some(n) => items.len().min(n),
+        None => items.len(),
+    };
+    Node::List(List {
+        len,
+        cut: len < items.len(),
+        item: Box::new(move |i| items.get(i).map_or(Node::Seq(Vec::new()), &node)),
+    })
 }
 
 fn bool_node<'m>(v: bool) -> Node<'m> {
@@ -892,10 +930,24 @@ impl Emitter {
             Node::Str(s) => self.scalar(s, !resolves_to_non_string(s), context),
             Node::Plain(s) => self.scalar(s, true, context),
             Node::Seq(items) => {
+                let each = |e: &mut Self, i: usize| {
+                    if let Some(item) = items.get(i) {
+                        e.node(item, Context::default());
+                    }
+                };
                 if self.flow_level > 0 || self.flow_style || items.is_empty() {
-                    self.flow_sequence(items);
+                    self.flow_sequence(items.len(), each);
                 } else {
-                    self.block_sequence(items, context);
+                    self.block_sequence(items.len(), context, each);
+                }
+            }
+            Node::List(list) => {
+                let each = |e: &mut Self, i: usize| e.node(&list.node(i), Context::default());
+                let n = list.written();
+                if self.flow_level > 0 || self.flow_style || n == 0 {
+                    self.flow_sequence(n, each);
+                } else {
+                    self.block_sequence(n, context, each);
                 }
             }
             Node::Map(entries) => {
@@ -910,15 +962,15 @@ impl Emitter {
         }
     }
 
-    fn flow_sequence(&mut self, items: &[Node<'_>]) {
+    fn flow_sequence(&mut self, len: usize, mut item: impl FnMut(&mut Self, usize)) {
         self.write_indicator("[", true, true, false);
         self.flow_level += 1;
         self.increase_indent(true, false);
-        for (i, item) in items.iter().enumerate() {
+        for i in 0..len {
             if i > 0 {
                 self.write_indicator(",", false, false, false);
             }
-            self.node(item, Context::default());
+            item(self, i);
         }
         self.pop_indent();
         self.flow_level -= 1;
@@ -954,13 +1006,18 @@ impl Emitter {
         self.write_indicator("}", false, false, false);
     }
 
-    fn block_sequence(&mut self, items: &[Node<'_>], context: Context) {
+    fn block_sequence(
+        &mut self,
+        len: usize,
+        context: Context,
+        mut item: impl FnMut(&mut Self, usize),
+    ) {
         let indentless = context.mapping && !self.indention;
         self.increase_indent(false, indentless);
-        for item in items {
+        for i in 0..len {
             self.write_indent();
             self.write_indicator("-", true, false, true);
-            self.node(item, Context::default());
+            item(self, i);
         }
         self.pop_indent();
     }
