@@ -118,3 +118,121 @@ pub(crate) fn each_message<T>(
     }
     Ok(None)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metadata::TopicMetadata;
+    use crate::{BagWriter, Compression, WriteOptions};
+
+    /// A recording of a few messages in small chunks, as file bytes.
+    fn recording(compression: Option<Compression>) -> Vec<u8> {
+        let dir = std::env::temp_dir().join(format!(
+            "shm-bag-chunk-{}-{compression:?}",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        let options = WriteOptions {
+            compression,
+            chunk_size: 64,
+            ..Default::default()
+        };
+        let mut writer = BagWriter::create(&dir, options).unwrap();
+        let metadata = TopicMetadata {
+            name: "/chatter".into(),
+            type_name: "std_msgs/msg/String".into(),
+            serialization_format: "cdr".into(),
+            offered_qos_profiles: Vec::new(),
+            type_description_hash: String::new(),
+        };
+        let topic = writer.add_topic(metadata, String::new()).unwrap();
+        for i in 0..4u32 {
+            let data = [0, 1, 0, 0, 2, 0, 0, 0, b'a' + i as u8, 0];
+            writer
+                .write(topic, u64::from(i), u64::from(i), i, &data)
+                .unwrap();
+        }
+        let metadata = writer.finish().unwrap();
+        let bytes = std::fs::read(dir.join(&metadata.relative_file_paths[0])).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        bytes
+    }
+
+    fn messages(file: &[u8], index: &ChunkIndex) -> Result<usize, String> {
+        let mut scratch = Vec::new();
+        let records = records(file, index, &mut scratch)?;
+        let mut count = 0;
+        each_message(records, &mut |_, _, _| {
+            count += 1;
+            ControlFlow::<()>::Continue(())
+        })
+        .map_err(|e| e.to_string())?;
+        Ok(count)
+    }
+
+    #[test]
+    fn chunks_are_read_and_damage_is_refused_with_the_reason() {
+        for compression in [None, Some(Compression::Zstd), Some(Compression::Lz4)] {
+            let file = recording(compression);
+            let summary = mcap::Summary::read(&file).unwrap().unwrap();
+            let total: usize = summary
+                .chunk_indexes
+                .iter()
+                .map(|index| messages(&file, index).unwrap())
+                .sum();
+            assert_eq!(total, 4, "{compression:?}");
+            let index = summary.chunk_indexes.last().unwrap().clone();
+
+            // An index that points past the end, or overflows.
+            let mut past = index.clone();
+            past.chunk_length = file.len() as u64;
+            assert!(messages(&file, &past)
+                .unwrap_err()
+                .contains("past the file's end"));
+            past.chunk_start_offset = u64::MAX;
+            assert!(messages(&file, &past)
+                .unwrap_err()
+                .contains("past the file's end"));
+        }
+    }
+
+    #[test]
+    fn a_chunk_whose_crc_differs_is_refused() {
+        let data = [1u8, 2, 3, 4];
+        let header = ChunkHeader {
+            message_start_time: 0,
+            message_end_time: 0,
+            uncompressed_size: 4,
+            uncompressed_crc: crc32fast::hash(&data),
+            compression: String::new(),
+            compressed_size: 4,
+        };
+        assert_eq!(contents(&header, &data, &mut Vec::new()), Ok(&data[..]));
+        let damaged = [1u8, 2, 3, 5];
+        let error = contents(&header, &damaged, &mut Vec::new()).unwrap_err();
+        assert!(error.contains("CRC"), "{error}");
+    }
+
+    #[test]
+    fn a_declared_size_past_the_limit_is_refused_before_anything_is_read() {
+        let header = ChunkHeader {
+            message_start_time: 0,
+            message_end_time: 0,
+            uncompressed_size: MAX_CHUNK_SIZE + 1,
+            uncompressed_crc: 0,
+            compression: "zstd".into(),
+            compressed_size: 4,
+        };
+        let error = contents(&header, &[0; 4], &mut Vec::new()).unwrap_err();
+        assert!(error.contains("more than 1073741824"), "{error}");
+        // A size declared smaller than what comes out.
+        let data = zstd::encode_all(&[7u8; 1000][..], 0).unwrap();
+        let header = ChunkHeader {
+            uncompressed_size: 10,
+            compressed_size: data.len() as u64,
+            ..header
+        };
+        let error = contents(&header, &data, &mut Vec::new()).unwrap_err();
+        assert!(error.contains("not the 10"), "{error}");
+    }
+}
