@@ -53,11 +53,27 @@ impl Bag {
     pub fn open(path: &Path) -> Result<Self, Error> {
         if path.is_dir() {
             let metadata = BagMetadata::read(path)?;
-            let files = metadata
-                .relative_file_paths
-                .iter()
-                .map(|f| path.join(f))
-                .collect();
+            let mut files = Vec::with_capacity(metadata.relative_file_paths.len());
+            for file in &metadata.relative_file_paths {
+                // A recording names its files inside its directory: a path
+                // that leads out of it is not one of its files.
+                let inside = std::path::Path::new(file).components().all(|c| {
+                    matches!(
+                        c,
+                        std::path::Component::Normal(_) | std::path::Component::CurDir
+                    )
+                });
+                if !inside {
+                    return Err(format!(
+                        "{}: {} lists `{}`, which is not inside the bag directory",
+                        path.display(),
+                        crate::metadata::FILE_NAME,
+                        shm_cdr::text_limits::quoted(file)
+                    )
+                    .into());
+                }
+                files.push(path.join(file));
+            }
             return Ok(Self {
                 files,
                 metadata: Some(metadata),
@@ -842,4 +858,36 @@ fn largest_message(bag: &Bag) -> Result<usize, Error> {
         }
     }
     Ok(usize::try_from(largest).unwrap_or(usize::MAX))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metadata::TopicMetadata;
+    use crate::{BagWriter, WriteOptions};
+
+    #[test]
+    fn a_bag_naming_files_outside_its_directory_is_refused() {
+        let dir = std::env::temp_dir().join(format!("shm-bag-outside-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut writer = BagWriter::create(&dir, WriteOptions::default()).unwrap();
+        let metadata = TopicMetadata {
+            name: "/chatter".into(),
+            type_name: "std_msgs/msg/String".into(),
+            serialization_format: "cdr".into(),
+            offered_qos_profiles: Vec::new(),
+            type_description_hash: String::new(),
+        };
+        writer.add_topic(metadata, String::new()).unwrap();
+        let mut metadata = writer.finish().unwrap();
+        assert!(Bag::open(&dir).is_ok());
+        for outside in ["../../etc/passwd", "/etc/passwd", "a/../../b.mcap"] {
+            metadata.relative_file_paths = vec![outside.to_owned()];
+            let path = dir.join(crate::metadata::FILE_NAME);
+            std::fs::write(&path, metadata.to_yaml()).unwrap();
+            let error = Bag::open(&dir).unwrap_err().to_string();
+            assert!(error.contains("not inside the bag directory"), "{error}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
