@@ -122,7 +122,7 @@ pub(crate) fn each_message<T>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metadata::TopicMetadata;
+    use crate::writer::tests::topic;
     use crate::{BagWriter, Compression, WriteOptions};
 
     /// A recording of a few messages in small chunks, as file bytes.
@@ -138,14 +138,7 @@ mod tests {
             ..Default::default()
         };
         let mut writer = BagWriter::create(&dir, options).unwrap();
-        let metadata = TopicMetadata {
-            name: "/chatter".into(),
-            type_name: "std_msgs/msg/String".into(),
-            serialization_format: "cdr".into(),
-            offered_qos_profiles: Vec::new(),
-            type_description_hash: String::new(),
-        };
-        let topic = writer.add_topic(metadata, String::new()).unwrap();
+        let topic = writer.add_topic(topic("/chatter"), String::new()).unwrap();
         for i in 0..4u32 {
             let data = [0, 1, 0, 0, 2, 0, 0, 0, b'a' + i as u8, 0];
             writer

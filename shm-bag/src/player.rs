@@ -863,7 +863,7 @@ fn largest_message(bag: &Bag) -> Result<usize, Error> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metadata::TopicMetadata;
+    use crate::writer::tests::topic;
     use crate::{BagWriter, WriteOptions};
 
     #[test]
@@ -871,14 +871,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("shm-bag-outside-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         let mut writer = BagWriter::create(&dir, WriteOptions::default()).unwrap();
-        let metadata = TopicMetadata {
-            name: "/chatter".into(),
-            type_name: "std_msgs/msg/String".into(),
-            serialization_format: "cdr".into(),
-            offered_qos_profiles: Vec::new(),
-            type_description_hash: String::new(),
-        };
-        writer.add_topic(metadata, String::new()).unwrap();
+        writer.add_topic(topic("/chatter"), String::new()).unwrap();
         let mut metadata = writer.finish().unwrap();
         assert!(Bag::open(&dir).is_ok());
         for outside in ["../../etc/passwd", "/etc/passwd", "a/../../b.mcap"] {

@@ -424,11 +424,12 @@ fn add_channel(current: &mut Current, id: usize, topic: &Topic) -> Result<u16, E
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::metadata::TopicMetadata;
 
-    fn topic(name: &str) -> TopicMetadata {
+    /// A `std_msgs/msg/String` topic called `name`.
+    pub(crate) fn topic(name: &str) -> TopicMetadata {
         TopicMetadata {
             name: name.to_owned(),
             type_name: "std_msgs/msg/String".to_owned(),
