@@ -7,6 +7,7 @@ use std::borrow::Cow;
 use super::model::Element;
 use super::value::Value;
 use crate::describe::Container;
+use crate::wire::wstring::utf16_len;
 
 /// The value `text` gives a field of `element` in `container`; `None` if it
 /// is empty or not a value of that field (the field then starts at zero).
@@ -16,23 +17,34 @@ pub(crate) fn parse(element: Element, container: Container, text: &str) -> Optio
     }
     if container == Container::Single {
         return match element {
-            Element::String(_) => Some(Value::String(Cow::Owned(text.to_owned()))),
-            Element::WString(_) => Some(Value::WString(text.to_owned())),
+            Element::String(bound) => {
+                within(bound, text.len()).then(|| Value::String(Cow::Owned(text.to_owned())))
+            }
+            Element::WString(bound) => {
+                within(bound, utf16_len(text)).then(|| Value::WString(text.to_owned()))
+            }
             _ => scalar(element, text),
         };
     }
     let inner = text.strip_prefix('(')?.strip_suffix(')')?;
     let items = split_tuple(inner)?;
     let value = match element {
-        Element::String(_) => Value::Strings(
+        Element::String(bound) => Value::Strings(
             items
                 .iter()
-                .map(|i| python_str(i).map(Cow::Owned))
+                .map(|i| {
+                    python_str(i)
+                        .filter(|s| within(bound, s.len()))
+                        .map(Cow::Owned)
+                })
                 .collect::<Option<_>>()?,
         ),
-        Element::WString(_) => {
-            Value::WStrings(items.iter().map(|i| python_str(i)).collect::<Option<_>>()?)
-        }
+        Element::WString(bound) => Value::WStrings(
+            items
+                .iter()
+                .map(|i| python_str(i).filter(|s| within(bound, utf16_len(s))))
+                .collect::<Option<_>>()?,
+        ),
         Element::Message(_) => return None,
         _ => {
             let values: Vec<Value<'static>> = items
@@ -47,6 +59,16 @@ pub(crate) fn parse(element: Element, container: Container, text: &str) -> Optio
         Container::Array(n) if len != n => None,
         Container::BoundedSequence(n) if len > n => None,
         _ => Some(value),
+    }
+}
+
+/// Whether a string of `len` (bytes, or UTF-16 units for a `wstring`) fits
+/// `bound`: a default past its field's bound is no value of the field, as
+/// rosidl would refuse it.
+fn within(bound: Option<usize>, len: usize) -> bool {
+    match bound {
+        Some(bound) => len <= bound,
+        None => true,
     }
 }
 
@@ -170,4 +192,30 @@ fn python_str(literal: &str) -> Option<String> {
         }
     }
     Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_default_past_its_string_bound_is_no_value() {
+        let single = Container::Single;
+        assert_eq!(
+            parse(Element::String(Some(0)), single, "hello world!"),
+            None
+        );
+        assert_eq!(
+            parse(Element::String(Some(5)), single, "hello"),
+            Some(Value::String(Cow::Owned("hello".into())))
+        );
+        // A bound on a `wstring` counts UTF-16 units: one astral character is two.
+        assert_eq!(parse(Element::WString(Some(1)), single, "𝄞"), None);
+        assert!(parse(Element::WString(Some(2)), single, "𝄞").is_some());
+        let many = Container::Sequence;
+        assert_eq!(parse(Element::String(Some(2)), many, "('ab', 'abc')"), None);
+        assert!(parse(Element::String(Some(3)), many, "('ab', 'abc')").is_some());
+        assert_eq!(parse(Element::WString(Some(1)), many, "('é', '𝄞')"), None);
+        assert!(parse(Element::WString(Some(2)), many, "('é', '𝄞')").is_some());
+    }
 }
