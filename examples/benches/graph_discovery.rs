@@ -30,7 +30,7 @@ use shm_cdr::msgs::rcl_interfaces::srv::{
 };
 use shm_cdr::msgs::std_msgs::String as RosString;
 use shm_runtime::graph::{Graph, GraphCache};
-use shm_runtime::rmw::{EntityKind, NodeInfo, Qos};
+use shm_runtime::rmw::{Distro, EntityKind, NodeInfo, Qos};
 use zenoh::{Config, Wait};
 
 /// Counts the bytes alive on the heap.
@@ -87,6 +87,7 @@ fn system_tokens(zid: &str, tokens: usize) -> Vec<String> {
             enclave: "/".into(),
             namespace: "/robot".into(),
             name: format!("node_{n}"),
+            distro: Distro::Kilted,
         };
         let fqn = format!("/robot/node_{n}");
         out.push(node.node_token());

@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 use shm_cdr::msgs::builtin_interfaces::Time;
 use shm_cdr::msgs::sensor_msgs::Image;
 use shm_cdr::msgs::std_msgs::Header;
-use shm_runtime::rmw::{EntityKind, NodeInfo, Qos};
+use shm_runtime::rmw::{Distro, EntityKind, NodeInfo, Qos};
 use shm_runtime::{Reach, RosNode, ShmConfig, ShmContext};
 use zenoh::Wait;
 
@@ -63,6 +63,7 @@ fn peer_token(kind: EntityKind) -> String {
         enclave: "/".into(),
         namespace: "/".into(),
         name: "zenoh_peer".into(),
+        distro: Distro::Kilted,
     }
     .topic_token::<Image>(1, kind, &format!("/{TOPIC}"), &Qos::default())
 }

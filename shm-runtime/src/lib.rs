@@ -32,11 +32,12 @@
 mod logging;
 pub mod msgs;
 pub mod prelude;
+pub mod rmw;
 mod ros;
 pub mod testing;
 mod transport;
 
-pub use ros::{action, graph, lifecycle, log_levels, names, parameters, rmw, service, time};
+pub use ros::{action, graph, lifecycle, log_levels, names, parameters, service, time};
 
 pub use logging::{init_logging, DEFAULT_LOG_FILTER};
 pub use ros::node::{RosNode, RosNodeBuilder};

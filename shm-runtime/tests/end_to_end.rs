@@ -618,7 +618,7 @@ fn rmw_zenoh_key_expression_attachment_and_liveliness() {
     );
     assert_eq!(
         publisher.key_expr(),
-        topic_key_expr::<std_msgs::String>(0, "/chatter")
+        topic_key_expr::<std_msgs::String>(node.info().distro, 0, "/chatter")
     );
     let token = publisher.liveliness_token().unwrap().to_owned();
     assert!(

@@ -76,7 +76,7 @@ fn a_call_carries_rmw_zenoh_key_attachments_and_tokens() {
     );
     assert_eq!(
         server.key_expr(),
-        service_key_expr::<Trigger>(0, "/trigger")
+        service_key_expr::<Trigger>(server_node.info().distro, 0, "/trigger")
     );
 
     let client = client_node

@@ -8,7 +8,7 @@
 use std::time::{Duration, Instant};
 
 use shm_cdr::msgs::std_msgs::UInt8MultiArray;
-use shm_runtime::rmw::{EntityKind, NodeInfo, Qos};
+use shm_runtime::rmw::{Distro, EntityKind, NodeInfo, Qos};
 use shm_runtime::testing::{free_port, peer_config};
 use shm_runtime::{PayloadKind, Reach, RosNode, ShmConfig, ShmContext};
 use zenoh::Wait;
@@ -58,6 +58,7 @@ fn run(peer_has_shm: bool) -> Seen {
         enclave: "/".into(),
         namespace: "/".into(),
         name: "listener".into(),
+        distro: Distro::Kilted,
     }
     .topic_token::<UInt8MultiArray>(1, EntityKind::Subscriber, "/blobs", &Qos::default());
     let _token = peer.liveliness().declare_token(token).wait().unwrap();

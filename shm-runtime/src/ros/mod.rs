@@ -8,7 +8,6 @@ pub mod log_levels;
 pub mod names;
 pub(crate) mod node;
 pub mod parameters;
-pub mod rmw;
 pub(crate) mod rosout;
 pub mod service;
 pub mod time;

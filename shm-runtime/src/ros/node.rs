@@ -14,6 +14,9 @@ use shm_cdr::RosMessage;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::{Resolvable, Session, Wait};
 
+use crate::rmw::{
+    service_key_expr, topic_key_expr_of, Distro, EntityKind, Gid, NodeInfo, Qos, UnknownDistro,
+};
 use crate::ros::action::{ActionClientBuilder, ActionServerBuilder};
 use crate::ros::graph::{Graph, GraphCache};
 use crate::ros::log_levels::{self, LogLevel};
@@ -22,7 +25,6 @@ use crate::ros::parameters::{
     OverrideError, ParameterClient, ParameterDescriptor, ParameterError, ParameterOverrides,
     ParameterServer, ParameterValue, SetResult,
 };
-use crate::ros::rmw::{service_key_expr, topic_key_expr_of, EntityKind, Gid, NodeInfo, Qos};
 use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
 use crate::ros::time::{Clock, RosTime, Timer};
 use crate::ros::type_description::{TypeCache, TypeUse};
@@ -86,6 +88,7 @@ impl RosNode {
             namespace: "/".to_owned(),
             enclave: "/".to_owned(),
             domain_id: names::domain_id_from(std::env::var("ROS_DOMAIN_ID").ok().as_deref()),
+            distro: Distro::from_env(),
             shm: None,
             remaps: Remaps::default(),
             use_sim_time: false,
@@ -214,7 +217,8 @@ impl RosNode {
         let token =
             self.info
                 .topic_token_of(entity_id, EntityKind::Publisher, &topic, &topic_type, &qos);
-        let key_expr = topic_key_expr_of(self.info.domain_id, &topic, &topic_type);
+        let key_expr =
+            topic_key_expr_of(self.info.distro, self.info.domain_id, &topic, &topic_type);
         let mut builder = PublisherBuilder::new(&self.session, key_expr, topic_type);
         builder.invalid = invalid;
         builder.qos = qos;
@@ -312,7 +316,7 @@ impl RosNode {
                 .service_token::<S>(entity_id, EntityKind::ServiceServer, &service, &qos);
         let mut builder = ServiceServerBuilder::new(
             &self.session,
-            service_key_expr::<S>(self.info.domain_id, &service),
+            service_key_expr::<S>(self.info.distro, self.info.domain_id, &service),
         );
         builder.gid = Some(Gid::from_token(&token));
         builder.token = Some(token);
@@ -320,10 +324,10 @@ impl RosNode {
         builder.invalid = invalid;
         builder.shm.inherited = self.shm.clone();
         builder.history = match qos.history {
-            crate::ros::rmw::History::KeepLast(depth) => {
+            crate::rmw::History::KeepLast(depth) => {
                 NonZeroUsize::new(depth).map_or(crate::History::KeepAll, crate::History::KeepLast)
             }
-            crate::ros::rmw::History::KeepAll => crate::History::KeepAll,
+            crate::rmw::History::KeepAll => crate::History::KeepAll,
         };
         builder
     }
@@ -341,7 +345,7 @@ impl RosNode {
         );
         let mut builder = ServiceClientBuilder::new(
             &self.session,
-            service_key_expr::<S>(self.info.domain_id, &service),
+            service_key_expr::<S>(self.info.distro, self.info.domain_id, &service),
             token,
         );
         builder.type_use = Some(self.types.register(S::type_hash(), S::full_description));
@@ -374,7 +378,12 @@ impl RosNode {
             &service_type,
             &Qos::services_default(),
         );
-        let key_expr = topic_key_expr_of(self.info.domain_id, &service, &service_type);
+        let key_expr = topic_key_expr_of(
+            self.info.distro,
+            self.info.domain_id,
+            &service,
+            &service_type,
+        );
         // The request's own type is not known here: requests carry plain CDR.
         let mut builder = ServiceClientBuilder::with_request_encoding(
             &self.session,
@@ -705,7 +714,7 @@ fn node_subscriber<'s, T>(
 ) -> SubscriberBuilder<'s, T> {
     let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
     let (topic, invalid) = resolve(info, remaps, topic, NameKind::Topic);
-    let key_expr = topic_key_expr_of(info.domain_id, &topic, &topic_type);
+    let key_expr = topic_key_expr_of(info.distro, info.domain_id, &topic, &topic_type);
     let liveliness =
         info.topic_token_of(entity_id, EntityKind::Subscriber, &topic, &topic_type, &qos);
     let mut builder = SubscriberBuilder::new(session, key_expr, topic_type);
@@ -715,10 +724,10 @@ fn node_subscriber<'s, T>(
     // reader that stops reading holds `depth` samples (and their
     // shared-memory chunks), not everything published meanwhile.
     builder.history = match qos.history {
-        crate::ros::rmw::History::KeepLast(depth) => {
+        crate::rmw::History::KeepLast(depth) => {
             History::KeepLast(NonZeroUsize::new(depth).unwrap_or(RMW_ZENOH_DEFAULT_DEPTH))
         }
-        crate::ros::rmw::History::KeepAll => History::KeepAll,
+        crate::rmw::History::KeepAll => History::KeepAll,
     };
     builder.liveliness = Some(liveliness);
     builder.type_use = type_use;
@@ -778,6 +787,7 @@ pub struct RosNodeBuilder<'a> {
     namespace: String,
     enclave: String,
     domain_id: Result<u32, NameError>,
+    distro: Result<Distro, UnknownDistro>,
     shm: Option<ShmContext>,
     remaps: Remaps,
     use_sim_time: bool,
@@ -804,6 +814,17 @@ impl RosNodeBuilder<'_> {
     /// set).
     pub fn domain_id(mut self, domain_id: u32) -> Self {
         self.domain_id = Ok(domain_id);
+        self
+    }
+
+    /// The distribution whose rmw_zenoh_cpp conventions and interfaces the
+    /// node speaks (default: `ROS_DISTRO`, else [`Distro::DEFAULT`]; a
+    /// `ROS_DISTRO` this crate does not know makes the declaration fail
+    /// unless this is set). On Humble, keys and tokens carry no type hashes
+    /// and the node serves no `~/get_type_description` and no logger-level
+    /// services, as a Humble node.
+    pub fn distro(mut self, distro: Distro) -> Self {
+        self.distro = Ok(distro);
         self
     }
 
@@ -922,6 +943,7 @@ impl RosNodeBuilder<'_> {
             log_levels::set_logger_level(name, *level)
                 .map_err(|e| format!("--log-level {name}: {e}"))?;
         }
+        let distro = self.distro?;
         names::validate_node_name(&self.name)?;
         // As rcl: the name first, then the namespace rules of the renamed node.
         let name = self.remaps.node_name(&self.name);
@@ -933,6 +955,7 @@ impl RosNodeBuilder<'_> {
             enclave: self.enclave,
             namespace: names::normalize_namespace(&namespace)?,
             name,
+            distro,
         };
         let node_token = info.node_token();
         check_key_expr("liveliness token", &node_token)?;
@@ -956,11 +979,15 @@ impl RosNodeBuilder<'_> {
         let service_off = node.overrides.iter().any(|(name, value)| {
             name == START_TYPE_DESCRIPTION_SERVICE && *value == ParameterValue::Bool(false)
         });
-        let type_description = self.type_description_service && !service_off;
+        let type_description =
+            self.type_description_service && !service_off && distro.has_type_description_service();
         if type_description {
             node.type_description_service = Some(node.start_type_description_service()?);
         }
-        if self.parameter_services {
+        if self.parameter_services && !distro.has_type_description_service() {
+            // Humble's nodes have `use_sim_time` alone.
+            node.parameter_server()?;
+        } else if self.parameter_services {
             // rclpy's and rclcpp's read-only record of whether the service runs.
             node.declare_parameter_with(
                 START_TYPE_DESCRIPTION_SERVICE,
@@ -969,7 +996,7 @@ impl RosNodeBuilder<'_> {
                     .read_only(),
             )?;
         }
-        if self.logger_service {
+        if self.logger_service && distro.has_logger_level_services() {
             node.logger_services = Some(node.start_logger_services()?);
         }
         let sim_override = node

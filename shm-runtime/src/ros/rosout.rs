@@ -13,9 +13,9 @@ use tracing::{Event, Level, Subscriber};
 use tracing_subscriber::layer::{Context, Layer};
 use zenoh::Wait;
 
+use crate::rmw::Qos;
 use crate::ros::log_levels::effective_logger_level;
 use crate::ros::node::RosNode;
-use crate::ros::rmw::Qos;
 
 /// How many log messages may wait for the publishing thread; past it they are
 /// counted in [`RosoutLayer::dropped`], never waited for.

@@ -18,7 +18,7 @@ use zenoh::sample::SourceInfo;
 use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, MissDetectionConfig};
 
-use crate::ros::rmw::{
+use crate::rmw::{
     counterpart_tokens_key_expr, Attachment, Durability, EntityKind, Gid, History, Qos, Reliability,
 };
 use crate::ros::type_description::TypeUse;

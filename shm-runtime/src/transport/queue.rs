@@ -171,7 +171,7 @@ enum Source {
     /// Zenoh `SourceInfo` (ours, zenoh-ext's advanced publishers).
     Zenoh(zenoh::session::EntityGlobalId),
     /// The GID in an rmw_zenoh attachment (rmw_zenoh_cpp publishers).
-    Rmw(crate::ros::rmw::Gid),
+    Rmw(crate::rmw::Gid),
 }
 
 impl Queue {
@@ -209,7 +209,7 @@ impl Queue {
             )
         } else if let Some(Ok(attachment)) = sample
             .attachment()
-            .map(|a| crate::ros::rmw::Attachment::parse(&a.to_bytes()))
+            .map(|a| crate::rmw::Attachment::parse(&a.to_bytes()))
         {
             let Ok(sn) = u64::try_from(attachment.sequence_number) else {
                 return;

@@ -35,7 +35,7 @@ use zenoh::sample::SampleKind;
 use zenoh::session::ZenohId;
 use zenoh::{Session, Wait};
 
-use crate::ros::rmw::token_session;
+use crate::rmw::token_session;
 use crate::transport::limits::check_key_expr;
 use crate::transport::links::{LinkReach, Links};
 use crate::transport::payload::PayloadKind;

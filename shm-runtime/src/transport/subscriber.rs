@@ -20,7 +20,7 @@ use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedSubscriber, AdvancedSubscriberBuilderExt, HistoryConfig, RecoveryConfig};
 
-use crate::ros::rmw::{
+use crate::rmw::{
     counterpart_tokens_key_expr, Attachment, AttachmentError, Durability, EntityKind,
     History as RmwHistory, Qos, Reliability,
 };

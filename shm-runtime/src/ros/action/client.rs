@@ -16,7 +16,7 @@ use zenoh::{Resolvable, Wait};
 use super::server::uuid_text;
 use super::state::GoalStatus;
 use super::{part_name, ActionError, GoalId, Stamp};
-use crate::ros::rmw::Qos;
+use crate::rmw::Qos;
 use crate::ros::service::{ServiceClient, NO_TIMEOUT};
 use crate::ros::type_description::TypeUse;
 use crate::{CallbackSubscriber, RosNode, RosSample};

@@ -14,7 +14,7 @@ use zenoh::{Resolvable, Wait};
 
 use super::state::{transition, GoalEvent, GoalStatus};
 use super::{part_name, ActionError, GoalId, Stamp};
-use crate::ros::rmw::Qos;
+use crate::rmw::Qos;
 use crate::ros::service::{CallbackServiceServer, ServiceRequest};
 use crate::ros::type_description::TypeUse;
 use crate::transport::publisher::{now_ns, PublishOutcome};

@@ -18,7 +18,7 @@ use std::sync::Arc;
 
 use std::time::Duration;
 
-use crate::ros::rmw::{
+use crate::rmw::{
     parse_duration_fields, Durability, EntityKind, Gid, History, Liveliness, Qos, Reliability,
 };
 
@@ -88,7 +88,7 @@ pub struct Endpoint {
 /// backends.
 const BACKENDS_FIELD: &str = "backends:";
 
-/// `%` back to `/` (see [`crate::ros::rmw::mangle_name`]).
+/// `%` back to `/` (see [`crate::rmw::mangle_name`]).
 fn demangle(name: &str) -> String {
     name.replace('%', "/")
 }

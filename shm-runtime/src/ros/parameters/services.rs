@@ -14,8 +14,8 @@ use zenoh::Wait;
 
 use super::store::{AfterSet, Changes, OnSet, SetResult, Store};
 use super::{ParameterDescriptor, ParameterError, ParameterValue};
+use crate::rmw::Qos;
 use crate::ros::node::RosNode;
-use crate::ros::rmw::Qos;
 use crate::ros::time::Clock;
 use crate::RosPublisher;
 

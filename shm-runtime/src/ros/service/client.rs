@@ -20,7 +20,7 @@ use zenoh::query::{ConsolidationMode, QueryTarget, Reply};
 use zenoh::sample::Sample;
 use zenoh::{Resolvable, Session, Wait};
 
-use crate::ros::rmw::{Attachment, AttachmentError, Gid};
+use crate::rmw::{Attachment, AttachmentError, Gid};
 use crate::ros::type_description::TypeUse;
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;

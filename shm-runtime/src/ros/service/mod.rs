@@ -1,7 +1,7 @@
 //! ROS 2 services as rmw_zenoh_cpp carries them.
 //!
 //! A server is a complete Zenoh queryable on the service's key
-//! ([`service_key_expr`](crate::ros::rmw::service_key_expr)) with an `SS` liveliness
+//! ([`service_key_expr`](crate::rmw::service_key_expr)) with an `SS` liveliness
 //! token; a call is a Zenoh query (target all-complete, no consolidation) whose
 //! payload is the CDR request and whose attachment is rmw_zenoh's 33 bytes
 //! {sequence number from 1, timestamp, client GID}; the reply carries the CDR

@@ -20,7 +20,7 @@ use zenoh::query::Query;
 use zenoh::{Resolvable, Session, Wait};
 
 use super::error_reply_text;
-use crate::ros::rmw::{Attachment, Gid};
+use crate::rmw::{Attachment, Gid};
 use crate::ros::type_description::TypeUse;
 use crate::transport::executor::{Callback, Dispatch, Executor};
 use crate::transport::inline_limit::{self, InlineLimit};

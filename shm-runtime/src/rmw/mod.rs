@@ -7,39 +7,44 @@ use std::time::Duration;
 use shm_cdr::interface::RosService;
 use shm_cdr::RosMessage;
 
-/// The data key expression of a topic:
-/// `<domain>/<topic without leading/trailing '/'>/<pkg>::msg::dds_::<Name>_/<RIHS01 hash>`.
-pub fn topic_key_expr<T: RosMessage>(domain_id: u32, topic: &str) -> String {
-    format!(
-        "{domain_id}/{}/{}/{}",
-        topic.trim_matches('/'),
-        T::DDS_TYPE_NAME,
-        T::type_hash()
-    )
+mod distro;
+pub use distro::{Distribution, Distro, UnknownDistro, DISTRIBUTIONS, TYPE_HASH_NOT_SUPPORTED};
+
+/// The data key expression of a topic, as `distro`'s rmw_zenoh_cpp writes it:
+/// `<domain>/<topic without leading/trailing '/'>/<pkg>::msg::dds_::<Name>_/<RIHS01 hash>`
+/// (`TypeHashNotSupported` in place of the hash on Humble).
+pub fn topic_key_expr<T: RosMessage>(distro: Distro, domain_id: u32, topic: &str) -> String {
+    data_key_expr(distro, domain_id, topic, T::DDS_TYPE_NAME, T::type_hash())
 }
 
 /// [`topic_key_expr`] of a type given at run time.
 pub(crate) fn topic_key_expr_of(
+    distro: Distro,
     domain_id: u32,
     topic: &str,
     ty: &crate::transport::queue::TopicType,
 ) -> String {
-    format!(
-        "{domain_id}/{}/{}/{}",
-        topic.trim_matches('/'),
-        ty.dds_name(),
-        ty.hash
-    )
+    data_key_expr(distro, domain_id, topic, &ty.dds_name(), &ty.hash)
 }
 
 /// The key expression of a service, which its server's queryable declares and its
-/// clients query: `<domain>/<service name without leading/trailing '/'>/<pkg>::srv::dds_::<Name>_/<RIHS01 hash of the service>`.
-pub fn service_key_expr<S: RosService>(domain_id: u32, service: &str) -> String {
+/// clients query: `<domain>/<service name without leading/trailing '/'>/<pkg>::srv::dds_::<Name>_/<RIHS01 hash of the service>`
+/// (`TypeHashNotSupported` in place of the hash on Humble).
+pub fn service_key_expr<S: RosService>(distro: Distro, domain_id: u32, service: &str) -> String {
+    data_key_expr(distro, domain_id, service, S::DDS_TYPE_NAME, S::type_hash())
+}
+
+fn data_key_expr(
+    distro: Distro,
+    domain_id: u32,
+    name: &str,
+    dds_type_name: &str,
+    type_hash: &str,
+) -> String {
     format!(
-        "{domain_id}/{}/{}/{}",
-        service.trim_matches('/'),
-        S::DDS_TYPE_NAME,
-        S::type_hash()
+        "{domain_id}/{}/{dds_type_name}/{}",
+        name.trim_matches('/'),
+        distro.hash_field(type_hash)
     )
 }
 
@@ -410,6 +415,8 @@ pub struct NodeInfo {
     pub namespace: String,
     /// The node name.
     pub name: String,
+    /// The distribution whose conventions the node's tokens and keys follow.
+    pub distro: Distro,
 }
 
 impl NodeInfo {
@@ -500,9 +507,10 @@ impl NodeInfo {
         qos: &Qos,
     ) -> String {
         format!(
-            "{}/{}/{dds_type_name}/{type_hash}/{}",
+            "{}/{}/{dds_type_name}/{}/{}",
             self.prefix(entity_id, kind.as_str()),
             mangle_name(name),
+            self.distro.hash_field(type_hash),
             qos.to_key_expr()
         )
     }
@@ -524,51 +532,6 @@ pub fn counterpart_tokens_key_expr(token: &str, kind: EntityKind) -> Option<Stri
         "{root}/{domain}/*/*/*/{}/*/*/*/{name}/{type_name}/{hash}/**",
         kind.as_str()
     ))
-}
-
-/// A ROS 2 distribution's released rmw_zenoh_cpp and the Zenoh it is built on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[non_exhaustive]
-pub struct Distribution {
-    /// The distribution (`"jazzy"`).
-    pub name: &'static str,
-    /// The rmw_zenoh_cpp release.
-    pub rmw_zenoh_cpp: &'static str,
-    /// The zenoh-c commit its `zenoh_cpp_vendor` builds.
-    pub zenoh_c_commit: &'static str,
-    /// The Zenoh (Rust) commit that zenoh-c commit pins.
-    pub zenoh_commit: &'static str,
-    /// That commit's Zenoh version. Its shared memory is 1.8's, which this
-    /// crate's Zenoh 1.9 shares; Zenoh 1.10 and later do not.
-    pub zenoh_version: &'static str,
-}
-
-/// Every distribution with an rmw_zenoh_cpp release, as its
-/// `zenoh_cpp_vendor/CMakeLists.txt` says (the release repository
-/// `ros2-gbp/rmw_zenoh-release`, tags `release/<distro>/zenoh_cpp_vendor/<version>`):
-/// all build zenoh-c 1.8.0 "plus a few fixes", on Zenoh commit `2687c51`,
-/// a branch of 1.8.0 whose shared memory is 1.8.0's.
-/// `tests/zenoh-lines/1.8` pins its peer to this version, and
-/// `tests/zenoh-lines/check.py` proves shared memory with it both ways.
-pub const DISTRIBUTIONS: &[Distribution] = &[
-    Distribution::on_zenoh_1_8("humble", "0.1.9"),
-    Distribution::on_zenoh_1_8("jazzy", "0.2.10"),
-    Distribution::on_zenoh_1_8("kilted", "0.6.7"),
-    Distribution::on_zenoh_1_8("lyrical", "0.10.5"),
-    Distribution::on_zenoh_1_8("rolling", "0.12.0"),
-];
-
-impl Distribution {
-    /// A release on the zenoh-c every release to date builds.
-    const fn on_zenoh_1_8(name: &'static str, rmw_zenoh_cpp: &'static str) -> Self {
-        Self {
-            name,
-            rmw_zenoh_cpp,
-            zenoh_c_commit: "05bd370343b5161ca9269649b9a914c9c2dc4170",
-            zenoh_commit: "2687c51352121f006e3a603ce07925a8ad0b295c",
-            zenoh_version: "1.8.0",
-        }
-    }
 }
 
 /// The Zenoh session that declared a liveliness token of the ROS graph:
@@ -638,8 +601,13 @@ mod tests {
     #[test]
     fn data_key_expression() {
         assert_eq!(
-            topic_key_expr::<StringMsg>(0, "/chatter/"),
+            topic_key_expr::<StringMsg>(Distro::Kilted, 0, "/chatter/"),
             "0/chatter/std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18"
+        );
+        // Humble's rmw_zenoh_cpp 0.1.9 has no type hashes.
+        assert_eq!(
+            topic_key_expr::<StringMsg>(Distro::Humble, 0, "/chatter/"),
+            "0/chatter/std_msgs::msg::dds_::String_/TypeHashNotSupported"
         );
     }
 
@@ -677,6 +645,7 @@ mod tests {
             enclave: "/".into(),
             namespace: "/".into(),
             name: "talker".into(),
+            distro: Distro::Kilted,
         };
         let qos = Qos::transient_local(7);
         let token = node.topic_token::<StringMsg>(10, EntityKind::Publisher, "/chatter", &qos);
