@@ -31,6 +31,8 @@ use std::marker::PhantomData;
 mod bounded;
 mod decode;
 pub mod describe;
+#[cfg(feature = "derive")]
+pub mod distro_msgs;
 pub mod dynamic;
 mod encode;
 mod endian;

@@ -1,0 +1,115 @@
+//! The standard interfaces a ROS 2 distribution defines differently from
+//! Kilted, whose definitions [`msgs`](crate::msgs) holds. Everything not
+//! here is the same in every distribution with an rmw_zenoh_cpp release
+//! (Humble, Jazzy, Kilted, Lyrical, Rolling): the same fields, so the same
+//! bytes and, where the distribution has type hashes, the same hash.
+//!
+//! Compared field by field with each distribution's released interface
+//! packages (`ros2-gbp/common_interfaces-release` and
+//! `ros2-gbp/rcl_interfaces-release`, tags `release/<distro>/<package>/<version>`)
+//! and, in CI, with rosbags' type store of each distribution
+//! (`tests/ros2/distros.py`):
+//!
+//! | type | Humble | Jazzy, Kilted | Lyrical, Rolling |
+//! |---|---|---|---|
+//! | `sensor_msgs/msg/Range` | [`humble::sensor_msgs::msg::Range`]: no `variance` | [`msgs`](crate::msgs) | [`msgs`](crate::msgs) |
+//! | `lifecycle_msgs/msg/TransitionEvent` | [`msgs`](crate::msgs) | [`msgs`](crate::msgs) | [`lyrical::lifecycle_msgs::msg::TransitionEvent`]: `builtin_interfaces/Time stamp` in place of `uint64 timestamp` |
+//!
+//! Constants and default values changed too (e.g. `sensor_msgs/NavSatStatus`
+//! gained `STATUS_UNKNOWN` and a default of -2 after Humble), but neither is
+//! on the wire nor in the hash.
+
+/// Humble's definitions where they differ.
+pub mod humble {
+    /// `sensor_msgs` as Humble defines it.
+    #[cfg(feature = "sensor_msgs")]
+    pub mod sensor_msgs {
+        /// Messages.
+        pub mod msg {
+            use crate::msgs::std_msgs::msg::Header;
+
+            /// `sensor_msgs/msg/Range` as Humble defines it: one range
+            /// reading of an active ranger, without the `variance` later
+            /// distributions added.
+            ///
+            /// ```
+            /// use shm_cdr::distro_msgs::humble::sensor_msgs::msg::Range;
+            /// use shm_cdr::{encoded_size, RosMessage};
+            ///
+            /// assert_eq!(Range::TYPE_NAME, "sensor_msgs/msg/Range");
+            /// // Four bytes shorter than Kilted's: no `variance`.
+            /// let kilted = shm_cdr::msgs::sensor_msgs::msg::Range::default();
+            /// assert_eq!(encoded_size(&Range::default()) + 4, encoded_size(&kilted));
+            /// ```
+            #[derive(crate::RosMessage, Debug, Clone, Default, PartialEq)]
+            #[ros(
+                type_name = "sensor_msgs/msg/Range",
+                crate = "crate",
+                source = "std_msgs/Header header\nuint8 ULTRASOUND=0\nuint8 INFRARED=1\nuint8 radiation_type\nfloat32 field_of_view\nfloat32 min_range\nfloat32 max_range\nfloat32 range\n"
+            )]
+            pub struct Range {
+                /// When and in which frame the reading was taken.
+                pub header: Header,
+                /// [`Range::ULTRASOUND`] or [`Range::INFRARED`].
+                pub radiation_type: u8,
+                /// The arc the reading is valid for, in radians.
+                pub field_of_view: f32,
+                /// The shortest range the sensor reports, in metres.
+                pub min_range: f32,
+                /// The longest range the sensor reports, in metres.
+                pub max_range: f32,
+                /// The range measured, in metres (REP 117: -Inf and +Inf for
+                /// detections too close and none within a fixed range).
+                pub range: f32,
+            }
+
+            impl Range {
+                /// An ultrasound ranger.
+                pub const ULTRASOUND: u8 = 0;
+                /// An infrared ranger.
+                pub const INFRARED: u8 = 1;
+            }
+        }
+    }
+}
+
+/// Lyrical's definitions where they differ; Rolling's are the same.
+pub mod lyrical {
+    /// `lifecycle_msgs` as Lyrical and Rolling define it.
+    #[cfg(all(feature = "lifecycle_msgs", feature = "builtin_interfaces"))]
+    pub mod lifecycle_msgs {
+        /// Messages.
+        pub mod msg {
+            use crate::msgs::builtin_interfaces::msg::Time;
+            use crate::msgs::lifecycle_msgs::msg::{State, Transition};
+
+            /// `lifecycle_msgs/msg/TransitionEvent` as Lyrical and Rolling
+            /// define it: the time of the transition as a
+            /// `builtin_interfaces/Time`.
+            ///
+            /// ```
+            /// use shm_cdr::distro_msgs::lyrical::lifecycle_msgs::msg::TransitionEvent;
+            /// use shm_cdr::RosMessage;
+            ///
+            /// let kilted = shm_cdr::msgs::lifecycle_msgs::msg::TransitionEvent::type_hash();
+            /// assert_ne!(TransitionEvent::type_hash(), kilted);
+            /// ```
+            #[derive(crate::RosMessage, Debug, Clone, Default, PartialEq, Eq, Hash)]
+            #[ros(
+                type_name = "lifecycle_msgs/msg/TransitionEvent",
+                crate = "crate",
+                source = "builtin_interfaces/Time stamp\nTransition transition\nState start_state\nState goal_state\n"
+            )]
+            pub struct TransitionEvent {
+                /// When the transition happened.
+                pub stamp: Time,
+                /// The transition's id and label.
+                pub transition: Transition,
+                /// The state it left.
+                pub start_state: State,
+                /// The state it went to.
+                pub goal_state: State,
+            }
+        }
+    }
+}
