@@ -2,6 +2,7 @@
 //! environment. Alone in its own test binary, and one test: setting variables
 //! while other threads read the environment races.
 
+use shm_runtime::rmw::Distro;
 use shm_runtime::{PoolSize, RosNode, ShmConfig, ShmContext};
 use zenoh::Wait;
 
@@ -10,6 +11,7 @@ use zenoh::Wait;
 fn environment_variables() {
     shm_variables_enable_configure_and_reject();
     a_bad_ros_domain_id_is_refused();
+    ros_distro_picks_the_conventions();
 }
 
 fn shm_variables_enable_configure_and_reject() {
@@ -73,4 +75,33 @@ fn a_bad_ros_domain_id_is_refused() {
         .wait()
         .unwrap();
     assert_eq!(node.info().domain_id, 3);
+}
+
+/// `ROS_DISTRO` picks the distribution, as ROS tools read it; a name this
+/// crate does not know is an error naming what to set, unless the builder
+/// says which.
+fn ros_distro_picks_the_conventions() {
+    std::env::remove_var("ROS_DOMAIN_ID");
+    let session = zenoh::open(zenoh::Config::default()).wait().unwrap();
+    let distro_of = |session: &zenoh::Session| {
+        RosNode::builder(session, "talker")
+            .wait()
+            .map(|node| node.info().distro)
+    };
+    std::env::remove_var("ROS_DISTRO");
+    assert_eq!(distro_of(&session).unwrap(), Distro::DEFAULT);
+    std::env::set_var("ROS_DISTRO", "humble");
+    assert_eq!(distro_of(&session).unwrap(), Distro::Humble);
+    std::env::set_var("ROS_DISTRO", "iron");
+    let err = distro_of(&session).unwrap_err().to_string();
+    assert!(
+        err.contains("ROS_DISTRO") && err.contains("humble, jazzy, kilted, lyrical, rolling"),
+        "{err}"
+    );
+    let node = RosNode::builder(&session, "talker")
+        .distro(Distro::Jazzy)
+        .wait()
+        .unwrap();
+    assert_eq!(node.info().distro, Distro::Jazzy);
+    std::env::remove_var("ROS_DISTRO");
 }

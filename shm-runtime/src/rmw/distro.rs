@@ -123,6 +123,14 @@ impl Distro {
         self.has_type_hashes()
     }
 
+    /// Whether its `lifecycle_msgs/msg/TransitionEvent` carries a
+    /// `builtin_interfaces/Time stamp` (Lyrical on) rather than a `uint64
+    /// timestamp`: [`shm_cdr::distro_msgs`] lists each standard type a
+    /// distribution defines differently.
+    pub const fn has_stamped_transition_events(self) -> bool {
+        matches!(self, Self::Lyrical | Self::Rolling)
+    }
+
     /// Whether its endpoints of types with `rosidl::Buffer` fields may be
     /// buffer-aware (the optional `backends:` token field).
     pub const fn has_buffer_aware_endpoints(self) -> bool {

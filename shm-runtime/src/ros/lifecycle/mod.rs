@@ -51,6 +51,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 
+use shm_cdr::distro_msgs::lyrical::lifecycle_msgs::msg::TransitionEvent as StampedTransitionEvent;
 use shm_cdr::msgs::lifecycle_msgs::msg::TransitionEvent;
 use shm_cdr::msgs::lifecycle_msgs::srv::{
     ChangeState, ChangeState_Response, GetAvailableStates, GetAvailableStates_Response,
@@ -194,7 +195,50 @@ struct Core {
     machine: Mutex<Box<dyn Managed>>,
     /// The current state's id, readable without waiting for a transition.
     state: Arc<AtomicU8>,
-    events: RosPublisher<TransitionEvent>,
+    events: TransitionEvents,
+}
+
+/// `~/transition_event` in the distribution's definition of
+/// `lifecycle_msgs/msg/TransitionEvent`.
+enum TransitionEvents {
+    /// `uint64 timestamp`: Humble to Kilted.
+    Timestamp(RosPublisher<TransitionEvent>),
+    /// `builtin_interfaces/Time stamp`: Lyrical and Rolling.
+    Stamp(RosPublisher<StampedTransitionEvent>),
+}
+
+impl TransitionEvents {
+    fn declare(node: &RosNode) -> zenoh::Result<Self> {
+        const TOPIC: &str = "~/transition_event";
+        Ok(if node.info().distro.has_stamped_transition_events() {
+            Self::Stamp(node.declare_publisher(TOPIC).wait()?)
+        } else {
+            Self::Timestamp(node.declare_publisher(TOPIC).wait()?)
+        })
+    }
+
+    /// Announce a step, as rcl does: only the start and goal states are
+    /// filled in.
+    fn publish(&self, start: State, goal: State) -> Result<(), crate::PublishError> {
+        match self {
+            Self::Timestamp(events) => events
+                .publish(&TransitionEvent {
+                    start_state: start.to_msg(),
+                    goal_state: goal.to_msg(),
+                    ..Default::default()
+                })
+                .wait()
+                .map(drop),
+            Self::Stamp(events) => events
+                .publish(&StampedTransitionEvent {
+                    start_state: start.to_msg(),
+                    goal_state: goal.to_msg(),
+                    ..Default::default()
+                })
+                .wait()
+                .map(drop),
+        }
+    }
 }
 
 impl Core {
@@ -208,16 +252,10 @@ impl Core {
         state_of(self.state.load(Ordering::Acquire))
     }
 
-    /// Take `step`, announcing it on `~/transition_event` as rcl does (only
-    /// the start and goal states are filled in).
+    /// Take `step`, announcing it on `~/transition_event`.
     fn take(&self, step: Step) {
         self.state.store(step.goal.id(), Ordering::Release);
-        let event = TransitionEvent {
-            start_state: step.start.to_msg(),
-            goal_state: step.goal.to_msg(),
-            ..Default::default()
-        };
-        if let Err(e) = self.events.publish(&event).wait() {
+        if let Err(e) = self.events.publish(step.start, step.goal) {
             tracing::warn!("lifecycle: could not publish the transition event: {e}");
         }
     }
@@ -320,9 +358,7 @@ impl RosNode {
     /// `~/get_transition_graph`, answering as rclpy's lifecycle node
     /// answers, and announces each step on `~/transition_event`.
     pub fn lifecycle(&self, managed: impl Managed) -> zenoh::Result<Lifecycle> {
-        let events = self
-            .declare_publisher::<TransitionEvent>("~/transition_event")
-            .wait()?;
+        let events = TransitionEvents::declare(self)?;
         let core = Arc::new(Core {
             machine: Mutex::new(Box::new(managed)),
             state: Arc::new(AtomicU8::new(State::Unconfigured.id())),

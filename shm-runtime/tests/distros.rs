@@ -1,0 +1,160 @@
+//! A node speaks the conventions and interfaces of the distribution it is
+//! told: Humble's keys and tokens without type hashes and its node without
+//! the services Humble does not have; Lyrical's `TransitionEvent`. (The same
+//! is compared with models of each release's rmw_zenoh_cpp and with rosbags'
+//! per-distribution type stores in `tests/ros2/distros.py`.)
+
+mod common;
+
+use std::time::Duration;
+
+use common::loopback_sessions;
+use shm_cdr::distro_msgs::lyrical::lifecycle_msgs::msg::TransitionEvent as StampedTransitionEvent;
+use shm_cdr::msgs::lifecycle_msgs::msg::{State as StateMsg, TransitionEvent};
+use shm_cdr::msgs::std_msgs::String as Text;
+use shm_cdr::msgs::std_srvs::srv::{Trigger, Trigger_Request, Trigger_Response};
+use shm_cdr::RosMessage;
+use shm_runtime::lifecycle::{Managed, Transition};
+use shm_runtime::rmw::{topic_key_expr, Distro, TYPE_HASH_NOT_SUPPORTED};
+use shm_runtime::RosNode;
+use zenoh::{Session, Wait};
+
+const TIMEOUT: Duration = Duration::from_secs(10);
+
+fn node(session: &Session, name: &str, distro: Distro) -> RosNode {
+    RosNode::builder(session, name)
+        .domain_id(0)
+        .distro(distro)
+        .wait()
+        .unwrap()
+}
+
+#[test]
+fn humble_nodes_talk_without_type_hashes() {
+    let (a, b, _) = loopback_sessions();
+    let talker = node(&a, "talker", Distro::Humble);
+    let listener = node(&b, "listener", Distro::Humble);
+    let kilted = node(&b, "kilted_listener", Distro::Kilted);
+
+    let publisher = talker.declare_publisher::<Text>("/chatter").wait().unwrap();
+    assert_eq!(
+        publisher.key_expr(),
+        "0/chatter/std_msgs::msg::dds_::String_/TypeHashNotSupported"
+    );
+    assert_eq!(
+        publisher.key_expr(),
+        topic_key_expr::<Text>(Distro::Humble, 0, "/chatter")
+    );
+    let token = publisher.liveliness_token().unwrap();
+    assert!(
+        token.contains("/%chatter/std_msgs::msg::dds_::String_/TypeHashNotSupported/::,10:,:,:,,"),
+        "{token}"
+    );
+
+    let humble_sub = listener
+        .declare_subscriber::<Text>("/chatter")
+        .wait()
+        .unwrap();
+    let kilted_sub = kilted
+        .declare_subscriber::<Text>("/chatter")
+        .wait()
+        .unwrap();
+    assert!(humble_sub.wait_for_publishers(TIMEOUT) && publisher.wait_for_subscribers(TIMEOUT));
+    let message = Text {
+        data: "hello humble".into(),
+    };
+    publisher.publish(&message).wait().unwrap();
+    let got = humble_sub.recv_timeout(TIMEOUT).unwrap().unwrap();
+    assert_eq!(got.decode::<Text>().unwrap(), message);
+    // A Kilted subscriber's key carries the hash: it is another topic to
+    // Zenoh, as between rmw_zenoh_cpp on Humble and on Kilted.
+    assert!(kilted_sub
+        .recv_timeout(Duration::from_millis(300))
+        .unwrap()
+        .is_none());
+
+    // The graph shows the Humble endpoints with Humble's hash field.
+    let graph = listener.graph(TIMEOUT).unwrap();
+    let publishers = graph.publishers("/chatter");
+    let endpoint = publishers
+        .iter()
+        .find_map(|p| p.endpoint.as_ref())
+        .expect("the talker's publisher is on the graph");
+    assert_eq!(endpoint.type_hash, TYPE_HASH_NOT_SUPPORTED);
+
+    // Services, and no type-description or logger services: Humble's nodes
+    // have none.
+    let server = talker
+        .declare_service::<Trigger>("/trigger")
+        .handler(|_: Trigger_Request| Trigger_Response {
+            success: true,
+            message: "humble".into(),
+        })
+        .wait()
+        .unwrap();
+    assert!(server.key_expr().ends_with("/TypeHashNotSupported"));
+    let client = listener
+        .declare_client::<Trigger>("/trigger")
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+    let reply = client.call(&Trigger_Request).wait().unwrap();
+    assert_eq!(reply.message, "humble");
+    let graph = listener.graph(TIMEOUT).unwrap();
+    let services = graph.services();
+    assert!(
+        services.contains_key("/talker/get_parameters"),
+        "{services:?}"
+    );
+    assert!(
+        !services.contains_key("/talker/get_type_description"),
+        "{services:?}"
+    );
+    assert!(!services.contains_key("/talker/get_logger_levels"));
+}
+
+#[derive(Default)]
+struct Plain;
+
+impl Managed for Plain {}
+
+#[test]
+fn a_lyrical_lifecycle_node_announces_transitions_with_a_stamp() {
+    let (a, b, _) = loopback_sessions();
+    let managed = node(&a, "lc", Distro::Lyrical);
+    let lifecycle = managed.lifecycle(Plain).unwrap();
+    let observer = node(&b, "observer", Distro::Lyrical);
+    let events = observer
+        .declare_subscriber::<StampedTransitionEvent>("/lc/transition_event")
+        .wait()
+        .unwrap();
+    assert!(events.wait_for_publishers(TIMEOUT));
+    // Kilted's definition has another hash: no Kilted-typed publisher.
+    assert_ne!(
+        StampedTransitionEvent::type_hash(),
+        TransitionEvent::type_hash()
+    );
+    let graph = observer.graph(TIMEOUT).unwrap();
+    let announced: Vec<String> = graph
+        .publishers("/lc/transition_event")
+        .iter()
+        .filter_map(|p| p.endpoint.as_ref().map(|e| e.type_hash.clone()))
+        .collect();
+    assert_eq!(announced, [StampedTransitionEvent::type_hash()]);
+
+    // The managed node's session knows the subscriber (its subscription is
+    // declared before its token) before the first event goes out.
+    assert!(managed.graph_cache().unwrap().wait_until(TIMEOUT, |g| !g
+        .subscribers("/lc/transition_event")
+        .is_empty()));
+    lifecycle.trigger(Transition::Configure).unwrap();
+    let event = events.recv_timeout(TIMEOUT).unwrap().unwrap();
+    let event: StampedTransitionEvent = event.decode().unwrap();
+    assert_eq!(
+        (event.start_state.id, event.goal_state.id),
+        (
+            StateMsg::PRIMARY_STATE_UNCONFIGURED,
+            StateMsg::TRANSITION_STATE_CONFIGURING
+        )
+    );
+}
