@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use shm_cdr::msgs::builtin_interfaces::msg::Time;
 use shm_cdr::msgs::rosgraph_msgs::msg::Clock;
-use shm_runtime::rmw::Qos;
+use shm_runtime::rmw::{Distro, Qos};
 use shm_runtime::{PayloadKind, RosNode, RosPublisher, Serialized, ShmConfig, ShmContext};
 use zenoh::Wait;
 
@@ -324,6 +324,9 @@ pub struct PlayOptions {
     pub delay: Duration,
     /// The ROS domain (default `ROS_DOMAIN_ID`, else 0).
     pub domain_id: Option<u32>,
+    /// The distribution whose conventions the node speaks (default
+    /// `ROS_DISTRO`, else [`Distro::DEFAULT`]).
+    pub distro: Option<Distro>,
     /// The player's node name (default `rosbag2_player`, as `ros2 bag play`'s).
     pub node_name: String,
     /// Before the first message, wait up to this long until every topic's
@@ -377,6 +380,7 @@ impl Default for PlayOptions {
             topics: Vec::new(),
             delay: Duration::ZERO,
             domain_id: None,
+            distro: None,
             node_name: "rosbag2_player".to_owned(),
             wait_for_subscribers: None,
             clock_hz: None,
@@ -478,6 +482,9 @@ impl Player {
         if let Some(domain_id) = options.domain_id {
             builder = builder.domain_id(domain_id);
         }
+        if let Some(distro) = options.distro {
+            builder = builder.distro(distro);
+        }
         let node = builder.wait()?;
         let mut publishers = HashMap::new();
         for topic in topics.values() {
@@ -491,7 +498,7 @@ impl Player {
             let hash = if topic.type_hash.is_empty() {
                 // Recorded without a hash (an older rosbag2): the standard
                 // type of that name, if there is one.
-                types::standard_message(&topic.type_name)
+                types::standard_message(&topic.type_name, node.info().distro)
                     .map(|t| t.ty.type_hash())
                     .ok_or_else(|| {
                         format!(

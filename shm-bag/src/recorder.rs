@@ -13,7 +13,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use regex::Regex;
 use shm_runtime::graph::Graph;
-use shm_runtime::rmw::{Durability, History, Qos, Reliability};
+use shm_runtime::rmw::{Distro, Durability, History, Qos, Reliability};
 use shm_runtime::{CallbackSubscriber, RosNode, RosSample};
 use zenoh::Wait;
 
@@ -92,6 +92,9 @@ pub struct RecordOptions {
     pub type_timeout: Duration,
     /// The ROS domain (default `ROS_DOMAIN_ID`, else 0).
     pub domain_id: Option<u32>,
+    /// The distribution whose conventions the node speaks (default
+    /// `ROS_DISTRO`, else [`Distro::DEFAULT`]).
+    pub distro: Option<Distro>,
     /// The recorder's node name (default `rosbag2_recorder`).
     pub node_name: String,
     /// Interface files whose types (and definition text) are used for a
@@ -119,6 +122,7 @@ impl RecordOptions {
             discovery_period: Duration::from_millis(100),
             type_timeout: Duration::from_secs(5),
             domain_id: None,
+            distro: None,
             node_name: "rosbag2_recorder".to_owned(),
             interfaces: LocalInterfaces::default(),
             start_paused: false,
@@ -319,6 +323,9 @@ impl Recorder {
         let mut builder = RosNode::builder(session, &options.node_name);
         if let Some(domain_id) = options.domain_id {
             builder = builder.domain_id(domain_id);
+        }
+        if let Some(distro) = options.distro {
+            builder = builder.distro(distro);
         }
         let node = builder.wait()?;
         let writer = BagWriter::create(&options.output, options.write.clone())?;

@@ -14,6 +14,7 @@ use shm_cdr::msgs::type_description_interfaces::srv::{
 };
 use shm_cdr::{RosAction, RosMessage, RosService};
 use shm_runtime::graph::Graph;
+use shm_runtime::rmw::{Distro, TYPE_HASH_NOT_SUPPORTED};
 use shm_runtime::RosNode;
 use zenoh::Wait;
 
@@ -70,6 +71,62 @@ pub fn standard() -> &'static BTreeMap<&'static str, Known> {
     })
 }
 
+/// The standard messages a distribution defines differently from the
+/// [`standard`] set ([`shm_cdr::distro_msgs`]), with the distributions that
+/// use each.
+fn distro_messages() -> &'static [(&'static [Distro], Known, &'static str)] {
+    use shm_cdr::distro_msgs::{humble, lyrical};
+    fn known<M: RosMessage>() -> Known {
+        Known {
+            kind: Kind::Message,
+            hash: M::type_hash(),
+            describe: M::full_description,
+        }
+    }
+    static TABLE: OnceLock<Vec<(&'static [Distro], Known, &'static str)>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        vec![
+            (
+                &[Distro::Humble][..],
+                known::<humble::sensor_msgs::msg::Range>(),
+                <humble::sensor_msgs::msg::Range as RosMessage>::TYPE_NAME,
+            ),
+            (
+                &[Distro::Lyrical, Distro::Rolling][..],
+                known::<lyrical::lifecycle_msgs::msg::TransitionEvent>(),
+                <lyrical::lifecycle_msgs::msg::TransitionEvent as RosMessage>::TYPE_NAME,
+            ),
+        ]
+    })
+}
+
+/// The standard message `name` (`pkg/msg/Name`) as `distro` defines it.
+fn standard_message_in(name: &str, distro: Distro) -> Option<&'static Known> {
+    distro_messages()
+        .iter()
+        .find(|(distros, _, n)| *n == name && distros.contains(&distro))
+        .map(|(_, known, _)| known)
+        .or_else(|| standard().get(name).filter(|k| k.kind == Kind::Message))
+}
+
+/// The standard message `name` whose definition an endpoint announcing
+/// `hash` uses: by its hash in any distribution, or on Humble (which has no
+/// hashes) by name as Humble defines it.
+fn standard_message_announced(name: &str, hash: &str) -> Option<&'static Known> {
+    if hash == TYPE_HASH_NOT_SUPPORTED {
+        return standard_message_in(name, Distro::Humble);
+    }
+    distro_messages()
+        .iter()
+        .find(|(_, known, n)| *n == name && known.hash == hash)
+        .map(|(_, known, _)| known)
+        .or_else(|| {
+            standard()
+                .get(name)
+                .filter(|k| k.kind == Kind::Message && k.hash == hash)
+        })
+}
+
 /// `pkg/msg/Name` from what users write: `pkg/msg/Name` or `pkg/Name`.
 pub fn full_name(name: &str) -> String {
     let parts: Vec<&str> = name.split('/').collect();
@@ -90,12 +147,10 @@ pub struct ResolvedType {
     pub definition: String,
 }
 
-/// A standard message type by name (`pkg/msg/Name` or `pkg/Name`).
-pub fn standard_message(name: &str) -> Option<ResolvedType> {
-    let known = standard().get(full_name(name).as_str())?;
-    if known.kind != Kind::Message {
-        return None;
-    }
+/// A standard message type by name (`pkg/msg/Name` or `pkg/Name`), as
+/// `distro` defines it.
+pub fn standard_message(name: &str, distro: Distro) -> Option<ResolvedType> {
+    let known = standard_message_in(&full_name(name), distro)?;
     let description = (known.describe)();
     let ty = DynamicType::from_description(&description).ok()?;
     Some(ResolvedType {
@@ -142,14 +197,26 @@ pub fn of_topic(
     let Some(endpoint) = first.endpoint.as_ref() else {
         return Err(format!("topic {topic}: its endpoint announces no type").into());
     };
-    if let Some(known) = standard().get(endpoint.type_name.as_str()) {
-        if known.hash == endpoint.type_hash {
-            let description = (known.describe)();
-            return Ok(ResolvedType {
-                ty: DynamicType::from_description(&description)?,
-                definition: definition::of_description(&description),
-            });
-        }
+    let distro = node.info().distro;
+    if (endpoint.type_hash == TYPE_HASH_NOT_SUPPORTED) == distro.has_type_hashes() {
+        return Err(format!(
+            "topic {topic} is announced with type hash {}, and this node speaks {distro}'s conventions; \
+             set ROS_DISTRO (or --distro) to the distribution of the nodes on it{}",
+            endpoint.type_hash,
+            if distro.has_type_hashes() {
+                " (humble: its nodes have no type hashes)"
+            } else {
+                ""
+            }
+        )
+        .into());
+    }
+    if let Some(known) = standard_message_announced(&endpoint.type_name, &endpoint.type_hash) {
+        let description = (known.describe)();
+        return Ok(ResolvedType {
+            ty: DynamicType::from_description(&description)?,
+            definition: definition::of_description(&description),
+        });
     }
     if let Some(resolved) = local.resolve(&endpoint.type_name) {
         let resolved = resolved?;

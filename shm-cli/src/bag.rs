@@ -184,6 +184,7 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
     });
     let mut options = RecordOptions::new(&output, selection);
     options.domain_id = Some(context.domain_id);
+    options.distro = Some(context.distro);
     options.type_timeout = context.timeout;
     options.max_queued_bytes = args.max_cache_size;
     options.interfaces = context.local.clone();
@@ -315,6 +316,7 @@ fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {
         topics: args.topics.clone(),
         delay: seconds("--delay", args.delay)?,
         domain_id: Some(context.domain_id),
+        distro: Some(context.distro),
         clock_hz: args.clock,
         clock_on,
         start_offset: seconds("--start-offset", args.start_offset)?,

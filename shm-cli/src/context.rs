@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use shm_bag::local::LocalInterfaces;
 use shm_runtime::graph::{Graph, GraphCache};
+use shm_runtime::rmw::Distro;
 use shm_runtime::RosNode;
 use zenoh::{Session, Wait};
 
@@ -26,6 +27,11 @@ pub(crate) struct Connection {
     /// `ZENOH_SESSION_CONFIG_URI`.
     #[arg(long, global = true, env = "ZENOH_SESSION_CONFIG_URI")]
     zenoh_config: Option<std::path::PathBuf>,
+    /// The ROS 2 distribution of the nodes to talk with (humble, jazzy,
+    /// kilted, lyrical, rolling): their rmw_zenoh_cpp conventions and
+    /// interface definitions. Default: kilted.
+    #[arg(long, global = true, env = "ROS_DISTRO", value_parser = parse_distro)]
+    distro: Option<Distro>,
     /// Seconds to wait for the graph and for answers.
     #[arg(long, global = true, default_value_t = 5.0)]
     timeout: f64,
@@ -39,6 +45,7 @@ pub(crate) struct Connection {
 pub(crate) struct Context {
     pub(crate) session: Session,
     pub(crate) domain_id: u32,
+    pub(crate) distro: Distro,
     pub(crate) timeout: Duration,
     /// The types of `--interfaces`.
     pub(crate) local: LocalInterfaces,
@@ -74,6 +81,7 @@ impl Context {
         Ok(Self {
             session,
             domain_id: connection.domain_id,
+            distro: connection.distro.unwrap_or_default(),
             timeout,
             local,
             graph,
@@ -103,11 +111,21 @@ impl Context {
         }
         let node = RosNode::builder(&self.session, &format!("_shm_ros2_{}", std::process::id()))
             .domain_id(self.domain_id)
+            .distro(self.distro)
             .parameter_services(false)
             .type_description_service(false)
             .wait()?;
         Ok(self.node.get_or_init(|| node))
     }
+}
+
+/// `--distro` and `ROS_DISTRO`: a distribution name; empty is the default,
+/// as an unset `ROS_DISTRO`.
+fn parse_distro(text: &str) -> Result<Distro, String> {
+    if text.trim().is_empty() {
+        return Ok(Distro::DEFAULT);
+    }
+    text.parse().map_err(|e: shm_runtime::rmw::UnknownDistro| e.to_string())
 }
 
 /// Whether a name is hidden from listings (a part starting with `_`), as

@@ -13,7 +13,7 @@ use crate::Error;
 /// A message type by name, as a run-time type: a standard one, else one of
 /// the `--interfaces` files.
 pub(crate) fn message_by_name(context: &Context, name: &str) -> Result<Option<DynamicType>, Error> {
-    if let Some(resolved) = shm_bag::types::standard_message(name) {
+    if let Some(resolved) = shm_bag::types::standard_message(name, context.distro) {
         return Ok(Some(resolved.ty));
     }
     match context.local.resolve(&full_name(name)) {
