@@ -4,6 +4,8 @@
 //! ```text
 //! ros2_types hashes      # one line per type: `<kind> <type name> <RIHS01 hash>`
 //! ros2_types user-hashes # the same for examples/interfaces/robot_interfaces (build.rs)
+//! ros2_types distro-hashes # `<distro> <type name> <hash>` of each standard message a
+//!                         # distribution defines differently (shm_cdr::distro_msgs)
 //! ros2_types descriptions # one JSON object per line: a type's full description
 //!                         # (default values included) and its sources
 //! ros2_types roundtrip   # stdin: `<type name> <hex>` lines; stdout: `ok <hex>` or `err <why>`
@@ -152,6 +154,14 @@ fn main() {
         "hashes" => {
             for (kind, name, hash) in hashes() {
                 let _ = writeln!(out, "{kind} {name} {hash}");
+            }
+        }
+        "distro-hashes" => {
+            // The standard messages a distribution defines differently.
+            for variant in shm_cdr::distro_msgs::variants() {
+                for distro in variant.distros {
+                    let _ = writeln!(out, "{distro} {} {}", variant.type_name, variant.type_hash);
+                }
             }
         }
         "user-hashes" => {

@@ -74,29 +74,21 @@ pub fn standard() -> &'static BTreeMap<&'static str, Known> {
 /// The standard messages a distribution defines differently from the
 /// [`standard`] set ([`shm_cdr::distro_msgs`]), with the distributions that
 /// use each.
-fn distro_messages() -> &'static [(&'static [Distro], Known, &'static str)] {
-    use shm_cdr::distro_msgs::{humble, lyrical};
-    fn known<M: RosMessage>() -> Known {
-        Known {
-            kind: Kind::Message,
-            hash: M::type_hash(),
-            describe: M::full_description,
-        }
-    }
-    static TABLE: OnceLock<Vec<(&'static [Distro], Known, &'static str)>> = OnceLock::new();
+fn distro_messages() -> &'static [(Vec<Distro>, Known, &'static str)] {
+    static TABLE: OnceLock<Vec<(Vec<Distro>, Known, &'static str)>> = OnceLock::new();
     TABLE.get_or_init(|| {
-        vec![
-            (
-                &[Distro::Humble][..],
-                known::<humble::sensor_msgs::msg::Range>(),
-                <humble::sensor_msgs::msg::Range as RosMessage>::TYPE_NAME,
-            ),
-            (
-                &[Distro::Lyrical, Distro::Rolling][..],
-                known::<lyrical::lifecycle_msgs::msg::TransitionEvent>(),
-                <lyrical::lifecycle_msgs::msg::TransitionEvent as RosMessage>::TYPE_NAME,
-            ),
-        ]
+        shm_cdr::distro_msgs::variants()
+            .into_iter()
+            .map(|v| {
+                let distros = v.distros.iter().filter_map(|d| d.parse().ok()).collect();
+                let known = Known {
+                    kind: Kind::Message,
+                    hash: v.type_hash,
+                    describe: v.describe,
+                };
+                (distros, known, v.type_name)
+            })
+            .collect()
     })
 }
 
@@ -458,4 +450,59 @@ pub fn of_action(
         get_result,
         feedback,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fields(known: &Known) -> Vec<String> {
+        let ty = DynamicType::from_description(&(known.describe)()).unwrap();
+        ty.root().fields.iter().map(|f| f.name.clone()).collect()
+    }
+
+    #[test]
+    fn every_variant_names_distributions_this_crate_speaks() {
+        for variant in shm_cdr::distro_msgs::variants() {
+            for name in variant.distros {
+                assert!(name.parse::<Distro>().is_ok(), "{name}");
+            }
+        }
+        assert_eq!(
+            distro_messages().len(),
+            shm_cdr::distro_msgs::variants().len()
+        );
+    }
+
+    #[test]
+    fn each_distribution_gets_its_definition() {
+        let range = "sensor_msgs/msg/Range";
+        let humble = standard_message_in(range, Distro::Humble).unwrap();
+        assert!(!fields(humble).contains(&"variance".to_owned()));
+        for distro in [
+            Distro::Jazzy,
+            Distro::Kilted,
+            Distro::Lyrical,
+            Distro::Rolling,
+        ] {
+            let known = standard_message_in(range, distro).unwrap();
+            assert!(fields(known).contains(&"variance".to_owned()), "{distro}");
+        }
+        // Humble has no hashes: its topics resolve by name.
+        let announced = standard_message_announced(range, TYPE_HASH_NOT_SUPPORTED).unwrap();
+        assert_eq!(announced.hash, humble.hash);
+
+        // Elsewhere the hash picks the definition, whichever distribution.
+        let event = "lifecycle_msgs/msg/TransitionEvent";
+        let lyrical = standard_message_in(event, Distro::Lyrical).unwrap();
+        let kilted = standard_message_in(event, Distro::Kilted).unwrap();
+        assert_ne!(lyrical.hash, kilted.hash);
+        assert_eq!(fields(lyrical)[0], "stamp");
+        assert_eq!(fields(kilted)[0], "timestamp");
+        for known in [lyrical, kilted] {
+            let found = standard_message_announced(event, known.hash).unwrap();
+            assert_eq!(found.hash, known.hash);
+        }
+        assert!(standard_message_announced(event, "RIHS01_00").is_none());
+    }
 }

@@ -19,6 +19,55 @@
 //! gained `STATUS_UNKNOWN` and a default of -2 after Humble), but neither is
 //! on the wire nor in the hash.
 
+/// A standard message that some distributions define differently from
+/// [`msgs`](crate::msgs).
+#[derive(Debug, Clone, Copy)]
+#[non_exhaustive]
+pub struct Variant {
+    /// The distributions that use this definition, as `ROS_DISTRO` names
+    /// them.
+    pub distros: &'static [&'static str],
+    /// `pkg/msg/Name`.
+    pub type_name: &'static str,
+    /// Its RIHS01 hash.
+    pub type_hash: &'static str,
+    /// Its full description (for run-time types and type-description
+    /// replies).
+    pub describe: fn() -> crate::describe::FullDescription,
+}
+
+impl Variant {
+    fn of<M: crate::RosMessage>(distros: &'static [&'static str]) -> Self {
+        Self {
+            distros,
+            type_name: M::TYPE_NAME,
+            type_hash: M::type_hash(),
+            describe: M::full_description,
+        }
+    }
+}
+
+/// Every standard message some distribution defines differently, with the
+/// features of this crate it needs turned on.
+///
+/// ```
+/// let humble: Vec<&str> = shm_cdr::distro_msgs::variants()
+///     .iter()
+///     .filter(|v| v.distros.contains(&"humble"))
+///     .map(|v| v.type_name)
+///     .collect();
+/// assert_eq!(humble, ["sensor_msgs/msg/Range"]);
+/// ```
+pub fn variants() -> Vec<Variant> {
+    #[allow(unused_mut)] // with no interface features, nothing is pushed
+    let mut out = Vec::new();
+    #[cfg(feature = "sensor_msgs")]
+    out.push(Variant::of::<humble::sensor_msgs::msg::Range>(&["humble"]));
+    #[cfg(all(feature = "lifecycle_msgs", feature = "builtin_interfaces"))]
+    out.push(Variant::of::<lyrical::lifecycle_msgs::msg::TransitionEvent>(&["lyrical", "rolling"]));
+    out
+}
+
 /// Humble's definitions where they differ.
 pub mod humble {
     /// `sensor_msgs` as Humble defines it.

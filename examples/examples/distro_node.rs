@@ -1,0 +1,84 @@
+//! A node speaking one distribution's conventions, for `tests/ros2/distros.py`,
+//! which checks its tokens, keys, QoS text and attachments against a model of
+//! that distribution's rmw_zenoh_cpp release and talks to it.
+//!
+//! `distro_node <listen endpoint> <distro>`: node `/demo/distro_node` with a
+//! publisher on `/chatter` (`std_msgs/String`, transient local, keep last 7,
+//! a message every 50 ms), a subscriber on `/echo` (sensor-data QoS), a
+//! `std_srvs/Trigger` server on `/trigger` answering with the distribution's
+//! name, and a lifecycle (its services and `~/transition_event`). Each
+//! message received on `/echo` is printed as `echo <text>`. Prints `ready`,
+//! serves until stdin closes.
+
+use std::io::BufRead;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use shm_cdr::msgs::std_msgs::String as Text;
+use shm_cdr::msgs::std_srvs::srv::{Trigger, Trigger_Request, Trigger_Response};
+use shm_cdr_examples::peer_session;
+use shm_runtime::lifecycle::Managed;
+use shm_runtime::rmw::{Distro, Qos};
+use shm_runtime::RosNode;
+use zenoh::Wait;
+
+struct Plain;
+
+impl Managed for Plain {}
+
+fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    let mut args = std::env::args().skip(1);
+    let (Some(endpoint), Some(distro)) = (args.next(), args.next()) else {
+        return Err("usage: distro_node <listen endpoint> <distro>".into());
+    };
+    let distro: Distro = distro.parse()?;
+    let session = peer_session(&endpoint, true)?;
+    let node = RosNode::builder(&session, "distro_node")
+        .namespace("/demo")
+        .domain_id(0)
+        .distro(distro)
+        .wait()?;
+    let publisher = node
+        .declare_publisher_with_qos::<Text>("/chatter", Qos::transient_local(7))
+        .wait()?;
+    let _echo = node
+        .declare_subscriber_with_qos::<Text>("/echo", Qos::sensor_data())
+        .callback(|sample| match sample.decode::<Text>() {
+            Ok(text) => println!("echo {}", text.data),
+            Err(e) => println!("echo undecodable: {e}"),
+        })
+        .wait()?;
+    let _trigger = node
+        .declare_service::<Trigger>("/trigger")
+        .handler(move |_: Trigger_Request| Trigger_Response {
+            success: true,
+            message: distro.name().to_owned(),
+        })
+        .wait()?;
+    let _lifecycle = node.lifecycle(Plain)?;
+    let running = Arc::new(AtomicBool::new(true));
+    let talk = {
+        let running = running.clone();
+        std::thread::spawn(move || {
+            let mut n = 0u32;
+            while running.load(Ordering::Relaxed) {
+                n += 1;
+                let message = Text {
+                    data: format!("{distro} {n}"),
+                };
+                if let Err(e) = publisher.publish(&message).wait() {
+                    eprintln!("distro_node: {e}");
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        })
+    };
+    println!("ready");
+    for line in std::io::stdin().lock().lines() {
+        line?;
+    }
+    running.store(false, Ordering::Relaxed);
+    talk.join().map_err(|_| "the publishing thread panicked")?;
+    Ok(())
+}
