@@ -125,7 +125,8 @@ fn parse_distro(text: &str) -> Result<Distro, String> {
     if text.trim().is_empty() {
         return Ok(Distro::DEFAULT);
     }
-    text.parse().map_err(|e: shm_runtime::rmw::UnknownDistro| e.to_string())
+    text.parse()
+        .map_err(|e: shm_runtime::rmw::UnknownDistro| e.to_string())
 }
 
 /// Whether a name is hidden from listings (a part starting with `_`), as

@@ -45,6 +45,7 @@ fn cli(port: u16, args: &[&str]) -> Command {
         ])
         .args(args)
         .env_remove("ZENOH_SESSION_CONFIG_URI")
+        .env_remove("ROS_DISTRO")
         .env("RUST_LOG", "error");
     command
 }
@@ -295,6 +296,88 @@ fn echo_reads_standard_types_and_types_it_was_never_built_with() {
         "{}",
         String::from_utf8_lossy(&nothing.stderr)
     );
+}
+
+#[test]
+fn humble_topics_are_read_and_written_with_humbles_conventions_and_definitions() {
+    use shm_cdr::distro_msgs::humble::sensor_msgs::msg::Range;
+    use shm_runtime::rmw::Distro;
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "ranger")
+        .domain_id(0)
+        .distro(Distro::Humble)
+        .wait()
+        .unwrap();
+    let _range = keep_publishing(
+        &node,
+        "/range",
+        Range {
+            radiation_type: Range::INFRARED,
+            range: 1.5,
+            ..Default::default()
+        },
+    );
+    // Humble's Range has no `variance`; its topics carry no type hash.
+    let out = stdout(&run(
+        port,
+        &["--distro", "humble", "topic", "echo", "/range", "--once"],
+    ));
+    assert!(
+        out.contains("radiation_type: 1\n") && out.contains("range: 1.5\n"),
+        "{out}"
+    );
+    assert!(!out.contains("variance"), "{out}");
+    let out = stdout(
+        &cli(port, &["topic", "echo", "/range", "--once"])
+            .env("ROS_DISTRO", "humble")
+            .output()
+            .unwrap(),
+    );
+    assert!(out.contains("range: 1.5\n"), "{out}");
+
+    // Told another distribution, the tool says what to set.
+    let output = run(port, &["topic", "echo", "/range", "--once"]);
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(
+        err.contains("TypeHashNotSupported")
+            && err.contains("ROS_DISTRO")
+            && err.contains("humble"),
+        "{err}"
+    );
+    let output = run(port, &["--distro", "iron", "topic", "list"]);
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(
+        err.contains("humble, jazzy, kilted, lyrical, rolling"),
+        "{err}"
+    );
+
+    // Written in Humble's definition, read by a Humble subscriber.
+    let subscriber = node
+        .declare_subscriber::<Range>("/set_range")
+        .wait()
+        .unwrap();
+    let _pub = Running::start(
+        port,
+        &[
+            "--distro",
+            "humble",
+            "topic",
+            "pub",
+            "/set_range",
+            "sensor_msgs/msg/Range",
+            "{range: 2.5, max_range: 4.0}",
+        ],
+    );
+    let sample = subscriber
+        .recv_timeout(TIMEOUT)
+        .unwrap()
+        .expect("a Range from shm-ros2");
+    let range: Range = sample.decode().unwrap();
+    assert_eq!((range.range, range.max_range), (2.5, 4.0));
+    // Exactly Humble's bytes: no `variance` after `range`.
+    assert_eq!(sample.payload().len(), shm_cdr::encoded_size(&range));
 }
 
 #[test]
