@@ -158,3 +158,60 @@ fn a_lyrical_lifecycle_node_announces_transitions_with_a_stamp() {
         )
     );
 }
+
+/// What a buffer-aware publisher of rmw_zenoh_cpp 0.10.5 does with a
+/// subscriber it has discovered: it sends the subscriber's messages to
+/// `<topic key>/_buf/<the subscriber's GID in hex>`, computed from its token.
+#[test]
+fn a_lyrical_subscriber_of_a_buffer_type_reads_its_own_key_too() {
+    use shm_cdr::msgs::sensor_msgs::msg::Image;
+    use shm_runtime::rmw::{buffer_key_expr, Gid};
+    let (a, b, _) = loopback_sessions();
+    let listener = node(&a, "viewer", Distro::Lyrical);
+    let images = listener
+        .declare_subscriber::<Image>("/camera")
+        .wait()
+        .unwrap();
+    let base = images.key_expr().to_owned();
+    // The peer learns the key from the subscriber's token alone, as 0.10.5
+    // does: here through a graph of its own.
+    let peer = node(&b, "camera", Distro::Lyrical);
+    let graph = peer.graph_cache().unwrap();
+    assert!(graph.wait_until(TIMEOUT, |g| !g.subscribers("/camera").is_empty()));
+    let token = graph
+        .snapshot()
+        .subscribers("/camera")
+        .first()
+        .map(|e| e.token.to_string());
+    let seen = token.expect("the subscriber's token on the graph");
+    assert_eq!(
+        buffer_key_expr(Distro::Lyrical, &base, &seen, true),
+        Some(format!("{base}/_buf/{:?}", Gid::from_token(&seen)))
+    );
+    // Kilted's and Jazzy's publishers have no such keys; types without a
+    // `uint8[]` field of their own none either.
+    assert_eq!(buffer_key_expr(Distro::Kilted, &base, &seen, true), None);
+    assert_eq!(buffer_key_expr(Distro::Rolling, &base, &seen, false), None);
+    let key = format!("{base}/_buf/{:?}", Gid::from_token(&seen));
+    let image = Image {
+        height: 2,
+        width: 3,
+        encoding: "mono8".into(),
+        step: 3,
+        data: vec![1, 2, 3, 4, 5, 6],
+        ..Default::default()
+    };
+    let publisher = b.declare_publisher(key).wait().unwrap();
+    let mut got = None;
+    for _ in 0..100 {
+        publisher
+            .put(shm_cdr::to_vec(&image).unwrap())
+            .wait()
+            .unwrap();
+        if let Some(sample) = images.recv_timeout(Duration::from_millis(100)).unwrap() {
+            got = Some(sample.decode::<Image>().unwrap());
+            break;
+        }
+    }
+    assert_eq!(got, Some(image));
+}

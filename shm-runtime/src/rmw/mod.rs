@@ -48,6 +48,34 @@ fn data_key_expr(
     )
 }
 
+/// The key on which a buffer-aware publisher of Lyrical's or Rolling's
+/// rmw_zenoh_cpp sends a subscriber its messages, for a subscriber of a type
+/// with a `uint8[]` field of its own (a `rosidl::Buffer` in C++ code
+/// generated on those distributions) on `key_expr`, whose token is `token`:
+/// `<key_expr>/_buf/<the subscriber's GID in lower-case hex>`; `None` for
+/// other types and distributions.
+///
+/// Such a publisher (volatile) counts the subscribers it has discovered
+/// with it, ours included, and while they are all it has matched it sends
+/// each message to each one on its own key instead of the topic's key
+/// (0.10.5 `PublisherData::publish` and `on_subscriber_discovered`,
+/// `buffer_endpoint_helpers.hpp`). A subscriber that announces no buffer
+/// backends gets a plain CDR message there: a buffer in CPU memory is
+/// serialized as the `uint8[]` it stands for (`buffer_serialization.hpp` of
+/// rosidl_typesupport_fastrtps).
+pub fn buffer_key_expr(
+    distro: Distro,
+    key_expr: &str,
+    token: &str,
+    has_buffer_fields: bool,
+) -> Option<String> {
+    if !(distro.has_buffer_aware_endpoints() && has_buffer_fields) {
+        return None;
+    }
+    let gid = Gid::from_token(token);
+    Some(format!("{key_expr}/_buf/{gid:?}"))
+}
+
 /// The 33-byte attachment rmw_zenoh_cpp puts on every sample, request and reply
 /// (a reply carries its request's sequence number and client GID).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -201,6 +201,8 @@ impl RosNode {
         let topic_type = TopicType {
             name: type_name.into(),
             hash: type_hash.into(),
+            // Our publishers publish on the base key whatever the type.
+            has_buffer_fields: false,
         };
         self.node_publisher(topic, qos, topic_type, None)
     }
@@ -370,6 +372,7 @@ impl RosNode {
         let service_type = TopicType {
             name: type_name.into(),
             hash: type_hash.into(),
+            has_buffer_fields: false,
         };
         let token = self.info.topic_token_of(
             entity_id,
@@ -717,7 +720,14 @@ fn node_subscriber<'s, T>(
     let key_expr = topic_key_expr_of(info.distro, info.domain_id, &topic, &topic_type);
     let liveliness =
         info.topic_token_of(entity_id, EntityKind::Subscriber, &topic, &topic_type, &qos);
+    let buffer_key = crate::rmw::buffer_key_expr(
+        info.distro,
+        &key_expr,
+        &liveliness,
+        topic_type.has_buffer_fields,
+    );
     let mut builder = SubscriberBuilder::new(session, key_expr, topic_type);
+    builder.buffer_key = buffer_key;
     builder.invalid = invalid;
     builder.qos = qos;
     // The queue keeps what the QoS announces, as rmw_zenoh_cpp's does: a

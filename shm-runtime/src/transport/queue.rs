@@ -124,20 +124,33 @@ pub(crate) fn sample_type(sample: &Sample) -> Option<(String, String)> {
 pub(crate) struct TopicType {
     pub(crate) name: std::sync::Arc<str>,
     pub(crate) hash: std::sync::Arc<str>,
+    /// Whether the type has a `uint8[]` field of its own, which C++ code
+    /// generated on Lyrical and later holds as a `rosidl::Buffer` (see
+    /// [`crate::rmw::buffer_key_expr`]).
+    pub(crate) has_buffer_fields: bool,
 }
 
 impl TopicType {
     pub(crate) fn of<T: RosMessage>() -> Self {
+        let description = T::type_description();
         Self {
             name: T::TYPE_NAME.into(),
             hash: T::type_hash().into(),
+            has_buffer_fields: description.fields.iter().any(|f| {
+                f.field_type.element == shm_cdr::describe::TypeId::Uint8
+                    && f.field_type.container == shm_cdr::describe::Container::Sequence
+            }),
         }
     }
 
     pub(crate) fn of_dynamic(ty: &shm_cdr::dynamic::DynamicType) -> Self {
+        use shm_cdr::dynamic::Element;
         Self {
             name: ty.name().into(),
             hash: ty.type_hash().into(),
+            has_buffer_fields: ty.root().fields.iter().any(|f| {
+                f.element == Element::U8 && f.container == shm_cdr::describe::Container::Sequence
+            }),
         }
     }
 

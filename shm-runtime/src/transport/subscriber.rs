@@ -38,6 +38,9 @@ pub struct SubscriberBuilder<'a, T> {
     pub(crate) key_expr: String,
     /// rmw_zenoh liveliness token (`MS`) to declare, for node subscribers.
     pub(crate) liveliness: Option<String>,
+    /// The subscriber's own key, which buffer-aware publishers may send its
+    /// messages to instead (see [`crate::rmw::buffer_key_expr`]).
+    pub(crate) buffer_key: Option<String>,
     /// The message type in the node's type-description cache, for node
     /// subscribers.
     pub(crate) type_use: Option<TypeUse>,
@@ -59,6 +62,7 @@ impl<'a, T> SubscriberBuilder<'a, T> {
             key_expr,
             topic_type,
             liveliness: None,
+            buffer_key: None,
             type_use: None,
             history: History::KeepAll,
             max_queued_bytes: DEFAULT_MAX_QUEUED_BYTES,
@@ -124,15 +128,32 @@ impl<'a, T> SubscriberBuilder<'a, T> {
         callback: impl Fn(Sample) + Send + Sync + 'static,
     ) -> zenoh::Result<ZenohSubscriber> {
         let qos = self.qos;
+        let callback = std::sync::Arc::new(callback);
+        let buffer = match &self.buffer_key {
+            Some(key) => {
+                check_key_expr("key expression", key)?;
+                let callback = callback.clone();
+                Some(
+                    self.session
+                        .declare_subscriber(key.clone())
+                        .callback(move |sample| callback(sample))
+                        .wait()?,
+                )
+            }
+            None => None,
+        };
         let builder = self
             .session
             .declare_subscriber(self.key_expr.clone())
-            .callback(callback);
+            .callback(move |sample| callback(sample));
         let transient_local = qos.durability == Durability::TransientLocal;
         let recovery =
             self.recovery || (transient_local && qos.reliability == Reliability::Reliable);
         if !transient_local && !recovery {
-            return Ok(ZenohSubscriber::Plain(builder.wait()?));
+            return Ok(ZenohSubscriber {
+                main: MainSubscriber::Plain(builder.wait()?),
+                _buffer: buffer,
+            });
         }
         let builder = builder.advanced();
         let builder = if transient_local {
@@ -156,7 +177,10 @@ impl<'a, T> SubscriberBuilder<'a, T> {
         } else {
             builder
         };
-        Ok(ZenohSubscriber::Advanced(builder.wait()?))
+        Ok(ZenohSubscriber {
+            main: MainSubscriber::Advanced(builder.wait()?),
+            _buffer: buffer,
+        })
     }
 
     /// The announcements a subscriber keeps while it lives, declared before
@@ -283,17 +307,23 @@ struct Announced {
 const RECOVERY_QUERY_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// A plain Zenoh subscriber, or zenoh-ext's advanced one (transient local,
-/// recovery).
-enum ZenohSubscriber {
+/// recovery), with the plain subscriber on the subscriber's own key for
+/// buffer-aware publishers, where it has one.
+struct ZenohSubscriber {
+    main: MainSubscriber,
+    _buffer: Option<zenoh::pubsub::Subscriber<()>>,
+}
+
+enum MainSubscriber {
     Plain(zenoh::pubsub::Subscriber<()>),
     Advanced(AdvancedSubscriber<()>),
 }
 
 impl ZenohSubscriber {
     fn key_expr(&self) -> &str {
-        match self {
-            Self::Plain(s) => s.key_expr().as_str(),
-            Self::Advanced(s) => s.key_expr().as_str(),
+        match &self.main {
+            MainSubscriber::Plain(s) => s.key_expr().as_str(),
+            MainSubscriber::Advanced(s) => s.key_expr().as_str(),
         }
     }
 }
