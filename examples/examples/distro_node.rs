@@ -4,7 +4,9 @@
 //!
 //! `distro_node <listen endpoint> <distro>`: node `/demo/distro_node` with a
 //! publisher on `/chatter` (`std_msgs/String`, transient local, keep last 7,
-//! a message every 50 ms), a subscriber on `/echo` (sensor-data QoS), a
+//! a message every 50 ms), a publisher of 4×2 `mono8` `sensor_msgs/Image`s
+//! on `/camera` (every 50 ms, each pixel the message's number), a subscriber
+//! on `/echo` (sensor-data QoS), a
 //! `std_srvs/Trigger` server on `/trigger` answering with the distribution's
 //! name, and a lifecycle (its services and `~/transition_event`). Each
 //! message received on `/echo` is printed as `echo <text>`. Prints `ready`,
@@ -15,6 +17,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
+use shm_cdr::msgs::sensor_msgs::msg::Image;
 use shm_cdr::msgs::std_msgs::String as Text;
 use shm_cdr::msgs::std_srvs::srv::{Trigger, Trigger_Request, Trigger_Response};
 use shm_cdr_examples::peer_session;
@@ -42,6 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let publisher = node
         .declare_publisher_with_qos::<Text>("/chatter", Qos::transient_local(7))
         .wait()?;
+    let camera = node.declare_publisher::<Image>("/camera").wait()?;
     let _echo = node
         .declare_subscriber_with_qos::<Text>("/echo", Qos::sensor_data())
         .callback(|sample| match sample.decode::<Text>() {
@@ -68,6 +72,17 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
                     data: format!("{distro} {n}"),
                 };
                 if let Err(e) = publisher.publish(&message).wait() {
+                    eprintln!("distro_node: {e}");
+                }
+                let image = Image {
+                    height: 2,
+                    width: 4,
+                    encoding: "mono8".into(),
+                    step: 4,
+                    data: vec![n as u8; 8],
+                    ..Default::default()
+                };
+                if let Err(e) = camera.publish(&image).wait() {
                     eprintln!("distro_node: {e}");
                 }
                 std::thread::sleep(Duration::from_millis(50));

@@ -19,21 +19,33 @@
    service key (called here) and the 33-byte attachment with the GID of the
    publisher's token; a Humble node has no `~/get_type_description`.
 
-    python tests/ros2/distros.py <dir with ros2_types and distro_node>
+3. Buffer-aware endpoints (Lyrical, Rolling): a peer that behaves as
+   0.10.5's buffer-aware publisher and subscriber of `sensor_msgs/Image`
+   (`rmw_publisher_data.cpp`: per-subscriber keys `<topic key>/_buf/<GID>`,
+   `_buf_cpu` for CPU-only buffer-aware subscribers, the base key only while
+   it has matched more subscribers than it has discovered) exchanges Images
+   with our node both ways; the keys it sends on change as our subscriber
+   (`shm-ros2 topic echo`) joins and leaves.
+
+    python tests/ros2/distros.py <dir with ros2_types and distro_node> [<dir with shm-ros2>]
 """
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+import zenoh
+
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.typesys import Stores, get_typestore
+from sensor_msgs.msg import Image
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from rmw_zenoh import attachment, call, free_port, gid_of, open_session, parse_attachment, rosidl_hash
 
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples")
+CLI = Path(sys.argv[2] if len(sys.argv) > 2 else BIN.parent) / "shm-ros2"
 failures = []
 
 
@@ -226,10 +238,151 @@ def check_node(distro):
         proc.wait()
 
 
+class BufferAwarePublisher:
+    """0.10.5's buffer-aware publisher of a type with `uint8[]` fields, CPU
+    buffers: it discovers every subscriber of its topic (the graph calls
+    `on_subscriber_discovered` for each, announced buffer-aware or not) and,
+    while it has matched no more subscribers than it has discovered, sends
+    each message to each one's own key instead of the topic's key:
+    `<key>/_buf_cpu` for those whose only backend is `cpu`, else
+    `<key>/_buf/<GID in hex>`. A CPU buffer is serialized as the `uint8[]`
+    it holds, so the payload is plain CDR."""
+
+    def __init__(self, session, prefix, key, token_pattern):
+        self.session, self.key = session, key
+        self.token = f"{prefix}/901/MP/%/%/lyrical_camera/%image/sensor_msgs::msg::dds_::Image_/" \
+                     f"{key.rsplit('/', 1)[1]}/::,10:,:,:,,/backends:cpu:"
+        self._token = session.liveliness().declare_token(self.token)
+        self.gid = gid_of(self.token)
+        self.subscribers = {}  # token -> the key it is sent to
+        self.watch = session.liveliness().declare_subscriber(token_pattern, history=True, handler=self.seen)
+        self.publishers = {}
+        self.seq = 0
+
+    def seen(self, sample):
+        token = str(sample.key_expr)
+        if sample.kind == zenoh.SampleKind.DELETE:
+            self.subscribers.pop(token, None)
+            return
+        parts = token.split("/")
+        backends = parts[13] if len(parts) > 13 else ""
+        cpu_only = backends.removeprefix("backends:").split(";") == ["cpu:"]
+        self.subscribers[token] = f"{self.key}/_buf_cpu" if cpu_only else f"{self.key}/_buf/{gid_of(token).hex()}"
+
+    def publish(self, payload):
+        """The keys this message went out on."""
+        keys = sorted(set(self.subscribers.values())) if self.subscribers else []
+        self.seq += 1
+        for key in keys:
+            if key not in self.publishers:
+                self.publishers[key] = self.session.declare_publisher(key)
+            self.publishers[key].put(payload, attachment=attachment(self.seq, self.gid))
+        return keys
+
+
+def check_buffer_aware(distro):
+    """A buffer-aware Lyrical peer and our node (`distro_node`, `shm-ros2`)."""
+    port = free_port()
+    proc = subprocess.Popen([BIN / "distro_node", f"tcp/127.0.0.1:{port}", distro],
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        session = open_session(f"tcp/127.0.0.1:{port}", listen=False)
+        zid = str(session.info.zid())
+        prefix = f"@ros2_lv/0/{zid}/900"
+        hash_ = hash_field(distro, "sensor_msgs/msg/Image")
+        image_key = f"0/image/sensor_msgs::msg::dds_::Image_/{hash_}"
+
+        # Ours -> a buffer-aware subscriber: it keeps the topic's key.
+        camera_key = f"0/camera/sensor_msgs::msg::dds_::Image_/{hash_}"
+        sub_token = f"{prefix}/902/MS/%/%/lyrical_viewer/%camera/sensor_msgs::msg::dds_::Image_/{hash_}/" \
+                    f"::,10:,:,:,,/backends:cpu:"
+        viewer = session.liveliness().declare_token(sub_token)
+        frames = []
+        base_sub = session.declare_subscriber(camera_key, lambda s: frames.append(s.payload.to_bytes()))
+        cpu_sub = session.declare_subscriber(f"{camera_key}/_buf_cpu", lambda s: frames.append(s.payload.to_bytes()))
+        deadline = time.time() + 10
+        while len(frames) < 5 and time.time() < deadline:
+            time.sleep(0.05)
+        images = [deserialize_message(f, Image) for f in frames]
+        check(len(images) >= 5 and all(i.width == 4 and len(i.data) == 8 for i in images),
+              f"{distro}: buffer-aware subscriber got {len(images)} of our Images")
+        for s in (base_sub, cpu_sub, viewer):
+            s.undeclare()
+
+        # A buffer-aware publisher -> ours: the keys it sends on as our
+        # subscriber joins and leaves. A CPU-only buffer-aware subscriber of
+        # its own is there throughout.
+        other = session.liveliness().declare_token(
+            f"{prefix}/903/MS/%/%/lyrical_viewer/%image/sensor_msgs::msg::dds_::Image_/{hash_}/::,10:,:,:,,/backends:cpu:")
+        publisher = BufferAwarePublisher(
+            session, prefix, image_key,
+            f"@ros2_lv/0/*/*/*/MS/*/*/*/%image/sensor_msgs::msg::dds_::Image_/{hash_}/**")
+        payload = serialize_message(Image(height=1, width=3, encoding="mono8", step=3, data=[7, 8, 9]))
+        phases = []
+
+        def publish_for(seconds):
+            seen = set()
+            end = time.time() + seconds
+            while time.time() < end:
+                seen.add(tuple(k.removeprefix(image_key) for k in publisher.publish(payload)))
+                time.sleep(0.05)
+            return seen
+
+        deadline = time.time() + 10
+        while not publisher.subscribers and time.time() < deadline:
+            time.sleep(0.05)
+        phases.append(publish_for(0.5))
+
+        # Control: told Kilted, whose publishers have no such keys, our
+        # subscriber does not read its own key, and gets nothing.
+        control = subprocess.Popen([CLI, "--connect", f"tcp/127.0.0.1:{port}", "--distro", "kilted",
+                                    "topic", "echo", "/image", "--once"],
+                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        publish_for(3)
+        control.kill()
+        control_out, _ = control.communicate()
+        check("data:" not in control_out, f"{distro}: a Kilted subscriber read a buffer-aware publisher: {control_out!r}")
+        time.sleep(0.5)
+
+        echo = subprocess.Popen([CLI, "--connect", f"tcp/127.0.0.1:{port}", "--distro", distro,
+                                 "topic", "echo", "/image", "--once"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        joined = set()
+        try:
+            end = time.time() + 15
+            while echo.poll() is None and time.time() < end:
+                joined |= publish_for(0.1)
+            out, err = echo.communicate(timeout=5)
+        finally:
+            if echo.poll() is None:
+                echo.kill()
+        phases.append(joined)
+        time.sleep(0.5)
+        phases.append(publish_for(0.5))
+        check("data:\n- 7\n- 8\n- 9" in out, f"{distro}: shm-ros2 topic echo from a buffer-aware publisher: {out!r} {err[-300:]!r}")
+        ours = [k for keys in phases[1] for k in keys if k.startswith("/_buf/")]
+        check(phases[0] == {("/_buf_cpu",)} and ours and phases[2] == {("/_buf_cpu",)},
+              f"{distro}: the publisher's keys before, while and after our subscriber: {phases}")
+        other.undeclare()
+        session.close()
+        print(f"buffer-aware {distro}: our Images reached a buffer-aware subscriber ({len(images)} on the topic's key); "
+              f"a buffer-aware publisher sent on {sorted(phases[0])}, then {sorted(joined)} while shm-ros2 subscribed "
+              f"(its echo: {'ok' if 'data:' in out else 'nothing'}; told kilted: "
+              f"{'nothing' if 'data:' not in control_out else 'read'}), then {sorted(phases[2])}")
+    finally:
+        proc.stdin.close()
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait()
+
+
 def main():
     check_interfaces()
     for distro in RELEASES:
         check_node(distro)
+    for distro in ("lyrical", "rolling"):
+        check_buffer_aware(distro)
     for f in failures:
         print("FAIL", f)
     sys.exit(1 if failures else 0)

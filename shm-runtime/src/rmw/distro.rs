@@ -11,11 +11,12 @@
 //!   where later releases look them up in a table; the text is the same.
 //! - **Jazzy and Kilted** (0.2.10, 0.6.7) differ only in tracing.
 //! - **Lyrical and Rolling** (0.10.5, 0.12.0) add `rosidl::Buffer`-aware
-//!   endpoints: the token of an endpoint of a type with buffer fields may carry
-//!   a 13th field, `backends:<name>:<metadata>;…`, which older releases
-//!   ignore. Their subscribers keep the base-key subscription, and their
-//!   publishers publish on the base key unless every matched subscriber has
-//!   announced itself buffer-aware (`PublisherData::publish`).
+//!   endpoints for types with a `uint8[]` field of their own: their tokens
+//!   may end in one more field, `backends:<name>:<metadata>;…`, which older
+//!   releases ignore. Their subscribers keep the topic's key; their volatile
+//!   publishers send each discovered subscriber its messages on a key of its
+//!   own ([`buffer_key_expr`](super::buffer_key_expr)), which our
+//!   subscribers of such types read too.
 //! - **Node services**: `~/get_type_description` exists from Iron on, so a
 //!   Humble node has none; logger-level services likewise.
 

@@ -77,10 +77,10 @@ pub struct Endpoint {
     pub type_hash: String,
     /// QoS, with rmw_zenoh_cpp's defaults where the token leaves a field empty.
     pub qos: Qos,
-    /// The buffer backends the endpoint announces (`cpu`, `cuda`, …): rmw_zenoh_cpp
-    /// on Rolling adds them, as a last `backends:…` field, to the tokens of
-    /// endpoints whose type has buffer fields (ros2/rmw_zenoh#930). Empty
-    /// otherwise.
+    /// The buffer backends the endpoint announces (`cpu`, `cuda`, …):
+    /// rmw_zenoh_cpp on Lyrical and Rolling adds them, as a last `backends:…`
+    /// field, to the tokens of buffer-aware endpoints (types with a `uint8[]`
+    /// field of their own). Empty otherwise.
     pub backends: Vec<String>,
 }
 
