@@ -46,10 +46,28 @@ pub enum ParameterValue {
     StringArray(Vec<String>),
 }
 
-/// A type code as rclpy's reasons print it: its number (rclpy's
-/// `Parameter.Type` is an integer enum).
-pub(crate) fn type_name(code: u8) -> String {
-    code.to_string()
+/// A type code as `distro`'s rclpy prints it in its reasons: its number from
+/// Kilted on (rclpy 9.1.2), its `Parameter.Type` member before (Jazzy's
+/// rclpy 7.1.6: `Type.DOUBLE`; Humble's is taken to be the same).
+pub(crate) fn type_name(code: u8, distro: crate::rmw::Distro) -> String {
+    use crate::rmw::Distro;
+    if !matches!(distro, Distro::Humble | Distro::Jazzy) {
+        return code.to_string();
+    }
+    let member = match code {
+        0 => "NOT_SET",
+        1 => "BOOL",
+        2 => "INTEGER",
+        3 => "DOUBLE",
+        4 => "STRING",
+        5 => "BYTE_ARRAY",
+        6 => "BOOL_ARRAY",
+        7 => "INTEGER_ARRAY",
+        8 => "DOUBLE_ARRAY",
+        9 => "STRING_ARRAY",
+        _ => return code.to_string(),
+    };
+    format!("Type.{member}")
 }
 
 impl ParameterValue {
@@ -372,6 +390,11 @@ mod tests {
         ] {
             assert_eq!(ParameterValue::from_msg(&value.to_msg()), value);
         }
-        assert_eq!(type_name(3), "3");
+        assert_eq!(type_name(3, crate::rmw::Distro::Kilted), "3");
+        assert_eq!(type_name(3, crate::rmw::Distro::Jazzy), "Type.DOUBLE");
+        assert_eq!(
+            type_name(7, crate::rmw::Distro::Jazzy),
+            "Type.INTEGER_ARRAY"
+        );
     }
 }

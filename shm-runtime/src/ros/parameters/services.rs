@@ -94,7 +94,7 @@ impl ParameterServer {
             .wait()?;
         let fqn = node.info().fqn();
         let shared = Arc::new(Shared {
-            store: Mutex::default(),
+            store: Mutex::new(Store::for_distro(node.info().distro)),
             events,
             node: fqn,
             clock: node.clock().clone(),

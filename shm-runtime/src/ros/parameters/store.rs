@@ -90,12 +90,22 @@ fn parameter_msg(name: &str, value: &ParameterValue) -> rcl::Parameter {
 /// The parameters of a node, in declaration order (as rclpy lists them).
 #[derive(Default)]
 pub(crate) struct Store {
+    /// Whose rclpy's reasons the store gives.
+    distro: crate::rmw::Distro,
     entries: Vec<Entry>,
     on_set: Vec<OnSet>,
     after_set: Vec<AfterSet>,
 }
 
 impl Store {
+    /// An empty store giving `distro`'s rclpy's reasons.
+    pub(crate) fn for_distro(distro: crate::rmw::Distro) -> Self {
+        Self {
+            distro,
+            ..Self::default()
+        }
+    }
+
     fn find(&self, name: &str) -> Option<&Entry> {
         self.entries.iter().find(|e| e.name == name)
     }
@@ -199,7 +209,7 @@ impl Store {
         }
         for (name, value) in set {
             if let Some(entry) = self.find(name) {
-                let result = check(entry, value);
+                let result = check(entry, value, self.distro);
                 if !result.successful {
                     return (result, Changes::default());
                 }
@@ -304,7 +314,7 @@ impl Store {
 }
 
 /// rclpy's `_apply_descriptor` for a set: read-only, type, range.
-fn check(entry: &Entry, value: &ParameterValue) -> SetResult {
+fn check(entry: &Entry, value: &ParameterValue, distro: crate::rmw::Distro) -> SetResult {
     let name = &entry.name;
     let descriptor = &entry.descriptor;
     if descriptor.read_only {
@@ -318,8 +328,8 @@ fn check(entry: &Entry, value: &ParameterValue) -> SetResult {
         if value.type_code() != entry.type_code {
             return SetResult::refused(format!(
                 "Wrong parameter type, expected '{}' got '{}'",
-                type_name(entry.type_code),
-                type_name(value.type_code())
+                type_name(entry.type_code, distro),
+                type_name(value.type_code(), distro)
             ));
         }
     }
