@@ -149,13 +149,19 @@ def tokens_of(session, zid):
     return sorted(str(r.ok.key_expr) for r in replies if r.ok is not None)
 
 
-def check_node(distro):
-    version, hashes, type_description, _ = RELEASES[distro]
+def start_node(distro):
+    """`distro_node` speaking `distro`, once it is ready: its port and process."""
     port = free_port()
     proc = subprocess.Popen([BIN / "distro_node", f"tcp/127.0.0.1:{port}", distro],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "ready"
+    return port, proc
+
+
+def check_node(distro):
+    version, hashes, type_description, _ = RELEASES[distro]
+    port, proc = start_node(distro)
     try:
-        assert proc.stdout.readline().strip() == "ready"
         session = open_session(f"tcp/127.0.0.1:{port}", listen=False)
         deadline = time.time() + 10
         tokens = []
@@ -282,11 +288,8 @@ class BufferAwarePublisher:
 
 def check_buffer_aware(distro):
     """A buffer-aware Lyrical peer and our node (`distro_node`, `shm-ros2`)."""
-    port = free_port()
-    proc = subprocess.Popen([BIN / "distro_node", f"tcp/127.0.0.1:{port}", distro],
-                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    port, proc = start_node(distro)
     try:
-        assert proc.stdout.readline().strip() == "ready"
         session = open_session(f"tcp/127.0.0.1:{port}", listen=False)
         zid = str(session.info.zid())
         prefix = f"@ros2_lv/0/{zid}/900"
