@@ -212,9 +212,18 @@ pub fn of_topic(
     }
     if let Some(resolved) = local.resolve(&endpoint.type_name) {
         let resolved = resolved?;
-        if resolved.ty.type_hash() == endpoint.type_hash {
+        // Humble announces no hash: its types are known by name.
+        if !distro.has_type_hashes() || resolved.ty.type_hash() == endpoint.type_hash {
             return Ok(resolved);
         }
+    }
+    if !distro.has_type_hashes() {
+        return Err(format!(
+            "topic {topic} is of type {}, which is not a standard type, and {distro}'s nodes \
+             describe no types: give its interface files with --interfaces",
+            endpoint.type_name
+        )
+        .into());
     }
     ask_node(
         node,

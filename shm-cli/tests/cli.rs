@@ -763,6 +763,53 @@ fn types_come_from_interface_files_when_the_node_does_not_describe_them() {
         ],
     ));
     assert_eq!(out, "voltage: 11.5\ncells:\n- 3300\nlabel: spare\n---\n");
+
+    // Humble's nodes announce no hash and describe no types: the files are
+    // taken by name, and without them the error says to give them.
+    let humble = RosNode::builder(&session, "humble_pack")
+        .domain_id(0)
+        .distro(shm_runtime::rmw::Distro::Humble)
+        .wait()
+        .unwrap();
+    let _humble_battery = keep_publishing(
+        &humble,
+        "/humble_battery",
+        Battery {
+            voltage: 12.0,
+            cells: vec![3400],
+            label: "old".into(),
+        },
+    );
+    let without = run(
+        port,
+        &[
+            "--distro",
+            "humble",
+            "topic",
+            "echo",
+            "/humble_battery",
+            "--once",
+        ],
+    );
+    let err = String::from_utf8_lossy(&without.stderr);
+    assert!(
+        !without.status.success() && err.contains("--interfaces"),
+        "{err}"
+    );
+    let out = stdout(&run(
+        port,
+        &[
+            "--distro",
+            "humble",
+            "--interfaces",
+            &dir_arg,
+            "topic",
+            "echo",
+            "/humble_battery",
+            "--once",
+        ],
+    ));
+    assert_eq!(out, "voltage: 12.0\ncells:\n- 3400\nlabel: old\n---\n");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
