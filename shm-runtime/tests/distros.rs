@@ -10,11 +10,14 @@ use std::time::Duration;
 
 use common::loopback_sessions;
 use shm_cdr::distro_msgs::lyrical::lifecycle_msgs::msg::TransitionEvent as StampedTransitionEvent;
-use shm_cdr::msgs::lifecycle_msgs::msg::{State as StateMsg, TransitionEvent};
+use shm_cdr::msgs::lifecycle_msgs::msg::{
+    State as StateMsg, Transition as TransitionMsg, TransitionEvent,
+};
+use shm_cdr::msgs::lifecycle_msgs::srv::{ChangeState, ChangeState_Request};
 use shm_cdr::msgs::std_msgs::String as Text;
 use shm_cdr::msgs::std_srvs::srv::{Trigger, Trigger_Request, Trigger_Response};
 use shm_cdr::RosMessage;
-use shm_runtime::lifecycle::{Managed, Transition};
+use shm_runtime::lifecycle::{Managed, State};
 use shm_runtime::rmw::{topic_key_expr, Distro, TYPE_HASH_NOT_SUPPORTED};
 use shm_runtime::RosNode;
 use zenoh::{Session, Wait};
@@ -142,12 +145,25 @@ fn a_lyrical_lifecycle_node_announces_transitions_with_a_stamp() {
         .collect();
     assert_eq!(announced, [StampedTransitionEvent::type_hash()]);
 
-    // The managed node's session knows the subscriber (its subscription is
-    // declared before its token) before the first event goes out.
-    assert!(managed.graph_cache().unwrap().wait_until(TIMEOUT, |g| !g
-        .subscribers("/lc/transition_event")
-        .is_empty()));
-    lifecycle.trigger(Transition::Configure).unwrap();
+    // Asked through `~/change_state` from the observer's session, as a
+    // lifecycle manager does: the request follows the subscription on the
+    // same link, so the event that the transition publishes reaches it.
+    let change = observer
+        .declare_client::<ChangeState>("/lc/change_state")
+        .wait()
+        .unwrap();
+    assert!(change.wait_for_service(TIMEOUT));
+    let reply = change
+        .call(&ChangeState_Request {
+            transition: TransitionMsg {
+                id: TransitionMsg::TRANSITION_CONFIGURE,
+                label: String::new(),
+            },
+        })
+        .wait()
+        .unwrap();
+    assert!(reply.success);
+    assert_eq!(lifecycle.state(), State::Inactive);
     let event = events.recv_timeout(TIMEOUT).unwrap().unwrap();
     let event: StampedTransitionEvent = event.decode().unwrap();
     assert_eq!(
