@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 use shm_cdr::msgs::builtin_interfaces::Time;
 use shm_cdr::msgs::sensor_msgs::Image;
 use shm_cdr::msgs::std_msgs::Header;
-use shm_runtime::rmw::{Distro, EntityKind, NodeInfo, Qos};
+use shm_runtime::rmw::EntityKind;
 use shm_runtime::{Reach, RosNode, ShmConfig, ShmContext};
 use zenoh::Wait;
 
@@ -53,19 +53,9 @@ fn image(seq: u32, data: usize) -> Image {
     }
 }
 
-/// The token of the peer's endpoint of `kind` on the topic, its session
-/// left as `{zid}`.
+/// The token of the peer's endpoint of `kind` on the topic.
 fn peer_token(kind: EntityKind) -> String {
-    NodeInfo {
-        domain_id: 0,
-        zid: "{zid}".into(),
-        node_id: 0,
-        enclave: "/".into(),
-        namespace: "/".into(),
-        name: "zenoh_peer".into(),
-        distro: Distro::Kilted,
-    }
-    .topic_token::<Image>(1, kind, &format!("/{TOPIC}"), &Qos::default())
+    shm_cdr_examples::zenoh_peer_token::<Image>(&format!("/{TOPIC}"), kind)
 }
 
 fn node(endpoint: &str, name: &str) -> Result<(zenoh::Session, ShmContext, RosNode)> {

@@ -9,13 +9,18 @@
 //! ```text
 //! zenoh_peer sub <connect> <key> <token template> <count> <data bytes> <timeout s>
 //! zenoh_peer pub <connect> <key> <token template> <count> <data bytes>
+//! zenoh_peer echo <connect> <key> <token template> <count> <data bytes> <timeout s> <pong key>
 //! ```
 //!
 //! `{zid}` in the token template is replaced by the peer's Zenoh session id: the
 //! liveliness token an rmw_zenoh_cpp endpoint declares, so that the other
 //! side's graph sees this one. Each mode prints one JSON line: `sub` how many
 //! images arrived, how many in shared memory (`ZBytes::as_shm`), how many
-//! byte-exact; `pub` how many it wrote into its shared-memory pool.
+//! byte-exact; `pub` how many it wrote into its shared-memory pool. `echo`
+//! (the latency benchmark `zenoh_lines`) checks each image in place, as it
+//! arrived, and answers at once on the pong key with 6 bytes: the image's
+//! sequence number (u32 LE), whether it arrived in shared memory, whether it
+//! was exact.
 
 use std::time::{Duration, Instant};
 
@@ -64,6 +69,14 @@ fn image_len(data: usize) -> usize {
 /// Little-endian CDR of image `seq` into `out` (exactly `image_len` bytes),
 /// offsets counted after the 4-byte encapsulation header.
 fn write_image(out: &mut [u8], seq: u32, data: usize) {
+    let start = write_header(out, seq, data);
+    for (i, byte) in out[start..start + data].iter_mut().enumerate() {
+        *byte = pixel(seq, i);
+    }
+}
+
+/// Everything of image `seq` before its pixels; returns where they start.
+fn write_header(out: &mut [u8], seq: u32, data: usize) -> usize {
     out[..4].copy_from_slice(&[0, 1, 0, 0]);
     let mut pos = 0;
     let mut put = |bytes: &[u8], align_to: usize, pos: &mut usize| {
@@ -84,23 +97,25 @@ fn write_image(out: &mut [u8], seq: u32, data: usize) {
     put(&[0, 0], 1, &mut pos);
     put(&(data as u32).to_le_bytes(), 4, &mut pos);
     put(&(data as u32).to_le_bytes(), 4, &mut pos);
-    let start = 4 + pos;
-    for (i, byte) in out[start..start + data].iter_mut().enumerate() {
-        *byte = pixel(seq, i);
-    }
+    4 + pos
 }
 
 /// Whether `bytes` is image `seq` of `data` bytes as `write_image` lays it out
-/// (the stamp's seconds carry the sequence).
+/// (the stamp's seconds carry the sequence), read where it lies.
 fn check_image(bytes: &[u8], data: usize) -> Option<u32> {
     if bytes.len() != image_len(data) || bytes.get(..2) != Some(&[0, 1][..]) {
         return None;
     }
     let seq = u32::from_le_bytes(bytes.get(4..8)?.try_into().ok()?);
-    let mut expected = vec![0; bytes.len()];
-    write_image(&mut expected, seq, data);
+    let header_len = image_len(0);
+    let mut header = vec![0; header_len];
+    write_header(&mut header, seq, data);
     // Bytes 2..4 are the encapsulation options, which writers may set.
-    (bytes[4..] == expected[4..]).then_some(seq)
+    let pixels_ok = bytes[header_len..]
+        .iter()
+        .enumerate()
+        .all(|(i, &b)| b == pixel(seq, i));
+    (bytes[4..header_len] == header[4..] && pixels_ok).then_some(seq)
 }
 
 /// rmw_zenoh_cpp's attachment: sequence number, source timestamp, GID.
@@ -158,6 +173,40 @@ fn subscribe(args: &[String]) -> Result<()> {
     Ok(())
 }
 
+fn echo(args: &[String]) -> Result<()> {
+    let session = zenoh::open(config(arg(args, 2, "connect endpoint")?)?).wait()?;
+    let key = arg(args, 3, "key expression")?;
+    let token = arg(args, 4, "token template")?.replace("{zid}", &session.zid().to_string());
+    let count: usize = arg(args, 5, "count")?.parse()?;
+    let data: usize = arg(args, 6, "data bytes")?.parse()?;
+    let timeout = Duration::from_secs(arg(args, 7, "timeout")?.parse()?);
+    let pongs = session
+        .declare_publisher(arg(args, 8, "pong key")?.to_owned())
+        .wait()?;
+    let subscriber = session.declare_subscriber(key).wait()?;
+    let _token = session.liveliness().declare_token(token).wait()?;
+    println!("READY {}", session.zid());
+    let deadline = Instant::now() + timeout;
+    for _ in 0..count {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let Ok(Some(sample)) = subscriber.recv_timeout(left) else {
+            break;
+        };
+        let payload = sample.payload();
+        let shm = payload.as_shm();
+        let checked = match shm {
+            Some(shm) => check_image(shm, data),
+            None => check_image(&payload.to_bytes(), data),
+        };
+        let mut pong = checked.unwrap_or(u32::MAX).to_le_bytes().to_vec();
+        pong.push(u8::from(shm.is_some()));
+        pong.push(u8::from(checked.is_some()));
+        pongs.put(pong).wait()?;
+    }
+    session.close().wait()?;
+    Ok(())
+}
+
 fn publish(args: &[String]) -> Result<()> {
     let session = zenoh::open(config(arg(args, 2, "connect endpoint")?)?).wait()?;
     let key = arg(args, 3, "key expression")?;
@@ -202,7 +251,8 @@ fn main() -> Result<()> {
     match args.get(1).map(String::as_str) {
         Some("sub") => subscribe(&args),
         Some("pub") => publish(&args),
-        _ => Err("usage: zenoh_peer sub|pub <connect> <key> <token template> <count> <data bytes> [timeout s]".into()),
+        Some("echo") => echo(&args),
+        _ => Err("usage: zenoh_peer sub|pub|echo <connect> <key> <token template> <count> <data bytes> [timeout s] [pong key]".into()),
     }
 }
 

@@ -59,6 +59,27 @@ pub fn xyzi_fields() -> Vec<PointField> {
         .collect()
 }
 
+/// The liveliness token an rmw_zenoh_cpp endpoint of `kind` on `topic` (a
+/// `T`) declares for a plain Zenoh peer named `zenoh_peer` (`examples/examples/zenoh_peer.rs`),
+/// its session left as `{zid}` for the peer to fill in: with it, a node's
+/// graph sees the peer as it would see an rmw_zenoh_cpp node.
+pub fn zenoh_peer_token<T: shm_cdr::RosMessage>(
+    topic: &str,
+    kind: shm_runtime::rmw::EntityKind,
+) -> String {
+    use shm_runtime::rmw::{Distro, NodeInfo, Qos};
+    NodeInfo {
+        domain_id: 0,
+        zid: "{zid}".into(),
+        node_id: 0,
+        enclave: "/".into(),
+        namespace: "/".into(),
+        name: "zenoh_peer".into(),
+        distro: Distro::Kilted,
+    }
+    .topic_token::<T>(1, kind, topic, &Qos::default())
+}
+
 #[cfg(test)]
 mod tests {
     use super::generated::robot_interfaces::msg::{Battery, BatteryRef, CellHistory};
