@@ -62,11 +62,9 @@ SHARE = Path(sys.prefix) / "share"
 # interface files ours carry: type sources are then compared without comments.
 OTHER_RELEASE = os.environ.get("CHECK_RELEASE", "")
 
+from rmw_zenoh import definition_lines  # noqa: E402  (beside this script)
 
-def definition_lines(text):
-    """An interface file's fields and constants, without comments or blank lines."""
-    lines = (line.split("#", 1)[0].strip() for line in text.splitlines())
-    return [line for line in lines if line]
+
 rng = random.Random(20261122)
 
 TEXT = ["", "a", "frame_id", "héllo wörld", "ハローワールド", "emoji \U0001f916", "x" * 300, "tab\tand\nnewline"]

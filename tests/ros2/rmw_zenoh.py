@@ -108,3 +108,9 @@ def call(session, key, request, response_type, seq, gid, tries=50):
     from rclpy.serialization import deserialize_message, serialize_message
     reply = call_raw(session, key, serialize_message(request), seq, gid, tries)
     return None if reply is None else deserialize_message(reply, response_type)
+
+
+def definition_lines(text):
+    """An interface file's fields and constants, without comments or blank lines."""
+    lines = (line.split("#", 1)[0].strip() for line in text.splitlines())
+    return [line for line in lines if line]
