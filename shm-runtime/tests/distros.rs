@@ -231,3 +231,96 @@ fn a_lyrical_subscriber_of_a_buffer_type_reads_its_own_key_too() {
     }
     assert_eq!(got, Some(image));
 }
+
+/// `node`'s conflicts on `/chatter`, once there are at least `count` or
+/// `TIMEOUT` has passed.
+fn chatter_conflicts(node: &RosNode, count: usize) -> Vec<shm_runtime::TypeConflict> {
+    let deadline = std::time::Instant::now() + TIMEOUT;
+    loop {
+        let conflicts: Vec<_> = node
+            .topic_type_conflicts()
+            .into_iter()
+            .filter(|c| c.topic == "/chatter")
+            .collect();
+        if conflicts.len() >= count || std::time::Instant::now() > deadline {
+            return conflicts;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn a_node_names_the_endpoints_it_cannot_hear() {
+    use shm_cdr::msgs::std_msgs::{Float64, Int32};
+    let (a, b, _) = loopback_sessions();
+    let humble = node(&a, "old_talker", Distro::Humble);
+    let _old = humble.declare_publisher::<Text>("/chatter").wait().unwrap();
+    let kilted = node(&b, "listener", Distro::Kilted);
+    let chatter = kilted
+        .declare_subscriber::<Text>("/chatter")
+        .wait()
+        .unwrap();
+
+    let conflicts = chatter_conflicts(&kilted, 1);
+    assert_eq!(conflicts.len(), 1, "{conflicts:?}");
+    let conflict = &conflicts[0];
+    assert_eq!(
+        (conflict.node.as_str(), conflict.kind),
+        ("/old_talker", shm_runtime::rmw::EntityKind::Publisher)
+    );
+    assert_eq!(
+        conflict.theirs,
+        (
+            Text::TYPE_NAME.to_owned(),
+            TYPE_HASH_NOT_SUPPORTED.to_owned()
+        )
+    );
+    assert_eq!(conflict.ours.1, Text::type_hash());
+    // Every node's /parameter_events publisher differs the same way.
+    assert!(kilted
+        .topic_type_conflicts()
+        .iter()
+        .any(|c| c.topic == "/parameter_events" && c.theirs.1 == TYPE_HASH_NOT_SUPPORTED));
+    // The Humble node sees the Kilted subscriber the same way.
+    let seen_by_humble = chatter_conflicts(&humble, 1);
+    assert_eq!(seen_by_humble[0].theirs.1, Text::type_hash());
+    assert_eq!(
+        seen_by_humble[0].kind,
+        shm_runtime::rmw::EntityKind::Subscriber
+    );
+
+    // Another type on a topic of the node's: named too, once.
+    let numbers = node(&a, "numbers", Distro::Kilted);
+    let _wrong = numbers
+        .declare_publisher::<Int32>("/chatter")
+        .wait()
+        .unwrap();
+    let conflicts = chatter_conflicts(&kilted, 2);
+    assert_eq!(conflicts.len(), 2, "{conflicts:?}");
+    assert_eq!(
+        conflicts[1].theirs,
+        (Int32::TYPE_NAME.to_owned(), Int32::type_hash().to_owned())
+    );
+    // A matching endpoint is no conflict; a topic no longer used is not followed.
+    let same = node(&a, "talker", Distro::Kilted);
+    let _same = same.declare_publisher::<Text>("/chatter").wait().unwrap();
+    drop(chatter);
+    let late = node(&a, "late", Distro::Kilted);
+    let _late = late
+        .declare_publisher::<Float64>("/chatter")
+        .wait()
+        .unwrap();
+    assert!(kilted
+        .graph_cache()
+        .unwrap()
+        .wait_until(TIMEOUT, |g| g.publishers("/chatter").len() == 4));
+    std::thread::sleep(Duration::from_millis(200));
+    assert_eq!(
+        kilted
+            .topic_type_conflicts()
+            .iter()
+            .filter(|c| c.topic == "/chatter")
+            .count(),
+        2
+    );
+}

@@ -11,4 +11,5 @@ pub mod parameters;
 pub(crate) mod rosout;
 pub mod service;
 pub mod time;
+pub(crate) mod topic_types;
 pub(crate) mod type_description;

@@ -27,6 +27,7 @@ use crate::ros::parameters::{
 };
 use crate::ros::service::{ServiceClientBuilder, ServiceServerBuilder};
 use crate::ros::time::{Clock, RosTime, Timer};
+use crate::ros::topic_types::{TopicTypes, TypeConflict};
 use crate::ros::type_description::{TypeCache, TypeUse};
 use crate::transport::limits::check_key_expr;
 use crate::transport::pool::ShmContext;
@@ -63,6 +64,8 @@ pub struct RosNode {
     parameters: std::sync::Mutex<Option<Arc<ParameterServer>>>,
     /// The types the node's entities use, for `~/get_type_description`.
     types: Arc<TypeCache>,
+    /// The node's topics and their types, against the graph's.
+    topic_types: TopicTypes,
     type_description_service: Option<Box<dyn std::any::Any + Send + Sync>>,
     logger_services: Option<Box<dyn std::any::Any + Send + Sync>>,
     /// Initial parameter values from the command line, for this node.
@@ -129,7 +132,7 @@ impl RosNode {
         topic: &str,
         qos: Qos,
     ) -> PublisherBuilder<'_, T> {
-        let type_use = self.types.register(T::type_hash(), T::full_description);
+        let type_use = self.topic_type_use::<T>(topic);
         self.node_publisher(topic, qos, TopicType::of::<T>(), Some(type_use))
     }
 
@@ -249,7 +252,7 @@ impl RosNode {
         topic: &str,
         qos: Qos,
     ) -> SubscriberBuilder<'_, T> {
-        let type_use = self.types.register(T::type_hash(), T::full_description);
+        let type_use = self.topic_type_use::<T>(topic);
         node_subscriber(
             &self.session,
             &self.info,
@@ -628,6 +631,47 @@ impl RosNode {
 
     /// The resolved name, or the name as given with the error that the builder
     /// reports when it is resolved.
+    /// A topic endpoint's use of `T`: described by the node, and followed
+    /// against the graph's endpoints of other types on the topic.
+    fn topic_type_use<T: RosMessage>(&self, topic: &str) -> TypeUse {
+        let type_use = self.types.register(T::type_hash(), T::full_description);
+        let (resolved, invalid) = self.resolve(topic, NameKind::Topic);
+        if invalid.is_some() {
+            return type_use; // the builder fails with the name's error
+        }
+        let hash = self.info.distro.hash_field(T::type_hash());
+        type_use.with_topic(self.topic_types.watch(
+            self.graph_cache(),
+            &resolved,
+            T::TYPE_NAME,
+            hash,
+        ))
+    }
+
+    /// Endpoints of other processes on this node's topics whose type differs
+    /// from the node's there, as the graph shows them (each once; a warning was
+    /// logged for each). Such endpoints never exchange messages with the
+    /// node's: their type names or type hashes (a definition from another
+    /// distribution or another version of the package) differ, and both are
+    /// part of the key expression.
+    ///
+    /// ```no_run
+    /// use shm_cdr::msgs::std_msgs::String as Text;
+    /// use shm_runtime::RosNode;
+    /// use zenoh::Wait;
+    ///
+    /// let session = zenoh::open(zenoh::Config::default()).wait()?;
+    /// let node = RosNode::builder(&session, "listener").wait()?;
+    /// let _chatter = node.declare_subscriber::<Text>("/chatter").wait()?;
+    /// for conflict in node.topic_type_conflicts() {
+    ///     println!("{} on {}: {:?}, not {:?}", conflict.node, conflict.topic, conflict.theirs, conflict.ours);
+    /// }
+    /// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+    /// ```
+    pub fn topic_type_conflicts(&self) -> Vec<TypeConflict> {
+        self.topic_types.conflicts()
+    }
+
     fn resolve(&self, name: &str, kind: NameKind) -> (String, Option<NameError>) {
         resolve(&self.info, &self.remaps, name, kind)
     }
@@ -981,6 +1025,7 @@ impl RosNodeBuilder<'_> {
             clock: Clock::new(),
             parameters: std::sync::Mutex::default(),
             types: Arc::default(),
+            topic_types: TopicTypes::new(distro),
             type_description_service: None,
             logger_services: None,
             _token: token,

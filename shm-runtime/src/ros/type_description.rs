@@ -12,6 +12,8 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex, MutexGuard, Weak};
 
 use shm_cdr::describe::FullDescription;
+
+use crate::ros::topic_types::TopicUse;
 use shm_cdr::msgs::type_description_interfaces::msg as td;
 use shm_cdr::msgs::type_description_interfaces::srv::{
     GetTypeDescription_Request, GetTypeDescription_Response,
@@ -54,10 +56,13 @@ impl TypeCache {
                 uses: 1,
                 description: Arc::new(describe()),
             });
-        TypeUse(Arc::new(Registration {
-            cache: Arc::downgrade(self),
-            hash: hash.to_owned(),
-        }))
+        TypeUse {
+            _registration: Arc::new(Registration {
+                cache: Arc::downgrade(self),
+                hash: hash.to_owned(),
+            }),
+            _topic: None,
+        }
     }
 
     fn unregister(&self, hash: &str) {
@@ -106,10 +111,24 @@ impl TypeCache {
     }
 }
 
-/// One entity's use of a type in its node's [`TypeCache`]; the entity holds it
-/// while it lives.
+/// One entity's use of a type in its node's [`TypeCache`] (and, for a topic's
+/// endpoint, of the topic with that type: see [`crate::ros::topic_types`]); the entity
+/// holds it while it lives.
 #[derive(Clone)]
-pub(crate) struct TypeUse(#[allow(dead_code)] Arc<Registration>);
+pub(crate) struct TypeUse {
+    _registration: Arc<Registration>,
+    _topic: Option<Arc<TopicUse>>,
+}
+
+impl TypeUse {
+    /// The same use, holding `topic` too.
+    pub(crate) fn with_topic(self, topic: TopicUse) -> Self {
+        Self {
+            _topic: Some(Arc::new(topic)),
+            ..self
+        }
+    }
+}
 
 struct Registration {
     cache: Weak<TypeCache>,
