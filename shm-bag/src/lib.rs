@@ -19,6 +19,7 @@ mod chunk;
 mod control;
 mod player;
 mod recorder;
+mod reindex;
 mod split_events;
 mod writer;
 
@@ -39,6 +40,7 @@ pub use control::PlayerControl;
 pub use metadata::BagMetadata;
 pub use player::{Bag, ClockTrigger, PlayOptions, PlayStats, Player, RecordedTopic};
 pub use recorder::{RecordOptions, RecordStats, Recorder, RecorderControl, Selection};
+pub use reindex::{reindex, FileReport, Reindexed};
 pub use writer::{BagWriter, Compression, FileSplit, TopicId, WriteOptions};
 
 /// A failure to report: the message says what happened and what to do.

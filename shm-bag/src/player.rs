@@ -88,6 +88,14 @@ impl Bag {
         Err(format!("{}: no such bag directory or MCAP file", path.display()).into())
     }
 
+    /// The MCAP files `files`, without a `metadata.yaml`.
+    pub(crate) fn from_files(files: Vec<PathBuf>) -> Self {
+        Self {
+            files,
+            metadata: None,
+        }
+    }
+
     /// The MCAP files, in order.
     pub fn files(&self) -> &[PathBuf] {
         &self.files
@@ -299,15 +307,22 @@ fn map(path: &Path) -> Result<memmap2::Mmap, Error> {
 }
 
 fn summary(path: &Path, file: &[u8]) -> Result<mcap::Summary, Error> {
-    mcap::Summary::read(file)
-        .map_err(|e| format!("{}: not a readable MCAP file: {e}", path.display()))?
-        .ok_or_else(|| {
-            format!(
-                "{} has no summary (its recording did not finish); `mcap recover` rebuilds one",
-                path.display()
-            )
-            .into()
-        })
+    let unfinished = || {
+        format!(
+            "{} was not finished (its recording was killed, or its disk filled up): \
+             `shm-ros2 bag reindex <bag directory>` makes it readable",
+            path.display()
+        )
+    };
+    match mcap::Summary::read(file) {
+        Ok(Some(summary)) => Ok(summary),
+        Ok(None) => Err(unfinished().into()),
+        // It starts as an MCAP file and does not end as one.
+        Err(_) if file.starts_with(mcap::MAGIC) && !file.ends_with(mcap::MAGIC) => {
+            Err(unfinished().into())
+        }
+        Err(e) => Err(format!("{}: not a readable MCAP file: {e}", path.display()).into()),
+    }
 }
 
 /// How to play.

@@ -155,6 +155,10 @@ pub struct RecordStats {
     pub skipped: BTreeMap<String, String>,
     /// In snapshot mode, the messages held for the next snapshot.
     pub buffered: u64,
+    /// The write failure that stopped the recording's writing (a full disk,
+    /// say), in the OS's words with the file's path; nothing is written after
+    /// it and what was written before stays readable.
+    pub failure: Option<String>,
 }
 
 #[derive(Default)]
@@ -170,6 +174,25 @@ struct Shared {
     missed: AtomicU64,
     queued_bytes: AtomicUsize,
     skipped: Mutex<BTreeMap<String, String>>,
+    failure: Mutex<Option<String>>,
+}
+
+impl Shared {
+    fn stats(&self) -> RecordStats {
+        let s = self;
+        RecordStats {
+            topics: s.topics.load(Ordering::Relaxed),
+            received: s.received.load(Ordering::Relaxed),
+            written: s.written.load(Ordering::Relaxed),
+            bytes: s.bytes.load(Ordering::Relaxed),
+            dropped: s.dropped.load(Ordering::Relaxed),
+            missed: s.missed.load(Ordering::Relaxed),
+            queued_bytes: s.queued_bytes.load(Ordering::Relaxed),
+            skipped: s.skipped.lock().unwrap_or_else(|e| e.into_inner()).clone(),
+            buffered: s.buffered.load(Ordering::Relaxed),
+            failure: s.failure.lock().unwrap_or_else(|e| e.into_inner()).clone(),
+        }
+    }
 }
 
 enum Event {
@@ -251,6 +274,11 @@ impl RecorderControl {
     /// Whether the recording is paused.
     pub fn is_paused(&self) -> bool {
         self.shared.paused.load(Ordering::Relaxed)
+    }
+
+    /// What the recording has done so far (and, once stopped, in all).
+    pub fn stats(&self) -> RecordStats {
+        self.shared.stats()
     }
 
     /// In snapshot mode, write the messages held in memory (the newest,
@@ -374,18 +402,7 @@ impl Recorder {
 
     /// What the recording has done so far.
     pub fn stats(&self) -> RecordStats {
-        let s = &self.shared;
-        RecordStats {
-            topics: s.topics.load(Ordering::Relaxed),
-            received: s.received.load(Ordering::Relaxed),
-            written: s.written.load(Ordering::Relaxed),
-            bytes: s.bytes.load(Ordering::Relaxed),
-            dropped: s.dropped.load(Ordering::Relaxed),
-            missed: s.missed.load(Ordering::Relaxed),
-            queued_bytes: s.queued_bytes.load(Ordering::Relaxed),
-            skipped: s.skipped.lock().unwrap_or_else(|e| e.into_inner()).clone(),
-            buffered: s.buffered.load(Ordering::Relaxed),
-        }
+        self.shared.stats()
     }
 
     /// Stop subscribing, write what was received, close the files and write
@@ -714,7 +731,15 @@ fn write_loop(
             budget,
         }),
     };
-    while let Ok(event) = events.recv() {
+    loop {
+        let event = match events.recv_timeout(FLUSH_TICK) {
+            Ok(event) => event,
+            Err(flume::RecvTimeoutError::Timeout) => {
+                writing.flush_if_due();
+                continue;
+            }
+            Err(flume::RecvTimeoutError::Disconnected) => break,
+        };
         match event {
             Event::Topic {
                 index,
@@ -724,9 +749,7 @@ fn write_loop(
                 Ok(id) => {
                     writing.topics.insert(index, id);
                 }
-                Err(e) => {
-                    writing.failure.get_or_insert(e);
-                }
+                Err(e) => writing.fail(e),
             },
             Event::Sample {
                 index,
@@ -755,12 +778,16 @@ fn write_loop(
             shared.dropped.fetch_add(1, Ordering::Relaxed);
         }
     }
-    let metadata = writing.writer.finish()?;
+    let finished = writing.writer.finish();
     match writing.failure {
         Some(e) => Err(e),
-        None => Ok(metadata),
+        None => finished,
     }
 }
+
+/// How often the writer thread, with nothing to write, closes a chunk that
+/// has grown old (see [`WriteOptions::chunk_interval`]).
+const FLUSH_TICK: Duration = Duration::from_millis(100);
 
 /// The writer thread's state.
 struct Writing<'a> {
@@ -852,8 +879,7 @@ impl Writing<'_> {
                 {
                     Ok(()) => true,
                     Err(e) => {
-                        tracing::error!("recording stops writing: {e}");
-                        self.failure = Some(e);
+                        self.fail(e);
                         false
                     }
                 }
@@ -864,6 +890,29 @@ impl Writing<'_> {
             self.split_events.publish(&split);
         }
         written
+    }
+
+    /// Close the open chunk if it has grown old.
+    fn flush_if_due(&mut self) {
+        if self.failure.is_none() {
+            if let Err(e) = self.writer.flush_if_due() {
+                self.fail(e);
+            }
+        }
+    }
+
+    /// Keep the first write failure; nothing is written after it.
+    fn fail(&mut self, e: Error) {
+        if self.failure.is_some() {
+            return;
+        }
+        tracing::error!("recording stops writing: {e}");
+        *self
+            .shared
+            .failure
+            .lock()
+            .unwrap_or_else(|e| e.into_inner()) = Some(e.to_string());
+        self.failure = Some(e);
     }
 
     fn count(&self, written: bool, len: usize) {
@@ -880,8 +929,7 @@ impl Writing<'_> {
             Some(e) => Err(format!("the recording stopped writing: {e}").into()),
             None => self.writer.split().map_err(|e| {
                 let said = e.to_string();
-                tracing::error!("recording stops writing: {said}");
-                self.failure = Some(e);
+                self.fail(e);
                 said.into()
             }),
         };

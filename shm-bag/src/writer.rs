@@ -3,12 +3,19 @@
 //! a `ros2msg` schema per type with the full definition, a `cdr` channel per
 //! topic with its QoS profiles and type hash, chunked (optionally compressed)
 //! and indexed, split by size or duration.
+//!
+//! A recording is meant to survive its process: chunks close on a time bound
+//! as well as a size bound and go to the OS then, and `metadata.yaml` is
+//! written when the bag is created and again at each chunk, so after a crash
+//! or `kill -9` the directory is a bag whose last file lacks only its
+//! summary (`shm-ros2 bag reindex` rebuilds it) and at most the last interval
+//! of messages.
 
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crate::definition;
 use crate::metadata::{
@@ -40,6 +47,13 @@ pub struct WriteOptions {
     pub max_bag_size: Option<u64>,
     /// Start a new file once the current one spans this long.
     pub max_bag_duration: Option<Duration>,
+    /// Close the open chunk once it is this old (default 1 s), hand it to the
+    /// OS and refresh `metadata.yaml`: what a crash can lose. `None` closes
+    /// chunks by size only.
+    pub chunk_interval: Option<Duration>,
+    /// A CRC-32 in each chunk (default on), so that readers detect a damaged
+    /// chunk; off saves one pass over the bytes (rosbag2 leaves it off).
+    pub chunk_crcs: bool,
 }
 
 impl Default for WriteOptions {
@@ -49,6 +63,8 @@ impl Default for WriteOptions {
             chunk_size: 1024 * 1024,
             max_bag_size: None,
             max_bag_duration: None,
+            chunk_interval: Some(Duration::from_secs(1)),
+            chunk_crcs: true,
         }
     }
 }
@@ -96,6 +112,10 @@ pub struct BagWriter {
     count: u64,
     /// Splits not yet taken by [`BagWriter::take_splits`].
     splits: Vec<FileSplit>,
+    /// When the open chunk got its first message.
+    chunk_opened: Option<Instant>,
+    /// `metadata.yaml` is written when finished (also when dropped).
+    finished: bool,
 }
 
 impl std::fmt::Debug for BagWriter {
@@ -139,8 +159,12 @@ impl BagWriter {
             last: 0,
             count: 0,
             splits: Vec::new(),
+            chunk_opened: None,
+            finished: false,
         };
         writer.open_file()?;
+        // The directory is a bag from the start.
+        writer.write_metadata()?;
         Ok(writer)
     }
 
@@ -201,7 +225,7 @@ impl BagWriter {
                 },
                 data,
             )
-            .map_err(|e| format!("writing {}: {e}", current.path))?;
+            .map_err(|e| format!("writing {}: {}", current.path, mcap_error(e)))?;
         current.first.get_or_insert(log_time);
         current.last = current.last.max(log_time);
         current.count += 1;
@@ -210,7 +234,51 @@ impl BagWriter {
         self.last = self.last.max(log_time);
         self.count += 1;
         self.topics[topic.0].count += 1;
+        self.chunk_opened.get_or_insert_with(Instant::now);
+        self.flush_if_due()?;
         Ok(())
+    }
+
+    /// Close the open chunk if it is older than
+    /// [`WriteOptions::chunk_interval`] (see [`flush`](Self::flush)); returns
+    /// whether it did. A program writing rarely calls this now and then, as
+    /// the recorder does, so that a quiet topic's last message reaches the
+    /// disk too.
+    pub fn flush_if_due(&mut self) -> Result<bool, Error> {
+        let due = match (self.options.chunk_interval, self.chunk_opened) {
+            (Some(interval), Some(opened)) => opened.elapsed() >= interval,
+            _ => false,
+        };
+        if due {
+            self.flush()?;
+        }
+        Ok(due)
+    }
+
+    /// Close the open chunk, hand the file's bytes to the OS and rewrite
+    /// `metadata.yaml`: everything written so far survives the process.
+    pub fn flush(&mut self) -> Result<(), Error> {
+        self.chunk_opened = None;
+        let Some(current) = self.current.as_mut() else {
+            return Ok(());
+        };
+        current
+            .writer
+            .flush()
+            .map_err(|e| format!("writing {}: {}", current.path, mcap_error(e)))?;
+        self.write_metadata()
+    }
+
+    /// Write `metadata.yaml` as the recording stands, in one rename, so a
+    /// reader never sees half of it.
+    fn write_metadata(&self) -> Result<(), Error> {
+        let path = self.dir.join(crate::metadata::FILE_NAME);
+        let partial = self
+            .dir
+            .join(format!(".{}.partial", crate::metadata::FILE_NAME));
+        std::fs::write(&partial, self.metadata().to_yaml())
+            .and_then(|()| std::fs::rename(&partial, &path))
+            .map_err(|e| format!("cannot write {}: {e}", path.display()).into())
     }
 
     /// Close the current file now and continue in a new one, as rosbag2's
@@ -234,13 +302,19 @@ impl BagWriter {
     }
 
     /// Close the last file and write `metadata.yaml`; returns what it says.
+    /// (Dropping the writer does the same, without the answer.)
     pub fn finish(mut self) -> Result<BagMetadata, Error> {
-        self.close_file()?;
-        let metadata = self.metadata();
-        let path = self.dir.join(crate::metadata::FILE_NAME);
-        std::fs::write(&path, metadata.to_yaml())
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-        Ok(metadata)
+        self.finish_in_place()
+    }
+
+    fn finish_in_place(&mut self) -> Result<BagMetadata, Error> {
+        self.finished = true;
+        let closed = self.close_file();
+        // metadata.yaml is written even if the file could not be finished:
+        // what reached the disk before is found through it.
+        self.write_metadata()?;
+        closed?;
+        Ok(self.metadata())
     }
 
     /// The recording's metadata as it stands.
@@ -267,10 +341,22 @@ impl BagWriter {
             compression_format: String::new(),
             compression_mode: String::new(),
             relative_file_paths: self.files.iter().map(|f| f.path.clone()).collect(),
-            files: self.files.clone(),
+            files: self.file_information(),
             custom_data: None,
             ros_distro: std::env::var("ROS_DISTRO").unwrap_or_default(),
         }
+    }
+
+    /// Each file's facts; the open file's as written so far.
+    fn file_information(&self) -> Vec<FileInformation> {
+        let mut files = self.files.clone();
+        if let (Some(current), Some(info)) = (self.current.as_ref(), files.last_mut()) {
+            let first = current.first.unwrap_or(0);
+            info.starting_time.nanoseconds_since_epoch = first;
+            info.duration.nanoseconds = current.last.saturating_sub(first);
+            info.message_count = current.count;
+        }
+        files
     }
 
     fn split_if_due(&mut self, log_time: u64) -> Result<(), Error> {
@@ -299,6 +385,7 @@ impl BagWriter {
         let closed = self.current_path();
         self.close_file()?;
         self.open_file()?;
+        self.write_metadata()?;
         let split = FileSplit {
             closed,
             opened: self.current_path(),
@@ -322,17 +409,17 @@ impl BagWriter {
             Compression::Zstd => mcap::Compression::Zstd,
             Compression::Lz4 => mcap::Compression::Lz4,
         });
-        // rosbag2's MCAP defaults: no chunk CRCs; and no data-section CRC,
-        // which would read every byte once more.
+        // No data-section CRC: it would read every byte once more, and the
+        // chunks' CRCs cover the messages.
         let writer = mcap::WriteOptions::new()
             .profile("ros2")
             .library(LIBRARY)
             .compression(compression)
             .chunk_size(Some(self.options.chunk_size))
-            .calculate_chunk_crcs(false)
+            .calculate_chunk_crcs(self.options.chunk_crcs)
             .calculate_data_section_crc(false)
             .create(BufWriter::with_capacity(1 << 20, file))
-            .map_err(|e| format!("cannot start {}: {e}", path.display()))?;
+            .map_err(|e| format!("cannot start {}: {}", path.display(), mcap_error(e)))?;
         let mut current = Current {
             writer,
             path: path.display().to_string(),
@@ -359,6 +446,7 @@ impl BagWriter {
         let Some(mut current) = self.current.take() else {
             return Ok(());
         };
+        self.chunk_opened = None;
         let first = current.first.unwrap_or(0);
         if let Some(info) = self.files.last_mut() {
             info.starting_time.nanoseconds_since_epoch = first;
@@ -377,7 +465,7 @@ impl BagWriter {
             .writer
             .write_metadata(&metadata)
             .and_then(|_| current.writer.finish().map(|_| ()))
-            .map_err(|e| format!("finishing {}: {e}", current.path))?;
+            .map_err(|e| format!("finishing {}: {}", current.path, mcap_error(e)))?;
         let mut file = current.writer.into_inner();
         std::io::Write::flush(&mut file).map_err(|e| format!("{}: {e}", current.path))?;
         Ok(())
@@ -386,8 +474,20 @@ impl BagWriter {
 
 impl Drop for BagWriter {
     fn drop(&mut self) {
-        // A writer dropped without `finish` still leaves readable files.
-        let _ = self.close_file();
+        // A writer dropped without `finish` (an early return, a panic
+        // unwinding) still leaves a finished bag.
+        if !self.finished {
+            let _ = self.finish_in_place();
+        }
+    }
+}
+
+/// An MCAP error in words, with the OS's for an I/O error ("No space left on
+/// device"), which the MCAP error's own text leaves out.
+fn mcap_error(e: mcap::McapError) -> String {
+    match e {
+        mcap::McapError::Io(io) => io.to_string(),
+        other => other.to_string(),
     }
 }
 
@@ -399,7 +499,7 @@ fn add_channel(current: &mut Current, id: usize, topic: &Topic) -> Result<u16, E
             definition::ENCODING,
             topic.definition.as_bytes(),
         )
-        .map_err(|e| format!("{}: {e}", current.path))?;
+        .map_err(|e| format!("{}: {}", current.path, mcap_error(e)))?;
     let metadata = BTreeMap::from([
         (
             "offered_qos_profiles".to_owned(),
@@ -418,7 +518,7 @@ fn add_channel(current: &mut Current, id: usize, topic: &Topic) -> Result<u16, E
             &topic.metadata.serialization_format,
             &metadata,
         )
-        .map_err(|e| format!("{}: {e}", current.path))?;
+        .map_err(|e| format!("{}: {}", current.path, mcap_error(e)))?;
     current.channels.insert(id, channel);
     Ok(channel)
 }

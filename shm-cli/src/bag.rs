@@ -25,6 +25,14 @@ pub(crate) enum BagCommand {
         /// Bag to open: a bag directory or an MCAP file.
         bag_path: PathBuf,
     },
+    /// Make a bag whose recording did not finish (killed, power cut, disk
+    /// full) readable again: rewrite its unfinished files from their complete
+    /// records (the originals kept as `<name>.unfinished`) and its
+    /// metadata.yaml from the files.
+    Reindex {
+        /// The bag directory.
+        bag_path: PathBuf,
+    },
 }
 
 /// rosbag2's MCAP storage presets.
@@ -151,6 +159,7 @@ pub(crate) struct PlayArgs {
 pub(crate) fn run(context: Option<&Context>, command: BagCommand) -> Result<(), Error> {
     match command {
         BagCommand::Info { bag_path } => info(&bag_path),
+        BagCommand::Reindex { bag_path } => reindex(&bag_path),
         BagCommand::Record(args) => match context {
             Some(context) => record(context, args),
             None => Err("bag record needs a Zenoh session".into()),
@@ -160,6 +169,36 @@ pub(crate) fn run(context: Option<&Context>, command: BagCommand) -> Result<(), 
             None => Err("bag play needs a Zenoh session".into()),
         },
     }
+}
+
+fn reindex(dir: &std::path::Path) -> Result<(), Error> {
+    let done = shm_bag::reindex(dir)?;
+    for file in &done.files {
+        if !file.rewritten {
+            println!("{}: whole, {} messages", file.path.display(), file.messages);
+            continue;
+        }
+        let mut said = format!(
+            "{}: rewritten with {} messages (the unfinished file is kept as {}.unfinished)",
+            file.path.display(),
+            file.messages,
+            file.path.file_name().unwrap_or_default().to_string_lossy()
+        );
+        if file.damaged_chunks > 0 {
+            said += &format!("; {} damaged chunks left out", file.damaged_chunks);
+        }
+        if let Some(cut) = &file.cut {
+            said += &format!("; the file ends inside a record ({cut}): what followed was lost");
+        }
+        println!("{said}");
+    }
+    println!(
+        "{}: {} messages on {} topics",
+        dir.join(shm_bag::metadata::FILE_NAME).display(),
+        done.metadata.message_count,
+        done.metadata.topics_with_message_count.len()
+    );
+    Ok(())
 }
 
 fn regex(flag: &str, text: Option<String>) -> Result<Option<regex::Regex>, Error> {
@@ -234,6 +273,9 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
     let mut last = (Instant::now(), 0u64);
     while !stop.load(Ordering::Relaxed) && deadline.is_none_or(|d| Instant::now() < d) {
         std::thread::sleep(Duration::from_millis(200));
+        if recorder.stats().failure.is_some() {
+            break; // a full disk, say: the totals and the error follow
+        }
         if let Some(bar) = &progress {
             let stats = recorder.stats();
             let now = Instant::now();
@@ -269,22 +311,31 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
         }
     }
     drop(keys);
-    let stats = recorder.stats();
-    let metadata = recorder.stop()?;
-    let final_stats_dropped = stats.dropped;
+    let stopped = recorder.stop();
+    let stats = control.stats();
     if let Some(bar) = progress {
         bar.finish_and_clear();
     }
     let seconds = started.elapsed().as_secs_f64();
-    eprintln!(
-        "Recorded {} messages on {} topics ({}) into {} in {seconds:.1} s; dropped {}, missed {}",
-        metadata.message_count,
-        metadata.topics_with_message_count.len(),
-        size(stats.bytes),
-        output.display(),
-        final_stats_dropped,
-        stats.missed,
-    );
+    match &stopped {
+        Ok(metadata) => eprintln!(
+            "Recorded {} messages on {} topics ({}) into {} in {seconds:.1} s; dropped {}, missed {}",
+            metadata.message_count,
+            metadata.topics_with_message_count.len(),
+            size(stats.bytes),
+            output.display(),
+            stats.dropped,
+            stats.missed,
+        ),
+        Err(_) => eprintln!(
+            "Recorded {} messages ({}) into {} in {seconds:.1} s before writing failed; dropped {}, missed {}",
+            stats.written,
+            size(stats.bytes),
+            output.display(),
+            stats.dropped,
+            stats.missed,
+        ),
+    }
     if stats.buffered > 0 {
         eprintln!(
             "Not written: {} messages held for a snapshot that was not taken",
@@ -294,7 +345,7 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
     for (topic, why) in &stats.skipped {
         eprintln!("Not recorded: {topic}: {why}");
     }
-    Ok(())
+    stopped.map(|_| ())
 }
 
 fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {

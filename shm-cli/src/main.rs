@@ -58,14 +58,20 @@ enum Command {
 /// A failure to report: the message says what happened and what to do.
 pub(crate) type Error = Box<dyn std::error::Error + Send + Sync>;
 
-/// A flag set when Ctrl-C (or SIGTERM) arrives, which then no longer ends
-/// the process: for verbs that finish their work first.
+/// A flag set when Ctrl-C, SIGTERM (`docker stop`, systemd, launch) or
+/// SIGHUP (the terminal closed) arrives, which then no longer ends the
+/// process: for verbs that finish their work first. A second signal ends it
+/// at once, exit status 130, as a second Ctrl-C does for `ros2 bag record`.
 pub(crate) fn interrupted() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>, Error> {
     use std::sync::atomic::{AtomicBool, Ordering};
     let flag = std::sync::Arc::new(AtomicBool::new(false));
     let set = flag.clone();
-    ctrlc::set_handler(move || set.store(true, Ordering::Relaxed))
-        .map_err(|e| format!("cannot catch Ctrl-C: {e}"))?;
+    ctrlc::set_handler(move || {
+        if set.swap(true, Ordering::Relaxed) {
+            std::process::exit(130);
+        }
+    })
+    .map_err(|e| format!("cannot catch Ctrl-C, SIGTERM and SIGHUP: {e}"))?;
     Ok(flag)
 }
 
@@ -74,7 +80,9 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Interface(command) => interface::run(command),
-        Command::Bag(command @ bag::BagCommand::Info { .. }) => bag::run(None, command),
+        Command::Bag(
+            command @ (bag::BagCommand::Info { .. } | bag::BagCommand::Reindex { .. }),
+        ) => bag::run(None, command),
         command => match context::Context::open(&cli.connection) {
             Ok(context) => match command {
                 Command::Topic(c) => topic::run(&context, c),

@@ -1018,3 +1018,162 @@ fn a_hostile_nodes_descriptions_are_refused_and_the_tools_keep_running() {
     let _ = std::fs::remove_dir_all(&dir);
     drop(alive);
 }
+
+/// What `docker stop`, systemd, launch and a closed terminal send stops a
+/// recording as Ctrl-C does: the files finished, `metadata.yaml` written,
+/// the totals printed, exit status 0.
+#[test]
+fn bag_record_finishes_its_files_on_sigterm_sighup_and_sigint() {
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "talker")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let alive = keep_publishing(&node, "/chatter", RosString { data: "hi".into() });
+    let dir = std::env::temp_dir().join(format!("shm_cli_signals_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    for signal in ["TERM", "HUP", "INT"] {
+        let bag = dir.join(signal);
+        let mut child = cli(
+            port,
+            &[
+                "bag",
+                "record",
+                "-o",
+                bag.to_str().unwrap(),
+                "--no-progress",
+                "--disable-keyboard-controls",
+                "/chatter",
+            ],
+        )
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+        // Until metadata.yaml counts a message on disk (chunks close every
+        // second).
+        let deadline = std::time::Instant::now() + TIMEOUT;
+        while shm_bag::BagMetadata::read(&bag).map_or(true, |m| m.message_count == 0) {
+            if std::time::Instant::now() > deadline {
+                let _ = child.kill();
+                panic!("nothing recorded");
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let sent = Command::new("kill")
+            .args([format!("-{signal}"), child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+        let output = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            output.status.success(),
+            "SIG{signal}: {:?} {stderr}",
+            output.status
+        );
+        assert!(stderr.contains("Recorded "), "SIG{signal}: {stderr}");
+        let metadata = shm_bag::BagMetadata::read(&bag).unwrap();
+        assert!(metadata.message_count > 0, "SIG{signal}");
+        let recorded = shm_bag::Bag::open(&bag).unwrap();
+        assert_eq!(
+            recorded
+                .topics()
+                .unwrap()
+                .values()
+                .map(|t| t.message_count)
+                .sum::<u64>(),
+            metadata.message_count
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    drop(alive);
+}
+
+/// `kill -9` of a recording loses at most the last chunk interval: the
+/// player says how to recover, `bag reindex` rewrites the unfinished file,
+/// and every message `metadata.yaml` counted before the kill reads back.
+#[test]
+fn a_killed_recording_is_reindexed_with_all_but_its_last_second() {
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "talker")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let alive = keep_publishing(&node, "/chatter", RosString { data: "hi".into() });
+    let dir = std::env::temp_dir().join(format!("shm_cli_kill9_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let bag = dir.join("bag");
+    let mut child = cli(
+        port,
+        &[
+            "bag",
+            "record",
+            "-o",
+            bag.to_str().unwrap(),
+            "--no-progress",
+            "--disable-keyboard-controls",
+            "--compression-format",
+            "zstd",
+            "/chatter",
+        ],
+    )
+    .spawn()
+    .unwrap();
+    // Until metadata.yaml has counted messages on disk twice.
+    let deadline = std::time::Instant::now() + TIMEOUT;
+    let mut counted = Vec::new();
+    while counted.len() < 2 {
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("nothing recorded");
+        }
+        if let Ok(m) = shm_bag::BagMetadata::read(&bag) {
+            if m.message_count > counted.last().copied().unwrap_or(0) {
+                counted.push(m.message_count);
+            }
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    let before = shm_bag::BagMetadata::read(&bag).unwrap().message_count;
+    assert!(before >= counted[1]);
+
+    let unfinished = shm_bag::Bag::open(&bag).unwrap().topics().unwrap_err();
+    assert!(
+        unfinished.to_string().contains("bag reindex"),
+        "{unfinished}"
+    );
+    let out = stdout(&run(port, &["bag", "reindex", bag.to_str().unwrap()]));
+    assert!(out.contains("rewritten with"), "{out}");
+    assert!(bag.join("bag_0.mcap.unfinished").exists());
+
+    let recorded = shm_bag::Bag::open(&bag).unwrap();
+    let metadata = recorded.metadata().unwrap().clone();
+    assert!(
+        metadata.message_count >= before,
+        "{} < {before}",
+        metadata.message_count
+    );
+    let mut read = 0u64;
+    recorded
+        .read_messages(
+            0,
+            |_| {},
+            |topic, _, data| {
+                assert_eq!(topic, "/chatter");
+                let text: RosString = shm_cdr::from_bytes(data).unwrap();
+                assert_eq!(text.data, "hi");
+                read += 1;
+                std::ops::ControlFlow::<()>::Continue(())
+            },
+        )
+        .unwrap();
+    assert_eq!(read, metadata.message_count);
+    assert_eq!(
+        recorded.topics().unwrap()["/chatter"].message_count,
+        metadata.message_count
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    drop(alive);
+}

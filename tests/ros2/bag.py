@@ -313,6 +313,7 @@ def main():
     check_recorder_control(endpoint, peer, work, hashes)
     check_snapshot(endpoint, peer, work, hashes)
     check_background_playback(endpoint, bag)
+    check_stops(endpoint, peer, work)
     if not failures:
         shutil.rmtree(work, ignore_errors=True)
 
@@ -512,6 +513,80 @@ def check_recorder_control(endpoint, peer, work, hashes):
           f"read), the two files hold the {len(files[0])} + {len(files[1])} messages sent while recording "
           f"and none of the 3 sent while paused")
 
+
+
+def read_back(bag):
+    """Every message of a bag directory as rosbags and as the mcap library
+    (through each file's summary and index) read it: two lists of bytes."""
+    from mcap.reader import make_reader
+    from rosbags.rosbag2 import Reader
+    with Reader(bag) as reader:
+        by_rosbags = [data for _, _, data in reader.messages()]
+    by_mcap = []
+    for path in sorted(bag.glob("*.mcap")):
+        with open(path, "rb") as f:
+            by_mcap += [m.data for _, _, m in make_reader(f).iter_messages()]
+    return by_rosbags, by_mcap
+
+
+def check_stops(endpoint, peer, work):
+    """What `docker stop`, systemd and a closed terminal send stops a
+    recording cleanly; `kill -9` loses at most the last chunk interval once
+    `bag reindex` has run. Both bags are read by rosbags and the mcap library."""
+    import threading
+    from std_msgs.msg import String
+    publish = peer.publisher("/steady", "std_msgs/msg/String")
+    sent = []
+    running = threading.Event()
+    running.set()
+
+    def talk():
+        i = 0
+        while running.is_set():
+            data = serialize_message(String(data=f"steady {i}"))
+            publish(None, data)
+            sent.append(data)
+            i += 1
+            time.sleep(0.02)  # 50 Hz
+
+    talker = threading.Thread(target=talk)
+    talker.start()
+    try:
+        for how in (signal.SIGTERM, signal.SIGHUP, signal.SIGKILL):
+            bag = work / f"stopped_{how.name}"
+            proc = subprocess.Popen([str(BIN), "--connect", endpoint, "--domain-id", "0", "bag", "record",
+                                     "/steady", "-o", str(bag), "--no-progress", "--disable-keyboard-controls",
+                                     "--compression-format", "zstd"],
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            check(wait_subscribed(endpoint, ["/steady"]), "bag record did not subscribe to /steady")
+            time.sleep(3)
+            counted = 0
+            if how == signal.SIGKILL:
+                # What metadata.yaml, refreshed at each chunk, counted on disk.
+                import yaml
+                counted = yaml.safe_load((bag / "metadata.yaml").read_text())[
+                    "rosbag2_bagfile_information"]["message_count"]
+            proc.send_signal(how)
+            _, err = proc.communicate(timeout=60)
+            if how == signal.SIGKILL:
+                check(proc.returncode == -signal.SIGKILL, f"kill -9: exit {proc.returncode}")
+                fixed = cli(endpoint, "bag", "reindex", str(bag))
+                check(fixed.returncode == 0 and "rewritten with" in fixed.stdout,
+                      f"bag reindex: {fixed.returncode} {fixed.stdout} {fixed.stderr}")
+            else:
+                check(proc.returncode == 0 and "Recorded " in err,
+                      f"SIG{how.name}: exit {proc.returncode} {err[-300:]!r}")
+            by_rosbags, by_mcap = read_back(bag)
+            in_order = by_mcap == sent[sent.index(by_mcap[0]):][:len(by_mcap)] if by_mcap else False
+            check(by_rosbags == by_mcap and len(by_mcap) >= max(counted, 100) and in_order,
+                  f"{how.name}: rosbags read {len(by_rosbags)}, mcap {len(by_mcap)} (counted before: {counted}), "
+                  f"consecutive messages as sent: {in_order}")
+            print(f"bag record stopped by {how.name}: {len(by_mcap)} messages read by rosbags and mcap, "
+                  f"consecutive as sent" + (f" (metadata.yaml had counted {counted} before the kill; "
+                                            f"bag reindex rebuilt the file)" if counted else ""))
+    finally:
+        running.clear()
+        talker.join()
 
 
 def check_snapshot(endpoint, peer, work, hashes):

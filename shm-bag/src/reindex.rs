@@ -1,0 +1,461 @@
+//! Rebuilding a recording whose writer did not finish (a crash, `kill -9`, a
+//! power cut, a full disk), as `ros2 bag reindex` does for rosbag2's bags:
+//! each MCAP file without a summary is written anew from its complete
+//! records (a chunk cut off or failing its CRC is left out and counted), the
+//! unfinished file is kept beside it as `<name>.unfinished`, and
+//! `metadata.yaml` is rebuilt from the files.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use mcap::records::{MessageHeader, Record};
+
+use crate::metadata::{
+    BagMetadata, FileInformation, Nanoseconds, NanosecondsSinceEpoch, FILE_NAME,
+};
+use crate::player::Bag;
+use crate::Error;
+
+/// What [`reindex`] did to one file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FileReport {
+    /// The file.
+    pub path: PathBuf,
+    /// Whether it was written anew (it had no summary); the unfinished file
+    /// is kept as `<name>.unfinished`.
+    pub rewritten: bool,
+    /// Messages it holds now.
+    pub messages: u64,
+    /// Chunks left out because their CRC or their compressed data was wrong.
+    pub damaged_chunks: u64,
+    /// Why reading stopped before the end of the file, if it did: the end
+    /// of a file cut off mid-record (all that follows is lost).
+    pub cut: Option<String>,
+}
+
+/// What [`reindex`] did.
+#[derive(Debug, Clone)]
+pub struct Reindexed {
+    /// Each file, in order.
+    pub files: Vec<FileReport>,
+    /// The `metadata.yaml` written.
+    pub metadata: BagMetadata,
+}
+
+/// Make the bag directory `dir` whole again: rewrite each MCAP file that has
+/// no summary from the records it holds, and `metadata.yaml` from the files.
+/// Files that are whole are left as they are. The files are those
+/// `metadata.yaml` lists, or, without a readable one, every `*.mcap` in the
+/// directory.
+pub fn reindex(dir: &Path) -> Result<Reindexed, Error> {
+    if !dir.is_dir() {
+        return Err(format!("{}: not a bag directory", dir.display()).into());
+    }
+    let old = BagMetadata::read(dir).ok();
+    let names = match &old {
+        Some(metadata) => {
+            // `Bag::open` checks that the names stay inside the directory.
+            Bag::open(dir)?;
+            metadata.relative_file_paths.clone()
+        }
+        None => mcap_files(dir)?,
+    };
+    if names.is_empty() {
+        return Err(format!("{}: no MCAP files to reindex", dir.display()).into());
+    }
+    let mut reports = Vec::with_capacity(names.len());
+    let mut files = Vec::with_capacity(names.len());
+    for name in &names {
+        let path = dir.join(name);
+        let report = recover(&path)?;
+        files.push(file_information(name, &path)?);
+        reports.push(report);
+    }
+    let lone = Bag::from_files(names.iter().map(|n| dir.join(n)).collect());
+    let mut metadata = lone.describe()?;
+    metadata.relative_file_paths = names;
+    metadata.files = files;
+    if let Some(old) = old {
+        metadata.ros_distro = old.ros_distro;
+        metadata.custom_data = old.custom_data;
+    }
+    let path = dir.join(FILE_NAME);
+    std::fs::write(&path, metadata.to_yaml())
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    Ok(Reindexed {
+        files: reports,
+        metadata,
+    })
+}
+
+/// The `*.mcap` files of `dir` in recording order (`<base>_<n>.mcap` by `n`).
+fn mcap_files(dir: &Path) -> Result<Vec<String>, Error> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map_err(|e| format!("cannot list {}: {e}", dir.display()))?
+        .filter_map(Result::ok)
+        .filter(|e| e.path().is_file())
+        .filter_map(|e| e.file_name().into_string().ok())
+        .filter(|n| n.ends_with(".mcap"))
+        .collect();
+    names.sort_by_key(|n| (n.len(), n.clone()));
+    Ok(names)
+}
+
+/// One file's facts for `metadata.yaml`, from its summary.
+fn file_information(name: &str, path: &Path) -> Result<FileInformation, Error> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let stats = mcap::Summary::read(&bytes)
+        .map_err(|e| format!("{}: {e}", path.display()))?
+        .and_then(|s| s.stats);
+    let (start, end, count) = stats.map_or((0, 0, 0), |s| {
+        (s.message_start_time, s.message_end_time, s.message_count)
+    });
+    Ok(FileInformation {
+        path: name.to_owned(),
+        starting_time: NanosecondsSinceEpoch {
+            nanoseconds_since_epoch: start,
+        },
+        duration: Nanoseconds {
+            nanoseconds: end.saturating_sub(start),
+        },
+        message_count: count,
+    })
+}
+
+/// Rewrite `path` from its complete records if it has no summary.
+fn recover(path: &Path) -> Result<FileReport, Error> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    if let Ok(Some(summary)) = mcap::Summary::read(&bytes) {
+        return Ok(FileReport {
+            path: path.to_owned(),
+            rewritten: false,
+            messages: summary.stats.map_or(0, |s| s.message_count),
+            damaged_chunks: 0,
+            cut: None,
+        });
+    }
+    let where_ = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let records = mcap::read::LinearReader::new_with_options(
+        &bytes,
+        mcap::read::Options::IgnoreEndMagic.into(),
+    )
+    .map_err(|e| where_(&format!("not an MCAP file ({e})")))?;
+
+    // The file's profile and its chunks' compression carry over.
+    let mut profile = String::from("ros2");
+    let mut compression = None;
+    for record in mcap::read::LinearReader::new_with_options(
+        &bytes,
+        mcap::read::Options::IgnoreEndMagic.into(),
+    )
+    .map_err(|e| where_(&e))?
+    .map_while(Result::ok)
+    {
+        match record {
+            Record::Header(header) => profile = header.profile,
+            Record::Chunk { header, .. } => {
+                compression = match header.compression.as_str() {
+                    "zstd" => Some(mcap::Compression::Zstd),
+                    "lz4" => Some(mcap::Compression::Lz4),
+                    _ => None,
+                };
+                break;
+            }
+            _ => {}
+        }
+    }
+
+    let partial = sibling(path, ".reindex-partial");
+    let file =
+        File::create(&partial).map_err(|e| format!("cannot create {}: {e}", partial.display()))?;
+    let mut writer = mcap::WriteOptions::new()
+        .profile(profile)
+        .library(concat!(
+            "shm-bag ",
+            env!("CARGO_PKG_VERSION"),
+            " (reindexed)"
+        ))
+        .compression(compression)
+        .create(BufWriter::new(file))
+        .map_err(|e| where_(&e))?;
+    let mut copy = Copy::default();
+    let mut report = FileReport {
+        path: path.to_owned(),
+        rewritten: true,
+        messages: 0,
+        damaged_chunks: 0,
+        cut: None,
+    };
+    let mut scratch = Vec::new();
+    for record in records {
+        let record = match record {
+            Ok(record) => record,
+            Err(e) => {
+                report.cut = Some(e.to_string());
+                break;
+            }
+        };
+        match record {
+            Record::Chunk { header, data } => {
+                let contents = match crate::chunk::contents(&header, &data, &mut scratch) {
+                    Ok(contents) => contents,
+                    Err(_) => {
+                        report.damaged_chunks += 1;
+                        continue;
+                    }
+                };
+                // A chunk is kept whole or not at all.
+                let inner: Result<Vec<Record<'_>>, _> =
+                    mcap::read::LinearReader::sans_magic(contents).collect();
+                match inner {
+                    Ok(inner) => {
+                        for record in inner {
+                            report.messages += copy.record(&mut writer, record, path)?;
+                        }
+                    }
+                    Err(_) => report.damaged_chunks += 1,
+                }
+            }
+            other => report.messages += copy.record(&mut writer, other, path)?,
+        }
+    }
+    writer.finish().map_err(|e| where_(&e))?;
+    drop(writer);
+    let unfinished = sibling(path, ".unfinished");
+    std::fs::rename(path, &unfinished)
+        .and_then(|()| std::fs::rename(&partial, path))
+        .map_err(|e| format!("cannot replace {}: {e}", path.display()))?;
+    Ok(report)
+}
+
+/// `path` with `suffix` added to its file name.
+fn sibling(path: &Path, suffix: &str) -> PathBuf {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(suffix);
+    path.with_file_name(name)
+}
+
+/// Schemas and channels carried from the old file to the new one.
+#[derive(Default)]
+struct Copy {
+    /// Old schema id → its record.
+    schemas: BTreeMap<u16, (String, String, Vec<u8>)>,
+    /// Old channel id → its record.
+    channels: BTreeMap<u16, (u16, String, String, BTreeMap<String, String>)>,
+    /// Old channel id → the new one, once a message needed it.
+    added: BTreeMap<u16, u16>,
+}
+
+impl Copy {
+    /// Carry `record` over; returns 1 for a message written.
+    fn record(
+        &mut self,
+        writer: &mut mcap::Writer<BufWriter<File>>,
+        record: Record<'_>,
+        path: &Path,
+    ) -> Result<u64, Error> {
+        let bad = |e: mcap::McapError| format!("{}: {e}", path.display());
+        match record {
+            Record::Schema { header, data } => {
+                self.schemas
+                    .insert(header.id, (header.name, header.encoding, data.into_owned()));
+            }
+            Record::Channel(channel) => {
+                self.channels.insert(
+                    channel.id,
+                    (
+                        channel.schema_id,
+                        channel.topic,
+                        channel.message_encoding,
+                        channel.metadata,
+                    ),
+                );
+            }
+            Record::Metadata(metadata) => writer.write_metadata(&metadata).map_err(bad)?,
+            Record::Message { header, data } => {
+                let channel_id = match self.added.get(&header.channel_id) {
+                    Some(&id) => id,
+                    None => {
+                        // A message on a channel the file never declared is
+                        // no message of the recording.
+                        let Some((schema_id, topic, encoding, metadata)) =
+                            self.channels.get(&header.channel_id)
+                        else {
+                            return Ok(0);
+                        };
+                        let schema = match self.schemas.get(schema_id) {
+                            Some((name, encoding, data)) => {
+                                writer.add_schema(name, encoding, data).map_err(bad)?
+                            }
+                            None => 0,
+                        };
+                        let id = writer
+                            .add_channel(schema, topic, encoding, metadata)
+                            .map_err(bad)?;
+                        self.added.insert(header.channel_id, id);
+                        id
+                    }
+                };
+                writer
+                    .write_to_known_channel(
+                        &MessageHeader {
+                            channel_id,
+                            ..header
+                        },
+                        &data,
+                    )
+                    .map_err(bad)?;
+                return Ok(1);
+            }
+            _ => {}
+        }
+        Ok(0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::writer::tests::topic;
+    use crate::{BagWriter, Compression, WriteOptions};
+
+    fn message(i: u32) -> Vec<u8> {
+        let mut cdr = vec![0, 1, 0, 0, 9, 0, 0, 0];
+        cdr.extend(format!("msg {i:04}").bytes());
+        cdr.push(0);
+        cdr
+    }
+
+    /// A recording whose process died: `flushed` messages reached the OS in
+    /// chunks of 10, `more` were still in the open chunk.
+    fn crashed(dir: &Path, compression: Option<Compression>, flushed: u32, more: u32) {
+        let mut writer = BagWriter::create(
+            dir,
+            WriteOptions {
+                compression,
+                chunk_size: 256,
+                ..WriteOptions::default()
+            },
+        )
+        .unwrap();
+        let id = writer.add_topic(topic("/chatter"), String::new()).unwrap();
+        for i in 0..flushed {
+            writer
+                .write(id, 1_000 + u64::from(i), 0, i, &message(i))
+                .unwrap();
+        }
+        writer.flush().unwrap();
+        for i in flushed..flushed + more {
+            writer
+                .write(id, 1_000 + u64::from(i), 0, i, &message(i))
+                .unwrap();
+        }
+        // What the process had in memory dies with it.
+        std::mem::forget(writer);
+    }
+
+    fn read_all(dir: &Path) -> Vec<(u64, Vec<u8>)> {
+        let mut out = Vec::new();
+        Bag::open(dir)
+            .unwrap()
+            .read_messages(
+                0,
+                |_| {},
+                |_, time, data| {
+                    out.push((time, data.to_vec()));
+                    std::ops::ControlFlow::<()>::Continue(())
+                },
+            )
+            .unwrap();
+        out
+    }
+
+    #[test]
+    fn an_unfinished_file_is_rewritten_from_its_complete_chunks() {
+        let root = std::env::temp_dir().join(format!("shm_bag_reindex_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        for compression in [None, Some(Compression::Zstd), Some(Compression::Lz4)] {
+            let dir = root.join(format!("{compression:?}"));
+            crashed(&dir, compression, 40, 3);
+            let before = BagMetadata::read(&dir).unwrap();
+            assert_eq!(before.message_count, 40, "refreshed at the flush");
+            let refused = Bag::open(&dir).unwrap().topics().unwrap_err().to_string();
+            assert!(refused.contains("bag reindex"), "{refused}");
+
+            let done = reindex(&dir).unwrap();
+            assert!(done.files[0].rewritten);
+            assert_eq!(done.files[0].messages, 40);
+            assert_eq!(done.metadata.message_count, 40);
+            assert_eq!(done.metadata.files[0].message_count, 40);
+            assert_eq!(done.metadata.topics_with_message_count[0].message_count, 40);
+            let read = read_all(&dir);
+            let want: Vec<(u64, Vec<u8>)> = (0..40)
+                .map(|i| (1_000 + u64::from(i), message(i)))
+                .collect();
+            assert_eq!(read, want);
+            assert!(
+                dir.join("bag_0.mcap.unfinished").exists() || {
+                    let name = dir.file_name().unwrap().to_string_lossy().into_owned();
+                    dir.join(format!("{name}_0.mcap.unfinished")).exists()
+                }
+            );
+            // A second run finds the files whole.
+            let again = reindex(&dir).unwrap();
+            assert!(!again.files[0].rewritten);
+            assert_eq!(read_all(&dir), want);
+        }
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    #[test]
+    fn a_damaged_chunk_is_refused_by_the_reader_and_left_out_by_reindex() {
+        let root = std::env::temp_dir().join(format!("shm_bag_crc_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = root.join("bag");
+        crashed(&dir, None, 40, 0);
+        let file = mcap_files(&dir).unwrap().remove(0);
+        let path = dir.join(&file);
+        let mut bytes = std::fs::read(&path).unwrap();
+        // One byte of the first message's text, inside the first chunk.
+        let at = bytes.windows(8).position(|w| w == b"msg 0020").unwrap();
+        bytes[at + 4] ^= 0x01;
+        std::fs::write(&path, &bytes).unwrap();
+        let done = reindex(&dir).unwrap();
+        assert_eq!(done.files[0].damaged_chunks, 1, "{:?}", done.files);
+        // The chunk of message 20 and its neighbours (6 messages) are gone.
+        let kept = done.files[0].messages;
+        assert!((30..40).contains(&kept), "{kept}");
+        let read = read_all(&dir);
+        assert_eq!(read.len() as u64, kept);
+        assert!(read.iter().all(|(_, data)| !data.ends_with(b"msg 0020\0")));
+        assert!(read.iter().any(|(_, data)| data.ends_with(b"msg 0039\0")));
+
+        // A finished file with a damaged chunk: the reader says so.
+        let whole = root.join("whole");
+        let mut writer = BagWriter::create(&whole, WriteOptions::default()).unwrap();
+        let id = writer.add_topic(topic("/chatter"), String::new()).unwrap();
+        for i in 0..10 {
+            writer.write(id, u64::from(i), 0, i, &message(i)).unwrap();
+        }
+        let metadata = writer.finish().unwrap();
+        let path = whole.join(&metadata.relative_file_paths[0]);
+        let mut bytes = std::fs::read(&path).unwrap();
+        let at = bytes.windows(8).position(|w| w == b"msg 0005").unwrap();
+        bytes[at + 7] ^= 0x01;
+        std::fs::write(&path, &bytes).unwrap();
+        let mut seen = 0;
+        let refused = Bag::open(&whole).unwrap().read_messages(
+            0,
+            |_| {},
+            |_, _, _| {
+                seen += 1;
+                std::ops::ControlFlow::<()>::Continue(())
+            },
+        );
+        let refused = refused.unwrap_err().to_string();
+        assert!(refused.to_lowercase().contains("crc"), "{refused}");
+        let _ = std::fs::remove_dir_all(&root);
+    }
+}
