@@ -8,7 +8,9 @@
 //! on `/camera` (every 50 ms, each pixel the message's number), a subscriber
 //! on `/echo` (sensor-data QoS), a
 //! `std_srvs/Trigger` server on `/trigger` answering with the distribution's
-//! name, and a lifecycle (its services and `~/transition_event`). Each
+//! name, a `test_msgs/Fibonacci` action server on `/fibonacci` (accepts
+//! every goal, answers `[0, 1, …]` of the goal's order without feedback), and
+//! a lifecycle (its services and `~/transition_event`). Each
 //! message received on `/echo` is printed as `echo <text>`. Prints `ready`,
 //! serves until stdin closes.
 
@@ -20,6 +22,7 @@ use std::time::Duration;
 use shm_cdr::msgs::sensor_msgs::msg::Image;
 use shm_cdr::msgs::std_msgs::String as Text;
 use shm_cdr::msgs::std_srvs::srv::{Trigger, Trigger_Request, Trigger_Response};
+use shm_cdr::msgs::test_msgs::action::{Fibonacci, Fibonacci_Result};
 use shm_cdr_examples::peer_session;
 use shm_runtime::lifecycle::Managed;
 use shm_runtime::rmw::{Distro, Qos};
@@ -60,6 +63,18 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
             message: distro.name().to_owned(),
         })
         .wait()?;
+    let fibonacci = node.declare_action_server::<Fibonacci>("/fibonacci").wait()?;
+    std::thread::spawn(move || {
+        while let Ok(accepted) = fibonacci.recv() {
+            let goal = accepted.execute();
+            let mut sequence = vec![0, 1];
+            while sequence.len() <= goal.goal().order.max(1) as usize {
+                let next = sequence[sequence.len() - 1] + sequence[sequence.len() - 2];
+                sequence.push(next);
+            }
+            let _ = goal.succeed(Fibonacci_Result { sequence });
+        }
+    });
     let _lifecycle = node.lifecycle(Plain)?;
     let running = Arc::new(AtomicBool::new(true));
     let talk = {

@@ -587,6 +587,54 @@ def check_stops(endpoint, peer, work):
     finally:
         running.clear()
         talker.join()
+    check_full_disk(endpoint, peer, work)
+
+
+def check_full_disk(endpoint, peer, work):
+    """A recording onto a 3 MiB tmpfs fills it: the recorder says the OS's
+    words, stops, prints its totals and exits 1; what it wrote reads back
+    after `bag reindex`. Skipped where tmpfs cannot be mounted (not root)."""
+    from sensor_msgs.msg import Image
+    mount = work / "small_disk"
+    mount.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(mount)],
+                      capture_output=True).returncode != 0:
+        print("bag record onto a full disk: skipped (mounting a tmpfs is not permitted here)")
+        return
+    try:
+        publish = peer.publisher("/frames", "sensor_msgs/msg/Image")
+        bag = mount / "bag"
+        proc = subprocess.Popen([str(BIN), "--connect", endpoint, "--domain-id", "0", "bag", "record",
+                                 "/frames", "-o", str(bag), "--no-progress", "--disable-keyboard-controls"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        check(wait_subscribed(endpoint, ["/frames"]), "bag record did not subscribe to /frames")
+        frame = Image(height=256, width=1024, step=1024, encoding="mono8", data=bytes(256 * 1024))
+        data = serialize_message(frame)
+        for _ in range(40):  # 10 MiB into 3 MiB
+            publish(None, data)
+            time.sleep(0.05)
+            if proc.poll() is not None:
+                break
+        try:
+            _, err = proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            err = interrupt(proc)
+        check(proc.returncode == 1 and "No space left on device" in err and "before writing failed" in err,
+              f"bag record onto a full disk: exit {proc.returncode} {err[-600:]!r}")
+        # The user makes room (reindex writes a new copy of the file), then reindexes.
+        subprocess.run(["mount", "-o", "remount,size=16m", str(mount)], check=True)
+        fixed = cli(endpoint, "bag", "reindex", str(bag))
+        by_rosbags, by_mcap = read_back(bag) if fixed.returncode == 0 else ([], [])
+        check(fixed.returncode == 0 and len(by_mcap) > 0 and by_rosbags == by_mcap
+              and all(m == data for m in by_mcap),
+              f"after the full disk: reindex {fixed.returncode} {fixed.stdout} {fixed.stderr}, "
+              f"read {len(by_rosbags)} / {len(by_mcap)}")
+        said = [line for line in err.splitlines() if "No space left" in line][-1:] or [""]
+        said = said[0]
+        print(f"bag record onto a full 3 MiB disk: exit {proc.returncode}, said {said.strip()[-160:]!r}; "
+              f"{len(by_mcap)} frames read back by rosbags and mcap after bag reindex")
+    finally:
+        subprocess.run(["umount", str(mount)], capture_output=True)
 
 
 def check_snapshot(endpoint, peer, work, hashes):

@@ -16,8 +16,9 @@
    `qos.cpp`, `attachment_helpers.cpp`, `rmw_*_data.cpp`): every liveliness
    token (fields, hash field, QoS text), the data key it publishes on (read
    here with the modelled key), the key it subscribes on (written here), the
-   service key (called here) and the 33-byte attachment with the GID of the
-   publisher's token; a Humble node has no `~/get_type_description`.
+   service key (called here), an action server's five endpoints (a goal sent
+   and its result asked for here) and the 33-byte attachment with the GID of
+   the publisher's token; a Humble node has no `~/get_type_description`.
 
 3. Buffer-aware endpoints (Lyrical, Rolling): a peer that behaves as
    0.10.5's buffer-aware publisher and subscriber of `sensor_msgs/Image`
@@ -41,6 +42,7 @@ from rosbags.typesys import Stores, get_typestore
 from sensor_msgs.msg import Image
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
+from unique_identifier_msgs.msg import UUID
 
 from rmw_zenoh import attachment, call, free_port, gid_of, open_session, parse_attachment, rosidl_hash
 
@@ -189,6 +191,12 @@ def check_node(distro):
             ("MP", "%chatter", qos_text(durability=1, depth=7)),
             ("MS", "%echo", qos_text(reliability=2, depth=5)),
             ("SS", "%trigger", qos_text()),
+            # An action server: three services and two publishers.
+            ("SS", "%fibonacci%_action%send_goal", qos_text()),
+            ("SS", "%fibonacci%_action%cancel_goal", qos_text()),
+            ("SS", "%fibonacci%_action%get_result", qos_text()),
+            ("MP", "%fibonacci%_action%feedback", qos_text()),
+            ("MP", "%fibonacci%_action%status", qos_text(durability=1, depth=1)),
         }
         seen = {(p[5], p[9], p[12]) for p in endpoints if len(p) == 13}
         for entity in sorted(expected_tokens):
@@ -229,6 +237,20 @@ def check_node(distro):
         reply = call(session, data_key(distro, "/trigger", "std_srvs/srv/Trigger", "srv"),
                      Trigger.Request(), Trigger.Response, 1, me, tries=20)
         check(reply is not None and reply.message == distro, f"{distro}: /trigger reply {reply}")
+        # The action: a goal sent and its result asked for on the modelled keys.
+        from test_msgs.action import Fibonacci
+        goal_id = UUID(uuid=list(range(16)))
+        accepted = call(session, data_key(distro, "/fibonacci/_action/send_goal",
+                                          "test_msgs/action/Fibonacci_SendGoal", "action"),
+                        Fibonacci.Impl.SendGoalService.Request(goal_id=goal_id, goal=Fibonacci.Goal(order=6)),
+                        Fibonacci.Impl.SendGoalService.Response, 2, me, tries=20)
+        result = call(session, data_key(distro, "/fibonacci/_action/get_result",
+                                        "test_msgs/action/Fibonacci_GetResult", "action"),
+                      Fibonacci.Impl.GetResultService.Request(goal_id=goal_id),
+                      Fibonacci.Impl.GetResultService.Response, 3, me, tries=20)
+        action_ok = accepted is not None and accepted.accepted and result is not None \
+            and result.status == 4 and list(result.result.sequence) == [0, 1, 1, 2, 3, 5, 8]
+        check(action_ok, f"{distro}: /fibonacci goal {accepted}, result {result}")
         proc.stdin.close()
         rest = proc.stdout.read()
         line = next((l for l in rest.splitlines() if l.startswith("echo ")), "")
@@ -237,7 +259,7 @@ def check_node(distro):
         session.close()
         print(f"conventions {distro} (rmw_zenoh_cpp {version}): {len(endpoints)} endpoint tokens as modelled, "
               f"{len(received)} messages read and 1 written on the modelled keys, service answered: "
-              f"{reply is not None and reply.message == distro}; hashes {'RIHS01' if hashes else TYPE_HASH_NOT_SUPPORTED}")
+              f"{reply is not None and reply.message == distro}, action goal and result: {action_ok}; hashes {'RIHS01' if hashes else TYPE_HASH_NOT_SUPPORTED}")
     finally:
         if proc.poll() is None:
             proc.kill()
