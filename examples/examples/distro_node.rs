@@ -63,7 +63,9 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
             message: distro.name().to_owned(),
         })
         .wait()?;
-    let fibonacci = node.declare_action_server::<Fibonacci>("/fibonacci").wait()?;
+    let fibonacci = node
+        .declare_action_server::<Fibonacci>("/fibonacci")
+        .wait()?;
     std::thread::spawn(move || {
         while let Ok(accepted) = fibonacci.recv() {
             let goal = accepted.execute();
