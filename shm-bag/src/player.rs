@@ -309,8 +309,8 @@ fn map(path: &Path) -> Result<memmap2::Mmap, Error> {
 fn summary(path: &Path, file: &[u8]) -> Result<mcap::Summary, Error> {
     let unfinished = || {
         format!(
-            "{} was not finished (its recording was killed, or its disk filled up): \
-             `shm-ros2 bag reindex <bag directory>` makes it readable",
+            "{} was not finished: it is still being recorded, or its recording was killed \
+             or ran out of disk; then `shm-ros2 bag reindex <bag directory>` makes it readable",
             path.display()
         )
     };
