@@ -89,8 +89,9 @@ pub struct TopicMetadata {
     pub type_name: String,
     /// `cdr`.
     pub serialization_format: String,
-    /// The QoS of the publishers recorded.
-    #[serde(default)]
+    /// The QoS of the publishers recorded. (rosbag2 wrote them as one YAML
+    /// text up to bag format version 8, as a list since 9; both are read.)
+    #[serde(default, deserialize_with = "qos_profiles")]
     pub offered_qos_profiles: Vec<QosProfile>,
     /// The type's RIHS01 hash.
     #[serde(default)]
@@ -108,6 +109,21 @@ pub struct FileInformation {
     pub duration: Nanoseconds,
     /// Its messages.
     pub message_count: u64,
+}
+
+/// Offered QoS profiles as a list (version 9) or as the YAML text of one
+/// (versions up to 8; empty when none).
+fn qos_profiles<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<QosProfile>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Form {
+        List(Vec<QosProfile>),
+        Text(String),
+    }
+    match Form::deserialize(d)? {
+        Form::List(list) => Ok(list),
+        Form::Text(text) => crate::qos::from_yaml(&text).map_err(serde::de::Error::custom),
+    }
 }
 
 impl BagMetadata {
@@ -140,5 +156,66 @@ impl BagMetadata {
         let text = shm_cdr::text_limits::read_text_file(&path)
             .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         Self::from_yaml(&text)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `metadata.yaml` as rosbag2 wrote it up to format version 8 (as
+    /// rosbags' writer does today): offered QoS profiles as one YAML text.
+    const VERSION_8: &str = r#"rosbag2_bagfile_information:
+  version: 8
+  storage_identifier: mcap
+  duration:
+    nanoseconds: 1000
+  starting_time:
+    nanoseconds_since_epoch: 1700000000000000000
+  message_count: 2
+  topics_with_message_count:
+  - topic_metadata:
+      name: /chatter
+      type: std_msgs/msg/String
+      serialization_format: cdr
+      offered_qos_profiles: "- history: 1\n  depth: 7\n  reliability: 1\n  durability: 1\n  deadline:\n    sec: 0\n    nsec: 0\n  lifespan:\n    sec: 0\n    nsec: 0\n  liveliness: 1\n  liveliness_lease_duration:\n    sec: 0\n    nsec: 0\n  avoid_ros_namespace_conventions: false"
+      type_description_hash: RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18
+    message_count: 2
+  - topic_metadata:
+      name: /quiet
+      type: std_msgs/msg/Empty
+      serialization_format: cdr
+      offered_qos_profiles: ''
+    message_count: 0
+  compression_format: ''
+  compression_mode: ''
+  relative_file_paths:
+  - bag_0.mcap
+  files:
+  - path: bag_0.mcap
+    starting_time:
+      nanoseconds_since_epoch: 1700000000000000000
+    duration:
+      nanoseconds: 1000
+    message_count: 2
+  custom_data: {}
+  ros_distro: humble
+"#;
+
+    #[test]
+    fn qos_written_as_text_up_to_version_8_is_read() {
+        let metadata = BagMetadata::from_yaml(VERSION_8).unwrap();
+        assert_eq!(metadata.version, 8);
+        let topics = &metadata.topics_with_message_count;
+        assert_eq!(topics[0].topic_metadata.offered_qos_profiles.len(), 1);
+        let qos = topics[0].topic_metadata.offered_qos_profiles[0].to_qos();
+        assert_eq!(qos, shm_runtime::rmw::Qos::transient_local(7));
+        assert!(topics[1].topic_metadata.offered_qos_profiles.is_empty());
+        // Written back as version 9 writes it: a list.
+        let again = BagMetadata::from_yaml(&metadata.to_yaml()).unwrap();
+        assert_eq!(again, metadata);
+        // Text that is no QoS list is refused with the reason.
+        let bad = VERSION_8.replace("\"- history: 1", "\"history: [");
+        assert!(BagMetadata::from_yaml(&bad).is_err());
     }
 }

@@ -53,6 +53,16 @@ impl Bag {
     pub fn open(path: &Path) -> Result<Self, Error> {
         if path.is_dir() {
             let metadata = BagMetadata::read(path)?;
+            if metadata.storage_identifier != "mcap" {
+                return Err(format!(
+                    "{}: its storage is `{}` (rosbag2's sqlite3 was the default through Humble); \
+                     this tool reads MCAP bags: convert it first (`ros2 bag convert`, or rosbags' \
+                     `rosbags-convert`)",
+                    path.display(),
+                    shm_cdr::text_limits::quoted(&metadata.storage_identifier)
+                )
+                .into());
+            }
             let mut files = Vec::with_capacity(metadata.relative_file_paths.len());
             for file in &metadata.relative_file_paths {
                 // A recording names its files inside its directory: a path
@@ -889,7 +899,7 @@ mod tests {
     use crate::{BagWriter, WriteOptions};
 
     #[test]
-    fn a_bag_naming_files_outside_its_directory_is_refused() {
+    fn a_bag_naming_files_outside_its_directory_or_another_storage_is_refused() {
         let dir = std::env::temp_dir().join(format!("shm-bag-outside-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         let mut writer = BagWriter::create(&dir, WriteOptions::default()).unwrap();
@@ -903,6 +913,12 @@ mod tests {
             let error = Bag::open(&dir).unwrap_err().to_string();
             assert!(error.contains("not inside the bag directory"), "{error}");
         }
+        // Another storage is named, not read as MCAP.
+        metadata.relative_file_paths = vec!["bag_0.db3".to_owned()];
+        metadata.storage_identifier = "sqlite3".to_owned();
+        std::fs::write(dir.join(crate::metadata::FILE_NAME), metadata.to_yaml()).unwrap();
+        let error = Bag::open(&dir).unwrap_err().to_string();
+        assert!(error.contains("its storage is `sqlite3`"), "{error}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -314,6 +314,7 @@ def main():
     check_snapshot(endpoint, peer, work, hashes)
     check_background_playback(endpoint, bag)
     check_stops(endpoint, peer, work)
+    check_rosbags_bags(endpoint, peer, work)
     if not failures:
         shutil.rmtree(work, ignore_errors=True)
 
@@ -672,6 +673,58 @@ def check_snapshot(endpoint, peer, work, hashes):
           f"bag record --snapshot-mode: exit {proc.returncode}, {len(written)} written {err[-500:]!r}")
     print(f"bag record --snapshot-mode: {same}/6 rosbag2_interfaces types announced with rosidl's hashes; "
           f"~/snapshot wrote the {len(written)} messages held, the 2 after it reported as not written")
+
+
+def check_rosbags_bags(endpoint, peer, work):
+    """Bags rosbags writes: format version 8 (offered QoS as one YAML text,
+    as rosbag2 wrote it through Iron) in MCAP storage is read and played byte
+    for byte with its QoS; rosbags' default storage, sqlite3, is refused
+    naming the storage."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness, QosReliability,
+                                    QosTime)
+    from rosbags.typesys import Stores, get_typestore
+    from std_msgs.msg import String
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    sent = [serialize_message(String(data=f"old {i}")) for i in range(20)]
+    old = work / "version_8"
+    with Writer(old, version=8, storage_plugin=StoragePlugin.MCAP) as writer:
+        zero = QosTime(sec=0, nsec=0)
+        qos = Qos(history=QosHistory.KEEP_LAST, depth=7, reliability=QosReliability.RELIABLE,
+                  durability=QosDurability.TRANSIENT_LOCAL, deadline=zero, lifespan=zero,
+                  liveliness=QosLiveliness.AUTOMATIC, liveliness_lease_duration=zero,
+                  avoid_ros_namespace_conventions=False)
+        connection = writer.add_connection("/old", "std_msgs/msg/String", typestore=store,
+                                           offered_qos_profiles=[qos])
+        for i, data in enumerate(sent):
+            writer.write(connection, 1_700_000_000_000_000_000 + i * 10_000_000, data)
+    import yaml
+    written = yaml.safe_load((old / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    offered = written["topics_with_message_count"][0]["topic_metadata"]["offered_qos_profiles"]
+    check(written["version"] == 8 and isinstance(offered, str) and "depth: 7" in offered,
+          f"rosbags did not write a version-8 metadata.yaml with QoS as text: {written}")
+    info = cli(endpoint, "bag", "info", str(old))
+    check(info.returncode == 0 and "/old" in info.stdout and "Count: 20" in info.stdout,
+          f"bag info of a version-8 bag: {info.returncode} {info.stdout[-400:]} {info.stderr[-300:]}")
+    got = []
+    peer.subscriber("/old", "std_msgs/msg/String", got.append)
+    played = cli(endpoint, "bag", "play", str(old), "-r", "10", "-d", "1", timeout=120)
+    deadline = time.time() + 5
+    while len(got) < len(sent) and time.time() < deadline:
+        time.sleep(0.05)
+    check(played.returncode == 0 and got == sent,
+          f"bag play of a version-8 bag: exit {played.returncode} {played.stderr[-300:]!r}, "
+          f"the peer read {len(got)} of {len(sent)}")
+
+    sqlite = work / "sqlite3"
+    with Writer(sqlite, version=9) as writer:
+        connection = writer.add_connection("/old", "std_msgs/msg/String", typestore=store)
+        writer.write(connection, 1_700_000_000_000_000_000, sent[0])
+    refused = cli(endpoint, "bag", "info", str(sqlite))
+    check(refused.returncode != 0 and "its storage is `sqlite3`" in refused.stderr,
+          f"bag info of a sqlite3 bag: {refused.returncode} {refused.stderr[-400:]}")
+    print(f"rosbags' bags: a version-8 MCAP bag (QoS as text) read by bag info and played byte for byte "
+          f"({len(got)}/{len(sent)}); a sqlite3 bag refused naming its storage")
 
 
 def check_background_playback(endpoint, bag):
