@@ -1019,36 +1019,48 @@ fn a_hostile_nodes_descriptions_are_refused_and_the_tools_keep_running() {
     drop(alive);
 }
 
+/// A node `talker` publishing "hi" on `/chatter` every 50 ms while the flag
+/// lives, and an empty directory `<temp>/<name>_<pid>`.
+fn chattering(session: &Session, name: &str) -> (RosNode, std::sync::Arc<()>, std::path::PathBuf) {
+    let node = RosNode::builder(session, "talker")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let alive = keep_publishing(&node, "/chatter", RosString { data: "hi".into() });
+    let dir = std::env::temp_dir().join(format!("{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    (node, alive, dir)
+}
+
+/// `bag record` of `/chatter` into `bag`, with `extra` options.
+fn record_chatter(port: u16, bag: &std::path::Path, extra: &[&str]) -> Command {
+    let bag = bag.to_str().unwrap();
+    let mut args = vec![
+        "bag",
+        "record",
+        "-o",
+        bag,
+        "--no-progress",
+        "--disable-keyboard-controls",
+    ];
+    args.extend_from_slice(extra);
+    args.push("/chatter");
+    cli(port, &args)
+}
+
 /// What `docker stop`, systemd, launch and a closed terminal send stops a
 /// recording as Ctrl-C does: the files finished, `metadata.yaml` written,
 /// the totals printed, exit status 0.
 #[test]
 fn bag_record_finishes_its_files_on_sigterm_sighup_and_sigint() {
     let (session, port) = listening_session();
-    let node = RosNode::builder(&session, "talker")
-        .domain_id(0)
-        .wait()
-        .unwrap();
-    let alive = keep_publishing(&node, "/chatter", RosString { data: "hi".into() });
-    let dir = std::env::temp_dir().join(format!("shm_cli_signals_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let (_talker, alive, dir) = chattering(&session, "shm_cli_signals");
     for signal in ["TERM", "HUP", "INT"] {
         let bag = dir.join(signal);
-        let mut child = cli(
-            port,
-            &[
-                "bag",
-                "record",
-                "-o",
-                bag.to_str().unwrap(),
-                "--no-progress",
-                "--disable-keyboard-controls",
-                "/chatter",
-            ],
-        )
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+        let mut child = record_chatter(port, &bag, &[])
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
         // Until metadata.yaml counts a message on disk (chunks close every
         // second).
         let deadline = std::time::Instant::now() + TIMEOUT;
@@ -1095,30 +1107,11 @@ fn bag_record_finishes_its_files_on_sigterm_sighup_and_sigint() {
 #[test]
 fn a_killed_recording_is_reindexed_with_all_but_its_last_second() {
     let (session, port) = listening_session();
-    let node = RosNode::builder(&session, "talker")
-        .domain_id(0)
-        .wait()
-        .unwrap();
-    let alive = keep_publishing(&node, "/chatter", RosString { data: "hi".into() });
-    let dir = std::env::temp_dir().join(format!("shm_cli_kill9_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let (_talker, alive, dir) = chattering(&session, "shm_cli_kill9");
     let bag = dir.join("bag");
-    let mut child = cli(
-        port,
-        &[
-            "bag",
-            "record",
-            "-o",
-            bag.to_str().unwrap(),
-            "--no-progress",
-            "--disable-keyboard-controls",
-            "--compression-format",
-            "zstd",
-            "/chatter",
-        ],
-    )
-    .spawn()
-    .unwrap();
+    let mut child = record_chatter(port, &bag, &["--compression-format", "zstd"])
+        .spawn()
+        .unwrap();
     // Until metadata.yaml has counted messages on disk twice.
     let deadline = std::time::Instant::now() + TIMEOUT;
     let mut counted = Vec::new();
