@@ -91,9 +91,11 @@ impl TopicTypes {
             let mut callback = lock(&self.callback);
             if callback.is_none() {
                 let shared = self.shared.clone();
+                let cache = graph.clone();
                 match graph.on_change(move |event| match event {
                     GraphEvent::Appeared(entity) => shared.check(&entity),
-                    GraphEvent::Missed => {}
+                    // Changes were dropped from the queue: look at it all.
+                    GraphEvent::Missed => shared.check_all(&cache),
                     GraphEvent::Left(_) => {}
                 }) {
                     Ok(handle) => *callback = Some(handle),
@@ -103,12 +105,7 @@ impl TopicTypes {
             drop(callback);
             // What is there already (a change after this is seen by the
             // callback too; a conflict is kept once).
-            for entity in graph.read().endpoints(EntityKind::Publisher, topic) {
-                self.shared.check(&entity);
-            }
-            for entity in graph.read().endpoints(EntityKind::Subscriber, topic) {
-                self.shared.check(&entity);
-            }
+            self.shared.check_topic(&graph, topic);
         }
         TopicUse {
             shared: self.shared.clone(),
@@ -123,6 +120,25 @@ impl TopicTypes {
 }
 
 impl Shared {
+    fn check_topic(&self, graph: &GraphCache, topic: &str) {
+        let endpoints = {
+            let graph = graph.read();
+            let mut endpoints = graph.endpoints(EntityKind::Publisher, topic);
+            endpoints.extend(graph.endpoints(EntityKind::Subscriber, topic));
+            endpoints
+        };
+        for entity in endpoints {
+            self.check(&entity);
+        }
+    }
+
+    fn check_all(&self, graph: &GraphCache) {
+        let topics: Vec<String> = lock(&self.ours).keys().cloned().collect();
+        for topic in topics {
+            self.check_topic(graph, &topic);
+        }
+    }
+
     fn check(&self, entity: &Entity) {
         let Some(endpoint) = entity.endpoint.as_ref() else {
             return;
