@@ -144,12 +144,36 @@ fn arg<'a>(args: &'a [String], i: usize, what: &str) -> Result<&'a str> {
         .ok_or_else(|| format!("missing argument {i}: {what}").into())
 }
 
-fn subscribe(args: &[String]) -> Result<()> {
+/// What every mode takes first: the session on the endpoint, the key, the
+/// token (its `{zid}` filled in), the count and the image's data bytes.
+struct Common<'a> {
+    session: zenoh::Session,
+    key: &'a str,
+    token: String,
+    count: usize,
+    data: usize,
+}
+
+fn common(args: &[String]) -> Result<Common<'_>> {
     let session = zenoh::open(config(arg(args, 2, "connect endpoint")?)?).wait()?;
-    let key = arg(args, 3, "key expression")?;
     let token = arg(args, 4, "token template")?.replace("{zid}", &session.zid().to_string());
-    let count: usize = arg(args, 5, "count")?.parse()?;
-    let data: usize = arg(args, 6, "data bytes")?.parse()?;
+    Ok(Common {
+        key: arg(args, 3, "key expression")?,
+        token,
+        count: arg(args, 5, "count")?.parse()?,
+        data: arg(args, 6, "data bytes")?.parse()?,
+        session,
+    })
+}
+
+fn subscribe(args: &[String]) -> Result<()> {
+    let Common {
+        session,
+        key,
+        token,
+        count,
+        data,
+    } = common(args)?;
     let timeout = Duration::from_secs(arg(args, 7, "timeout")?.parse()?);
     let subscriber = session.declare_subscriber(key).wait()?;
     let _token = session.liveliness().declare_token(token).wait()?;
@@ -174,11 +198,13 @@ fn subscribe(args: &[String]) -> Result<()> {
 }
 
 fn echo(args: &[String]) -> Result<()> {
-    let session = zenoh::open(config(arg(args, 2, "connect endpoint")?)?).wait()?;
-    let key = arg(args, 3, "key expression")?;
-    let token = arg(args, 4, "token template")?.replace("{zid}", &session.zid().to_string());
-    let count: usize = arg(args, 5, "count")?.parse()?;
-    let data: usize = arg(args, 6, "data bytes")?.parse()?;
+    let Common {
+        session,
+        key,
+        token,
+        count,
+        data,
+    } = common(args)?;
     let timeout = Duration::from_secs(arg(args, 7, "timeout")?.parse()?);
     let pongs = session
         .declare_publisher(arg(args, 8, "pong key")?.to_owned())
@@ -208,11 +234,14 @@ fn echo(args: &[String]) -> Result<()> {
 }
 
 fn publish(args: &[String]) -> Result<()> {
-    let session = zenoh::open(config(arg(args, 2, "connect endpoint")?)?).wait()?;
-    let key = arg(args, 3, "key expression")?;
-    let token = arg(args, 4, "token template")?.replace("{zid}", &session.zid().to_string());
-    let count: u32 = arg(args, 5, "count")?.parse()?;
-    let data: usize = arg(args, 6, "data bytes")?.parse()?;
+    let Common {
+        session,
+        key,
+        token,
+        count,
+        data,
+    } = common(args)?;
+    let count = u32::try_from(count)?;
     let provider = ShmProviderBuilder::default_backend(POOL).wait()?;
     let publisher = session.declare_publisher(key.to_owned()).wait()?;
     let _token = session.liveliness().declare_token(token).wait()?;
