@@ -103,6 +103,7 @@ pub(crate) fn contents<'a>(
     Ok(records)
 }
 
+#[cfg(test)]
 /// Give `each` every message among `records` (a chunk's contents): its
 /// channel, log time and bytes, until it breaks.
 pub(crate) fn each_message<T>(

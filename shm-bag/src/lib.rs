@@ -21,6 +21,7 @@ mod player;
 mod recorder;
 mod reindex;
 mod split_events;
+mod storage;
 mod writer;
 
 pub mod definition;
@@ -41,6 +42,7 @@ pub use metadata::BagMetadata;
 pub use player::{Bag, ClockTrigger, PlayOptions, PlayStats, Player, RecordedTopic};
 pub use recorder::{RecordOptions, RecordStats, Recorder, RecorderControl, Selection};
 pub use reindex::{reindex, FileReport, Reindexed};
+pub use storage::Storage;
 pub use writer::{BagWriter, Compression, FileSplit, TopicId, WriteOptions};
 
 /// A failure to report: the message says what happened and what to do.

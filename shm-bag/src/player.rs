@@ -2,7 +2,7 @@
 //! recorded type and QoS, each message at its recorded time (scaled by a
 //! rate), from an exact-size shared-memory buffer when it is large.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BinaryHeap, HashMap};
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -19,19 +19,21 @@ use crate::interfaces::rosbag2_interfaces::msg::ReadSplitEvent;
 use crate::metadata::BagMetadata;
 use crate::qos;
 use crate::split_events::SplitEvents;
+use crate::storage::{MessageCursor, Storage, StorageFile};
 use crate::types;
 use crate::writer::FileSplit;
 use crate::Error;
 
-/// A recording on disk: a bag directory (with `metadata.yaml`) or one MCAP
-/// file.
+/// A recording on disk: a bag directory (with `metadata.yaml`) of MCAP or
+/// sqlite3 files, or one such file.
 #[derive(Debug)]
 pub struct Bag {
     files: Vec<PathBuf>,
+    storage: Storage,
     metadata: Option<BagMetadata>,
 }
 
-/// One topic of a recording, as its MCAP channels describe it.
+/// One topic of a recording, as its files describe it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RecordedTopic {
     /// The topic name.
@@ -49,17 +51,28 @@ pub struct RecordedTopic {
 }
 
 impl Bag {
-    /// Open `path`: a bag directory or an `.mcap` file.
+    /// Open `path`: a bag directory, or one `.mcap` or `.db3` file.
     pub fn open(path: &Path) -> Result<Self, Error> {
         if path.is_dir() {
             let metadata = BagMetadata::read(path)?;
-            if metadata.storage_identifier != "mcap" {
+            let Some(storage) = Storage::from_identifier(&metadata.storage_identifier) else {
                 return Err(format!(
-                    "{}: its storage is `{}` (rosbag2's sqlite3 was the default through Humble); \
-                     this tool reads MCAP bags: convert it first (`ros2 bag convert`, or rosbags' \
-                     `rosbags-convert`)",
+                    "{}: its storage is `{}`; this tool reads rosbag2's `mcap` and `sqlite3` \
+                     storages: convert it to one of them first",
                     path.display(),
                     shm_cdr::text_limits::quoted(&metadata.storage_identifier)
+                )
+                .into());
+            };
+            let mode = metadata.compression_mode.to_ascii_lowercase();
+            if !(mode.is_empty() || mode == "none") {
+                return Err(format!(
+                    "{}: rosbag2 compressed it per {} ({}), which this tool does not read; \
+                     `ros2 bag convert` with `compression_mode: none` (or MCAP's own chunk \
+                     compression) makes a copy it reads",
+                    path.display(),
+                    shm_cdr::text_limits::quoted(&metadata.compression_mode),
+                    shm_cdr::text_limits::quoted(&metadata.compression_format)
                 )
                 .into());
             }
@@ -86,29 +99,41 @@ impl Bag {
             }
             return Ok(Self {
                 files,
+                storage,
                 metadata: Some(metadata),
             });
         }
         if path.is_file() {
             return Ok(Self {
                 files: vec![path.to_owned()],
+                storage: Storage::of_file(path)?,
                 metadata: None,
             });
         }
-        Err(format!("{}: no such bag directory or MCAP file", path.display()).into())
+        Err(format!(
+            "{}: no such bag directory, MCAP or sqlite3 file",
+            path.display()
+        )
+        .into())
     }
 
     /// The MCAP files `files`, without a `metadata.yaml`.
     pub(crate) fn from_files(files: Vec<PathBuf>) -> Self {
         Self {
             files,
+            storage: Storage::Mcap,
             metadata: None,
         }
     }
 
-    /// The MCAP files, in order.
+    /// The recording's files, in order.
     pub fn files(&self) -> &[PathBuf] {
         &self.files
+    }
+
+    /// The storage its files are in.
+    pub fn storage(&self) -> Storage {
+        self.storage
     }
 
     /// `metadata.yaml`, for a bag directory.
@@ -116,8 +141,12 @@ impl Bag {
         self.metadata.as_ref()
     }
 
-    /// What the recording holds: its `metadata.yaml`, or for a lone MCAP
-    /// file the same facts read from its summary.
+    fn open_files(&self) -> impl Iterator<Item = Result<Box<dyn StorageFile>, Error>> + '_ {
+        self.files.iter().map(|path| self.storage.open(path))
+    }
+
+    /// What the recording holds: its `metadata.yaml`, or for a lone file the
+    /// same facts read from the file.
     pub fn describe(&self) -> Result<BagMetadata, Error> {
         if let Some(metadata) = &self.metadata {
             return Ok(metadata.clone());
@@ -125,19 +154,19 @@ impl Bag {
         let mut start = u64::MAX;
         let mut end = 0;
         let mut count = 0;
-        for path in &self.files {
-            let file = map(path)?;
-            if let Some(stats) = summary(path, &file)?.stats {
-                start = start.min(stats.message_start_time);
-                end = end.max(stats.message_end_time);
-                count += stats.message_count;
+        for file in self.open_files() {
+            let stats = file?.stats()?;
+            if stats.count > 0 {
+                start = start.min(stats.start);
+                end = end.max(stats.end);
+                count += stats.count;
             }
         }
         let start = if count == 0 { 0 } else { start };
         let topics = self.topics()?;
         Ok(BagMetadata {
             version: crate::metadata::VERSION,
-            storage_identifier: "mcap".to_owned(),
+            storage_identifier: self.storage.identifier().to_owned(),
             duration: crate::metadata::Nanoseconds {
                 nanoseconds: end.saturating_sub(start),
             },
@@ -187,151 +216,100 @@ impl Bag {
             .sum()
     }
 
-    /// Read the messages from the recording's time `from` on, file by file:
-    /// `on_file` is told of each file as it is opened, `each` is given every
-    /// message's topic, log time and bytes, and may stop the reading with
-    /// what it breaks with. With a chunk index (rosbag2 and this crate write
-    /// one), chunks wholly before `from` are not read at all: a seek or a
-    /// start offset costs no decompression of what it skips. Messages before
-    /// `from` in a chunk that is read are given too.
+    /// Read the messages of log time `from` or later, in log-time order
+    /// across all files, as `ros2 bag play` does, whatever order the files
+    /// hold them in: `on_file` is told of each file when its first message
+    /// is given, `each` is given every message's topic, log time and bytes,
+    /// and may stop the reading with what it breaks with. A file is opened
+    /// when its first message may be due, and in MCAP a chunk is read when
+    /// its first message is due: a seek or a start offset costs no
+    /// decompression of what it skips, and a recording in order has one
+    /// file and one chunk open at a time.
     pub fn read_messages<T>(
         &self,
         from: u64,
         mut on_file: impl FnMut(&Path),
         mut each: impl FnMut(&str, u64, &[u8]) -> ControlFlow<T>,
     ) -> Result<Option<T>, Error> {
-        for path in &self.files {
-            on_file(path);
-            let file = map(path)?;
-            let summary = summary(path, &file)?;
-            let topics: HashMap<u16, &str> = summary
-                .channels
-                .iter()
-                .map(|(id, c)| (*id, c.topic.as_str()))
-                .collect();
-            let bad = |e: mcap::McapError| format!("{}: {e}", path.display());
-            let mut give = |channel: u16, time: u64, data: &[u8]| match topics.get(&channel) {
-                Some(topic) => each(topic, time, data),
-                None => ControlFlow::Continue(()),
-            };
-            let mut scratch = Vec::new();
-            if summary.chunk_indexes.is_empty() {
-                // No index: every record in file order, chunks as they come.
-                for record in mcap::read::LinearReader::new(&file).map_err(bad)? {
-                    let ended = match record.map_err(bad)? {
-                        mcap::records::Record::Message { header, data } => {
-                            match give(header.channel_id, header.log_time, &data) {
-                                ControlFlow::Break(ended) => Some(ended),
-                                ControlFlow::Continue(()) => None,
-                            }
-                        }
-                        mcap::records::Record::Chunk { header, data } => {
-                            let records = crate::chunk::contents(&header, &data, &mut scratch)
-                                .map_err(|e| format!("{}: {e}", path.display()))?;
-                            crate::chunk::each_message(records, &mut give).map_err(bad)?
-                        }
-                        _ => None,
-                    };
-                    if ended.is_some() {
-                        return Ok(ended);
-                    }
-                }
-                continue;
+        // Each file's first message time, the earliest last.
+        let mut pending = Vec::with_capacity(self.files.len());
+        for (index, file) in self.open_files().enumerate() {
+            let stats = file?.stats()?;
+            if stats.count > 0 && stats.end >= from {
+                pending.push((stats.start, index));
             }
-            let mut chunks: Vec<&mcap::records::ChunkIndex> =
-                summary.chunk_indexes.iter().collect();
-            chunks.sort_by_key(|c| c.chunk_start_offset);
-            for chunk in chunks {
-                if chunk.message_end_time < from {
-                    continue;
+        }
+        pending.sort_by_key(|&(start, index)| std::cmp::Reverse((start, index)));
+        let mut cursors: Vec<Option<Box<dyn MessageCursor>>> =
+            (0..self.files.len()).map(|_| None).collect();
+        let mut entered = vec![false; self.files.len()];
+        let mut heap = BinaryHeap::new();
+        loop {
+            while let Some(&(start, index)) = pending.last() {
+                if heap
+                    .peek()
+                    .is_some_and(|&std::cmp::Reverse((time, _))| start > time)
+                {
+                    break;
                 }
-                let records = crate::chunk::records(&file, chunk, &mut scratch)
-                    .map_err(|e| format!("{}: {e}", path.display()))?;
-                if let Some(ended) = crate::chunk::each_message(records, &mut give).map_err(bad)? {
+                pending.pop();
+                let cursor = self.storage.open(&self.files[index])?.messages(from)?;
+                if let Some(message) = cursor.current() {
+                    heap.push(std::cmp::Reverse((message.log_time, index)));
+                    cursors[index] = Some(cursor);
+                }
+            }
+            let Some(std::cmp::Reverse((_, index))) = heap.pop() else {
+                return Ok(None);
+            };
+            let Some(cursor) = cursors[index].as_mut() else {
+                continue;
+            };
+            if !entered[index] {
+                entered[index] = true;
+                on_file(&self.files[index]);
+            }
+            if let Some(message) = cursor.current() {
+                if let ControlFlow::Break(ended) =
+                    each(message.topic, message.log_time, message.data)
+                {
                     return Ok(Some(ended));
                 }
             }
+            cursor.advance()?;
+            match cursor.current() {
+                Some(next) => heap.push(std::cmp::Reverse((next.log_time, index))),
+                None => cursors[index] = None,
+            }
         }
-        Ok(None)
     }
 
-    /// The topics in all files, by name, from the files' summaries.
+    /// The topics in all files, by name.
     pub fn topics(&self) -> Result<BTreeMap<String, RecordedTopic>, Error> {
         let mut out: BTreeMap<String, RecordedTopic> = BTreeMap::new();
-        for path in &self.files {
-            let file = map(path)?;
-            let summary = summary(path, &file)?;
-            let counts = summary
-                .stats
-                .as_ref()
-                .map(|s| s.channel_message_counts.clone())
-                .unwrap_or_default();
-            for (id, channel) in &summary.channels {
-                let topic = out
-                    .entry(channel.topic.clone())
-                    .or_insert_with(|| recorded_topic(channel));
-                topic.message_count += counts.get(id).copied().unwrap_or(0);
+        for file in self.open_files() {
+            for topic in file?.topics()? {
+                match out.get_mut(&topic.name) {
+                    Some(known) => known.message_count += topic.message_count,
+                    None => {
+                        out.insert(topic.name.clone(), topic);
+                    }
+                }
             }
         }
         Ok(out)
     }
-}
 
-fn recorded_topic(channel: &mcap::Channel<'_>) -> RecordedTopic {
-    let offered_qos = channel
-        .metadata
-        .get("offered_qos_profiles")
-        .and_then(|text| qos::from_yaml(text).ok())
-        .unwrap_or_default()
-        .iter()
-        .map(qos::QosProfile::to_qos)
-        .collect();
-    RecordedTopic {
-        name: channel.topic.clone(),
-        type_name: channel
-            .schema
-            .as_ref()
-            .map(|s| s.name.clone())
-            .unwrap_or_default(),
-        type_hash: channel
-            .metadata
-            .get("topic_type_hash")
-            .cloned()
-            .unwrap_or_default(),
-        offered_qos,
-        message_encoding: channel.message_encoding.clone(),
-        message_count: 0,
-    }
-}
-
-fn map(path: &Path) -> Result<memmap2::Mmap, Error> {
-    let file =
-        std::fs::File::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
-    // SAFETY: the map is only read, and only while this process holds it; a
-    // recording being rewritten under a player is outside what a player can
-    // guard against (as for any reader of files), and MCAP parsing checks
-    // every length against the map's end, so a change cannot make it read
-    // out of bounds.
-    unsafe { memmap2::Mmap::map(&file) }
-        .map_err(|e| format!("cannot map {}: {e}", path.display()).into())
-}
-
-fn summary(path: &Path, file: &[u8]) -> Result<mcap::Summary, Error> {
-    let unfinished = || {
-        format!(
-            "{} was not finished: it is still being recorded, or its recording was killed \
-             or ran out of disk; then `shm-ros2 bag reindex <bag directory>` makes it readable",
-            path.display()
-        )
-    };
-    match mcap::Summary::read(file) {
-        Ok(Some(summary)) => Ok(summary),
-        Ok(None) => Err(unfinished().into()),
-        // It starts as an MCAP file and does not end as one.
-        Err(_) if file.starts_with(mcap::MAGIC) && !file.ends_with(mcap::MAGIC) => {
-            Err(unfinished().into())
+    /// The `ros2msg` definition of each type a file keeps one of (all MCAP
+    /// files do; sqlite3 files since Iron), by type name.
+    pub fn definitions(&self) -> Result<BTreeMap<String, String>, Error> {
+        let mut out = BTreeMap::new();
+        for file in self.open_files() {
+            for (name, definition) in file?.definitions()? {
+                out.entry(name).or_insert(definition);
+            }
         }
-        Err(e) => Err(format!("{}: not a readable MCAP file: {e}", path.display()).into()),
+        Ok(out)
     }
 }
 
@@ -836,17 +814,14 @@ fn publish_clock(clock: &RosPublisher<Clock>, time: u64) {
     }
 }
 
-/// The times of the recording's first and last messages, from the files'
-/// statistics.
+/// The times of the recording's first and last messages.
 fn bag_bounds(bag: &Bag) -> Result<(u64, u64), Error> {
     let mut bounds = None::<(u64, u64)>;
-    for path in &bag.files {
-        let file = map(path)?;
-        if let Some(stats) = summary(path, &file)?.stats {
-            if stats.message_count > 0 {
-                let (first, last) = (stats.message_start_time, stats.message_end_time);
-                bounds = Some(bounds.map_or((first, last), |(f, l)| (f.min(first), l.max(last))));
-            }
+    for file in bag.open_files() {
+        let stats = file?.stats()?;
+        if stats.count > 0 {
+            let (first, last) = (stats.start, stats.end);
+            bounds = Some(bounds.map_or((first, last), |(f, l)| (f.min(first), l.max(last))));
         }
     }
     Ok(bounds.unwrap_or((0, 0)))
@@ -877,17 +852,11 @@ fn playback_qos(offered: &[Qos]) -> Qos {
     }
 }
 
-/// A bound on the largest message's size: the largest chunk (a chunk holds
-/// whole messages, and a message larger than the chunk size has one of its
-/// own), read from the files' summaries.
+/// A bound on the largest message's size, from each file.
 fn largest_message(bag: &Bag) -> Result<usize, Error> {
     let mut largest = 0u64;
-    for path in &bag.files {
-        let file = map(path)?;
-        let summary = summary(path, &file)?;
-        for chunk in &summary.chunk_indexes {
-            largest = largest.max(chunk.uncompressed_size);
-        }
+    for file in bag.open_files() {
+        largest = largest.max(file?.largest_message()?);
     }
     Ok(usize::try_from(largest).unwrap_or(usize::MAX))
 }
@@ -899,7 +868,7 @@ mod tests {
     use crate::{BagWriter, WriteOptions};
 
     #[test]
-    fn a_bag_naming_files_outside_its_directory_or_another_storage_is_refused() {
+    fn a_bag_naming_files_outside_its_directory_or_a_storage_not_read_is_refused() {
         let dir = std::env::temp_dir().join(format!("shm-bag-outside-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         let mut writer = BagWriter::create(&dir, WriteOptions::default()).unwrap();
@@ -913,12 +882,19 @@ mod tests {
             let error = Bag::open(&dir).unwrap_err().to_string();
             assert!(error.contains("not inside the bag directory"), "{error}");
         }
-        // Another storage is named, not read as MCAP.
-        metadata.relative_file_paths = vec!["bag_0.db3".to_owned()];
-        metadata.storage_identifier = "sqlite3".to_owned();
+        // A storage this crate does not read is named.
+        metadata.relative_file_paths = vec!["bag_0.bag".to_owned()];
+        metadata.storage_identifier = "rosbag_v2".to_owned();
         std::fs::write(dir.join(crate::metadata::FILE_NAME), metadata.to_yaml()).unwrap();
         let error = Bag::open(&dir).unwrap_err().to_string();
-        assert!(error.contains("its storage is `sqlite3`"), "{error}");
+        assert!(error.contains("its storage is `rosbag_v2`"), "{error}");
+        // So is rosbag2's compression of whole files or messages.
+        metadata.storage_identifier = "sqlite3".to_owned();
+        metadata.compression_mode = "FILE".to_owned();
+        metadata.compression_format = "zstd".to_owned();
+        std::fs::write(dir.join(crate::metadata::FILE_NAME), metadata.to_yaml()).unwrap();
+        let error = Bag::open(&dir).unwrap_err().to_string();
+        assert!(error.contains("compressed it per FILE (zstd)"), "{error}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
