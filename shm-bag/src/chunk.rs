@@ -6,7 +6,7 @@
 
 use std::borrow::Cow;
 use std::io::Read;
-
+#[cfg(test)]
 use std::ops::ControlFlow;
 
 use mcap::records::{op, ChunkHeader, ChunkIndex, Record};

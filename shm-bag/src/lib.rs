@@ -17,6 +17,7 @@
 
 mod chunk;
 mod control;
+mod convert;
 mod player;
 mod recorder;
 mod reindex;
@@ -38,11 +39,12 @@ pub mod interfaces {
 }
 
 pub use control::PlayerControl;
+pub use convert::{convert, ConvertOptions, Converted};
 pub use metadata::BagMetadata;
 pub use player::{Bag, ClockTrigger, PlayOptions, PlayStats, Player, RecordedTopic};
 pub use recorder::{RecordOptions, RecordStats, Recorder, RecorderControl, Selection};
 pub use reindex::{reindex, FileReport, Reindexed};
-pub use storage::Storage;
+pub use storage::{BagMessage, Storage};
 pub use writer::{BagWriter, Compression, FileSplit, TopicId, WriteOptions};
 
 /// A failure to report: the message says what happened and what to do.

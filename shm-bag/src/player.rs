@@ -19,7 +19,7 @@ use crate::interfaces::rosbag2_interfaces::msg::ReadSplitEvent;
 use crate::metadata::BagMetadata;
 use crate::qos;
 use crate::split_events::SplitEvents;
-use crate::storage::{MessageCursor, Storage, StorageFile};
+use crate::storage::{BagMessage, MessageCursor, Storage, StorageFile};
 use crate::types;
 use crate::writer::FileSplit;
 use crate::Error;
@@ -29,7 +29,8 @@ use crate::Error;
 #[derive(Debug)]
 pub struct Bag {
     files: Vec<PathBuf>,
-    storage: Storage,
+    /// Each file's storage.
+    storages: Vec<Storage>,
     metadata: Option<BagMetadata>,
 }
 
@@ -98,15 +99,15 @@ impl Bag {
                 files.push(path.join(file));
             }
             return Ok(Self {
+                storages: vec![storage; files.len()],
                 files,
-                storage,
                 metadata: Some(metadata),
             });
         }
         if path.is_file() {
             return Ok(Self {
                 files: vec![path.to_owned()],
-                storage: Storage::of_file(path)?,
+                storages: vec![Storage::of_file(path)?],
                 metadata: None,
             });
         }
@@ -120,8 +121,8 @@ impl Bag {
     /// The MCAP files `files`, without a `metadata.yaml`.
     pub(crate) fn from_files(files: Vec<PathBuf>) -> Self {
         Self {
+            storages: vec![Storage::Mcap; files.len()],
             files,
-            storage: Storage::Mcap,
             metadata: None,
         }
     }
@@ -131,9 +132,25 @@ impl Bag {
         &self.files
     }
 
-    /// The storage its files are in.
+    /// The storage of its files (of its first, for recordings
+    /// [merged](Self::merge) from several storages).
     pub fn storage(&self) -> Storage {
-        self.storage
+        self.storages.first().copied().unwrap_or(Storage::Mcap)
+    }
+
+    /// One recording of all of `bags`' files: read, they give the messages
+    /// of all in log-time order, as `ros2 bag convert` merges its inputs.
+    pub fn merge(bags: impl IntoIterator<Item = Bag>) -> Self {
+        let mut merged = Self {
+            files: Vec::new(),
+            storages: Vec::new(),
+            metadata: None,
+        };
+        for bag in bags {
+            merged.files.extend(bag.files);
+            merged.storages.extend(bag.storages);
+        }
+        merged
     }
 
     /// `metadata.yaml`, for a bag directory.
@@ -142,7 +159,10 @@ impl Bag {
     }
 
     fn open_files(&self) -> impl Iterator<Item = Result<Box<dyn StorageFile>, Error>> + '_ {
-        self.files.iter().map(|path| self.storage.open(path))
+        self.files
+            .iter()
+            .zip(&self.storages)
+            .map(|(path, storage)| storage.open(path))
     }
 
     /// What the recording holds: its `metadata.yaml`, or for a lone file the
@@ -166,7 +186,7 @@ impl Bag {
         let topics = self.topics()?;
         Ok(BagMetadata {
             version: crate::metadata::VERSION,
-            storage_identifier: self.storage.identifier().to_owned(),
+            storage_identifier: self.storage().identifier().to_owned(),
             duration: crate::metadata::Nanoseconds {
                 nanoseconds: end.saturating_sub(start),
             },
@@ -219,17 +239,16 @@ impl Bag {
     /// Read the messages of log time `from` or later, in log-time order
     /// across all files, as `ros2 bag play` does, whatever order the files
     /// hold them in: `on_file` is told of each file when its first message
-    /// is given, `each` is given every message's topic, log time and bytes,
-    /// and may stop the reading with what it breaks with. A file is opened
-    /// when its first message may be due, and in MCAP a chunk is read when
-    /// its first message is due: a seek or a start offset costs no
-    /// decompression of what it skips, and a recording in order has one
-    /// file and one chunk open at a time.
-    pub fn read_messages<T>(
+    /// is given, `each` is given every message, and may stop the reading
+    /// with what it breaks with. A file is opened when its first message may
+    /// be due, and in MCAP a chunk is read when its first message is due: a
+    /// seek or a start offset costs no decompression of what it skips, and a
+    /// recording in order has one file and one chunk open at a time.
+    pub fn read<T>(
         &self,
         from: u64,
         mut on_file: impl FnMut(&Path),
-        mut each: impl FnMut(&str, u64, &[u8]) -> ControlFlow<T>,
+        mut each: impl FnMut(&BagMessage<'_>) -> ControlFlow<T>,
     ) -> Result<Option<T>, Error> {
         // Each file's first message time, the earliest last.
         let mut pending = Vec::with_capacity(self.files.len());
@@ -253,7 +272,9 @@ impl Bag {
                     break;
                 }
                 pending.pop();
-                let cursor = self.storage.open(&self.files[index])?.messages(from)?;
+                let cursor = self.storages[index]
+                    .open(&self.files[index])?
+                    .messages(from)?;
                 if let Some(message) = cursor.current() {
                     heap.push(std::cmp::Reverse((message.log_time, index)));
                     cursors[index] = Some(cursor);
@@ -270,9 +291,7 @@ impl Bag {
                 on_file(&self.files[index]);
             }
             if let Some(message) = cursor.current() {
-                if let ControlFlow::Break(ended) =
-                    each(message.topic, message.log_time, message.data)
-                {
+                if let ControlFlow::Break(ended) = each(&message) {
                     return Ok(Some(ended));
                 }
             }
@@ -282,6 +301,16 @@ impl Bag {
                 None => cursors[index] = None,
             }
         }
+    }
+
+    /// [`read`](Self::read), each message as its topic, log time and bytes.
+    pub fn read_messages<T>(
+        &self,
+        from: u64,
+        on_file: impl FnMut(&Path),
+        mut each: impl FnMut(&str, u64, &[u8]) -> ControlFlow<T>,
+    ) -> Result<Option<T>, Error> {
+        self.read(from, on_file, |m| each(m.topic, m.log_time, m.data))
     }
 
     /// The topics in all files, by name.

@@ -7,8 +7,8 @@ use std::time::{Duration, Instant};
 
 use clap::{Args, Subcommand, ValueEnum};
 use shm_bag::{
-    Bag, BagMetadata, ClockTrigger, Compression, PlayOptions, Player, RecordOptions, Recorder,
-    Selection,
+    Bag, BagMetadata, ClockTrigger, Compression, ConvertOptions, PlayOptions, Player,
+    RecordOptions, Recorder, Selection, WriteOptions,
 };
 
 use crate::context::Context;
@@ -25,6 +25,9 @@ pub(crate) enum BagCommand {
         /// Bag to open: a bag directory or an MCAP file.
         bag_path: PathBuf,
     },
+    /// Convert bags (MCAP or sqlite3; several are merged in time order) into
+    /// one MCAP bag, with the chunk compression and splitting given.
+    Convert(ConvertArgs),
     /// Make a bag whose recording did not finish (killed, power cut, disk
     /// full) readable again: rewrite its unfinished files from their complete
     /// records (the originals kept as `<name>.unfinished`) and its
@@ -76,22 +79,12 @@ pub(crate) struct RecordArgs {
     /// Destination of the bag directory (default rosbag2_<date>-<time>).
     #[arg(short = 'o', long)]
     output: Option<PathBuf>,
-    /// Start a new file once one holds this many bytes (0: never).
-    #[arg(short = 'b', long, default_value_t = 0)]
-    max_bag_size: u64,
-    /// Start a new file once one spans this many seconds (0: never).
-    #[arg(short = 'd', long, default_value_t = 0)]
-    max_bag_duration: u64,
+    #[command(flatten)]
+    files: FileArgs,
     /// Bytes of received messages that may wait for the disk; past it
     /// messages are dropped and counted.
     #[arg(long, default_value_t = 512 * 1024 * 1024)]
     max_cache_size: usize,
-    /// MCAP storage preset (rosbag2's names).
-    #[arg(long, value_enum, default_value_t = Preset::None)]
-    storage_preset_profile: Preset,
-    /// Compress MCAP chunks (rosbag2 does this through the storage preset).
-    #[arg(long, value_enum)]
-    compression_format: Option<ChunkCompression>,
     /// Stop after this many seconds (default: at Ctrl-C).
     #[arg(long)]
     duration: Option<f64>,
@@ -111,9 +104,67 @@ pub(crate) struct RecordArgs {
     snapshot_mode: bool,
 }
 
+/// How the files of a new bag are written.
+#[derive(Debug, Args)]
+pub(crate) struct FileArgs {
+    /// Start a new file once one holds this many bytes (0: never).
+    #[arg(short = 'b', long, default_value_t = 0)]
+    max_bag_size: u64,
+    /// Start a new file once one spans this many seconds (0: never).
+    #[arg(short = 'd', long, default_value_t = 0)]
+    max_bag_duration: u64,
+    /// MCAP storage preset (rosbag2's names).
+    #[arg(long, value_enum, default_value_t = Preset::None)]
+    storage_preset_profile: Preset,
+    /// Compress MCAP chunks (rosbag2 does this through the storage preset).
+    #[arg(long, value_enum)]
+    compression_format: Option<ChunkCompression>,
+}
+
+impl FileArgs {
+    fn apply(&self, write: &mut WriteOptions) {
+        write.max_bag_size = (self.max_bag_size > 0).then_some(self.max_bag_size);
+        write.max_bag_duration =
+            (self.max_bag_duration > 0).then(|| Duration::from_secs(self.max_bag_duration));
+        match self.storage_preset_profile {
+            Preset::None | Preset::Fastwrite => {}
+            Preset::ZstdFast => write.compression = Some(Compression::Zstd),
+            Preset::ZstdSmall => {
+                write.compression = Some(Compression::Zstd);
+                write.chunk_size = 4 * 1024 * 1024;
+            }
+        }
+        if let Some(c) = self.compression_format {
+            write.compression = Some(match c {
+                ChunkCompression::Zstd => Compression::Zstd,
+                ChunkCompression::Lz4 => Compression::Lz4,
+            });
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct ConvertArgs {
+    /// A bag to read: a bag directory, an MCAP or a sqlite3 (.db3) file.
+    /// Given more than once, the bags are merged in time order.
+    #[arg(short = 'i', long = "input", required = true, value_name = "BAG")]
+    inputs: Vec<PathBuf>,
+    /// The new bag directory (it must not exist).
+    #[arg(short = 'o', long, value_name = "DIR")]
+    output: PathBuf,
+    /// Only these topics (default: all).
+    #[arg(long, num_args = 1..)]
+    topics: Vec<String>,
+    /// Leave out topics matching this regular expression.
+    #[arg(short = 'x', long = "exclude-regex")]
+    exclude_regex: Option<String>,
+    #[command(flatten)]
+    files: FileArgs,
+}
+
 #[derive(Debug, Args)]
 pub(crate) struct PlayArgs {
-    /// Bag to open: a bag directory or an MCAP file.
+    /// Bag to open: a bag directory, an MCAP or a sqlite3 (.db3) file.
     bag_path: PathBuf,
     /// Rate at which to play back messages.
     #[arg(short = 'r', long, default_value_t = 1.0)]
@@ -160,6 +211,7 @@ pub(crate) fn run(context: Option<&Context>, command: BagCommand) -> Result<(), 
     match command {
         BagCommand::Info { bag_path } => info(&bag_path),
         BagCommand::Reindex { bag_path } => reindex(&bag_path),
+        BagCommand::Convert(args) => convert(&args),
         BagCommand::Record(args) => match context {
             Some(context) => record(context, args),
             None => Err("bag record needs a Zenoh session".into()),
@@ -169,6 +221,61 @@ pub(crate) fn run(context: Option<&Context>, command: BagCommand) -> Result<(), 
             None => Err("bag play needs a Zenoh session".into()),
         },
     }
+}
+
+fn convert(args: &ConvertArgs) -> Result<(), Error> {
+    if args.output.is_file()
+        && args
+            .output
+            .extension()
+            .is_some_and(|e| e == "yaml" || e == "yml")
+    {
+        return Err(format!(
+            "{}: -o takes the new bag directory here, not ros2 bag convert's output options \
+             file: give the directory, and the options as flags (--compression-format, \
+             --storage-preset-profile, -b, -d, --topics, -x)",
+            args.output.display()
+        )
+        .into());
+    }
+    let inputs = args
+        .inputs
+        .iter()
+        .map(|path| Bag::open(path))
+        .collect::<Result<Vec<_>, _>>()?;
+    let exclude = args
+        .exclude_regex
+        .as_deref()
+        .map(regex::Regex::new)
+        .transpose()
+        .map_err(|e| format!("--exclude-regex: {e}"))?;
+    let mut options = ConvertOptions {
+        topics: args.topics.clone(),
+        exclude,
+        ..Default::default()
+    };
+    args.files.apply(&mut options.write);
+    let input = if inputs.len() == 1 {
+        inputs.into_iter().next().ok_or("no input")?
+    } else {
+        Bag::merge(inputs)
+    };
+    let converted = shm_bag::convert(&input, &args.output, &options)?;
+    for type_name in &converted.without_definition {
+        eprintln!(
+            "{type_name}: the input keeps no definition of it and it is not a standard type: \
+             its schema in the new bag is empty"
+        );
+    }
+    let metadata = &converted.metadata;
+    println!(
+        "Converted {} messages on {} topics into {} ({} files)",
+        metadata.message_count,
+        metadata.topics_with_message_count.len(),
+        args.output.display(),
+        metadata.relative_file_paths.len()
+    );
+    Ok(())
 }
 
 fn reindex(dir: &std::path::Path) -> Result<(), Error> {
@@ -227,23 +334,7 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
     options.type_timeout = context.timeout;
     options.max_queued_bytes = args.max_cache_size;
     options.interfaces = context.local.clone();
-    options.write.max_bag_size = (args.max_bag_size > 0).then_some(args.max_bag_size);
-    options.write.max_bag_duration =
-        (args.max_bag_duration > 0).then(|| Duration::from_secs(args.max_bag_duration));
-    match args.storage_preset_profile {
-        Preset::None | Preset::Fastwrite => {}
-        Preset::ZstdFast => options.write.compression = Some(Compression::Zstd),
-        Preset::ZstdSmall => {
-            options.write.compression = Some(Compression::Zstd);
-            options.write.chunk_size = 4 * 1024 * 1024;
-        }
-    }
-    if let Some(c) = args.compression_format {
-        options.write.compression = Some(match c {
-            ChunkCompression::Zstd => Compression::Zstd,
-            ChunkCompression::Lz4 => Compression::Lz4,
-        });
-    }
+    args.files.apply(&mut options.write);
     options.start_paused = args.start_paused;
     options.snapshot = args.snapshot_mode;
     let snapshot_mode = args.snapshot_mode;

@@ -81,7 +81,9 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Interface(command) => interface::run(command),
         Command::Bag(
-            command @ (bag::BagCommand::Info { .. } | bag::BagCommand::Reindex { .. }),
+            command @ (bag::BagCommand::Info { .. }
+            | bag::BagCommand::Reindex { .. }
+            | bag::BagCommand::Convert(_)),
         ) => bag::run(None, command),
         command => match context::Context::open(&cli.connection) {
             Ok(context) => match command {

@@ -12,7 +12,7 @@ use std::sync::Arc;
 
 use mcap::records::{op, ChunkHeader, ChunkIndex, Record};
 
-use super::{FileStats, MessageCursor, StorageFile, StoredMessage};
+use super::{BagMessage, FileStats, MessageCursor, StorageFile};
 use crate::player::RecordedTopic;
 use crate::{qos, Error};
 
@@ -119,6 +119,8 @@ struct Unit {
 /// One message of a loaded chunk: where its bytes lie in the chunk's buffer.
 struct Entry {
     time: u64,
+    publish_time: u64,
+    sequence: u32,
     topic: usize,
     data: std::ops::Range<usize>,
 }
@@ -263,10 +265,14 @@ impl McapMessages {
             )
         };
         let header = body.get(..HEADER).ok_or_else(short)?;
+        let field = |at: usize| {
+            let mut bytes = [0u8; 8];
+            bytes.copy_from_slice(&header[at..at + 8]);
+            u64::from_le_bytes(bytes)
+        };
         let channel = u16::from_le_bytes([header[0], header[1]]);
-        let mut time = [0u8; 8];
-        time.copy_from_slice(&header[6..14]);
-        let time = u64::from_le_bytes(time);
+        let sequence = u32::from_le_bytes([header[2], header[3], header[4], header[5]]);
+        let (time, publish_time) = (field(6), field(14));
         let Some(&topic) = self.channels.get(&channel) else {
             return Ok(None);
         };
@@ -275,6 +281,8 @@ impl McapMessages {
         }
         Ok(Some(Entry {
             time,
+            publish_time,
+            sequence,
             topic,
             data: HEADER..body.len(),
         }))
@@ -371,7 +379,7 @@ impl McapMessages {
 }
 
 impl MessageCursor for McapMessages {
-    fn current(&self) -> Option<StoredMessage<'_>> {
+    fn current(&self) -> Option<BagMessage<'_>> {
         let Reverse((_, _, slot)) = self.heap.peek()?;
         let loaded = self.loaded.get(*slot)?.as_ref()?;
         let entry = loaded.entries.get(loaded.next)?;
@@ -380,9 +388,11 @@ impl MessageCursor for McapMessages {
             Buffer::Owned(bytes) => bytes,
         };
         // The ranges were taken from slices of this very buffer.
-        Some(StoredMessage {
+        Some(BagMessage {
             topic: self.topics.get(entry.topic)?,
             log_time: entry.time,
+            publish_time: entry.publish_time,
+            sequence: entry.sequence,
             data: buffer.get(entry.data.clone())?,
         })
     }

@@ -75,10 +75,20 @@ impl Storage {
     }
 }
 
-/// One message as a storage gives it.
-pub(crate) struct StoredMessage<'a> {
+/// One message of a recording, as its storage gives it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BagMessage<'a> {
+    /// Its topic.
     pub topic: &'a str,
+    /// When it was recorded, in nanoseconds since the Unix epoch.
     pub log_time: u64,
+    /// When it was sent, where the storage keeps it (MCAP); else its log
+    /// time.
+    pub publish_time: u64,
+    /// Its publisher's sequence number, where the storage keeps it (MCAP);
+    /// else 0.
+    pub sequence: u32,
+    /// Its serialized bytes (CDR).
     pub data: &'a [u8],
 }
 
@@ -109,7 +119,7 @@ pub(crate) trait StorageFile {
 /// A position in a file's messages.
 pub(crate) trait MessageCursor {
     /// The message at the position, or `None` past the last.
-    fn current(&self) -> Option<StoredMessage<'_>>;
+    fn current(&self) -> Option<BagMessage<'_>>;
     /// Move to the next message.
     fn advance(&mut self) -> Result<(), Error>;
 }

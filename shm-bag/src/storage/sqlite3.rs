@@ -10,7 +10,7 @@ use std::rc::Rc;
 
 use rusqlite::{Connection, OpenFlags, OptionalExtension};
 
-use super::{FileStats, MessageCursor, StorageFile, StoredMessage};
+use super::{BagMessage, FileStats, MessageCursor, StorageFile};
 use crate::player::RecordedTopic;
 use crate::{qos, Error};
 
@@ -286,11 +286,13 @@ impl Sqlite3Messages {
 }
 
 impl MessageCursor for Sqlite3Messages {
-    fn current(&self) -> Option<StoredMessage<'_>> {
+    fn current(&self) -> Option<BagMessage<'_>> {
         let (topic, log_time, data) = self.batch.front()?;
-        Some(StoredMessage {
+        Some(BagMessage {
             topic,
             log_time: *log_time,
+            publish_time: *log_time,
+            sequence: 0,
             data,
         })
     }
