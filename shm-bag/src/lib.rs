@@ -42,7 +42,9 @@ pub use control::PlayerControl;
 pub use convert::{convert, ConvertOptions, Converted};
 pub use metadata::BagMetadata;
 pub use player::{Bag, ClockTrigger, PlayOptions, PlayStats, Player, RecordedTopic};
-pub use recorder::{RecordOptions, RecordStats, Recorder, RecorderControl, Selection};
+pub use recorder::{
+    service_of_event_topic, RecordOptions, RecordStats, Recorder, RecorderControl, Selection,
+};
 pub use reindex::{reindex, FileReport, Reindexed};
 pub use storage::{BagMessage, Storage};
 pub use writer::{BagWriter, Compression, FileSplit, TopicId, WriteOptions};

@@ -39,8 +39,26 @@ pub struct Selection {
     /// Not the topics whose name this matches (`-x`), whatever else says.
     pub exclude: Option<Regex>,
     /// Also hidden topics (a name part starting with `_`, such as an
-    /// action's), which `all` and `regex` leave out otherwise.
+    /// action's or a service's events), which `all` and `regex` leave out
+    /// otherwise.
     pub include_hidden: bool,
+    /// Every service's events (`--all-services`): the
+    /// `<service>/_service_event` topics that services and clients with
+    /// introspection on publish (since Iron), as rosbag2 records them.
+    pub all_services: bool,
+    /// These services' events (`--services`), by service name.
+    pub services: Vec<String>,
+}
+
+/// The topic a service's events are published on (service introspection).
+pub const SERVICE_EVENT_SUFFIX: &str = "/_service_event";
+
+/// The service whose events `topic` carries, if it is a service event
+/// topic (`/add_two_ints/_service_event` → `/add_two_ints`).
+pub fn service_of_event_topic(topic: &str) -> Option<&str> {
+    topic
+        .strip_suffix(SERVICE_EVENT_SUFFIX)
+        .filter(|service| !service.is_empty())
 }
 
 impl Selection {
@@ -52,6 +70,11 @@ impl Selection {
         if self.topics.iter().any(|t| qualified(t) == topic) {
             return true;
         }
+        if let Some(service) = service_of_event_topic(topic) {
+            if self.all_services || self.services.iter().any(|s| qualified(s) == service) {
+                return true;
+            }
+        }
         let hidden = topic.split('/').any(|part| part.starts_with('_'));
         if hidden && !self.include_hidden {
             return false;
@@ -60,7 +83,11 @@ impl Selection {
     }
 
     fn is_empty(&self) -> bool {
-        !self.all && self.topics.is_empty() && self.regex.is_none()
+        !self.all
+            && self.topics.is_empty()
+            && self.regex.is_none()
+            && !self.all_services
+            && self.services.is_empty()
     }
 }
 
@@ -344,7 +371,8 @@ impl Recorder {
     pub fn start(session: &zenoh::Session, options: RecordOptions) -> Result<Self, Error> {
         if options.selection.is_empty() {
             return Err(
-                "nothing to record: name topics, or give -a (all) or -e (a regular expression)"
+                "nothing to record: name topics, or give -a (all topics), --all-services, \
+                 --all (both), --services or -e (a regular expression)"
                     .into(),
             );
         }

@@ -54,6 +54,12 @@ pub fn standard() -> &'static BTreeMap<&'static str, Known> {
                     hash: <$m as RosMessage>::type_hash(),
                     describe: <$m as RosMessage>::full_description,
                 }); )*
+                // A service's events (introspection) are messages on a topic.
+                $( out.insert(<<$s as RosService>::Event as RosMessage>::TYPE_NAME, Known {
+                    kind: Kind::Message,
+                    hash: <<$s as RosService>::Event as RosMessage>::type_hash(),
+                    describe: <<$s as RosService>::Event as RosMessage>::full_description,
+                }); )*
                 $( out.insert(<$s as RosService>::TYPE_NAME, Known {
                     kind: Kind::Service,
                     hash: <$s as RosService>::type_hash(),

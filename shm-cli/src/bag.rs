@@ -1,6 +1,7 @@
 //! `shm-ros2 bag …`: record, play and describe recordings as ros2bag does,
 //! through shm-bag (MCAP as rosbag2 writes it).
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -10,6 +11,8 @@ use shm_bag::{
     Bag, BagMetadata, ClockTrigger, Compression, ConvertOptions, PlayOptions, Player,
     RecordOptions, Recorder, Selection, WriteOptions,
 };
+
+use shm_cdr::msgs::service_msgs::msg::ServiceEventInfo;
 
 use crate::context::Context;
 use crate::Error;
@@ -22,8 +25,12 @@ pub(crate) enum BagCommand {
     Play(PlayArgs),
     /// Print information about a bag to the screen.
     Info {
-        /// Bag to open: a bag directory or an MCAP file.
+        /// Bag to open: a bag directory, an MCAP or a sqlite3 (.db3) file.
         bag_path: PathBuf,
+        /// Count each recorded service's requests and responses (reads
+        /// every service event).
+        #[arg(short = 'v', long)]
+        verbose: bool,
     },
     /// Convert bags (MCAP or sqlite3; several are merged in time order) into
     /// one MCAP bag, with the chunk compression and splitting given.
@@ -65,8 +72,18 @@ pub(crate) struct RecordArgs {
     /// List of topics to record.
     topics: Vec<String>,
     /// Record all topics (hidden ones only with --include-hidden-topics).
-    #[arg(short = 'a', long = "all-topics", alias = "all")]
+    #[arg(short = 'a', long = "all-topics")]
     all_topics: bool,
+    /// Record the events of all services (their `_service_event` topics,
+    /// published by services and clients with introspection on).
+    #[arg(long)]
+    all_services: bool,
+    /// Record all topics and the events of all services.
+    #[arg(long)]
+    all: bool,
+    /// Record the events of these services.
+    #[arg(short = 'S', long, num_args = 1.., value_name = "SERVICE")]
+    services: Vec<String>,
     /// Record only topics matching this regular expression.
     #[arg(short = 'e', long)]
     regex: Option<String>,
@@ -209,7 +226,7 @@ pub(crate) struct PlayArgs {
 
 pub(crate) fn run(context: Option<&Context>, command: BagCommand) -> Result<(), Error> {
     match command {
-        BagCommand::Info { bag_path } => info(&bag_path),
+        BagCommand::Info { bag_path, verbose } => info(&bag_path, verbose),
         BagCommand::Reindex { bag_path } => reindex(&bag_path),
         BagCommand::Convert(args) => convert(&args),
         BagCommand::Record(args) => match context {
@@ -315,7 +332,9 @@ fn regex(flag: &str, text: Option<String>) -> Result<Option<regex::Regex>, Error
 
 fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
     let selection = Selection {
-        all: args.all_topics,
+        all: args.all_topics || args.all,
+        all_services: args.all_services || args.all,
+        services: args.services,
         topics: args.topics,
         regex: regex("-e", args.regex)?,
         exclude: regex("-x", args.exclude_regex)?,
@@ -494,16 +513,79 @@ fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {
     Ok(())
 }
 
-fn info(path: &std::path::Path) -> Result<(), Error> {
+fn info(path: &std::path::Path, verbose: bool) -> Result<(), Error> {
     let bag = Bag::open(path)?;
     let metadata = bag.describe()?;
-    print!("{}", format_info(&metadata, bag.size()));
+    let calls = if verbose {
+        Some(service_calls(&bag)?)
+    } else {
+        None
+    };
+    print!("{}", format_info(&metadata, bag.size(), calls.as_ref()));
     println!();
     Ok(())
 }
 
+/// The service a recorded topic carries the events of, with the service's
+/// type: a `<service>/_service_event` topic of a `pkg/srv/Name_Event` type.
+fn recorded_service(name: &str, type_name: &str) -> Option<(String, String)> {
+    let service = shm_bag::service_of_event_topic(name)?;
+    let service_type = type_name.strip_suffix("_Event")?;
+    service_type
+        .contains("/srv/")
+        .then(|| (service.to_owned(), service_type.to_owned()))
+}
+
+/// Each recorded service's requests and responses, by service: every event
+/// read, a call counted once however many of its events (the client's and
+/// the server's) were recorded.
+fn service_calls(bag: &Bag) -> Result<BTreeMap<String, (u64, u64)>, Error> {
+    use std::collections::HashSet;
+    let services: BTreeMap<String, String> = bag
+        .topics()?
+        .values()
+        .filter_map(|t| {
+            recorded_service(&t.name, &t.type_name).map(|(service, _)| (t.name.clone(), service))
+        })
+        .collect();
+    let mut seen: BTreeMap<String, (HashSet<Vec<u8>>, HashSet<Vec<u8>>)> = BTreeMap::new();
+    bag.read(
+        0,
+        |_| {},
+        |message| {
+            if let Some(service) = services.get(message.topic) {
+                // service_msgs/msg/ServiceEventInfo leads the event: its
+                // event_type, stamp, client_gid and sequence_number.
+                if let Ok(info) = shm_cdr::from_bytes::<ServiceEventInfo>(message.data) {
+                    let call = [&info.client_gid[..], &info.sequence_number.to_le_bytes()].concat();
+                    let entry = seen.entry(service.clone()).or_default();
+                    match info.event_type {
+                        ServiceEventInfo::REQUEST_SENT | ServiceEventInfo::REQUEST_RECEIVED => {
+                            entry.0.insert(call);
+                        }
+                        _ => {
+                            entry.1.insert(call);
+                        }
+                    }
+                }
+            }
+            std::ops::ControlFlow::<()>::Continue(())
+        },
+    )?;
+    Ok(seen
+        .into_iter()
+        .map(|(service, (requests, responses))| {
+            (service, (requests.len() as u64, responses.len() as u64))
+        })
+        .collect())
+}
+
 /// ros2bag's `info` text (rosbag2_py's `format_bag_meta_data`).
-fn format_info(metadata: &BagMetadata, bag_size: u64) -> String {
+fn format_info(
+    metadata: &BagMetadata,
+    bag_size: u64,
+    calls: Option<&BTreeMap<String, (u64, u64)>>,
+) -> String {
     const INDENT: &str = "                   ";
     let start = metadata.starting_time.nanoseconds_since_epoch;
     let end = start + metadata.duration.nanoseconds;
@@ -537,7 +619,10 @@ fn format_info(metadata: &BagMetadata, bag_size: u64) -> String {
     out.push_str(&format!("End:               {}\n", time_point(end)));
     out.push_str(&format!("Messages:          {}\n", metadata.message_count));
     out.push_str("Topic information: ");
-    let mut topics: Vec<_> = metadata.topics_with_message_count.iter().collect();
+    let (services, mut topics): (Vec<_>, Vec<_>) =
+        metadata.topics_with_message_count.iter().partition(|t| {
+            recorded_service(&t.topic_metadata.name, &t.topic_metadata.type_name).is_some()
+        });
     topics.sort_by(|a, b| a.topic_metadata.name.cmp(&b.topic_metadata.name));
     if topics.is_empty() {
         out.push('\n');
@@ -554,8 +639,33 @@ fn format_info(metadata: &BagMetadata, bag_size: u64) -> String {
             topic.topic_metadata.serialization_format
         ));
     }
-    out.push_str("Service:           0\n");
+    out.push_str(&format!("Service:           {}\n", services.len()));
     out.push_str("Service information: ");
+    let mut services: Vec<_> = services
+        .into_iter()
+        .filter_map(|t| {
+            let (service, service_type) =
+                recorded_service(&t.topic_metadata.name, &t.topic_metadata.type_name)?;
+            Some((service, service_type, t))
+        })
+        .collect();
+    services.sort_by(|a, b| a.0.cmp(&b.0));
+    for (i, (service, service_type, topic)) in services.iter().enumerate() {
+        if i > 0 {
+            out.push_str("                     ");
+        }
+        let counts = match calls {
+            Some(calls) => {
+                let (requests, responses) = calls.get(service).copied().unwrap_or_default();
+                format!("Request Count: {requests} | Response Count: {responses}")
+            }
+            None => format!("Event Count: {}", topic.message_count),
+        };
+        out.push_str(&format!(
+            "Service: {service} | Type: {service_type} | {counts} | Serialization Format: {}\n",
+            topic.topic_metadata.serialization_format
+        ));
+    }
     out
 }
 

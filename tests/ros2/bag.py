@@ -315,6 +315,7 @@ def main():
     check_background_playback(endpoint, bag)
     check_stops(endpoint, peer, work)
     check_rosbags_bags(endpoint, peer, work)
+    check_service_events(endpoint, peer, work)
     if not failures:
         shutil.rmtree(work, ignore_errors=True)
 
@@ -716,15 +717,147 @@ def check_rosbags_bags(endpoint, peer, work):
           f"bag play of a version-8 bag: exit {played.returncode} {played.stderr[-300:]!r}, "
           f"the peer read {len(got)} of {len(sent)}")
 
-    sqlite = work / "sqlite3"
-    with Writer(sqlite, version=9) as writer:
-        connection = writer.add_connection("/old", "std_msgs/msg/String", typestore=store)
-        writer.write(connection, 1_700_000_000_000_000_000, sent[0])
-    refused = cli(endpoint, "bag", "info", str(sqlite))
-    check(refused.returncode != 0 and "its storage is `sqlite3`" in refused.stderr,
-          f"bag info of a sqlite3 bag: {refused.returncode} {refused.stderr[-400:]}")
+    # sqlite3 (rosbags' default storage, rosbag2's through Humble), in both
+    # metadata versions, the messages written out of time order: played in
+    # time order, byte for byte.
+    for version in (8, 9):
+        sqlite = work / f"sqlite3_v{version}"
+        with Writer(sqlite, version=version) as writer:
+            connection = writer.add_connection("/old", "std_msgs/msg/String", typestore=store)
+            for i in reversed(range(len(sent))):
+                writer.write(connection, 1_700_000_000_000_000_000 + i * 10_000_000, sent[i])
+        info = cli(endpoint, "bag", "info", str(sqlite))
+        check(info.returncode == 0 and "Storage id:        sqlite3" in info.stdout and "Count: 20" in info.stdout,
+              f"bag info of a sqlite3 bag: {info.returncode} {info.stdout[-400:]} {info.stderr[-300:]}")
+        got.clear()
+        played = cli(endpoint, "bag", "play", str(sqlite), "-r", "10", "-d", "1", timeout=120)
+        deadline = time.time() + 5
+        while len(got) < len(sent) and time.time() < deadline:
+            time.sleep(0.05)
+        check(played.returncode == 0 and got == sent,
+              f"bag play of a sqlite3 bag (version {version}): exit {played.returncode} {played.stderr[-300:]!r}, "
+              f"the peer read {len(got)} of {len(sent)}, in order: {got == sorted(got, key=sent.index)}")
+    # Converted to MCAP: every message, in time order, read by rosbags and
+    # the mcap library.
+    converted = work / "converted"
+    done = cli(endpoint, "bag", "convert", "-i", str(sqlite), "-o", str(converted), "--compression-format", "zstd")
+    check(done.returncode == 0 and "Converted 20 messages on 1 topics" in done.stdout,
+          f"bag convert: {done.returncode} {done.stdout[-300:]} {done.stderr[-300:]}")
+    by_rosbags, by_mcap = read_back(converted)
+    check(by_rosbags == sent and by_mcap == sent,
+          f"the converted bag: rosbags {len(by_rosbags)}, mcap {len(by_mcap)} of {len(sent)} in order")
     print(f"rosbags' bags: a version-8 MCAP bag (QoS as text) read by bag info and played byte for byte "
-          f"({len(got)}/{len(sent)}); a sqlite3 bag refused naming its storage")
+          f"({len(sent)}/{len(sent)}); sqlite3 bags (versions 8 and 9, written out of time order) played "
+          f"in time order byte for byte; converted to MCAP (zstd) and read back by rosbags and mcap")
+    check_out_of_order_mcap(endpoint, peer, work, store)
+
+
+def check_out_of_order_mcap(endpoint, peer, work, store):
+    """An MCAP file whose messages are not in time order in the file (written
+    so by rosbags) plays in time order and over its recorded span, as
+    `ros2 bag play` plays it."""
+    import random
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from std_msgs.msg import String
+    count, spacing = 100, 10_000_000  # 1 s
+    sent = [serialize_message(String(data=f"shuffled {i}")) for i in range(count)]
+    order = list(range(count))
+    random.Random(7).shuffle(order)
+    bag = work / "shuffled"
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        connection = writer.add_connection("/shuffled", "std_msgs/msg/String", typestore=store)
+        for i in order:
+            writer.write(connection, 1_700_000_000_000_000_000 + i * spacing, sent[i])
+    got, arrivals = [], []
+
+    def received(data):
+        got.append(data)
+        arrivals.append(time.monotonic())
+    peer.subscriber("/shuffled", "std_msgs/msg/String", received)
+    played = cli(endpoint, "bag", "play", str(bag), "-d", "1", timeout=120)
+    deadline = time.time() + 5
+    while len(got) < count and time.time() < deadline:
+        time.sleep(0.05)
+    span = arrivals[-1] - arrivals[0] if arrivals else 0
+    check(played.returncode == 0 and got == sent,
+          f"bag play of an out-of-order MCAP: exit {played.returncode} {played.stderr[-300:]!r}, "
+          f"the peer read {len(got)} of {count}, in time order: {got == sent}")
+    # Paced by the recorded times (a lower bound: load only lengthens it).
+    check(span >= 0.9 * (count - 1) * spacing / 1e9, f"played over {span:.3f} s, recorded over 0.99 s")
+    print(f"an MCAP written out of time order: {len(got)}/{count} played in time order over {span:.2f} s "
+          f"(recorded over 0.99 s)")
+
+
+def check_service_events(endpoint, peer, work):
+    """Service events (introspection: `<service>/_service_event`, what rclpy
+    and rclcpp publish for a service with introspection on) are recorded by
+    --all-services and --services as rosbag2 records them, not by -a; bag
+    info lists them as services with their event, request and response
+    counts; rosbags reads them back."""
+    from std_srvs.srv import SetBool
+    from service_msgs.msg import ServiceEventInfo
+    from std_msgs.msg import String
+    event_type = "std_srvs/srv/SetBool_Event"
+    publish = peer.publisher("/switch/_service_event", event_type)
+    chatter = peer.publisher("/plain", "std_msgs/msg/String")
+    sent = []
+    for seq in range(1, 4):
+        gid = [seq] * 16
+        request = SetBool.Request(data=seq % 2 == 1)
+        response = SetBool.Response(success=True, message=f"done {seq}")
+        for kind in (ServiceEventInfo.REQUEST_SENT, ServiceEventInfo.REQUEST_RECEIVED,
+                     ServiceEventInfo.RESPONSE_SENT, ServiceEventInfo.RESPONSE_RECEIVED):
+            event = SetBool.Event()
+            event.info.event_type = kind
+            event.info.client_gid = gid
+            event.info.sequence_number = seq
+            if kind in (ServiceEventInfo.REQUEST_SENT, ServiceEventInfo.REQUEST_RECEIVED):
+                event.request = [request]
+            else:
+                event.response = [response]
+            sent.append(serialize_message(event))
+    results = {}
+    for flags in (["--all-services"], ["--services", "switch"], ["-a"]):
+        bag = work / ("services" + "".join(f.strip("-") for f in flags))
+        proc = subprocess.Popen([str(BIN), "--connect", endpoint, "--domain-id", "0", "--timeout", "10",
+                                 "bag", "record", *flags, "-o", str(bag), "--no-progress",
+                                 "--disable-keyboard-controls"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(4)
+        for data in sent:
+            publish(None, data)
+            chatter(None, serialize_message(String(data="not a service")))
+            time.sleep(0.02)
+        time.sleep(1.5)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        check(proc.returncode == 0, f"bag record {flags}: exit {proc.returncode} {err[-400:]!r}")
+        results[flags[0]] = bag
+    import yaml
+    for flags in ("--all-services", "--services"):
+        bag = results[flags]
+        meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        topics = {t["topic_metadata"]["name"]: (t["topic_metadata"]["type"], t["message_count"])
+                  for t in meta["topics_with_message_count"]}
+        check(topics == {"/switch/_service_event": (event_type, len(sent))},
+              f"bag record {flags} recorded {topics}")
+        by_rosbags, by_mcap = read_back(bag)
+        check(by_rosbags == sent and by_mcap == sent,
+              f"{flags}: rosbags read {len(by_rosbags)}, mcap {len(by_mcap)} of {len(sent)} events")
+    meta = yaml.safe_load((results["-a"] / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    names = [t["topic_metadata"]["name"] for t in meta["topics_with_message_count"]]
+    check("/switch/_service_event" not in names and "/plain" in names, f"bag record -a recorded {names}")
+    info = cli(endpoint, "bag", "info", str(results["--all-services"]))
+    check(info.returncode == 0 and "Service:           1\n" in info.stdout
+          and f"Service: /switch | Type: std_srvs/srv/SetBool | Event Count: {len(sent)} | Serialization Format: cdr"
+          in info.stdout and "Topic: /switch" not in info.stdout,
+          f"bag info of service events: {info.stdout[-600:]} {info.stderr[-300:]}")
+    verbose = cli(endpoint, "bag", "info", "-v", str(results["--all-services"]))
+    check(verbose.returncode == 0 and "Service: /switch | Type: std_srvs/srv/SetBool | Request Count: 3 | "
+          "Response Count: 3 | Serialization Format: cdr" in verbose.stdout,
+          f"bag info -v of service events: {verbose.stdout[-600:]} {verbose.stderr[-300:]}")
+    print(f"service events: --all-services and --services recorded {len(sent)}/{len(sent)} events "
+          f"(read back by rosbags and mcap), -a left them out; bag info: 1 service, -v: 3 requests, 3 responses")
 
 
 def check_background_playback(endpoint, bag):

@@ -49,8 +49,9 @@ def rosidl_hash(type_name):
     """The RIHS01 hash rosidl installed for `pkg/kind/Name` (share/<pkg>/<kind>/<Name>.json)."""
     pkg, kind, name = type_name.split("/")
     path = Path(sys.prefix) / "share" / pkg / kind / f"{name}.json"
-    if not path.exists() and kind == "action":
-        # An action's parts (`Name_SendGoal`, …) are listed in the action's file.
+    if not path.exists() and kind in ("action", "srv"):
+        # An action's parts (`Name_SendGoal`, …) and a service's event type
+        # (`Name_Event`) are listed in the action's or service's file.
         path = path.with_name(f"{name.split('_')[0]}.json")
     desc = json.loads(path.read_text())
     return next(h["hash_string"] for h in desc["type_hashes"] if h["type_name"] == type_name)
