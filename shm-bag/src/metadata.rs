@@ -202,6 +202,63 @@ mod tests {
   ros_distro: humble
 "#;
 
+    /// `metadata.yaml` as rosbag2 wrote it in format version `version` (4:
+    /// Foxy, 5: Galactic and Humble, 6 and 7 on the way to Iron's 8), each
+    /// with only the fields that version has: files since 5, custom data
+    /// since 6, the type hash since 7.
+    fn older(version: u32) -> String {
+        let mut topic = String::from(
+            "  - topic_metadata:\n      name: /chatter\n      type: std_msgs/msg/String\n      \
+             serialization_format: cdr\n      offered_qos_profiles: \"- history: 3\\n  depth: 0\\n  \
+             reliability: 1\\n  durability: 2\\n  deadline:\\n    sec: 2147483647\\n    nsec: \
+             4294967295\\n  lifespan:\\n    sec: 2147483647\\n    nsec: 4294967295\\n  liveliness: \
+             1\\n  liveliness_lease_duration:\\n    sec: 2147483647\\n    nsec: 4294967295\\n  \
+             avoid_ros_namespace_conventions: false\"\n",
+        );
+        if version >= 7 {
+            topic += "      type_description_hash: ''\n";
+        }
+        topic += "    message_count: 10\n";
+        let mut text = format!(
+            "rosbag2_bagfile_information:\n  version: {version}\n  storage_identifier: sqlite3\n  \
+             relative_file_paths:\n    - bag_0.db3\n  duration:\n    nanoseconds: 9000000000\n  \
+             starting_time:\n    nanoseconds_since_epoch: 1596117933614436264\n  message_count: 10\n  \
+             topics_with_message_count:\n{topic}  compression_format: \"\"\n  compression_mode: \"\"\n"
+        );
+        if version >= 5 {
+            text += "  files:\n    - path: bag_0.db3\n      starting_time:\n        \
+                     nanoseconds_since_epoch: 1596117933614436264\n      duration:\n        \
+                     nanoseconds: 9000000000\n      message_count: 10\n";
+        }
+        if version >= 6 {
+            text += "  custom_data: ~\n";
+        }
+        text
+    }
+
+    #[test]
+    fn every_older_format_version_is_read() {
+        for version in 4..=7 {
+            let metadata = BagMetadata::from_yaml(&older(version))
+                .unwrap_or_else(|e| panic!("version {version}: {e}"));
+            assert_eq!(metadata.version, version);
+            assert_eq!(metadata.storage_identifier, "sqlite3");
+            assert_eq!(metadata.message_count, 10);
+            assert_eq!(metadata.files.len(), usize::from(version >= 5));
+            let topic = &metadata.topics_with_message_count[0].topic_metadata;
+            assert_eq!(topic.name, "/chatter");
+            // Foxy's QoS: rmw's numbers (history 3 is "unknown"), and its
+            // infinite durations in 32 bits.
+            let qos = topic.offered_qos_profiles[0].to_qos();
+            assert_eq!(qos.reliability, shm_runtime::rmw::Reliability::Reliable);
+            assert_eq!(qos.durability, shm_runtime::rmw::Durability::Volatile);
+            assert_eq!(
+                (qos.deadline, qos.lifespan, qos.liveliness_lease),
+                (None, None, None)
+            );
+        }
+    }
+
     #[test]
     fn qos_written_as_text_up_to_version_8_is_read() {
         let metadata = BagMetadata::from_yaml(VERSION_8).unwrap();

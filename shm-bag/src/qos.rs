@@ -12,6 +12,13 @@ const INFINITE: RmwTime = RmwTime {
     nsec: 854_775_807,
 };
 
+/// How rosbag2 on Foxy and Galactic wrote an infinite duration (the largest
+/// 32-bit seconds and nanoseconds).
+const FOXY_INFINITE: RmwTime = RmwTime {
+    sec: 2_147_483_647,
+    nsec: 4_294_967_295,
+};
+
 /// One profile, field for field as rosbag2 writes it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct QosProfile {
@@ -54,7 +61,7 @@ impl RmwTime {
 
     /// `None` for infinite, and for 0 (rmw's "default", unset).
     fn duration(self) -> Option<Duration> {
-        if self == INFINITE || (self.sec == 0 && self.nsec == 0) {
+        if self == INFINITE || self == FOXY_INFINITE || (self.sec == 0 && self.nsec == 0) {
             return None;
         }
         Some(Duration::from_secs(self.sec) + Duration::from_nanos(self.nsec))

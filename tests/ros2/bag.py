@@ -737,6 +737,7 @@ def check_rosbags_bags(endpoint, peer, work):
         check(played.returncode == 0 and got == sent,
               f"bag play of a sqlite3 bag (version {version}): exit {played.returncode} {played.stderr[-300:]!r}, "
               f"the peer read {len(got)} of {len(sent)}, in order: {got == sorted(got, key=sent.index)}")
+    check_older_metadata(endpoint, peer, work, sqlite, sent, got)
     # Converted to MCAP: every message, in time order, read by rosbags and
     # the mcap library.
     converted = work / "converted"
@@ -750,6 +751,77 @@ def check_rosbags_bags(endpoint, peer, work):
           f"({len(sent)}/{len(sent)}); sqlite3 bags (versions 8 and 9, written out of time order) played "
           f"in time order byte for byte; converted to MCAP (zstd) and read back by rosbags and mcap")
     check_out_of_order_mcap(endpoint, peer, work, store)
+
+
+def foxy_qos():
+    """Offered QoS as rosbag2 on Foxy wrote it: rmw's numbers, 32-bit
+    infinite durations, one YAML text."""
+    import yaml
+
+    def forever():
+        return {"sec": 2147483647, "nsec": 4294967295}
+    return yaml.safe_dump([{"history": 3, "depth": 0, "reliability": 1, "durability": 2, "deadline": forever(),
+                            "lifespan": forever(), "liveliness": 1, "liveliness_lease_duration": forever(),
+                            "avoid_ros_namespace_conventions": False}], sort_keys=False)
+
+
+def older_metadata(version, meta):
+    """`metadata.yaml` of format `version` (4: Foxy, 5: Galactic and Humble,
+    6 and 7 before Iron's 8) for the bag `meta` describes, with only the
+    fields that version has, and QoS as Foxy wrote it (rmw's numbers,
+    32-bit infinite durations)."""
+    import yaml
+    qos = foxy_qos()
+    topics = []
+    for t in meta["topics_with_message_count"]:
+        topic = {k: t["topic_metadata"][k] for k in ("name", "type", "serialization_format")}
+        topic["offered_qos_profiles"] = qos
+        if version >= 7:
+            topic["type_description_hash"] = ""
+        topics.append({"topic_metadata": topic, "message_count": t["message_count"]})
+    info = {k: meta[k] for k in ("storage_identifier", "relative_file_paths", "duration", "starting_time",
+                                 "message_count", "compression_format", "compression_mode")}
+    info = {"version": version, **info, "topics_with_message_count": topics}
+    if version >= 5:
+        info["files"] = meta["files"]
+    if version >= 6:
+        info["custom_data"] = None
+    return yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False)
+
+
+def check_older_metadata(endpoint, peer, work, bag, sent, got):
+    """The same sqlite3 bag, its database as rosbag2 made it before Iron (no
+    type hashes, no definitions), described by `metadata.yaml` of each older
+    format version, is read by rosbags (the reference) and by this tool."""
+    import sqlite3
+    import yaml
+    from rosbags.rosbag2 import Reader
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    for version in (4, 5, 6, 7):
+        old = work / f"metadata_v{version}"
+        shutil.copytree(bag, old)
+        (old / "metadata.yaml").write_text(older_metadata(version, meta))
+        for db in old.glob("*.db3"):
+            with sqlite3.connect(db) as conn:
+                conn.executescript("ALTER TABLE topics DROP COLUMN type_description_hash; "
+                                   "DROP TABLE message_definitions; DROP TABLE schema; DROP TABLE metadata;")
+                conn.execute("UPDATE topics SET offered_qos_profiles = ?", (foxy_qos(),))
+        with Reader(old) as reader:
+            by_rosbags = [data for _, _, data in reader.messages()]
+        check(by_rosbags == sent, f"rosbags read {len(by_rosbags)} of a version-{version} bag")
+        info = cli(endpoint, "bag", "info", str(old))
+        check(info.returncode == 0 and f"Count: {len(sent)}" in info.stdout,
+              f"bag info of a version-{version} bag: {info.returncode} {info.stdout[-300:]} {info.stderr[-300:]}")
+        got.clear()
+        played = cli(endpoint, "bag", "play", str(old), "-r", "20", "-d", "1", timeout=120)
+        deadline = time.time() + 5
+        while len(got) < len(sent) and time.time() < deadline:
+            time.sleep(0.05)
+        check(played.returncode == 0 and got == sent,
+              f"bag play of a version-{version} bag: exit {played.returncode} {played.stderr[-300:]!r}, "
+              f"the peer read {len(got)} of {len(sent)}")
+    print(f"metadata.yaml of format versions 4 to 7 (Foxy's QoS): read by rosbags and by bag info, "
+          f"played byte for byte ({len(sent)}/{len(sent)} each)")
 
 
 def check_out_of_order_mcap(endpoint, peer, work, store):
