@@ -42,6 +42,19 @@ pub struct Converted {
 /// [merged](Bag::merge)) into the new bag directory `output`, in log-time
 /// order, keeping each message's bytes, times and sequence number and each
 /// topic's type, hash and QoS.
+///
+/// ```no_run
+/// use shm_bag::{convert, Bag, Compression, ConvertOptions, WriteOptions};
+///
+/// // A Humble bag in sqlite3 storage, as zstd-compressed MCAP.
+/// let options = ConvertOptions {
+///     write: WriteOptions { compression: Some(Compression::Zstd), ..Default::default() },
+///     ..Default::default()
+/// };
+/// let converted = convert(&Bag::open("humble_bag".as_ref())?, "as_mcap".as_ref(), &options)?;
+/// println!("{} messages", converted.metadata.message_count);
+/// # Ok::<(), shm_bag::Error>(())
+/// ```
 pub fn convert(input: &Bag, output: &Path, options: &ConvertOptions) -> Result<Converted, Error> {
     let topics = input.topics()?;
     for wanted in &options.topics {

@@ -1,5 +1,5 @@
 //! Record ROS 2 topics of rmw_zenoh systems into MCAP as rosbag2 writes it,
-//! and play recordings back.
+//! and play recordings back (MCAP, and rosbag2's sqlite3 storage).
 //!
 //! A recording is a directory with `metadata.yaml` and MCAP files (profile
 //! `ros2`; a `ros2msg` schema with the full definition per type; a `cdr`
@@ -13,6 +13,9 @@
 //!
 //! - [`Recorder`]: discover, subscribe, write.
 //! - [`Player`]: publish a recording with its timing and QoS.
+//! - [`Bag`]: a recording on disk, in MCAP or rosbag2's sqlite3 storage
+//!   ([`Storage`]), read in log-time order.
+//! - [`convert`]: bags of any storage into one MCAP bag.
 //! - [`BagWriter`] and [`BagMetadata`]: the files themselves.
 
 mod chunk;

@@ -26,6 +26,21 @@ use crate::Error;
 
 /// A recording on disk: a bag directory (with `metadata.yaml`) of MCAP or
 /// sqlite3 files, or one such file.
+///
+/// ```no_run
+/// use std::ops::ControlFlow;
+///
+/// let bag = shm_bag::Bag::open("my_bag".as_ref())?;
+/// for (name, topic) in bag.topics()? {
+///     println!("{name}: {} ({} messages)", topic.type_name, topic.message_count);
+/// }
+/// // Every message in log-time order, whatever the storage.
+/// bag.read(0, |_file| {}, |message| {
+///     println!("{} {} {} bytes", message.log_time, message.topic, message.data.len());
+///     ControlFlow::<()>::Continue(())
+/// })?;
+/// # Ok::<(), shm_bag::Error>(())
+/// ```
 #[derive(Debug)]
 pub struct Bag {
     files: Vec<PathBuf>,

@@ -548,7 +548,9 @@ fn service_calls(bag: &Bag) -> Result<BTreeMap<String, (u64, u64)>, Error> {
             recorded_service(&t.name, &t.type_name).map(|(service, _)| (t.name.clone(), service))
         })
         .collect();
-    let mut seen: BTreeMap<String, (HashSet<Vec<u8>>, HashSet<Vec<u8>>)> = BTreeMap::new();
+    // A call: the client's GID and the request's sequence number.
+    type Calls = HashSet<Vec<u8>>;
+    let mut seen: BTreeMap<String, (Calls, Calls)> = BTreeMap::new();
     bag.read(
         0,
         |_| {},
