@@ -54,6 +54,12 @@ pub struct WriteOptions {
     /// A CRC-32 in each chunk (default on), so that readers detect a damaged
     /// chunk; off saves one pass over the bytes (rosbag2 leaves it off).
     pub chunk_crcs: bool,
+    /// At each [`chunk_interval`](Self::chunk_interval), when a file is
+    /// closed and when `metadata.yaml` is written, wait until the bytes are
+    /// on the disk (`fsync`), so that a power cut loses no more than a
+    /// crash does (default on). Off, they are only handed to the OS, which
+    /// writes them when it chooses (rosbag2 does not sync).
+    pub sync: bool,
 }
 
 impl Default for WriteOptions {
@@ -65,6 +71,7 @@ impl Default for WriteOptions {
             max_bag_duration: None,
             chunk_interval: Some(Duration::from_secs(1)),
             chunk_crcs: true,
+            sync: true,
         }
     }
 }
@@ -82,6 +89,8 @@ struct Topic {
 /// The file being written.
 struct Current {
     writer: mcap::Writer<BufWriter<File>>,
+    /// The same open file, to sync it (the MCAP writer owns the other).
+    file: File,
     path: String,
     channels: BTreeMap<usize, u16>,
     first: Option<u64>,
@@ -266,6 +275,12 @@ impl BagWriter {
             .writer
             .flush()
             .map_err(|e| format!("writing {}: {}", current.path, mcap_error(e)))?;
+        if self.options.sync {
+            current
+                .file
+                .sync_data()
+                .map_err(|e| format!("writing {}: {e}", current.path))?;
+        }
         self.write_metadata()
     }
 
@@ -276,9 +291,20 @@ impl BagWriter {
         let partial = self
             .dir
             .join(format!(".{}.partial", crate::metadata::FILE_NAME));
-        std::fs::write(&partial, self.metadata().to_yaml())
-            .and_then(|()| std::fs::rename(&partial, &path))
-            .map_err(|e| format!("cannot write {}: {e}", path.display()).into())
+        let sync = self.options.sync;
+        let write = || -> std::io::Result<()> {
+            let mut file = File::create(&partial)?;
+            std::io::Write::write_all(&mut file, self.metadata().to_yaml().as_bytes())?;
+            if sync {
+                file.sync_data()?;
+            }
+            std::fs::rename(&partial, &path)
+        };
+        write().map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        if sync {
+            sync_dir(&self.dir)?;
+        }
+        Ok(())
     }
 
     /// Close the current file now and continue in a new one, as rosbag2's
@@ -405,6 +431,13 @@ impl BagWriter {
         let path = self.dir.join(&name);
         let file =
             File::create(&path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+        let handle = file
+            .try_clone()
+            .map_err(|e| format!("cannot open {} twice: {e}", path.display()))?;
+        if self.options.sync {
+            // The new file's name reaches the disk with the directory.
+            sync_dir(&self.dir)?;
+        }
         let compression = self.options.compression.map(|c| match c {
             Compression::Zstd => mcap::Compression::Zstd,
             Compression::Lz4 => mcap::Compression::Lz4,
@@ -422,6 +455,7 @@ impl BagWriter {
             .map_err(|e| format!("cannot start {}: {}", path.display(), mcap_error(e)))?;
         let mut current = Current {
             writer,
+            file: handle,
             path: path.display().to_string(),
             channels: BTreeMap::new(),
             first: None,
@@ -468,8 +502,21 @@ impl BagWriter {
             .map_err(|e| format!("finishing {}: {}", current.path, mcap_error(e)))?;
         let mut file = current.writer.into_inner();
         std::io::Write::flush(&mut file).map_err(|e| format!("{}: {e}", current.path))?;
+        if self.options.sync {
+            current
+                .file
+                .sync_all()
+                .map_err(|e| format!("writing {}: {e}", current.path))?;
+        }
         Ok(())
     }
+}
+
+/// Make the names in directory `dir` (a file created, one renamed) durable.
+fn sync_dir(dir: &Path) -> Result<(), Error> {
+    File::open(dir)
+        .and_then(|d| d.sync_all())
+        .map_err(|e| format!("cannot sync {}: {e}", dir.display()).into())
 }
 
 impl Drop for BagWriter {
