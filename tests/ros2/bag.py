@@ -590,6 +590,49 @@ def check_stops(endpoint, peer, work):
         running.clear()
         talker.join()
     check_full_disk(endpoint, peer, work)
+    check_sync(endpoint, work)
+
+
+def check_sync(endpoint, work):
+    """A recording is on the disk, not only in the page cache, once a second:
+    strace sees the MCAP file synced while it is recorded, and metadata.yaml
+    and the directory with it."""
+    import re
+    if not shutil.which("strace"):
+        check(False, "strace is not installed (.ci/run installs it)")
+        return
+    publisher = subprocess.Popen([str(BIN), "--connect", endpoint, "--domain-id", "0", "topic", "pub", "-r", "50",
+                                  "/synced", "std_msgs/msg/String", "data: kept"],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    bag = work / "synced"
+    trace = work / "synced.strace"
+    try:
+        proc = subprocess.Popen(["strace", "-f", "-y", "-qq", "-e", "trace=fsync,fdatasync", "-o", str(trace),
+                                 str(BIN), "--connect", endpoint, "--domain-id", "0", "bag", "record", "/synced",
+                                 "-o", str(bag), "--no-progress", "--disable-keyboard-controls"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(6)
+        # The recorder is strace's child; strace itself would only detach.
+        children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()
+        for child in children:
+            os.kill(int(child), signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        publisher.send_signal(signal.SIGINT)
+        publisher.wait(timeout=30)
+    text = trace.read_text() if trace.exists() else ""
+    if proc.returncode != 0 and "ptrace" in (err + text):
+        check(False, f"strace could not trace the recorder here: {err[-300:]!r}")
+        return
+    syncs = re.findall(r"(fsync|fdatasync)\(\d+<([^>]*)>\) = 0", text)
+    data = [p for call, p in syncs if p == str((bag / "synced_0.mcap").resolve()) and call == "fdatasync"]
+    metadata = [p for _, p in syncs if p.endswith(".metadata.yaml.partial")]
+    directory = [p for _, p in syncs if p == str(bag.resolve())]
+    check(proc.returncode == 0 and len(data) >= 3 and metadata and directory,
+          f"syncs while recording for 6 s: {len(data)} of the MCAP file, {len(metadata)} of metadata.yaml, "
+          f"{len(directory)} of the directory; exit {proc.returncode} {err[-300:]!r}")
+    print(f"bag record synced to the disk: the MCAP file {len(data)} times in 6 s of recording, "
+          f"metadata.yaml {len(metadata)} times, the directory {len(directory)} times")
 
 
 def check_full_disk(endpoint, peer, work):
