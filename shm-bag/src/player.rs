@@ -6,6 +6,7 @@ use std::collections::{BTreeMap, BinaryHeap, HashMap};
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use shm_cdr::msgs::builtin_interfaces::msg::Time;
@@ -19,7 +20,7 @@ use crate::interfaces::rosbag2_interfaces::msg::ReadSplitEvent;
 use crate::metadata::BagMetadata;
 use crate::qos;
 use crate::split_events::SplitEvents;
-use crate::storage::{BagMessage, MessageCursor, Storage, StorageFile};
+use crate::storage::{BagMessage, Compressed, MessageCursor, Storage, StorageFile};
 use crate::types;
 use crate::writer::FileSplit;
 use crate::Error;
@@ -46,7 +47,18 @@ pub struct Bag {
     files: Vec<PathBuf>,
     /// Each file's storage.
     storages: Vec<Storage>,
+    /// Each file's compression by rosbag2 (whole file, or each message).
+    compressions: Vec<Compressed>,
     metadata: Option<BagMetadata>,
+    /// Whole-file-compressed files, decompressed when first read: file index
+    /// → its decompressed copy, in a directory removed with the `Bag`.
+    decompressed: Mutex<Decompressed>,
+}
+
+#[derive(Debug, Default)]
+struct Decompressed {
+    dir: Option<tempfile::TempDir>,
+    paths: HashMap<usize, PathBuf>,
 }
 
 /// One topic of a recording, as its files describe it.
@@ -80,18 +92,9 @@ impl Bag {
                 )
                 .into());
             };
-            let mode = metadata.compression_mode.to_ascii_lowercase();
-            if !(mode.is_empty() || mode == "none") {
-                return Err(format!(
-                    "{}: rosbag2 compressed it per {} ({}), which this tool does not read; \
-                     `ros2 bag convert` with `compression_mode: none` (or MCAP's own chunk \
-                     compression) makes a copy it reads",
-                    path.display(),
-                    shm_cdr::text_limits::quoted(&metadata.compression_mode),
-                    shm_cdr::text_limits::quoted(&metadata.compression_format)
-                )
-                .into());
-            }
+            let compressed =
+                Compressed::of(&metadata.compression_mode, &metadata.compression_format)
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
             let mut files = Vec::with_capacity(metadata.relative_file_paths.len());
             for file in &metadata.relative_file_paths {
                 // A recording names its files inside its directory: a path
@@ -115,15 +118,19 @@ impl Bag {
             }
             return Ok(Self {
                 storages: vec![storage; files.len()],
+                compressions: vec![compressed; files.len()],
                 files,
                 metadata: Some(metadata),
+                decompressed: Mutex::default(),
             });
         }
         if path.is_file() {
             return Ok(Self {
                 files: vec![path.to_owned()],
                 storages: vec![Storage::of_file(path)?],
+                compressions: vec![Compressed::No],
                 metadata: None,
+                decompressed: Mutex::default(),
             });
         }
         Err(format!(
@@ -137,8 +144,10 @@ impl Bag {
     pub(crate) fn from_files(files: Vec<PathBuf>) -> Self {
         Self {
             storages: vec![Storage::Mcap; files.len()],
+            compressions: vec![Compressed::No; files.len()],
             files,
             metadata: None,
+            decompressed: Mutex::default(),
         }
     }
 
@@ -159,11 +168,14 @@ impl Bag {
         let mut merged = Self {
             files: Vec::new(),
             storages: Vec::new(),
+            compressions: Vec::new(),
             metadata: None,
+            decompressed: Mutex::default(),
         };
         for bag in bags {
             merged.files.extend(bag.files);
             merged.storages.extend(bag.storages);
+            merged.compressions.extend(bag.compressions);
         }
         merged
     }
@@ -174,10 +186,43 @@ impl Bag {
     }
 
     fn open_files(&self) -> impl Iterator<Item = Result<Box<dyn StorageFile>, Error>> + '_ {
-        self.files
-            .iter()
-            .zip(&self.storages)
-            .map(|(path, storage)| storage.open(path))
+        (0..self.files.len()).map(|index| self.open_file(index))
+    }
+
+    /// Open file `index` through its storage; a whole-file-compressed one is
+    /// decompressed first (once), beside the bag where there is room to, as
+    /// rosbag2 does, else in the temporary directory.
+    fn open_file(&self, index: usize) -> Result<Box<dyn StorageFile>, Error> {
+        let path = &self.files[index];
+        if self.compressions[index] != Compressed::File {
+            return self.storages[index].open(path);
+        }
+        let mut decompressed = self
+            .decompressed
+            .lock()
+            .map_err(|_| "a thread reading the bag panicked")?;
+        if let Some(copy) = decompressed.paths.get(&index) {
+            return self.storages[index].open(copy);
+        }
+        if decompressed.dir.is_none() {
+            let beside = path.parent().filter(|p| !p.as_os_str().is_empty());
+            let dir = beside
+                .and_then(|dir| {
+                    tempfile::Builder::new()
+                        .prefix(".decompressed-")
+                        .tempdir_in(dir)
+                        .ok()
+                })
+                .map_or_else(|| tempfile::Builder::new().prefix("shm-bag-").tempdir(), Ok)
+                .map_err(|e| format!("no directory to decompress {} into: {e}", path.display()))?;
+            decompressed.dir = Some(dir);
+        }
+        let Some(dir) = decompressed.dir.as_ref() else {
+            return Err("no directory to decompress into".into());
+        };
+        let copy = crate::storage::decompress_file(path, dir.path())?;
+        decompressed.paths.insert(index, copy.clone());
+        self.storages[index].open(&copy)
     }
 
     /// What the recording holds: its `metadata.yaml`, or for a lone file the
@@ -278,6 +323,7 @@ impl Bag {
             (0..self.files.len()).map(|_| None).collect();
         let mut entered = vec![false; self.files.len()];
         let mut heap = BinaryHeap::new();
+        let mut scratch = Vec::new();
         loop {
             while let Some(&(start, index)) = pending.last() {
                 if heap
@@ -287,9 +333,7 @@ impl Bag {
                     break;
                 }
                 pending.pop();
-                let cursor = self.storages[index]
-                    .open(&self.files[index])?
-                    .messages(from)?;
+                let cursor = self.open_file(index)?.messages(from)?;
                 if let Some(message) = cursor.current() {
                     heap.push(std::cmp::Reverse((message.log_time, index)));
                     cursors[index] = Some(cursor);
@@ -306,7 +350,14 @@ impl Bag {
                 on_file(&self.files[index]);
             }
             if let Some(message) = cursor.current() {
-                if let ControlFlow::Break(ended) = each(&message) {
+                let ended = if self.compressions[index] == Compressed::Message {
+                    let data = crate::storage::decompress_message(message.data, &mut scratch)
+                        .map_err(|e| format!("{}: {e}", self.files[index].display()))?;
+                    each(&BagMessage { data, ..message })
+                } else {
+                    each(&message)
+                };
+                if let ControlFlow::Break(ended) = ended {
                     return Ok(Some(ended));
                 }
             }
@@ -932,13 +983,16 @@ mod tests {
         std::fs::write(dir.join(crate::metadata::FILE_NAME), metadata.to_yaml()).unwrap();
         let error = Bag::open(&dir).unwrap_err().to_string();
         assert!(error.contains("its storage is `rosbag_v2`"), "{error}");
-        // So is rosbag2's compression of whole files or messages.
+        // So is a compression rosbag2 does not write.
         metadata.storage_identifier = "sqlite3".to_owned();
         metadata.compression_mode = "FILE".to_owned();
-        metadata.compression_format = "zstd".to_owned();
+        metadata.compression_format = "bz2".to_owned();
         std::fs::write(dir.join(crate::metadata::FILE_NAME), metadata.to_yaml()).unwrap();
         let error = Bag::open(&dir).unwrap_err().to_string();
-        assert!(error.contains("compressed it per FILE (zstd)"), "{error}");
+        assert!(
+            error.contains("compression_format `bz2` is not read"),
+            "{error}"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -75,6 +75,91 @@ impl Storage {
     }
 }
 
+/// rosbag2's own compression (`compression_mode` in `metadata.yaml`), on top
+/// of the storage: each whole file, or each message's bytes, in zstd.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Compressed {
+    /// Neither (MCAP may still compress its chunks itself).
+    No,
+    /// Each file is a zstd stream of the storage file (`bag_0.db3.zstd`).
+    File,
+    /// Each message's bytes are a zstd frame.
+    Message,
+}
+
+/// The most bytes a compressed message or file may decompress to (a message:
+/// more than any a ROS 2 transport carries).
+const MAX_MESSAGE: u64 = crate::chunk::MAX_CHUNK_SIZE;
+
+impl Compressed {
+    /// The compression `metadata.yaml` gives (`compression_mode`,
+    /// `compression_format`), if it is one this crate reads.
+    pub(crate) fn of(mode: &str, format: &str) -> Result<Self, String> {
+        let mode = mode.to_ascii_lowercase();
+        let compressed = match mode.as_str() {
+            "" | "none" => return Ok(Self::No),
+            "file" => Self::File,
+            "message" => Self::Message,
+            _ => {
+                return Err(format!(
+                    "compression_mode `{}` is not one of rosbag2's (none, file, message)",
+                    shm_cdr::text_limits::quoted(&mode)
+                ))
+            }
+        };
+        if !format.eq_ignore_ascii_case("zstd") {
+            return Err(format!(
+                "compression_format `{}` is not read (rosbag2 compresses with zstd)",
+                shm_cdr::text_limits::quoted(format)
+            ));
+        }
+        Ok(compressed)
+    }
+}
+
+/// Decompress the zstd file `compressed` into `dir`, under its name without
+/// the `.zstd`; returns that path.
+pub(crate) fn decompress_file(compressed: &Path, dir: &Path) -> Result<std::path::PathBuf, Error> {
+    let name = compressed
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let name = name.strip_suffix(".zstd").unwrap_or(&name);
+    let path = dir.join(name);
+    let input = std::fs::File::open(compressed)
+        .map_err(|e| format!("cannot open {}: {e}", compressed.display()))?;
+    let mut output = std::fs::File::create(&path)
+        .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+    let mut decoder = zstd::stream::read::Decoder::new(input)
+        .map_err(|e| format!("{}: {e}", compressed.display()))?;
+    std::io::copy(&mut decoder, &mut output).map_err(|e| {
+        format!(
+            "decompressing {} into {}: {e}",
+            compressed.display(),
+            path.display()
+        )
+    })?;
+    Ok(path)
+}
+
+/// Decompress one message's zstd frame into `scratch`.
+pub(crate) fn decompress_message<'a>(
+    data: &[u8],
+    scratch: &'a mut Vec<u8>,
+) -> Result<&'a [u8], String> {
+    use std::io::Read;
+    scratch.clear();
+    zstd::stream::read::Decoder::new(data)
+        .and_then(|d| d.take(MAX_MESSAGE + 1).read_to_end(scratch))
+        .map_err(|e| format!("a compressed message does not decompress: {e}"))?;
+    if scratch.len() as u64 > MAX_MESSAGE {
+        return Err(format!(
+            "a compressed message decompresses to more than {MAX_MESSAGE} bytes"
+        ));
+    }
+    Ok(scratch)
+}
+
 /// One message of a recording, as its storage gives it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BagMessage<'a> {
@@ -328,6 +413,74 @@ mod tests {
             assert_eq!(described.storage_identifier, "sqlite3");
             assert_eq!(described.message_count, times.len() as u64);
             assert_eq!(described.duration.nanoseconds, 300);
+            let _ = std::fs::remove_dir_all(&dir);
+        }
+    }
+
+    #[test]
+    fn bags_compressed_by_rosbag2_per_file_or_per_message_are_read() {
+        let messages = "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, \
+                        type TEXT NOT NULL, serialization_format TEXT NOT NULL, \
+                        offered_qos_profiles TEXT NOT NULL); \
+                        CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, \
+                        timestamp INTEGER NOT NULL, data BLOB NOT NULL);";
+        let times: Vec<u64> = scrambled(50);
+        for mode in ["FILE", "message"] {
+            let dir = temp(&format!("compressed-{mode}"));
+            std::fs::create_dir_all(&dir).unwrap();
+            let db = dir.join("bag_0.db3");
+            sqlite_bag(&db, messages, &times);
+            let name = if mode == "FILE" {
+                let compressed = zstd::encode_all(&std::fs::read(&db).unwrap()[..], 3).unwrap();
+                std::fs::write(dir.join("bag_0.db3.zstd"), compressed).unwrap();
+                std::fs::remove_file(&db).unwrap();
+                "bag_0.db3.zstd"
+            } else {
+                let conn = rusqlite::Connection::open(&db).unwrap();
+                for t in &times {
+                    let packed = zstd::encode_all(&cdr(*t)[..], 3).unwrap();
+                    conn.execute(
+                        "UPDATE messages SET data = ?1 WHERE timestamp = ?2",
+                        rusqlite::params![packed, *t as i64],
+                    )
+                    .unwrap();
+                }
+                "bag_0.db3"
+            };
+            let metadata = format!(
+                "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: sqlite3\n  \
+                 relative_file_paths: [{name}]\n  duration: {{nanoseconds: 49}}\n  \
+                 starting_time: {{nanoseconds_since_epoch: 0}}\n  message_count: 50\n  \
+                 topics_with_message_count: []\n  compression_format: zstd\n  \
+                 compression_mode: {mode}\n"
+            );
+            std::fs::write(dir.join(crate::metadata::FILE_NAME), metadata).unwrap();
+            let bag = Bag::open(&dir).unwrap();
+            let got = played(&bag, 0);
+            assert_eq!(
+                got.iter().map(|m| m.1).collect::<Vec<_>>(),
+                (0..50).collect::<Vec<_>>()
+            );
+            assert!(got.iter().all(|(_, t, data)| *data == cdr(*t)), "{mode}");
+            if mode == "FILE" {
+                // The decompressed copy lives beside the bag while it is open
+                // and is removed with it.
+                let copies = || {
+                    std::fs::read_dir(&dir)
+                        .unwrap()
+                        .filter(|e| {
+                            e.as_ref()
+                                .unwrap()
+                                .file_name()
+                                .to_string_lossy()
+                                .starts_with(".decompressed-")
+                        })
+                        .count()
+                };
+                assert_eq!(copies(), 1);
+                drop(bag);
+                assert_eq!(copies(), 0);
+            }
             let _ = std::fs::remove_dir_all(&dir);
         }
     }
