@@ -129,6 +129,7 @@ pub mod docs {
         SharedMemory = "../../docs/src/shared-memory.md",
         Nodes = "../../docs/src/nodes.md",
         ZenohConfig = "../../docs/src/zenoh-config.md",
+        Security = "../../docs/src/security.md",
         Performance = "../../docs/src/performance.md",
         Interop = "../../docs/src/interop.md",
         Reliability = "../../docs/src/reliability.md",

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use shm_bag::local::LocalInterfaces;
 use shm_runtime::graph::{Graph, GraphCache};
-use shm_runtime::rmw::Distro;
+use shm_runtime::rmw::{self, Distro};
 use shm_runtime::RosNode;
 use zenoh::{Session, Wait};
 
@@ -18,13 +18,16 @@ pub(crate) struct Connection {
     /// ROS domain id.
     #[arg(long, global = true, env = "ROS_DOMAIN_ID", default_value_t = 0)]
     domain_id: u32,
-    /// Zenoh endpoint to connect to (repeatable); rmw_zenoh_cpp's router
-    /// by default. (No short form: `-e` is `bag record`'s regular
-    /// expression, as in ros2bag.)
-    #[arg(long = "connect", global = true, default_value = "tcp/localhost:7447")]
+    /// Zenoh endpoint to connect to (repeatable), in place of the
+    /// configuration's (rmw_zenoh_cpp's router, tcp/localhost:7447, by
+    /// default). (No short form: `-e` is `bag record`'s regular expression,
+    /// as in ros2bag.)
+    #[arg(long = "connect", global = true)]
     connect: Vec<String>,
-    /// A Zenoh configuration file (JSON5) to start from, as rmw_zenoh_cpp's
-    /// `ZENOH_SESSION_CONFIG_URI`.
+    /// A Zenoh session configuration file (JSON5) to start from, as
+    /// rmw_zenoh_cpp's `ZENOH_SESSION_CONFIG_URI` (for instance one that
+    /// zenoh_security_tools generated); `ZENOH_CONFIG_OVERRIDE` applies on
+    /// top. Default: rmw_zenoh_cpp's default session configuration.
     #[arg(long, global = true, env = "ZENOH_SESSION_CONFIG_URI")]
     zenoh_config: Option<std::path::PathBuf>,
     /// The ROS 2 distribution of the nodes to talk with (humble, jazzy,
@@ -42,8 +45,17 @@ pub(crate) struct Connection {
     interfaces: Vec<std::path::PathBuf>,
 }
 
+/// What the session reached when it opened.
+pub(crate) struct Reached {
+    /// A router or a peer (or the check was turned off).
+    found: bool,
+    /// The endpoints it connects to (JSON).
+    endpoints: String,
+}
+
 pub(crate) struct Context {
     pub(crate) session: Session,
+    pub(crate) reached: Reached,
     pub(crate) domain_id: u32,
     pub(crate) distro: Distro,
     pub(crate) timeout: Duration,
@@ -55,30 +67,32 @@ pub(crate) struct Context {
 
 impl Context {
     pub(crate) fn open(connection: &Connection) -> Result<Self, Error> {
-        let mut config = match &connection.zenoh_config {
-            Some(path) => zenoh::Config::from_file(path)
-                .map_err(|e| format!("Zenoh configuration {}: {e}", path.display()))?,
-            None => zenoh::Config::default(),
-        };
-        if connection.zenoh_config.is_none() {
-            // rmw_zenoh_cpp's session: a peer that finds the others through
-            // the router, not by multicast.
+        let mut config = rmw::config::session_config_from(connection.zenoh_config.as_deref())?;
+        if !connection.connect.is_empty() {
+            let endpoints = serde_json::to_string(&connection.connect)?;
             config
-                .insert_json5("scouting/multicast/enabled", "false")
-                .map_err(|e| format!("Zenoh configuration: {e}"))?;
+                .insert_json5("connect/endpoints", &endpoints)
+                .map_err(|e| format!("--connect {}: {e}", connection.connect.join(" ")))?;
         }
-        let endpoints = serde_json::to_string(&connection.connect)?;
-        config
-            .insert_json5("connect/endpoints", &endpoints)
-            .map_err(|e| format!("Zenoh configuration: --connect {endpoints}: {e}"))?;
-        let session = zenoh::open(config)
-            .wait()
-            .map_err(|e| format!("cannot open a Zenoh session: {e}"))?;
+        let endpoints = config
+            .get_json("connect/endpoints")
+            .unwrap_or_else(|_| "[]".to_owned());
+        let session = zenoh::open(config).wait().map_err(|e| {
+            format!(
+                "cannot open a Zenoh session (connecting to {endpoints}): {e}. Check that a \
+                     router is there (`shm-ros2 router`, `ros2 run rmw_zenoh_cpp rmw_zenohd`) \
+                     and the transport and credentials it expects (TLS certificates, user and \
+                     password)"
+            )
+        })?;
+        let check = rmw::config::RouterCheck::from_env()?;
+        let found = rmw::config::wait_for_router_or_peer(&session, check, |_| {});
         let timeout = Duration::try_from_secs_f64(connection.timeout)
             .map_err(|_| format!("--timeout {}: give a number of seconds", connection.timeout))?;
         let graph = GraphCache::of(&session, connection.domain_id)?;
         let local = LocalInterfaces::load(&connection.interfaces)?;
         Ok(Self {
+            reached: Reached { found, endpoints },
             session,
             domain_id: connection.domain_id,
             distro: connection.distro.unwrap_or_default(),
@@ -87,6 +101,35 @@ impl Context {
             graph,
             node: OnceLock::new(),
         })
+    }
+
+    /// For verbs that ask the system something: an error when the session
+    /// reached neither a router nor a peer, since nothing could answer.
+    pub(crate) fn require_reached(&self) -> Result<(), Error> {
+        if self.reached.found {
+            return Ok(());
+        }
+        Err(self.unreached().into())
+    }
+
+    /// For verbs that may wait for the system to appear (echo, record, …):
+    /// say so once on stderr when no router was reached, as rmw_zenoh_cpp's
+    /// nodes do, and go on.
+    pub(crate) fn warn_unreached(&self) {
+        if !self.reached.found {
+            eprintln!("{} Waiting for one.", self.unreached());
+        }
+    }
+
+    fn unreached(&self) -> String {
+        format!(
+            "No Zenoh router or peer reached at {}: start a router (`shm-ros2 router`, or \
+             `ros2 run rmw_zenoh_cpp rmw_zenohd`), or give where one is (--connect, \
+             ZENOH_SESSION_CONFIG_URI, ZENOH_CONFIG_OVERRIDE). If it is there, check the \
+             transport and credentials it expects (TLS certificates, user and password); \
+             ZENOH_ROUTER_CHECK_ATTEMPTS=N waits N seconds for it.",
+            self.reached.endpoints
+        )
     }
 
     /// The graph, once the first answers are in.

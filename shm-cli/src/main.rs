@@ -12,6 +12,7 @@ mod keyboard;
 mod node;
 mod param;
 mod python;
+mod router;
 mod service;
 mod topic;
 mod types;
@@ -50,9 +51,13 @@ enum Command {
     /// Interfaces: list, show.
     #[command(subcommand)]
     Interface(interface::InterfaceCommand),
-    /// Recordings: record, play, info (MCAP, as rosbag2 writes it).
+    /// Recordings: record, play, info, convert, reindex (MCAP and sqlite3,
+    /// as rosbag2 writes them).
     #[command(subcommand)]
     Bag(bag::BagCommand),
+    /// Run a Zenoh router configured as rmw_zenoh_cpp's `rmw_zenohd`, for
+    /// systems without ROS.
+    Router(router::RouterArgs),
 }
 
 /// A failure to report: the message says what happened and what to do.
@@ -80,6 +85,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Interface(command) => interface::run(command),
+        Command::Router(args) => router::run(&args),
         Command::Bag(
             command @ (bag::BagCommand::Info { .. }
             | bag::BagCommand::Reindex { .. }
@@ -87,13 +93,26 @@ fn main() -> ExitCode {
         ) => bag::run(None, command),
         command => match context::Context::open(&cli.connection) {
             Ok(context) => match command {
-                Command::Topic(c) => topic::run(&context, c),
-                Command::Node(c) => node::run(&context, c),
-                Command::Service(c) => service::run(&context, c),
-                Command::Param(c) => param::run(&context, c),
-                Command::Action(c) => action::run(&context, c),
-                Command::Bag(c) => bag::run(Some(&context), c),
-                Command::Interface(_) => unreachable!("handled above"),
+                // Verbs that wait for what they read or serve may start
+                // before the system; the others ask it something now.
+                Command::Topic(c) if c.waits() => {
+                    context.warn_unreached();
+                    topic::run(&context, c)
+                }
+                Command::Bag(c) => {
+                    context.warn_unreached();
+                    bag::run(Some(&context), c)
+                }
+                command => context.require_reached().and_then(|()| match command {
+                    Command::Topic(c) => topic::run(&context, c),
+                    Command::Node(c) => node::run(&context, c),
+                    Command::Service(c) => service::run(&context, c),
+                    Command::Param(c) => param::run(&context, c),
+                    Command::Action(c) => action::run(&context, c),
+                    Command::Bag(_) | Command::Interface(_) | Command::Router(_) => {
+                        unreachable!("handled above")
+                    }
+                }),
             },
             Err(e) => Err(e),
         },

@@ -124,6 +124,17 @@ pub(crate) struct PubArgs {
     wait_matching_subscriptions: usize,
 }
 
+impl TopicCommand {
+    /// Whether the verb waits for what it reads or serves (echo, hz, bw,
+    /// pub), and so may start before the system it talks to.
+    pub(crate) fn waits(&self) -> bool {
+        matches!(
+            self,
+            Self::Echo(_) | Self::Hz { .. } | Self::Bw { .. } | Self::Pub(_)
+        )
+    }
+}
+
 pub(crate) fn run(context: &Context, command: TopicCommand) -> Result<(), Error> {
     match command {
         TopicCommand::List {
@@ -304,8 +315,20 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
         .map(|text| field_path(&ty, text))
         .transpose()?;
     let mut out = std::io::stdout().lock();
+    let mut first = true;
     loop {
-        let sample = subscriber.recv()?;
+        let sample = if first {
+            first = false;
+            match subscriber.recv_timeout(context.timeout)? {
+                Some(sample) => sample,
+                None => {
+                    silent_publishers(context, &args.topic_name);
+                    subscriber.recv()?
+                }
+            }
+        } else {
+            subscriber.recv()?
+        };
         let bytes = sample.payload().to_bytes();
         // Shared memory another process may write is read as such.
         let shared = sample.is_shm();
@@ -335,6 +358,20 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
         if args.once {
             return Ok(());
         }
+    }
+}
+
+/// Say on stderr, once, why a topic with publishers may send nothing, where
+/// `echo` would otherwise wait without a word.
+fn silent_publishers(context: &Context, topic: &str) {
+    let publishers = context.graph().publishers(topic).len();
+    if publishers > 0 {
+        eprintln!(
+            "No message on {topic} in {:.0} s from its {publishers} publisher(s): they may \
+             publish rarely, or a Zenoh access-control policy (the router's or this \
+             session's) denies this topic to this session. Still waiting.",
+            context.timeout.as_secs_f64()
+        );
     }
 }
 

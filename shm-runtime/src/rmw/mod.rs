@@ -7,6 +7,7 @@ use std::time::Duration;
 use shm_cdr::interface::RosService;
 use shm_cdr::RosMessage;
 
+pub mod config;
 mod distro;
 pub use distro::{Distribution, Distro, UnknownDistro, DISTRIBUTIONS, TYPE_HASH_NOT_SUPPORTED};
 

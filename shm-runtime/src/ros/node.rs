@@ -882,6 +882,17 @@ impl RosNodeBuilder<'_> {
         self
     }
 
+    /// The node's security enclave (default `/`; `--ros-args --enclave` in
+    /// [`ros_args`](Self::ros_args) sets it too), as rmw_zenoh_cpp uses it: in
+    /// the node's graph tokens, where `ros2 node list`'s enclave listing
+    /// finds it. The enclave's security itself is the Zenoh session's
+    /// configuration (see [`rmw::config`](crate::rmw::config)). A name rcl
+    /// would refuse makes the declaration fail.
+    pub fn enclave(mut self, enclave: &str) -> Self {
+        self.enclave = enclave.to_owned();
+        self
+    }
+
     /// Start on simulated time from `/clock` (see
     /// [`RosNode::set_use_sim_time`]).
     pub fn use_sim_time(mut self, on: bool) -> Self {
@@ -971,6 +982,13 @@ impl RosNodeBuilder<'_> {
                 self.invalid_log_level.get_or_insert(reason);
             }
         }
+        match names::ros_args_enclave(&args) {
+            Ok(Some(enclave)) => self.enclave = enclave,
+            Ok(None) => {}
+            Err(e) => {
+                self.invalid.get_or_insert(e);
+            }
+        }
         self
     }
 
@@ -999,6 +1017,7 @@ impl RosNodeBuilder<'_> {
         }
         let distro = self.distro?;
         names::validate_node_name(&self.name)?;
+        names::validate_enclave(&self.enclave)?;
         // As rcl: the name first, then the namespace rules of the renamed node.
         let name = self.remaps.node_name(&self.name);
         let namespace = self.remaps.namespace(&name).unwrap_or(self.namespace);

@@ -73,6 +73,49 @@ fn check_token(what: &'static str, name: &str, token: &str) -> Result<(), NameEr
     Ok(())
 }
 
+/// A security enclave's name as rcl accepts it (`rcl_validate_enclave_name`):
+/// absolute, `/`-separated parts of letters, digits and `_`, none starting
+/// with a digit; `/` alone is the root enclave.
+pub fn validate_enclave(enclave: &str) -> Result<(), NameError> {
+    const WHAT: &str = "enclave";
+    if !enclave.starts_with('/') {
+        return Err(error(WHAT, enclave, "it must be absolute (start with `/`)"));
+    }
+    if enclave == "/" {
+        return Ok(());
+    }
+    enclave[1..]
+        .split('/')
+        .try_for_each(|token| check_token(WHAT, enclave, token))
+}
+
+/// The enclave a command line's ROS arguments give (`--enclave` or `-e`
+/// after `--ros-args`; the last one wins, as in rcl), checked.
+pub fn ros_args_enclave<I, S>(args: I) -> Result<Option<String>, NameError>
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<str>,
+{
+    let mut enclave = None;
+    let mut in_ros_args = false;
+    let mut args = args.into_iter();
+    while let Some(arg) = args.next() {
+        match arg.as_ref() {
+            "--ros-args" => in_ros_args = true,
+            "--" => in_ros_args = false,
+            flag @ ("-e" | "--enclave") if in_ros_args => {
+                let value = args
+                    .next()
+                    .ok_or_else(|| error("ROS argument", flag, "an enclave must follow"))?;
+                validate_enclave(value.as_ref())?;
+                enclave = Some(value.as_ref().to_owned());
+            }
+            _ => {}
+        }
+    }
+    Ok(enclave)
+}
+
 /// A node name: non-empty, letters, digits and `_`, not starting with a digit
 /// (rmw's `rmw_validate_node_name`).
 pub fn validate_node_name(name: &str) -> Result<(), NameError> {
@@ -188,6 +231,39 @@ pub fn domain_id_from(value: Option<&str>) -> Result<u32, NameError> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn enclaves_are_checked_and_read_from_ros_args() {
+        use super::*;
+        for good in ["/", "/talker_listener/talker", "/a1/_b"] {
+            assert!(validate_enclave(good).is_ok(), "{good}");
+        }
+        for (bad, reason) in [
+            ("talker", "absolute"),
+            ("/a//b", "empty part"),
+            ("/a/", "empty part"),
+            ("/1a", "starts with a digit"),
+            ("/a-b", "not allowed"),
+        ] {
+            let error = validate_enclave(bad).unwrap_err().to_string();
+            assert!(error.contains(reason), "{bad}: {error}");
+        }
+        let args = [
+            "prog",
+            "--ros-args",
+            "-e",
+            "/one",
+            "--enclave",
+            "/two",
+            "--",
+            "-e",
+            "x",
+        ];
+        assert_eq!(ros_args_enclave(args).unwrap(), Some("/two".to_owned()));
+        assert_eq!(ros_args_enclave(["prog", "-e", "x"]).unwrap(), None);
+        assert!(ros_args_enclave(["prog", "--ros-args", "--enclave", "bad"]).is_err());
+        assert!(ros_args_enclave(["prog", "--ros-args", "--enclave"]).is_err());
+    }
+
     use super::*;
 
     #[test]

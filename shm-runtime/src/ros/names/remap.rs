@@ -191,7 +191,7 @@ impl Remaps {
 /// The remapping rules in a command line's ROS arguments (what follows
 /// `--ros-args`, up to `--`), e.g. `std::env::args()` of a program started by
 /// `ros2 launch`: `-r`/`--remap` rules are returned; parameters, logging and
-/// enclave options are skipped (this crate does not use them); anything else
+/// enclave options are skipped (others read them); anything else
 /// is an error, as rcl refuses unknown ROS arguments.
 pub fn ros_args_remaps<I, S>(args: I) -> Result<Vec<RemapRule>, NameError>
 where

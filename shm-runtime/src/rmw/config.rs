@@ -1,0 +1,478 @@
+//! Zenoh configuration as rmw_zenoh_cpp reads it, so that a program of this
+//! crate joins whatever system an rmw_zenoh_cpp node joins from the same
+//! environment: a secured one (TLS, authentication, access control, as
+//! `zenoh_security_tools` generates per enclave), one over other transports,
+//! one with its router elsewhere. Every rmw_zenoh_cpp release (Humble 0.1.9
+//! to Rolling 0.12.0) reads the same variables:
+//!
+//! - [`SESSION_CONFIG_URI`] (`ZENOH_SESSION_CONFIG_URI`) and
+//!   [`ROUTER_CONFIG_URI`] (`ZENOH_ROUTER_CONFIG_URI`): a JSON5 file to start
+//!   from. Unset, rmw_zenoh_cpp's default configuration
+//!   ([`default_session_config`], [`default_router_config`]).
+//! - [`CONFIG_OVERRIDE`] (`ZENOH_CONFIG_OVERRIDE`): `key=value` pairs
+//!   separated by `;`, each value JSON5, set on top (`mode="client";
+//!   connect/endpoints=["tls/10.0.0.1:7447"]`). rmw_zenoh_cpp ignores a pair
+//!   it cannot set, with a warning; here it is an error naming the pair.
+//! - [`ROUTER_CHECK_ATTEMPTS`] (`ZENOH_ROUTER_CHECK_ATTEMPTS`): how many
+//!   times, a second apart, a session looks for its router before going on
+//!   without one (default 1; 0: until there is one; negative: not at all).
+//!
+//! rmw_zenoh_cpp uses the enclave (`--ros-args --enclave`) only in its
+//! graph tokens ([`crate::RosNodeBuilder::enclave`]); the security of an
+//! enclave is the session configuration `zenoh_security_tools` writes for
+//! it, given through `ZENOH_SESSION_CONFIG_URI`.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use zenoh::{Config, Session};
+
+/// The variable naming the session configuration file.
+pub const SESSION_CONFIG_URI: &str = "ZENOH_SESSION_CONFIG_URI";
+/// The variable naming the router configuration file.
+pub const ROUTER_CONFIG_URI: &str = "ZENOH_ROUTER_CONFIG_URI";
+/// The variable with `key=value;…` pairs set on top of either configuration.
+pub const CONFIG_OVERRIDE: &str = "ZENOH_CONFIG_OVERRIDE";
+/// The variable with the number of router checks.
+pub const ROUTER_CHECK_ATTEMPTS: &str = "ZENOH_ROUTER_CHECK_ATTEMPTS";
+/// Where a session looks for its router by default (rmw_zenohd's port).
+pub const DEFAULT_ROUTER_ENDPOINT: &str = "tcp/localhost:7447";
+
+/// rmw_zenoh_cpp's default session configuration
+/// (`DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5`), where it differs from
+/// Zenoh's defaults: a peer that reaches the others through the router at
+/// [`DEFAULT_ROUTER_ENDPOINT`] (gossip, no multicast) and listens on a local
+/// port of its own, long timeouts and lease, timestamps. One difference:
+/// shared memory is on, where rmw_zenoh_cpp ships it off.
+const SESSION_DEFAULTS: &[(&str, &str)] = &[
+    ("mode", r#""peer""#),
+    ("connect/endpoints", r#"["tcp/localhost:7447"]"#),
+    ("listen/endpoints", r#"["tcp/localhost:0"]"#),
+    ("scouting/multicast/enabled", "false"),
+    ("scouting/gossip/enabled", "true"),
+    ("scouting/gossip/multihop", "false"),
+    (
+        "scouting/gossip/target",
+        r#"{ router: ["router", "peer"], peer: ["router"] }"#,
+    ),
+    (
+        "timestamping/enabled",
+        "{ router: true, peer: true, client: true }",
+    ),
+    ("queries_default_timeout", "600000"),
+    ("routing/router/peers_failover_brokering", "true"),
+    ("transport/unicast/open_timeout", "60000"),
+    ("transport/unicast/accept_timeout", "60000"),
+    ("transport/unicast/max_links", "1"),
+    ("transport/link/tx/lease", "60000"),
+    ("transport/shared_memory/enabled", "true"),
+];
+
+/// rmw_zenohd's default configuration (`DEFAULT_RMW_ZENOH_ROUTER_CONFIG.json5`)
+/// where it differs from Zenoh's defaults: a router on port 7447 of every
+/// interface, no multicast, gossip, long timeouts and lease, timestamps.
+const ROUTER_DEFAULTS: &[(&str, &str)] = &[
+    ("mode", r#""router""#),
+    ("connect/endpoints", "[]"),
+    ("listen/endpoints", r#"["tcp/[::]:7447"]"#),
+    ("scouting/multicast/enabled", "false"),
+    ("scouting/gossip/enabled", "true"),
+    ("scouting/gossip/multihop", "false"),
+    (
+        "scouting/gossip/target",
+        r#"{ router: ["router", "peer"], peer: ["router"] }"#,
+    ),
+    (
+        "timestamping/enabled",
+        "{ router: true, peer: true, client: true }",
+    ),
+    ("queries_default_timeout", "600000"),
+    ("routing/router/peers_failover_brokering", "false"),
+    ("transport/unicast/open_timeout", "60000"),
+    ("transport/unicast/accept_timeout", "60000"),
+    ("transport/unicast/max_links", "1"),
+    ("transport/link/tx/lease", "60000"),
+];
+
+/// What went wrong reading the configuration; each says what to change.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum RmwConfigError {
+    /// The file a variable names could not be read as a Zenoh configuration.
+    File {
+        /// The variable (or the option standing for it).
+        variable: &'static str,
+        /// The file it names.
+        path: PathBuf,
+        /// Zenoh's words.
+        reason: String,
+    },
+    /// A `key=value` pair of `ZENOH_CONFIG_OVERRIDE` could not be set.
+    Override {
+        /// The pair as given.
+        pair: String,
+        /// Why it could not be set.
+        reason: String,
+    },
+    /// `ZENOH_ROUTER_CHECK_ATTEMPTS` is not a whole number.
+    Attempts(String),
+    /// A variable's value is not Unicode.
+    NotUnicode(&'static str),
+}
+
+impl fmt::Display for RmwConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::File {
+                variable,
+                path,
+                reason,
+            } => write!(
+                f,
+                "{variable}={}: not a Zenoh configuration ({reason}); give the path of a JSON5 \
+                 Zenoh configuration file, or unset {variable} for rmw_zenoh_cpp's default",
+                path.display()
+            ),
+            Self::Override { pair, reason } => write!(
+                f,
+                "{CONFIG_OVERRIDE}: `{pair}` cannot be set ({reason}); write `key=value` pairs \
+                 separated by `;`, each key a path in the Zenoh configuration \
+                 (`connect/endpoints`) and each value JSON5 (`[\"tls/host:7447\"]`, `\"client\"`)"
+            ),
+            Self::Attempts(value) => write!(
+                f,
+                "{ROUTER_CHECK_ATTEMPTS}={value}: give a whole number (N: check N times a second \
+                 apart, 0: until a router is there, negative: do not check)"
+            ),
+            Self::NotUnicode(variable) => write!(f, "{variable} is not valid Unicode"),
+        }
+    }
+}
+
+impl std::error::Error for RmwConfigError {}
+
+fn variable(name: &'static str) -> Result<Option<String>, RmwConfigError> {
+    match std::env::var(name) {
+        Ok(value) if value.is_empty() => Ok(None),
+        Ok(value) => Ok(Some(value)),
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Err(std::env::VarError::NotUnicode(_)) => Err(RmwConfigError::NotUnicode(name)),
+    }
+}
+
+fn with_defaults(defaults: &[(&str, &str)]) -> Config {
+    let mut config = Config::default();
+    for (key, value) in defaults {
+        // The table is this crate's own and checked by its tests.
+        let _ = config.insert_json5(key, value);
+    }
+    config
+}
+
+/// rmw_zenoh_cpp's default session configuration (see the module's
+/// documentation), shared memory on.
+pub fn default_session_config() -> Config {
+    with_defaults(SESSION_DEFAULTS)
+}
+
+/// rmw_zenohd's default router configuration.
+pub fn default_router_config() -> Config {
+    with_defaults(ROUTER_DEFAULTS)
+}
+
+/// The session configuration an rmw_zenoh_cpp node would use in this
+/// environment: the file `ZENOH_SESSION_CONFIG_URI` names (else
+/// [`default_session_config`]), then `ZENOH_CONFIG_OVERRIDE`.
+pub fn session_config() -> Result<Config, RmwConfigError> {
+    let file = variable(SESSION_CONFIG_URI)?.map(PathBuf::from);
+    let overrides = variable(CONFIG_OVERRIDE)?;
+    configure(
+        SESSION_CONFIG_URI,
+        file.as_deref(),
+        default_session_config,
+        overrides.as_deref(),
+    )
+}
+
+/// [`session_config`] starting from `file` when it is given (a
+/// command line's `--zenoh-config`) instead of the one
+/// `ZENOH_SESSION_CONFIG_URI` names.
+pub fn session_config_from(file: Option<&Path>) -> Result<Config, RmwConfigError> {
+    match file {
+        Some(file) => configure(
+            SESSION_CONFIG_URI,
+            Some(file),
+            default_session_config,
+            variable(CONFIG_OVERRIDE)?.as_deref(),
+        ),
+        None => session_config(),
+    }
+}
+
+/// The router configuration rmw_zenohd would use in this environment: the
+/// file `ZENOH_ROUTER_CONFIG_URI` names (else [`default_router_config`]),
+/// then `ZENOH_CONFIG_OVERRIDE`.
+pub fn router_config() -> Result<Config, RmwConfigError> {
+    let file = variable(ROUTER_CONFIG_URI)?.map(PathBuf::from);
+    let overrides = variable(CONFIG_OVERRIDE)?;
+    configure(
+        ROUTER_CONFIG_URI,
+        file.as_deref(),
+        default_router_config,
+        overrides.as_deref(),
+    )
+}
+
+/// [`router_config`] starting from `file` when it is given (a command
+/// line's `--config`) instead of the one `ZENOH_ROUTER_CONFIG_URI` names.
+pub fn router_config_from(file: Option<&Path>) -> Result<Config, RmwConfigError> {
+    match file {
+        Some(file) => configure(
+            ROUTER_CONFIG_URI,
+            Some(file),
+            default_router_config,
+            variable(CONFIG_OVERRIDE)?.as_deref(),
+        ),
+        None => router_config(),
+    }
+}
+
+/// A configuration from `file` (as the variable `variable` gives it) or the
+/// defaults, with `overrides` set on top.
+pub fn configure(
+    variable: &'static str,
+    file: Option<&Path>,
+    defaults: impl FnOnce() -> Config,
+    overrides: Option<&str>,
+) -> Result<Config, RmwConfigError> {
+    let mut config = match file {
+        Some(path) => Config::from_file(path).map_err(|e| RmwConfigError::File {
+            variable,
+            path: path.to_owned(),
+            reason: e.to_string(),
+        })?,
+        None => defaults(),
+    };
+    if let Some(overrides) = overrides {
+        apply_override(&mut config, overrides)?;
+    }
+    Ok(config)
+}
+
+/// Set the `key=value;…` pairs of `ZENOH_CONFIG_OVERRIDE` in `config`, as
+/// rmw_zenoh_cpp splits them (at each `;`, then at a pair's first `=`); a
+/// pair that cannot be set is an error naming it.
+pub fn apply_override(config: &mut Config, overrides: &str) -> Result<(), RmwConfigError> {
+    for pair in overrides.split(';') {
+        if pair.trim().is_empty() {
+            continue;
+        }
+        let Some((key, value)) = pair.split_once('=') else {
+            return Err(RmwConfigError::Override {
+                pair: pair.to_owned(),
+                reason: "no `=` in it".to_owned(),
+            });
+        };
+        config
+            .insert_json5(key.trim(), value.trim())
+            .map_err(|e| RmwConfigError::Override {
+                pair: pair.to_owned(),
+                reason: e.to_string(),
+            })?;
+    }
+    Ok(())
+}
+
+/// How a session looks for its router.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RouterCheck {
+    /// Not at all.
+    Skip,
+    /// Up to this many times, a second apart.
+    Attempts(u64),
+    /// Until there is one.
+    Forever,
+}
+
+impl RouterCheck {
+    /// From `ZENOH_ROUTER_CHECK_ATTEMPTS` (unset: once).
+    pub fn from_env() -> Result<Self, RmwConfigError> {
+        match variable(ROUTER_CHECK_ATTEMPTS)? {
+            None => Ok(Self::Attempts(1)),
+            Some(value) => Self::parse(&value),
+        }
+    }
+
+    /// From the variable's text: `N` times, `0` until there is one, a
+    /// negative number not at all.
+    pub fn parse(value: &str) -> Result<Self, RmwConfigError> {
+        let n: i64 = value
+            .trim()
+            .parse()
+            .map_err(|_| RmwConfigError::Attempts(value.to_owned()))?;
+        Ok(match n {
+            0 => Self::Forever,
+            n if n < 0 => Self::Skip,
+            n => Self::Attempts(n.unsigned_abs()),
+        })
+    }
+}
+
+/// Look for a router reached by `session` as `check` says: each attempt
+/// waits up to a second for one, and `missed` is called with the attempt's
+/// number when it found none. Whether one was found (`true` for
+/// [`RouterCheck::Skip`]).
+pub fn wait_for_router(session: &Session, check: RouterCheck, missed: impl FnMut(u64)) -> bool {
+    wait_for(session, check, missed, |session| {
+        use zenoh::Wait;
+        session.info().routers_zid().wait().next().is_some()
+    })
+}
+
+/// [`wait_for_router`] that is also content with a peer: for a program that
+/// only needs someone to talk to (a system of peers has no router).
+pub fn wait_for_router_or_peer(
+    session: &Session,
+    check: RouterCheck,
+    missed: impl FnMut(u64),
+) -> bool {
+    wait_for(session, check, missed, |session| {
+        use zenoh::Wait;
+        session.info().routers_zid().wait().next().is_some()
+            || session.info().peers_zid().wait().next().is_some()
+    })
+}
+
+fn wait_for(
+    session: &Session,
+    check: RouterCheck,
+    mut missed: impl FnMut(u64),
+    found: impl Fn(&Session) -> bool,
+) -> bool {
+    let attempts = match check {
+        RouterCheck::Skip => return true,
+        RouterCheck::Attempts(n) => n,
+        RouterCheck::Forever => u64::MAX,
+    };
+    for attempt in 1..=attempts {
+        let deadline = std::time::Instant::now() + Duration::from_secs(1);
+        loop {
+            if found(session) {
+                return true;
+            }
+            if std::time::Instant::now() >= deadline {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        missed(attempt);
+    }
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_default_is_a_key_zenoh_knows_with_a_value_it_takes() {
+        for (key, value) in SESSION_DEFAULTS.iter().chain(ROUTER_DEFAULTS) {
+            let mut config = Config::default();
+            config
+                .insert_json5(key, value)
+                .unwrap_or_else(|e| panic!("{key}={value}: {e}"));
+        }
+        let session = default_session_config();
+        assert_eq!(session.get_json("mode").unwrap(), r#""peer""#);
+        assert_eq!(
+            session.get_json("connect/endpoints").unwrap(),
+            r#"["tcp/localhost:7447"]"#
+        );
+        assert_eq!(
+            session.get_json("transport/link/tx/lease").unwrap(),
+            "60000"
+        );
+        let router = default_router_config();
+        assert_eq!(router.get_json("mode").unwrap(), r#""router""#);
+        assert_eq!(
+            router.get_json("listen/endpoints").unwrap(),
+            r#"["tcp/[::]:7447"]"#
+        );
+    }
+
+    #[test]
+    fn an_override_sets_each_pair_and_names_the_one_it_cannot_set() {
+        let mut config = default_session_config();
+        apply_override(
+            &mut config,
+            r#"mode="client";connect/endpoints=["tls/10.0.0.1:7447","tcp/10.0.0.2:7447"]; ;"#,
+        )
+        .unwrap();
+        assert_eq!(config.get_json("mode").unwrap(), r#""client""#);
+        assert_eq!(
+            config.get_json("connect/endpoints").unwrap(),
+            r#"["tls/10.0.0.1:7447","tcp/10.0.0.2:7447"]"#
+        );
+        for (bad, named) in [
+            ("mode=\"client\";nonsense/key=1", "`nonsense/key=1`"),
+            ("mode=\"emperor\"", "`mode=\"emperor\"`"),
+            (
+                "transport/link/tx/lease=soon",
+                "`transport/link/tx/lease=soon`",
+            ),
+            ("mode", "`mode` cannot be set (no `=` in it)"),
+        ] {
+            let error = apply_override(&mut default_session_config(), bad)
+                .unwrap_err()
+                .to_string();
+            assert!(error.contains(named), "{bad}: {error}");
+            assert!(error.starts_with(CONFIG_OVERRIDE), "{error}");
+        }
+    }
+
+    #[test]
+    fn a_file_that_is_not_a_configuration_is_named_with_its_variable() {
+        let path =
+            std::env::temp_dir().join(format!("shm-runtime-config-{}.json5", std::process::id()));
+        std::fs::write(&path, "{ mode: 42 }").unwrap();
+        let error = configure(
+            SESSION_CONFIG_URI,
+            Some(&path),
+            default_session_config,
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(error.starts_with("ZENOH_SESSION_CONFIG_URI="), "{error}");
+        assert!(error.contains(&path.display().to_string()), "{error}");
+        std::fs::write(
+            &path,
+            r#"{ mode: "client", connect: { endpoints: ["tcp/127.0.0.1:1"] } }"#,
+        )
+        .unwrap();
+        let config = configure(
+            SESSION_CONFIG_URI,
+            Some(&path),
+            default_session_config,
+            Some(r#"connect/endpoints=["tcp/127.0.0.1:2"]"#),
+        )
+        .unwrap();
+        assert_eq!(config.get_json("mode").unwrap(), r#""client""#);
+        assert_eq!(
+            config.get_json("connect/endpoints").unwrap(),
+            r#"["tcp/127.0.0.1:2"]"#
+        );
+        let _ = std::fs::remove_file(&path);
+    }
+
+    #[test]
+    fn router_check_attempts_read_as_rmw_zenoh_cpp_reads_them() {
+        assert_eq!(RouterCheck::parse("3"), Ok(RouterCheck::Attempts(3)));
+        assert_eq!(RouterCheck::parse("0"), Ok(RouterCheck::Forever));
+        assert_eq!(RouterCheck::parse("-1"), Ok(RouterCheck::Skip));
+        assert!(RouterCheck::parse("often")
+            .unwrap_err()
+            .to_string()
+            .contains("give a whole number"));
+    }
+}
