@@ -43,8 +43,11 @@ pub const DEFAULT_ROUTER_ENDPOINT: &str = "tcp/localhost:7447";
 /// (`DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5`), where it differs from
 /// Zenoh's defaults: a peer that reaches the others through the router at
 /// [`DEFAULT_ROUTER_ENDPOINT`] (gossip, no multicast) and listens on a local
-/// port of its own, long timeouts and lease, timestamps. One difference:
-/// shared memory is on, where rmw_zenoh_cpp ships it off.
+/// port of its own, long timeouts and lease, timestamps. Two differences:
+/// shared memory is on, where rmw_zenoh_cpp ships it off; and a peer
+/// gossips to peers as well as to routers (Zenoh's default, where
+/// rmw_zenoh_cpp gossips to routers only), so that peers joined to one
+/// another without a router still find each other.
 const SESSION_DEFAULTS: &[(&str, &str)] = &[
     ("mode", r#""peer""#),
     ("connect/endpoints", r#"["tcp/localhost:7447"]"#),
@@ -53,15 +56,10 @@ const SESSION_DEFAULTS: &[(&str, &str)] = &[
     ("scouting/gossip/enabled", "true"),
     ("scouting/gossip/multihop", "false"),
     (
-        "scouting/gossip/target",
-        r#"{ router: ["router", "peer"], peer: ["router"] }"#,
-    ),
-    (
         "timestamping/enabled",
         "{ router: true, peer: true, client: true }",
     ),
     ("queries_default_timeout", "600000"),
-    ("routing/router/peers_failover_brokering", "true"),
     ("transport/unicast/open_timeout", "60000"),
     ("transport/unicast/accept_timeout", "60000"),
     ("transport/unicast/max_links", "1"),
@@ -88,7 +86,6 @@ const ROUTER_DEFAULTS: &[(&str, &str)] = &[
         "{ router: true, peer: true, client: true }",
     ),
     ("queries_default_timeout", "600000"),
-    ("routing/router/peers_failover_brokering", "false"),
     ("transport/unicast/open_timeout", "60000"),
     ("transport/unicast/accept_timeout", "60000"),
     ("transport/unicast/max_links", "1"),
