@@ -39,13 +39,13 @@ enum Command {
     /// Nodes: list, info.
     #[command(subcommand)]
     Node(node::NodeCommand),
-    /// Services: list, type.
+    /// Services: list, type, call.
     #[command(subcommand)]
     Service(service::ServiceCommand),
-    /// Actions: list, info.
+    /// Actions: list, info, send_goal.
     #[command(subcommand)]
     Action(action::ActionCommand),
-    /// Parameters: list, get, set.
+    /// Parameters: list, get, set, dump, load.
     #[command(subcommand)]
     Param(param::ParamCommand),
     /// Interfaces: list, show.
