@@ -719,6 +719,19 @@ def check_snapshot(endpoint, peer, work, hashes):
           f"~/snapshot wrote the {len(written)} messages held, the 2 after it reported as not written")
 
 
+def played_to_peer(endpoint, bag, got, sent, what, rate="10"):
+    """`bag play` of `bag` at `rate` to the peer subscribed into `got`:
+    checks that it read `sent`, in order, byte for byte."""
+    got.clear()
+    played = cli(endpoint, "bag", "play", str(bag), "-r", rate, "-d", "1", timeout=120)
+    deadline = time.time() + 5
+    while len(got) < len(sent) and time.time() < deadline:
+        time.sleep(0.05)
+    check(played.returncode == 0 and got == sent,
+          f"bag play of {what}: exit {played.returncode} {played.stderr[-300:]!r}, "
+          f"the peer read {len(got)} of {len(sent)}, in order: {got == sorted(got, key=sent.index)}")
+
+
 def check_rosbags_bags(endpoint, peer, work):
     """Bags rosbags writes: format version 8 (offered QoS as one YAML text,
     as rosbag2 wrote it through Iron) in MCAP storage is read and played byte
@@ -772,14 +785,7 @@ def check_rosbags_bags(endpoint, peer, work):
         info = cli(endpoint, "bag", "info", str(sqlite))
         check(info.returncode == 0 and "Storage id:        sqlite3" in info.stdout and "Count: 20" in info.stdout,
               f"bag info of a sqlite3 bag: {info.returncode} {info.stdout[-400:]} {info.stderr[-300:]}")
-        got.clear()
-        played = cli(endpoint, "bag", "play", str(sqlite), "-r", "10", "-d", "1", timeout=120)
-        deadline = time.time() + 5
-        while len(got) < len(sent) and time.time() < deadline:
-            time.sleep(0.05)
-        check(played.returncode == 0 and got == sent,
-              f"bag play of a sqlite3 bag (version {version}): exit {played.returncode} {played.stderr[-300:]!r}, "
-              f"the peer read {len(got)} of {len(sent)}, in order: {got == sorted(got, key=sent.index)}")
+        played_to_peer(endpoint, sqlite, got, sent, f"a sqlite3 bag (version {version})")
     check_older_metadata(endpoint, peer, work, sqlite, sent, got)
     check_compressed_bags(endpoint, work, store, sent, got)
     # Converted to MCAP: every message, in time order, read by rosbags and
@@ -813,14 +819,7 @@ def check_compressed_bags(endpoint, work, store, sent, got):
             for i, data in enumerate(sent):
                 writer.write(connection, 1_700_000_000_000_000_000 + i * 10_000_000, data)
             writer.close()
-            got.clear()
-            played = cli(endpoint, "bag", "play", str(bag), "-r", "20", "-d", "1", timeout=120)
-            deadline = time.time() + 5
-            while len(got) < len(sent) and time.time() < deadline:
-                time.sleep(0.05)
-            check(played.returncode == 0 and got == sent,
-                  f"bag play of {bag.name}: exit {played.returncode} {played.stderr[-300:]!r}, "
-                  f"the peer read {len(got)} of {len(sent)}")
+            played_to_peer(endpoint, bag, got, sent, bag.name, rate="20")
             leftovers = [p.name for p in bag.iterdir() if p.name.startswith(".decompressed-")]
             check(not leftovers, f"bag play left {leftovers} in {bag}")
             played_bags.append(bag.name)
@@ -887,14 +886,7 @@ def check_older_metadata(endpoint, peer, work, bag, sent, got):
         info = cli(endpoint, "bag", "info", str(old))
         check(info.returncode == 0 and f"Count: {len(sent)}" in info.stdout,
               f"bag info of a version-{version} bag: {info.returncode} {info.stdout[-300:]} {info.stderr[-300:]}")
-        got.clear()
-        played = cli(endpoint, "bag", "play", str(old), "-r", "20", "-d", "1", timeout=120)
-        deadline = time.time() + 5
-        while len(got) < len(sent) and time.time() < deadline:
-            time.sleep(0.05)
-        check(played.returncode == 0 and got == sent,
-              f"bag play of a version-{version} bag: exit {played.returncode} {played.stderr[-300:]!r}, "
-              f"the peer read {len(got)} of {len(sent)}")
+        played_to_peer(endpoint, old, got, sent, f"a version-{version} bag", rate="20")
     print(f"metadata.yaml of format versions 4 to 7 (Foxy's QoS): read by rosbags and by bag info, "
           f"played byte for byte ({len(sent)}/{len(sent)} each)")
 

@@ -39,57 +39,50 @@ pub const ROUTER_CHECK_ATTEMPTS: &str = "ZENOH_ROUTER_CHECK_ATTEMPTS";
 /// Where a session looks for its router by default (rmw_zenohd's port).
 pub const DEFAULT_ROUTER_ENDPOINT: &str = "tcp/localhost:7447";
 
-/// rmw_zenoh_cpp's default session configuration
-/// (`DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5`), where it differs from
-/// Zenoh's defaults: a peer that reaches the others through the router at
-/// [`DEFAULT_ROUTER_ENDPOINT`] (gossip, no multicast) and listens on a local
-/// port of its own, long timeouts and lease, timestamps. Two differences:
-/// shared memory is on, where rmw_zenoh_cpp ships it off; and a peer
-/// gossips to peers as well as to routers (Zenoh's default, where
-/// rmw_zenoh_cpp gossips to routers only), so that peers joined to one
-/// another without a router still find each other.
+/// What rmw_zenoh_cpp's default session and router configurations
+/// (`DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5`,
+/// `DEFAULT_RMW_ZENOH_ROUTER_CONFIG.json5`) both set where they differ from
+/// Zenoh's defaults: no multicast, gossip, long timeouts and lease,
+/// timestamps.
+const COMMON_DEFAULTS: &[(&str, &str)] = &[
+    ("scouting/multicast/enabled", "false"),
+    ("scouting/gossip/enabled", "true"),
+    ("scouting/gossip/multihop", "false"),
+    (
+        "timestamping/enabled",
+        "{ router: true, peer: true, client: true }",
+    ),
+    ("queries_default_timeout", "600000"),
+    ("transport/unicast/open_timeout", "60000"),
+    ("transport/unicast/accept_timeout", "60000"),
+    ("transport/unicast/max_links", "1"),
+    ("transport/link/tx/lease", "60000"),
+];
+
+/// The session's own defaults: a peer that reaches the others through the
+/// router at [`DEFAULT_ROUTER_ENDPOINT`] and listens on a local port of its
+/// own. Two differences from rmw_zenoh_cpp: shared memory is on, where
+/// rmw_zenoh_cpp ships it off; and a peer gossips to peers as well as to
+/// routers (Zenoh's default, where rmw_zenoh_cpp gossips to routers only),
+/// so that peers joined to one another without a router still find each
+/// other.
 const SESSION_DEFAULTS: &[(&str, &str)] = &[
     ("mode", r#""peer""#),
     ("connect/endpoints", r#"["tcp/localhost:7447"]"#),
     ("listen/endpoints", r#"["tcp/localhost:0"]"#),
-    ("scouting/multicast/enabled", "false"),
-    ("scouting/gossip/enabled", "true"),
-    ("scouting/gossip/multihop", "false"),
-    (
-        "timestamping/enabled",
-        "{ router: true, peer: true, client: true }",
-    ),
-    ("queries_default_timeout", "600000"),
-    ("transport/unicast/open_timeout", "60000"),
-    ("transport/unicast/accept_timeout", "60000"),
-    ("transport/unicast/max_links", "1"),
-    ("transport/link/tx/lease", "60000"),
     ("transport/shared_memory/enabled", "true"),
 ];
 
-/// rmw_zenohd's default configuration (`DEFAULT_RMW_ZENOH_ROUTER_CONFIG.json5`)
-/// where it differs from Zenoh's defaults: a router on port 7447 of every
-/// interface, no multicast, gossip, long timeouts and lease, timestamps.
+/// rmw_zenohd's own defaults: a router on port 7447 of every interface,
+/// gossiping to routers and peers.
 const ROUTER_DEFAULTS: &[(&str, &str)] = &[
     ("mode", r#""router""#),
     ("connect/endpoints", "[]"),
     ("listen/endpoints", r#"["tcp/[::]:7447"]"#),
-    ("scouting/multicast/enabled", "false"),
-    ("scouting/gossip/enabled", "true"),
-    ("scouting/gossip/multihop", "false"),
     (
         "scouting/gossip/target",
         r#"{ router: ["router", "peer"], peer: ["router"] }"#,
     ),
-    (
-        "timestamping/enabled",
-        "{ router: true, peer: true, client: true }",
-    ),
-    ("queries_default_timeout", "600000"),
-    ("transport/unicast/open_timeout", "60000"),
-    ("transport/unicast/accept_timeout", "60000"),
-    ("transport/unicast/max_links", "1"),
-    ("transport/link/tx/lease", "60000"),
 ];
 
 /// What went wrong reading the configuration; each says what to change.
@@ -159,7 +152,7 @@ fn variable(name: &'static str) -> Result<Option<String>, RmwConfigError> {
 
 fn with_defaults(defaults: &[(&str, &str)]) -> Config {
     let mut config = Config::default();
-    for (key, value) in defaults {
+    for (key, value) in COMMON_DEFAULTS.iter().chain(defaults) {
         // The table is this crate's own and checked by its tests.
         let _ = config.insert_json5(key, value);
     }
@@ -373,7 +366,11 @@ mod tests {
 
     #[test]
     fn every_default_is_a_key_zenoh_knows_with_a_value_it_takes() {
-        for (key, value) in SESSION_DEFAULTS.iter().chain(ROUTER_DEFAULTS) {
+        for (key, value) in COMMON_DEFAULTS
+            .iter()
+            .chain(SESSION_DEFAULTS)
+            .chain(ROUTER_DEFAULTS)
+        {
             let mut config = Config::default();
             config
                 .insert_json5(key, value)
