@@ -368,8 +368,8 @@ fn silent_publishers(context: &Context, topic: &str) {
     if publishers > 0 {
         eprintln!(
             "No message on {topic} in {:.0} s from its {publishers} publisher(s): they may \
-             publish rarely, or a Zenoh access-control policy (the router's or this \
-             session's) denies this topic to this session. Still waiting.",
+             publish rarely, or a Zenoh access-control policy (the router's, or the one in \
+             this command's Zenoh configuration) denies this topic to it. Still waiting.",
             context.timeout.as_secs_f64()
         );
     }

@@ -174,57 +174,46 @@ pub fn default_router_config() -> Config {
 /// environment: the file `ZENOH_SESSION_CONFIG_URI` names (else
 /// [`default_session_config`]), then `ZENOH_CONFIG_OVERRIDE`.
 pub fn session_config() -> Result<Config, RmwConfigError> {
-    let file = variable(SESSION_CONFIG_URI)?.map(PathBuf::from);
-    let overrides = variable(CONFIG_OVERRIDE)?;
-    configure(
-        SESSION_CONFIG_URI,
-        file.as_deref(),
-        default_session_config,
-        overrides.as_deref(),
-    )
+    session_config_from(None)
 }
 
 /// [`session_config`] starting from `file` when it is given (a
 /// command line's `--zenoh-config`) instead of the one
 /// `ZENOH_SESSION_CONFIG_URI` names.
 pub fn session_config_from(file: Option<&Path>) -> Result<Config, RmwConfigError> {
-    match file {
-        Some(file) => configure(
-            SESSION_CONFIG_URI,
-            Some(file),
-            default_session_config,
-            variable(CONFIG_OVERRIDE)?.as_deref(),
-        ),
-        None => session_config(),
-    }
+    from_env(SESSION_CONFIG_URI, file, default_session_config)
 }
 
 /// The router configuration rmw_zenohd would use in this environment: the
 /// file `ZENOH_ROUTER_CONFIG_URI` names (else [`default_router_config`]),
 /// then `ZENOH_CONFIG_OVERRIDE`.
 pub fn router_config() -> Result<Config, RmwConfigError> {
-    let file = variable(ROUTER_CONFIG_URI)?.map(PathBuf::from);
-    let overrides = variable(CONFIG_OVERRIDE)?;
-    configure(
-        ROUTER_CONFIG_URI,
-        file.as_deref(),
-        default_router_config,
-        overrides.as_deref(),
-    )
+    router_config_from(None)
 }
 
 /// [`router_config`] starting from `file` when it is given (a command
 /// line's `--config`) instead of the one `ZENOH_ROUTER_CONFIG_URI` names.
 pub fn router_config_from(file: Option<&Path>) -> Result<Config, RmwConfigError> {
-    match file {
-        Some(file) => configure(
-            ROUTER_CONFIG_URI,
-            Some(file),
-            default_router_config,
-            variable(CONFIG_OVERRIDE)?.as_deref(),
-        ),
-        None => router_config(),
-    }
+    from_env(ROUTER_CONFIG_URI, file, default_router_config)
+}
+
+/// `file`, else the one the variable `uri` names, else `defaults`; then
+/// `ZENOH_CONFIG_OVERRIDE`.
+fn from_env(
+    uri: &'static str,
+    file: Option<&Path>,
+    defaults: fn() -> Config,
+) -> Result<Config, RmwConfigError> {
+    let named = match file {
+        Some(file) => Some(file.to_owned()),
+        None => variable(uri)?.map(PathBuf::from),
+    };
+    configure(
+        uri,
+        named.as_deref(),
+        defaults,
+        variable(CONFIG_OVERRIDE)?.as_deref(),
+    )
 }
 
 /// A configuration from `file` (as the variable `variable` gives it) or the
