@@ -405,12 +405,17 @@ fn stop_child(port: u16, recovery: bool) -> ! {
 /// Publish 100 × 32 KiB, SIGSTOP the subscriber process (this binary
 /// re-executed as `test` through `env`), publish up to `DURING_STOP`, SIGCONT
 /// it after `stopped`, and keep publishing until it reports.
+/// One stop at a time: each congests a link on purpose, and two at once on
+/// two cores starve each other's recovery queries and replies.
+static STOPS: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 fn stop_subscriber_process(
     test: &str,
     env: &str,
     stopped: Duration,
     recovery: Option<usize>,
 ) -> StopReport {
+    let _one_at_a_time = STOPS.lock().unwrap_or_else(|e| e.into_inner());
     let port = free_port();
     let session = common::open(without_implicit_shm_copy(peer_config(port, true)))
         .wait()

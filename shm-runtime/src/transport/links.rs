@@ -179,6 +179,16 @@ impl Links {
         }
     }
 
+    /// Whether `session` is this table's own, or one a transport of ours was
+    /// opened with: its id came from the transport's handshake (and its
+    /// authentication, where configured), not from anything it declared.
+    pub(crate) fn is_linked(&self, session: ZenohId) -> bool {
+        session == self.session
+            || lock(&self.transports)
+                .get(&session)
+                .is_some_and(|state| state.whatami.is_some())
+    }
+
     /// Whether the transport to `session` runs over this host's loopback or
     /// a Unix socket: then only a differing Zenoh, shared memory off over
     /// there, or another user keeps it from carrying shared memory.

@@ -35,8 +35,9 @@ pub enum PayloadKind {
     /// about once).
     PoolUnavailable,
     /// Above the threshold, but a session that subscribes to the publisher
-    /// had not answered whether it maps the pool (one round trip, once per
-    /// session and pool) within the pool's `alloc_timeout`: encoded on the
+    /// had not answered whether it maps the pool (two round trips: its
+    /// receiver token is confirmed, then the pool probed; once per session
+    /// and pool) within the pool's `alloc_timeout`: encoded on the
     /// heap meanwhile (counted in [`ShmStats::pending`](crate::ShmStats)).
     ReceiverPending,
     /// Above the threshold, but a session that subscribes to the publisher
@@ -92,7 +93,7 @@ impl ShmPolicy {
     /// Why a message above the threshold must go from the heap now, if it
     /// must (see [`Receivers::gate`]). A session still being checked is
     /// waited for as a full pool is, up to the pool's `alloc_timeout`: the
-    /// check takes one round trip, and the message then takes its final path.
+    /// check takes two round trips, and the message then takes its final path.
     pub(crate) fn gate(&self) -> Option<PayloadKind> {
         let receivers = self.receivers.as_ref()?;
         let mut gate = receivers.gate();

@@ -585,8 +585,9 @@ impl<T> RosPublisher<T> {
     /// listener: it wakes when the match happens.
     ///
     /// A publisher with a pool also waits, within the same `timeout`, until
-    /// every subscribing session has answered whether it maps the pool (one
-    /// round trip; see [`receivers`](Self::receivers)), so that the messages
+    /// every subscribing session has confirmed its receiver token and answered
+    /// whether it maps the pool (two round trips; see
+    /// [`receivers`](Self::receivers)), so that the messages
     /// published next take their final path.
     pub fn wait_for_subscribers(&self, timeout: std::time::Duration) -> bool {
         let deadline = std::time::Instant::now() + timeout;
@@ -606,25 +607,28 @@ impl<T> RosPublisher<T> {
         true
     }
 
-    /// Whether every session known to subscribe has answered whether it maps
-    /// the pool (starting the checks that are due).
+    /// Whether every receiver token has been confirmed or not, and every
+    /// session known to subscribe has answered whether it maps the pool
+    /// (starting the checks that are due).
     fn receivers_checked(&self) -> bool {
         self.policy
             .as_ref()
-            .map_or(true, |p| p.gate() != Some(PayloadKind::ReceiverPending))
+            .and_then(|p| p.receivers.as_ref())
+            .map_or(true, |r| r.settled())
     }
 
     /// Resolves once at least one subscriber matches this publisher (at once if
     /// one already does), and the subscribing sessions have answered whether
     /// they map the pool, as [`wait_for_subscribers`](Self::wait_for_subscribers)
-    /// does (for at most [`PROBE_TIMEOUT`]). Cancellation-safe; bound it with your runtime's
+    /// does (for at most twice [`PROBE_TIMEOUT`]). Cancellation-safe; bound it with your runtime's
     /// timeout (e.g. `tokio::time::timeout`).
     pub async fn subscribers_matched(&self) -> zenoh::Result<()> {
         crate::transport::matching::matched(self.publisher.matching_listener(), || {
             self.has_subscribers()
         })
         .await?;
-        let deadline = std::time::Instant::now() + PROBE_TIMEOUT;
+        // A confirmation, then a probe.
+        let deadline = std::time::Instant::now() + 2 * PROBE_TIMEOUT;
         while !self.receivers_checked() && std::time::Instant::now() < deadline {
             futures_timer::Delay::new(RECEIVER_POLL).await;
         }

@@ -16,21 +16,31 @@
 //!
 //! Receiving sessions announce themselves per key expression with a
 //! liveliness token `<key>/@shm_cdr_rx/<zid>/<n>`, so a publisher checks only
-//! the sessions that subscribe to what it publishes.
+//! the sessions that subscribe to what it publishes. Any session can declare
+//! any token, so a token counts only once the session it names has confirmed
+//! it: a query to that session's probe queryable, answered by that session
+//! (Zenoh's replier id) with "I hold it". A token nobody confirms (forged, or
+//! its session is gone or denied the probe) holds no message back; while one
+//! is being confirmed, messages wait for it only if its session is linked to
+//! ours directly (the transport's handshake named it) and has not left a
+//! token unconfirmed before. So a peer can hold a topic's messages on the
+//! heap only as what it is: a session that really subscribes and cannot map
+//! the pool (the trust model is in the guide's security chapter).
 //!
 //! Subscribers of other ROS 2 implementations (rmw_zenoh_cpp's) answer no
 //! probe; a ROS publisher follows their graph tokens instead, and tells how
 //! each gets its messages from the transport to its session ([`Links`]):
 //! one that carries no shared memory gets copies, which every publish counts.
 
-use std::collections::HashMap;
+use std::collections::hash_map::Entry;
+use std::collections::{HashMap, HashSet};
 use std::fmt;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, Weak};
 use std::time::{Duration, Instant};
 
 use zenoh::liveliness::LivelinessToken;
-use zenoh::query::Queryable;
+use zenoh::query::{ConsolidationMode, QueryTarget, Queryable, Reply};
 use zenoh::sample::SampleKind;
 use zenoh::session::ZenohId;
 use zenoh::{Session, Wait};
@@ -45,8 +55,11 @@ use crate::transport::pool::ShmContext;
 /// in a receiver token.
 const RECEIVER_CHUNK: &str = "@shm_cdr_rx";
 
-/// How long a publisher's probe waits for a subscribing session's reply
-/// before it takes the session as unable to map the pool (see [`Reach`]).
+/// How long a publisher waits for a subscribing session to confirm its
+/// receiver token (past it, the token is taken as unconfirmed and holds
+/// nothing back: [`Reach::Unconfirmed`]), and then for its probe's reply
+/// (past it, the session is taken as unable to map the pool:
+/// [`Reach::CannotMap`]).
 pub const PROBE_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// How long after a failed probe the session is asked again (its limit may
@@ -60,12 +73,29 @@ const RETRY_AFTER_MAX: Duration = Duration::from_secs(3600);
 const MAPPED: &[u8] = b"shm";
 const AS_BYTES: &[u8] = b"bytes";
 
+/// The selector parameter that makes a query to a probe queryable a
+/// confirmation: its payload is a receiver token's key, and the reply says
+/// whether the session holds that token.
+const CONFIRM: &str = "confirm";
+const HOLDS: &[u8] = b"holds";
+const DOES_NOT_HOLD: &[u8] = b"unknown";
+
+/// How long after a failed probe or confirmation to ask again, the `n`th
+/// time in a row: [`RETRY_AFTER`], doubling up to [`RETRY_AFTER_MAX`].
+fn backoff(failures: u32) -> Duration {
+    RETRY_AFTER
+        .saturating_mul(1 << failures.saturating_sub(1).min(16))
+        .min(RETRY_AFTER_MAX)
+}
+
 /// How a subscriber's session receives a publisher's shared-memory messages.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum Reach {
-    /// The check is under way (it takes one round trip): messages go from
-    /// the heap meanwhile ([`PayloadKind::ReceiverPending`]). A subscriber
+    /// The check is under way (two round trips: the session confirms its
+    /// receiver token, then answers the probe): messages go from the heap
+    /// meanwhile ([`PayloadKind::ReceiverPending`]) if the session is linked
+    /// to the publisher's, or once it has confirmed. A subscriber
     /// that answers no probe stays here until a transport to it opens, and
     /// for good on a session in Zenoh's low-latency mode, whose transports
     /// Zenoh 1.9 cannot list for it (its messages are not held back).
@@ -90,6 +120,12 @@ pub enum Reach {
     /// messages go from the heap so that it gets every one
     /// ([`PayloadKind::ReceiverCannotMap`]). Asked again every 30 s.
     CannotMap,
+    /// A receiver token that the session it names did not confirm within
+    /// [`PROBE_TIMEOUT`]: forged by another session, or its session is gone,
+    /// is not this project's, or an access-control policy denies the probe
+    /// (see the guide's security chapter). It holds no message back; asked
+    /// again after 30 s, then less and less often.
+    Unconfirmed,
 }
 
 impl fmt::Display for Reach {
@@ -102,6 +138,7 @@ impl fmt::Display for Reach {
                 "shared memory (link negotiated; the subscriber answers no probe)"
             }
             Self::CannotMap => "cannot map the pool",
+            Self::Unconfirmed => "unconfirmed receiver token (ignored)",
         })
     }
 }
@@ -134,10 +171,8 @@ impl Checked {
     }
 
     fn due_at(&self, now: Instant) -> bool {
-        let backoff = RETRY_AFTER
-            .saturating_mul(1 << self.failures.saturating_sub(1).min(16))
-            .min(RETRY_AFTER_MAX);
-        self.reach == Reach::CannotMap && now.saturating_duration_since(self.at) >= backoff
+        self.reach == Reach::CannotMap
+            && now.saturating_duration_since(self.at) >= backoff(self.failures)
     }
 }
 
@@ -161,8 +196,10 @@ static RESPONDERS: Mutex<Option<Responders>> = Mutex::new(None);
 /// Numbers receiver tokens apart within a process.
 static NEXT_RECEIVER: AtomicU64 = AtomicU64::new(0);
 
-/// Answers probes for one session.
+/// Answers probes and confirmations for one session.
 struct Responder {
+    /// The receiver tokens the session holds: what a confirmation asks about.
+    held: Arc<Mutex<HashSet<String>>>,
     _queryable: Queryable<()>,
 }
 
@@ -173,25 +210,42 @@ fn probe_key(session: ZenohId) -> String {
 impl Responder {
     /// The responder of `session`: the one its subscribers share, or a new one.
     fn of(session: &Session) -> zenoh::Result<Arc<Self>> {
-        let mut responders = RESPONDERS.lock().unwrap_or_else(|e| e.into_inner());
+        let mut responders = lock(&RESPONDERS);
         let responders = responders.get_or_insert_with(HashMap::new);
         if let Some(responder) = responders.get(&session.zid()).and_then(Weak::upgrade) {
             return Ok(responder);
         }
         responders.retain(|_, r| r.strong_count() > 0);
+        let held = Arc::new(Mutex::new(HashSet::new()));
+        let tokens = Arc::clone(&held);
         let queryable = session
             .declare_queryable(probe_key(session.zid()))
-            .callback(|query| {
-                // Reaching this callback means Zenoh mapped the chunk, or
-                // the link brought it as bytes.
-                let mapped = query.payload().is_some_and(|p| p.as_shm().is_some());
-                let answer = if mapped { MAPPED } else { AS_BYTES };
+            .callback(move |query| {
+                let answer = if query.parameters().contains_key(CONFIRM) {
+                    let key = query.payload().map(|p| p.to_bytes());
+                    let holds = key
+                        .as_deref()
+                        .and_then(|k| std::str::from_utf8(k).ok())
+                        .is_some_and(|k| lock(&tokens).contains(k));
+                    match holds {
+                        true => HOLDS,
+                        false => DOES_NOT_HOLD,
+                    }
+                } else {
+                    // Reaching this callback means Zenoh mapped the chunk, or
+                    // the link brought it as bytes.
+                    match query.payload().is_some_and(|p| p.as_shm().is_some()) {
+                        true => MAPPED,
+                        false => AS_BYTES,
+                    }
+                };
                 if let Err(e) = query.reply(query.key_expr().clone(), answer).wait() {
                     tracing::debug!("shared-memory probe: could not reply: {e}");
                 }
             })
             .wait()?;
         let responder = Arc::new(Self {
+            held,
             _queryable: queryable,
         });
         responders.insert(session.zid(), Arc::downgrade(&responder));
@@ -202,22 +256,38 @@ impl Responder {
 /// A subscriber's announcement that its session receives `key_expr`: kept
 /// for as long as the subscriber lives.
 pub(crate) struct ReceiverMark {
+    token_key: String,
     _token: LivelinessToken,
-    _responder: Arc<Responder>,
+    responder: Arc<Responder>,
 }
 
 impl ReceiverMark {
     /// Announce that `session` subscribes to `key_expr`, answering probes.
     pub(crate) fn announce(session: &Session, key_expr: &str) -> zenoh::Result<Self> {
         let n = NEXT_RECEIVER.fetch_add(1, Ordering::Relaxed);
-        let token = format!("{key_expr}/{RECEIVER_CHUNK}/{}/{n}", session.zid());
-        check_key_expr("key expression", &token)?;
+        let token_key = format!("{key_expr}/{RECEIVER_CHUNK}/{}/{n}", session.zid());
+        check_key_expr("key expression", &token_key)?;
         let responder = Responder::of(session)?;
-        let token = session.liveliness().declare_token(token).wait()?;
+        // Held before it is declared: a publisher asks as soon as it sees it.
+        lock(&responder.held).insert(token_key.clone());
+        let token = match session.liveliness().declare_token(&token_key).wait() {
+            Ok(token) => token,
+            Err(e) => {
+                lock(&responder.held).remove(&token_key);
+                return Err(e);
+            }
+        };
         Ok(Self {
+            token_key,
             _token: token,
-            _responder: responder,
+            responder,
         })
+    }
+}
+
+impl Drop for ReceiverMark {
+    fn drop(&mut self) {
+        lock(&self.responder.held).remove(&self.token_key);
     }
 }
 
@@ -229,17 +299,57 @@ pub(crate) struct Receivers {
     _ros_subscriber: Option<zenoh::pubsub::Subscriber<()>>,
 }
 
+/// Where a receiver token stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Confirmation {
+    /// Its session is being asked whether it holds the token, for the
+    /// `tries`th time.
+    Asking { tries: u32 },
+    /// Its session holds it.
+    Confirmed,
+    /// Its session did not say it holds it, `tries` times in a row, the last
+    /// settled `at`.
+    Unconfirmed { at: Instant, tries: u32 },
+}
+
+/// One receiver token seen by a publisher.
+#[derive(Debug, Clone, Copy)]
+struct Token {
+    /// The session it names.
+    session: ZenohId,
+    confirmation: Confirmation,
+}
+
+impl Token {
+    /// Whether an unconfirmed token is due to be asked about again.
+    fn due_at(&self, now: Instant) -> bool {
+        match self.confirmation {
+            Confirmation::Unconfirmed { at, tries } => {
+                now.saturating_duration_since(at) >= backoff(tries)
+            }
+            _ => false,
+        }
+    }
+}
+
 struct Shared {
     session: Session,
     pool: ShmContext,
     key_expr: String,
-    /// Alive receiver tokens and their session.
-    tokens: Mutex<HashMap<String, ZenohId>>,
+    /// Alive receiver tokens.
+    tokens: Mutex<HashMap<String, Token>>,
+    /// Sessions linked to ours that left a receiver token unconfirmed: their
+    /// tokens hold nothing back while being confirmed. Bounded by the
+    /// transports the session has had.
+    distrusted: Mutex<HashSet<ZenohId>>,
     /// Alive graph tokens of ROS subscribers that match, and their session.
     ros_subscribers: Mutex<HashMap<String, ZenohId>>,
     links: Arc<Links>,
     /// Sessions already warned about for getting copies.
     warned: Mutex<Vec<ZenohId>>,
+    /// Whether an unconfirmed receiver token was reported at warning level
+    /// (later ones are debug lines: forged tokens may come by the thousand).
+    warned_unconfirmed: AtomicBool,
 }
 
 fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -248,14 +358,19 @@ fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
 }
 
 impl Shared {
-    fn tokens(&self) -> MutexGuard<'_, HashMap<String, ZenohId>> {
+    fn tokens(&self) -> MutexGuard<'_, HashMap<String, Token>> {
         lock(&self.tokens)
     }
 
-    /// Sessions of matching ROS subscribers that announce no receiver token:
-    /// they answer no probe.
+    /// Sessions of matching ROS subscribers that announce no receiver token
+    /// that stands (being confirmed, or confirmed): they answer no probe.
     fn unprobed(&self) -> Vec<ZenohId> {
-        let probed: Vec<ZenohId> = self.tokens().values().copied().collect();
+        let probed: Vec<ZenohId> = self
+            .tokens()
+            .values()
+            .filter(|t| !matches!(t.confirmation, Confirmation::Unconfirmed { .. }))
+            .map(|t| t.session)
+            .collect();
         let mut sessions: Vec<ZenohId> = lock(&self.ros_subscribers)
             .values()
             .copied()
@@ -273,6 +388,14 @@ impl Shared {
             LinkReach::Bytes => Reach::Bytes,
             LinkReach::Unknown => Reach::Checking,
         }
+    }
+
+    /// Whether messages wait for a token of `session` while it is being
+    /// confirmed: only if the session is linked to ours (its identity came
+    /// from the transport's handshake, not from the token) and has left no
+    /// token unconfirmed. Anything else could be any peer's forgery.
+    fn held_while_asking(&self, session: ZenohId) -> bool {
+        self.links.is_linked(session) && !lock(&self.distrusted).contains(&session)
     }
 
     /// Say once per session that it gets this publisher's messages as copies.
@@ -302,12 +425,35 @@ impl Shared {
             );
         }
     }
+
+    /// Report a receiver token its session did not confirm.
+    fn report_unconfirmed(&self, token: &str, session: ZenohId) {
+        if self.warned_unconfirmed.swap(true, Ordering::Relaxed) {
+            tracing::debug!(key_expr = %self.key_expr, %session, token, "receiver token not confirmed: ignored");
+            return;
+        }
+        tracing::warn!(
+            key_expr = %self.key_expr,
+            %session,
+            token,
+            "a shared-memory receiver token was not confirmed by the session it names within {PROBE_TIMEOUT:?}, and is ignored \
+             (Reach::Unconfirmed): another session declared it, that session is gone, or an access-control policy denies \
+             queries and replies on @shm_cdr/probe/** (the guide's security chapter lists the keys to allow). \
+             Later ones are logged at debug level"
+        );
+    }
 }
 
 /// The session named in a receiver token.
 fn session_of(token: &str) -> Option<ZenohId> {
     let rest = token.rsplit_once(&format!("/{RECEIVER_CHUNK}/"))?.1;
     rest.split('/').next()?.parse().ok()
+}
+
+/// The session a reply came from, as Zenoh's protocol carries it: set by the
+/// replying session's Zenoh, not by its application.
+fn replier(reply: &Reply) -> Option<ZenohId> {
+    reply.replier_id().map(|id| id.zid())
 }
 
 impl Receivers {
@@ -326,9 +472,11 @@ impl Receivers {
             pool: pool.clone(),
             key_expr: key_expr.to_owned(),
             tokens: Mutex::default(),
+            distrusted: Mutex::default(),
             ros_subscribers: Mutex::default(),
             links: Links::of(session)?,
             warned: Mutex::default(),
+            warned_unconfirmed: AtomicBool::new(false),
         });
         let ros_subscriber = match ros_subscribers {
             Some(selector) => Some(follow_ros_subscribers(session, selector, &shared)?),
@@ -352,8 +500,20 @@ impl Receivers {
                 };
                 match sample.kind() {
                     SampleKind::Put => {
-                        shared.tokens().insert(token.to_owned(), zid);
-                        probe(&shared, zid);
+                        let new = match shared.tokens().entry(token.to_owned()) {
+                            // Seen already (a replayed token): as it stands.
+                            Entry::Occupied(_) => false,
+                            Entry::Vacant(entry) => {
+                                entry.insert(Token {
+                                    session: zid,
+                                    confirmation: Confirmation::Asking { tries: 0 },
+                                });
+                                true
+                            }
+                        };
+                        if new {
+                            confirm(&shared, token, zid, 0);
+                        }
                     }
                     SampleKind::Delete => {
                         shared.tokens().remove(token);
@@ -370,17 +530,37 @@ impl Receivers {
 
     /// The sessions subscribing now, each with how it receives.
     pub(crate) fn list(&self) -> Vec<Receiver> {
-        let mut sessions: Vec<ZenohId> = self.shared.tokens().values().copied().collect();
-        sessions.sort_unstable();
-        sessions.dedup();
+        // Per session, its token that stands best.
+        let mut sessions: HashMap<ZenohId, Confirmation> = HashMap::new();
+        for token in self.shared.tokens().values() {
+            let rank = |c: &Confirmation| match c {
+                Confirmation::Confirmed => 2,
+                Confirmation::Asking { .. } => 1,
+                Confirmation::Unconfirmed { .. } => 0,
+            };
+            let best = sessions.entry(token.session).or_insert(token.confirmation);
+            if rank(&token.confirmation) > rank(best) {
+                *best = token.confirmation;
+            }
+        }
         let unprobed = self.shared.unprobed();
         let mut receivers: Vec<Receiver> = {
             let table = self.shared.pool.reach_table().lock();
             sessions
                 .into_iter()
-                .map(|session| Receiver {
+                .filter(|(session, c)| {
+                    // An ignored token of a ROS subscriber's session: listed below.
+                    !(matches!(c, Confirmation::Unconfirmed { .. }) && unprobed.contains(session))
+                })
+                .map(|(session, confirmation)| Receiver {
                     session,
-                    reach: table.get(&session).map_or(Reach::Checking, |c| c.reach),
+                    reach: match confirmation {
+                        Confirmation::Confirmed => {
+                            table.get(&session).map_or(Reach::Checking, |c| c.reach)
+                        }
+                        Confirmation::Asking { .. } => Reach::Checking,
+                        Confirmation::Unconfirmed { .. } => Reach::Unconfirmed,
+                    },
                 })
                 .collect()
         };
@@ -402,10 +582,14 @@ impl Receivers {
             // Lock order: tokens, then the pool's table (as `probe` takes them).
             let tokens = self.shared.tokens();
             let table = self.shared.pool.reach_table().lock();
-            for session in tokens.values() {
-                let bytes = table.get(session).is_some_and(|c| c.reach == Reach::Bytes);
-                if bytes && !copied.contains(session) {
-                    copied.push(*session);
+            for token in tokens.values() {
+                if token.confirmation != Confirmation::Confirmed {
+                    continue;
+                }
+                let session = token.session;
+                let bytes = table.get(&session).is_some_and(|c| c.reach == Reach::Bytes);
+                if bytes && !copied.contains(&session) {
+                    copied.push(session);
                 }
             }
         }
@@ -425,40 +609,83 @@ impl Receivers {
 
     /// Why a message above the threshold must go from the heap now, if it
     /// must: a subscribing session not yet checked, or one that cannot map
-    /// the pool. Starts the checks that are due.
+    /// the pool. Starts the checks and confirmations that are due.
     pub(crate) fn gate(&self) -> Option<PayloadKind> {
+        self.look().0
+    }
+
+    /// Whether every receiver token has been confirmed or not, and every
+    /// confirmed session has answered its probe or not (starting the checks
+    /// that are due): what [`wait_for_subscribers`](crate::RosPublisher::wait_for_subscribers) waits for.
+    pub(crate) fn settled(&self) -> bool {
+        self.look().1
+    }
+
+    /// The gate, and whether every check has settled.
+    fn look(&self) -> (Option<PayloadKind>, bool) {
         let mut gate = None;
-        let mut due = Vec::new();
+        let mut settled = true;
+        let mut due_probes = Vec::new();
+        let mut due_confirmations = Vec::new();
         {
             // Lock order: tokens, then the pool's table (as `probe` takes them).
-            let tokens = self.shared.tokens();
+            let mut tokens = self.shared.tokens();
             if tokens.is_empty() {
-                return None;
+                return (None, true);
             }
+            let now = Instant::now();
             let table = self.shared.pool.reach_table().lock();
-            for session in tokens.values() {
-                match table.get(session) {
+            for (key, token) in tokens.iter_mut() {
+                let session = token.session;
+                match token.confirmation {
+                    Confirmation::Asking { .. } => {
+                        settled = false;
+                        if self.shared.held_while_asking(session) {
+                            gate = gate.or(Some(PayloadKind::ReceiverPending));
+                        }
+                        continue;
+                    }
+                    Confirmation::Unconfirmed { tries, .. } => {
+                        if token.due_at(now) {
+                            token.confirmation = Confirmation::Asking { tries };
+                            due_confirmations.push((key.clone(), session, tries));
+                        }
+                        continue;
+                    }
+                    Confirmation::Confirmed => {}
+                }
+                match table.get(&session) {
                     None => {
-                        due.push(*session);
+                        due_probes.push(session);
+                        settled = false;
                         gate = gate.or(Some(PayloadKind::ReceiverPending));
                     }
                     Some(checked) => match checked.reach {
-                        Reach::Checking => gate = gate.or(Some(PayloadKind::ReceiverPending)),
+                        Reach::Checking => {
+                            settled = false;
+                            gate = gate.or(Some(PayloadKind::ReceiverPending));
+                        }
                         Reach::CannotMap => {
                             if checked.due() {
-                                due.push(*session);
+                                due_probes.push(session);
                             }
                             gate = Some(PayloadKind::ReceiverCannotMap);
                         }
-                        Reach::SharedMemory | Reach::Bytes | Reach::SharedMemoryUnprobed => {}
+                        Reach::SharedMemory
+                        | Reach::Bytes
+                        | Reach::SharedMemoryUnprobed
+                        | Reach::Unconfirmed => {}
                     },
                 }
             }
         }
-        for session in due {
+        for session in due_probes {
             probe(&self.shared, session);
         }
-        gate
+        for (key, session, tries) in due_confirmations {
+            confirm(&self.shared, &key, session, tries);
+        }
+        (gate, settled)
     }
 }
 
@@ -493,6 +720,83 @@ fn follow_ros_subscribers(
             }
         })
         .wait()
+}
+
+/// Ask `session` whether it holds the receiver token `token` (the
+/// `tries + 1`th time); once it says so, its pool check starts.
+fn confirm(shared: &Arc<Shared>, token: &str, session: ZenohId, tries: u32) {
+    let settle = Confirming {
+        shared: Arc::downgrade(shared),
+        token: token.to_owned(),
+        session,
+        tries,
+        holds: AtomicBool::new(false),
+    };
+    let sent = shared
+        .session
+        .get(format!("{}?{CONFIRM}", probe_key(session)))
+        .payload(token.as_bytes().to_vec())
+        // Every queryable on the key, and every reply: one forged answer
+        // must not hide the real one.
+        .target(QueryTarget::All)
+        .consolidation(ConsolidationMode::None)
+        .timeout(PROBE_TIMEOUT)
+        .callback(move |reply| {
+            let holds = replier(&reply) == Some(session)
+                && reply
+                    .result()
+                    .is_ok_and(|sample| &*sample.payload().to_bytes() == HOLDS);
+            if holds {
+                settle.holds.store(true, Ordering::Relaxed);
+            }
+        })
+        .wait();
+    if let Err(e) = sent {
+        // Settled as unconfirmed by the dropped callback; asked again later.
+        tracing::debug!("receiver token confirmation of session {session}: {e}");
+    }
+}
+
+/// Settles a confirmation when Zenoh drops its reply callback: after the
+/// replies and the final, or at the timeout.
+struct Confirming {
+    shared: Weak<Shared>,
+    token: String,
+    session: ZenohId,
+    tries: u32,
+    holds: AtomicBool,
+}
+
+impl Drop for Confirming {
+    fn drop(&mut self) {
+        let Some(shared) = self.shared.upgrade() else {
+            return;
+        };
+        let holds = *self.holds.get_mut();
+        {
+            let mut tokens = shared.tokens();
+            // Gone meanwhile: nothing to settle.
+            let Some(token) = tokens.get_mut(&self.token) else {
+                return;
+            };
+            token.confirmation = match holds {
+                true => Confirmation::Confirmed,
+                false => Confirmation::Unconfirmed {
+                    at: Instant::now(),
+                    tries: self.tries.saturating_add(1),
+                },
+            };
+        }
+        if holds {
+            lock(&shared.distrusted).remove(&self.session);
+            probe(&shared, self.session);
+        } else {
+            if shared.links.is_linked(self.session) {
+                lock(&shared.distrusted).insert(self.session);
+            }
+            shared.report_unconfirmed(&self.token, self.session);
+        }
+    }
 }
 
 /// Ask `session` whether it maps `shared`'s pool, unless a check is under
@@ -539,14 +843,20 @@ fn probe(shared: &Shared, session: ZenohId) {
         .session
         .get(probe_key(session))
         .payload(chunk)
+        .target(QueryTarget::All)
+        .consolidation(ConsolidationMode::None)
         .timeout(PROBE_TIMEOUT)
         .callback(move |reply| {
+            // Only the session asked about answers for it.
+            if replier(&reply) != Some(session) {
+                return;
+            }
             if let Ok(sample) = reply.result() {
                 let reach = match &*sample.payload().to_bytes() {
                     MAPPED => Reach::SharedMemory,
                     _ => Reach::Bytes,
                 };
-                *verdict.answer.lock().unwrap_or_else(|e| e.into_inner()) = Some(reach);
+                *lock(&verdict.answer) = Some(reach);
             }
         })
         .wait();
