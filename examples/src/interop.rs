@@ -144,7 +144,7 @@ pub fn sample_messages(round: u32) -> (PointCloud2, Image, JointState, Header, B
         voltage: 24.6,
         cells: vec![4.1, 4.1, 4.09, 4.11].into(),
         temperatures: [20.5, 21.0, -3.25],
-        charging: round % 2 == 0,
+        charging: round.is_multiple_of(2),
         history: (0..3).map(|i| Time { sec: i, nanosec: 7 }).collect(),
     };
     (cloud, image, joints, header("tf"), battery)

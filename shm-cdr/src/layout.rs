@@ -372,7 +372,7 @@ impl<T: ?Sized> PlainLayout<T> {
     /// field's CDR alignment matches its offset in memory.
     #[inline(always)]
     pub const fn bulk_at(&self, pos: usize) -> bool {
-        align_up(pos, self.first_align) % self.align == 0
+        align_up(pos, self.first_align).is_multiple_of(self.align)
     }
 
     /// The numbers of this proof, to pass to [`PlainLayout::of_struct`].
@@ -420,7 +420,7 @@ impl<T: ?Sized> PlainLayout<T> {
             pos += field.size;
             i += 1;
         }
-        if pos != size || size % align != 0 {
+        if pos != size || !size.is_multiple_of(align) {
             return None;
         }
         // SAFETY: every field is plain (its own proof), they tile `0..size` with no
@@ -526,8 +526,8 @@ pub(crate) fn plain_slice<T>(_proof: PlainLayout<T>, bytes: &[u8]) -> Option<&[T
     }
     let size = std::mem::size_of::<T>();
     if size == 0
-        || bytes.len() % size != 0
-        || bytes.as_ptr() as usize % std::mem::align_of::<T>() != 0
+        || !bytes.len().is_multiple_of(size)
+        || !(bytes.as_ptr() as usize).is_multiple_of(std::mem::align_of::<T>())
     {
         return None;
     }
@@ -547,8 +547,8 @@ pub(crate) fn plain_slice_mut<T>(_proof: PlainLayout<T>, bytes: &mut [u8]) -> Op
     }
     let size = std::mem::size_of::<T>();
     if size == 0
-        || bytes.len() % size != 0
-        || bytes.as_ptr() as usize % std::mem::align_of::<T>() != 0
+        || !bytes.len().is_multiple_of(size)
+        || !(bytes.as_ptr() as usize).is_multiple_of(std::mem::align_of::<T>())
     {
         return None;
     }

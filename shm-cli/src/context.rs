@@ -65,6 +65,11 @@ pub(crate) struct Context {
     node: OnceLock<RosNode>,
 }
 
+/// How long no new peer must connect before the system counts as seen
+/// (see [`rmw::config::wait_for_peers`]), and the most that is waited.
+const PEERS_QUIET: Duration = Duration::from_millis(150);
+const PEERS_LIMIT: Duration = Duration::from_secs(2);
+
 impl Context {
     pub(crate) fn open(connection: &Connection) -> Result<Self, Error> {
         let mut config = rmw::config::session_config_from(connection.zenoh_config.as_deref())?;
@@ -87,6 +92,9 @@ impl Context {
         })?;
         let check = rmw::config::RouterCheck::from_env()?;
         let found = rmw::config::wait_for_router_or_peer(&session, check, |_| {});
+        if found {
+            rmw::config::wait_for_peers(&session, PEERS_QUIET, PEERS_LIMIT);
+        }
         let timeout = Duration::try_from_secs_f64(connection.timeout)
             .map_err(|_| format!("--timeout {}: give a number of seconds", connection.timeout))?;
         let graph = GraphCache::of(&session, connection.domain_id)?;

@@ -39,7 +39,7 @@ mod transport;
 
 pub use ros::{action, graph, lifecycle, log_levels, names, parameters, service, time};
 
-pub use logging::{init_logging, DEFAULT_LOG_FILTER};
+pub use logging::{init_logging, DEFAULT_LOG_FILTER, QUIET_BY_DEFAULT};
 pub use ros::node::{RosNode, RosNodeBuilder};
 pub use ros::rosout::RosoutLayer;
 pub use ros::topic_types::TypeConflict;

@@ -167,7 +167,7 @@ fn bytes_after_the_message_are_ignored_and_counted() {
 fn strict_decoding_allows_three_bytes_of_padding_only() {
     for pad in 0..=3 {
         let mut input = vec![0, 1, 0, 0, 1];
-        input.extend(std::iter::repeat(0).take(pad));
+        input.extend(std::iter::repeat_n(0, pad));
         assert_eq!(
             from_bytes_strict::<Flag>(&input).unwrap(),
             Flag { on: true }

@@ -781,7 +781,7 @@ fn analyze(scalar: &str) -> Analysis {
             previous_break = false;
         }
         preceded_by_whitespace = is_space_or_break(ch);
-        followed_by_whitespace = chars.get(index + 2).map_or(true, |&c| is_space_or_break(c));
+        followed_by_whitespace = chars.get(index + 2).is_none_or(|&c| is_space_or_break(c));
     }
     let mut allow_flow_plain = true;
     let mut allow_block_plain = true;
@@ -1115,7 +1115,7 @@ impl Emitter {
                     start = end;
                 }
             } else if breaks {
-                if ch.map_or(true, |c| !is_break(c)) {
+                if ch.is_none_or(|c| !is_break(c)) {
                     if chars[start] == '\n' {
                         self.write_line_break(None);
                     }
@@ -1125,7 +1125,7 @@ impl Emitter {
                     self.write_indent();
                     start = end;
                 }
-            } else if ch.map_or(true, |c| c == ' ' || is_break(c) || c == '\'') && start < end {
+            } else if ch.is_none_or(|c| c == ' ' || is_break(c) || c == '\'') && start < end {
                 let run: String = chars[start..end].iter().collect();
                 self.write_text(&run);
                 start = end;

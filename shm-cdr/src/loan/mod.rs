@@ -310,7 +310,7 @@ pub fn carve<'a, M: InPlace>(
         });
     }
     let (header, body) = message.split_at_mut(HEADER_LEN);
-    if body.as_ptr() as usize % 8 != 0 {
+    if !(body.as_ptr() as usize).is_multiple_of(8) {
         return Err(LoanError::Misaligned {
             address: body.as_ptr() as usize,
         });

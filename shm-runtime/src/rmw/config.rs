@@ -322,6 +322,32 @@ pub fn wait_for_router_or_peer(
     })
 }
 
+/// Wait until the peers `session` connects to stop coming: no new one for
+/// `quiet`, at most `limit` in all. Returns how many it is connected to.
+///
+/// A peer that joins through a router learns the other peers from the
+/// router's gossip and connects to each directly, after its `open` has
+/// returned. Until it has, a query about the graph misses their entities,
+/// because a router answers a peer's liveliness query only with what it
+/// holds itself: a program that asks once (as `shm-ros2 node list` does)
+/// waits for this first, as ros2cli waits its `--spin-time` for discovery.
+pub fn wait_for_peers(session: &Session, quiet: Duration, limit: Duration) -> usize {
+    use zenoh::Wait;
+    let start = std::time::Instant::now();
+    let count = || session.info().peers_zid().wait().count();
+    let mut peers = count();
+    let mut changed = start;
+    while changed.elapsed() < quiet && start.elapsed() < limit {
+        std::thread::sleep(Duration::from_millis(10));
+        let now = count();
+        if now != peers {
+            peers = now;
+            changed = std::time::Instant::now();
+        }
+    }
+    peers
+}
+
 fn wait_for(
     session: &Session,
     check: RouterCheck,

@@ -614,7 +614,7 @@ impl<T> RosPublisher<T> {
         self.policy
             .as_ref()
             .and_then(|p| p.receivers.as_ref())
-            .map_or(true, |r| r.settled())
+            .is_none_or(|r| r.settled())
     }
 
     /// Resolves once at least one subscriber matches this publisher (at once if

@@ -211,7 +211,7 @@ fn warner() -> &'static Warner {
             .spawn(move || {
                 let mut last: [Option<Instant>; 5] = [None; 5];
                 while let Ok((cause, error)) = receiver.recv() {
-                    let due = last[cause.index()].map_or(true, |at| at.elapsed() >= WARN_EVERY);
+                    let due = last[cause.index()].is_none_or(|at| at.elapsed() >= WARN_EVERY);
                     if due {
                         last[cause.index()] = Some(Instant::now());
                         // What this process has locked against its limit, for

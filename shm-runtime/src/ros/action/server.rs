@@ -230,7 +230,7 @@ impl<A: RosAction> Core<A> {
         // consistent (every change is a single assignment): go on with it.
         let mut goals = self.goals.lock().unwrap_or_else(|e| e.into_inner());
         let timeout = self.result_timeout;
-        goals.retain(|g| g.finished_at.map_or(true, |t| t.elapsed() < timeout));
+        goals.retain(|g| g.finished_at.is_none_or(|t| t.elapsed() < timeout));
         goals
     }
 
@@ -348,7 +348,7 @@ impl<A: RosAction> Core<A> {
             .filter(|&id| {
                 self.on_cancel
                     .as_ref()
-                    .map_or(true, |decide| decide(id) == CancelDecision::Accept)
+                    .is_none_or(|decide| decide(id) == CancelDecision::Accept)
             })
             .collect();
         let mut goals = self.goals();

@@ -101,7 +101,7 @@ impl RemapRule {
     }
 
     fn applies_to(&self, node: &str) -> bool {
-        self.node.as_deref().map_or(true, |n| n == node)
+        self.node.as_deref().is_none_or(|n| n == node)
     }
 }
 

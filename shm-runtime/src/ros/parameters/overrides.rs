@@ -190,7 +190,7 @@ impl ParameterOverrides {
     /// --no-use-wildcard`).
     pub fn without_wildcard(mut self) -> Self {
         self.entries
-            .retain(|(pattern, _, _)| !pattern.as_ref().is_some_and(|p| p.0 == ["**"]));
+            .retain(|(pattern, _, _)| pattern.as_ref().is_none_or(|p| p.0 != ["**"]));
         self
     }
 
