@@ -129,7 +129,7 @@ fn qos_profiles<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<QosProfile
 impl BagMetadata {
     /// The text of `metadata.yaml`.
     pub fn to_yaml(&self) -> String {
-        serde_yaml::to_string(&File {
+        yaml_serde::to_string(&File {
             rosbag2_bagfile_information: self.clone(),
         })
         .unwrap_or_default()
@@ -139,13 +139,13 @@ impl BagMetadata {
     /// metadata record (`serialized_metadata`): without the file's
     /// `rosbag2_bagfile_information` key.
     pub fn to_serialized_metadata(&self) -> String {
-        serde_yaml::to_string(self).unwrap_or_default()
+        yaml_serde::to_string(self).unwrap_or_default()
     }
 
     /// Read `metadata.yaml` text.
     pub fn from_yaml(text: &str) -> Result<Self, Error> {
         shm_cdr::text_limits::check_yaml(text).map_err(|e| format!("{FILE_NAME}: {e}"))?;
-        let file: File = serde_yaml::from_str(text)
+        let file: File = yaml_serde::from_str(text)
             .map_err(|e| format!("{FILE_NAME} is not a rosbag2 metadata file: {e}"))?;
         Ok(file.rosbag2_bagfile_information)
     }

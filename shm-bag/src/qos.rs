@@ -23,19 +23,19 @@ const FOXY_INFINITE: RmwTime = RmwTime {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct QosProfile {
     /// `keep_last`, `keep_all`.
-    pub history: serde_yaml::Value,
+    pub history: yaml_serde::Value,
     /// The depth of `keep_last`.
     pub depth: u64,
     /// `reliable`, `best_effort`.
-    pub reliability: serde_yaml::Value,
+    pub reliability: yaml_serde::Value,
     /// `volatile`, `transient_local`.
-    pub durability: serde_yaml::Value,
+    pub durability: yaml_serde::Value,
     /// The deadline; infinite when unset.
     pub deadline: RmwTime,
     /// The lifespan; infinite when unset.
     pub lifespan: RmwTime,
     /// `automatic`, `manual_by_topic`.
-    pub liveliness: serde_yaml::Value,
+    pub liveliness: yaml_serde::Value,
     /// The liveliness lease; infinite when unset.
     pub liveliness_lease_duration: RmwTime,
     /// Always `false` for ROS topics.
@@ -74,7 +74,7 @@ impl From<&Qos> for QosProfile {
             History::KeepLast(depth) => ("keep_last", depth as u64),
             History::KeepAll => ("keep_all", 0),
         };
-        let name = |s: &str| serde_yaml::Value::String(s.to_owned());
+        let name = |s: &str| yaml_serde::Value::String(s.to_owned());
         Self {
             history: name(history),
             depth,
@@ -103,9 +103,9 @@ impl QosProfile {
     /// the policies as rmw's numbers, which are read too; `system_default`
     /// and unknown policies keep ROS 2's defaults (reliable, volatile).
     pub fn to_qos(&self) -> Qos {
-        let policy = |v: &serde_yaml::Value| match v {
-            serde_yaml::Value::String(s) => s.clone(),
-            serde_yaml::Value::Number(n) => n.to_string(),
+        let policy = |v: &yaml_serde::Value| match v {
+            yaml_serde::Value::String(s) => s.clone(),
+            yaml_serde::Value::Number(n) => n.to_string(),
             _ => String::new(),
         };
         let history = match policy(&self.history).as_str() {
@@ -136,7 +136,7 @@ impl QosProfile {
 /// The profiles as the YAML text an MCAP channel's `offered_qos_profiles`
 /// holds.
 pub fn to_yaml(profiles: &[QosProfile]) -> String {
-    serde_yaml::to_string(profiles).unwrap_or_default()
+    yaml_serde::to_string(profiles).unwrap_or_default()
 }
 
 /// The profiles an MCAP channel's `offered_qos_profiles` holds.
@@ -145,7 +145,7 @@ pub fn from_yaml(text: &str) -> Result<Vec<QosProfile>, crate::Error> {
         return Ok(Vec::new());
     }
     shm_cdr::text_limits::check_yaml(text)?;
-    Ok(serde_yaml::from_str(text)?)
+    Ok(yaml_serde::from_str(text)?)
 }
 
 #[cfg(test)]

@@ -300,7 +300,7 @@ impl DynamicType {
     /// [`from_rosidl_json`](Self::from_rosidl_json) within `limits`.
     #[cfg(feature = "yaml")]
     pub fn from_rosidl_json_with(text: &str, limits: &TypeLimits) -> Result<Self, TypeError> {
-        use serde_yaml::Value;
+        use yaml_serde::Value;
         let error = |reason: String| TypeError {
             type_name: "(rosidl JSON)".into(),
             field: None,
@@ -308,7 +308,7 @@ impl DynamicType {
         };
         crate::text_limits::check_yaml(text).map_err(|e| error(e.reason))?;
         let root: Value =
-            serde_yaml::from_str(text).map_err(|e| error(format!("not JSON: {e}")))?;
+            yaml_serde::from_str(text).map_err(|e| error(format!("not JSON: {e}")))?;
         let msg = root.get("type_description_msg").unwrap_or(&root);
         let str_of = |v: &Value, key: &str| -> Result<String, TypeError> {
             v.get(key)

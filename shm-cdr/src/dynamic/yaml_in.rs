@@ -106,7 +106,7 @@ impl DynamicType {
             reader: &reader,
             message: &mut message,
         }
-        .deserialize(serde_yaml::Deserializer::from_str(text));
+        .deserialize(yaml_serde::Deserializer::from_str(text));
         match result {
             Ok(()) => Ok(message),
             Err(e) => Err(match reader.failure.into_inner() {
@@ -162,7 +162,7 @@ impl Reader {
         if let Err(e) = &out {
             let path = self.path.borrow().clone();
             let text = e.to_string();
-            // serde_yaml starts its messages with the path it knows.
+            // yaml_serde starts its messages with the path it knows.
             let reason = text
                 .strip_prefix(&format!("{path}: "))
                 .unwrap_or(&text)

@@ -4,7 +4,7 @@
 use std::fmt;
 use std::path::Path;
 
-use serde_yaml::Value;
+use yaml_serde::Value;
 
 use super::ParameterValue;
 
@@ -120,7 +120,7 @@ impl ParameterOverrides {
             return Err(error("the name is empty"));
         }
         shm_cdr::text_limits::check_yaml(text).map_err(|e| error(&e.reason))?;
-        let yaml: Value = serde_yaml::from_str(text).map_err(|e| error(&e.to_string()))?;
+        let yaml: Value = yaml_serde::from_str(text).map_err(|e| error(&e.to_string()))?;
         let value = yaml_value(&yaml).map_err(|reason| error(&reason))?;
         self.entries.push((None, name.to_owned(), value));
         Ok(())
@@ -149,7 +149,7 @@ impl ParameterOverrides {
 
     fn add_yaml(&mut self, text: &str) -> Result<(), String> {
         shm_cdr::text_limits::check_yaml(text).map_err(|e| e.reason)?;
-        let document: Value = serde_yaml::from_str(text).map_err(|e| e.to_string())?;
+        let document: Value = yaml_serde::from_str(text).map_err(|e| e.to_string())?;
         let Value::Mapping(nodes) = document else {
             return Err("the top level must map node names to their parameters".into());
         };
@@ -239,7 +239,7 @@ fn flatten(
 /// [`ParameterValue::from_yaml_text`].
 pub(crate) fn value_from_yaml_text(text: &str) -> Result<ParameterValue, String> {
     shm_cdr::text_limits::check_yaml(text).map_err(|e| e.reason)?;
-    let yaml: Value = serde_yaml::from_str(text).map_err(|e| e.to_string())?;
+    let yaml: Value = yaml_serde::from_str(text).map_err(|e| e.to_string())?;
     yaml_value(&yaml)
 }
 
