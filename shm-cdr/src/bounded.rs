@@ -58,6 +58,26 @@ wrapper! {
 
 wrapper! {
     /// A `sequence<T, N>` (`T[<=N]` in .msg): at most `N` elements.
+    ///
+    /// ```
+    /// use shm_cdr::{BoundedVec, EncodeErrorKind, RosMessage};
+    ///
+    /// #[derive(RosMessage, Debug, PartialEq)]
+    /// #[ros(type_name = "fleet_msgs/msg/Route")]
+    /// struct Route {
+    ///     waypoints: BoundedVec<f64, 4>, // float64[<=4] waypoints
+    /// }
+    ///
+    /// let mut route = Route { waypoints: vec![1.0, 2.0].into() };
+    /// route.waypoints.push(3.0); // used as the Vec it holds
+    /// let bytes = shm_cdr::to_vec(&route)?;
+    /// assert_eq!(shm_cdr::from_bytes::<Route>(&bytes)?, route);
+    ///
+    /// route.waypoints.extend([4.0, 5.0]); // one more than the bound
+    /// let err = shm_cdr::to_vec(&route).unwrap_err();
+    /// assert!(matches!(err.kind(), EncodeErrorKind::BoundExceeded { len: 5, bound: 4 }));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     BoundedVec[T, const N: usize][T, N] => Vec<T>
 }
 

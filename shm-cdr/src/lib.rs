@@ -179,6 +179,16 @@ fn encode_to_vec<T: CdrEncode + ?Sized, B: ByteOrder>(msg: &T) -> Result<Vec<u8>
 
 /// Encode `msg` as little-endian CDR into a new `Vec` of exactly
 /// [`encoded_size`] bytes.
+///
+/// ```
+/// use shm_cdr::msgs::geometry_msgs::Point;
+///
+/// let bytes = shm_cdr::to_vec(&Point { x: 1.0, y: 2.0, z: 3.0 })?;
+/// assert_eq!(bytes.len(), 4 + 3 * 8); // the encapsulation header, three float64
+/// assert_eq!(&bytes[..4], [0x00, 0x01, 0x00, 0x00]); // CDR, little endian
+/// assert_eq!(&bytes[4..12], 1.0f64.to_le_bytes());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[inline]
 pub fn to_vec<T: CdrEncode + ?Sized>(msg: &T) -> Result<Vec<u8>, EncodeError> {
     encode_to_vec::<T, LittleEndian>(msg)
@@ -223,6 +233,27 @@ pub fn read_header(bytes: &[u8]) -> Result<Endianness, DecodeError> {
 /// *estimate*, up to 8 bytes past the message; rmw_zenoh_cpp's shared-memory
 /// payloads are rounded up to 4 bytes). [`take_from_bytes`] says how many there
 /// were; [`from_bytes_strict`] refuses more than 3.
+///
+/// ```
+/// use shm_cdr::msgs::std_msgs::String as RosString;
+/// use shm_cdr::RosMessage;
+///
+/// #[derive(RosMessage)]
+/// #[ros(type_name = "std_msgs/msg/String")]
+/// struct StringRef<'a> {
+///     data: &'a str, // borrowed from the bytes
+/// }
+///
+/// let bytes = shm_cdr::to_vec(&RosString { data: "hello".into() })?;
+/// let owned: RosString = shm_cdr::from_bytes(&bytes)?;
+/// let view: StringRef = shm_cdr::from_bytes(&bytes)?;
+/// assert_eq!((owned.data.as_str(), view.data), ("hello", "hello"));
+///
+/// // Truncated input is an error that says where, never a panic.
+/// let err = shm_cdr::from_bytes::<RosString>(&bytes[..7]).unwrap_err();
+/// println!("{err}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[inline]
 pub fn from_bytes<'de, T: CdrDecode<'de>>(bytes: &'de [u8]) -> Result<T, DecodeError> {
     read_message(bytes, NewValue(PhantomData), AfterEnd::Ignore, false).map(|(value, _)| value)

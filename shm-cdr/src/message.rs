@@ -7,6 +7,26 @@ use crate::encode::CdrEncode;
 /// A ROS 2 message type. Implement it with `#[derive(RosMessage)]`, which also
 /// implements [`CdrEncode`], [`CdrDecode`](crate::CdrDecode) and
 /// [`RosType`](crate::RosType).
+///
+/// ```
+/// use shm_cdr::RosMessage;
+///
+/// #[derive(RosMessage)]
+/// #[ros(type_name = "geometry_msgs/msg/Vector3")]
+/// struct Vector3 {
+///     x: f64,
+///     y: f64,
+///     z: f64,
+/// }
+///
+/// assert_eq!(Vector3::DDS_TYPE_NAME, "geometry_msgs::msg::dds_::Vector3_");
+/// assert_eq!(Vector3::ENCODED_SIZE, Some(28)); // fixed: header and three float64
+/// // The hash rosidl computes for geometry_msgs/msg/Vector3.
+/// assert_eq!(
+///     Vector3::type_hash(),
+///     "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d"
+/// );
+/// ```
 pub trait RosMessage: CdrEncode + RosElement {
     /// The ROS 2 type name, e.g. `"sensor_msgs/msg/PointCloud2"`.
     const TYPE_NAME: &'static str;

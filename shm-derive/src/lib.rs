@@ -49,7 +49,47 @@ use syn::{parse_macro_input, DeriveInput};
 /// `char`, maps and sets, `Option`, `Box`/`Rc`/`Arc`, tuples, enums, tuple
 /// structs, type generics, `Vec<Vec<T>>`, and `#[ros(byte)]` on a non-byte field.
 ///
-/// See `shm_cdr`'s crate documentation for a worked example.
+/// ```
+/// use std::borrow::Cow;
+///
+/// use shm_cdr::{BoundedString, RosMessage};
+///
+/// /// robot_msgs/msg/Cell
+/// #[derive(RosMessage, Debug, PartialEq, Clone, Default)]
+/// #[ros(package = "robot_msgs")]
+/// struct Cell {
+///     voltage: f32,        // float32 voltage
+///     temperature: f32,    // float32 temperature
+/// }
+///
+/// /// robot_msgs/msg/BatteryState, as its .msg file would say.
+/// #[derive(RosMessage, Debug, PartialEq)]
+/// #[ros(package = "robot_msgs")] // the type name is robot_msgs/msg/BatteryState
+/// struct BatteryState<'a> {
+///     voltage: f32,              // float32 voltage
+///     cells: Vec<Cell>,          // Cell[] cells
+///     #[ros(byte)]
+///     status: u8,                // byte status
+///     serial: BoundedString<32>, // string<=32 serial
+///     #[ros(rename = "location")]
+///     place: Cow<'a, str>,       // string location
+/// }
+///
+/// assert_eq!(BatteryState::TYPE_NAME, "robot_msgs/msg/BatteryState");
+/// let msg = BatteryState {
+///     voltage: 24.1,
+///     cells: vec![Cell::default(); 6],
+///     status: 1,
+///     serial: "B-0042".into(),
+///     place: "dock".into(),
+/// };
+/// let bytes = shm_cdr::to_vec(&msg)?;
+/// assert_eq!(bytes.len(), shm_cdr::encoded_size(&msg));
+/// assert_eq!(shm_cdr::from_bytes::<BatteryState>(&bytes)?, msg);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// See `shm_cdr`'s crate documentation for more.
 #[proc_macro_derive(RosMessage, attributes(ros))]
 pub fn derive_ros_message(input: TokenStream) -> TokenStream {
     let input = parse_macro_input!(input as DeriveInput);

@@ -24,6 +24,41 @@ use crate::transport::payload::{EncodedPayload, PayloadKind};
 /// Bytes of a `uint8[]` field, in shared memory (published without a copy) or on
 /// the heap (e.g. after decoding). Build it with `From`: a [`ZShmMut`] or [`ZShm`]
 /// the application wrote, or a `Vec<u8>` / [`bytes::Bytes`].
+///
+/// The `*Shm` forms of the standard messages (`msgs::sensor_msgs::PointCloud2Shm`,
+/// `ImageShm`, …) carry their data in one: points written by the application
+/// straight into the pool are published without being copied again
+/// ([`PayloadKind::Spliced`]).
+///
+/// # Example
+///
+/// ```no_run
+/// # fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+/// use shm_runtime::msgs::sensor_msgs::PointCloud2Shm;
+/// use shm_runtime::{RosNode, ShmBytes, ShmConfig, ShmContext};
+/// use zenoh::Wait;
+///
+/// let session = zenoh::open(shm_runtime::rmw::config::session_config()?).wait()?;
+/// let shm = ShmContext::new(ShmConfig::enabled())?;
+/// let node = RosNode::builder(&session, "lidar").shm(&shm).wait()?;
+/// let publisher = node.declare_publisher::<PointCloud2Shm>("points").wait()?;
+///
+/// // The driver writes its points into the pool, once.
+/// let mut block = shm.alloc(1024 * 16).ok_or("no room in the pool")?;
+/// block.fill(0);
+/// let cloud = PointCloud2Shm {
+///     height: 1,
+///     width: 1024,
+///     point_step: 16,
+///     row_step: 1024 * 16,
+///     data: ShmBytes::from(zenoh::shm::ZShm::from(block)),
+///     ..Default::default()
+/// };
+/// let outcome = publisher.publish(&cloud).wait()?;
+/// println!("{:?}", outcome.kind); // Spliced: the block went as it lies
+/// # Ok(())
+/// # }
+/// ```
 #[derive(Clone, Debug, Default)]
 pub struct ShmBytes(Repr);
 

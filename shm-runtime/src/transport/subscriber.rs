@@ -478,6 +478,28 @@ impl<T> IntoFuture for CallbackSubscriberBuilder<'_, T> {
 /// Receives messages published as `T` (decode them as `T` or as a borrowing
 /// variant of the same ROS type). Samples wait in the subscriber's own queue
 /// (see [`History`]) until read; undeclared when dropped.
+///
+/// # Example
+///
+/// ```no_run
+/// # fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+/// use shm_cdr::msgs::sensor_msgs::Image;
+/// use shm_runtime::RosNode;
+/// use zenoh::Wait;
+///
+/// let session = zenoh::open(shm_runtime::rmw::config::session_config()?).wait()?;
+/// let node = RosNode::builder(&session, "viewer").wait()?;
+/// let subscriber = node.declare_subscriber::<Image>("image").wait()?;
+/// loop {
+///     let sample = subscriber.recv()?;
+///     let image: Image = sample.decode()?;
+///     println!("{}x{}, in shared memory: {}", image.width, image.height, sample.is_shm());
+///     if subscriber.missed() > 0 {
+///         eprintln!("{} messages never arrived", subscriber.missed());
+///     }
+/// }
+/// # }
+/// ```
 pub struct RosSubscriber<T> {
     subscriber: ZenohSubscriber,
     /// For node subscribers: the session and the key expression of the
@@ -726,6 +748,27 @@ impl std::error::Error for RecvError {}
 
 /// A received sample, decodable into any message type (owned or borrowing from
 /// the sample).
+///
+/// # Example
+///
+/// ```no_run
+/// # fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+/// use shm_cdr::msgs::sensor_msgs::Image;
+/// use shm_runtime::RosNode;
+/// use zenoh::Wait;
+///
+/// # let session = zenoh::open(shm_runtime::rmw::config::session_config()?).wait()?;
+/// # let node = RosNode::builder(&session, "viewer").wait()?;
+/// let subscriber = node.declare_subscriber::<Image>("image").wait()?;
+/// let sample = subscriber.recv()?;
+/// // Where it lies: in the publisher's shared memory, mapped here, or copied.
+/// println!("{} bytes in shared memory", sample.shm_len());
+/// // Owned, or into a message kept from one sample to the next.
+/// let mut image: Image = sample.decode()?;
+/// sample.decode_into(&mut image)?;
+/// # Ok(())
+/// # }
+/// ```
 pub struct RosSample {
     sample: Sample,
     /// A contiguous copy, made at most once, for payloads that arrived in more
