@@ -239,10 +239,10 @@ fn package_source(index: &Index, package: &Package) -> PackageSource {
         action_items(index, a, modules.entry("action").or_default());
     }
     let counts = format!(
-        "{} messages, {} services, {} actions",
-        package.messages.len(),
-        package.services.len(),
-        package.actions.len()
+        "{}, {}, {}",
+        count(package.messages.len(), "message"),
+        count(package.services.len(), "service"),
+        count(package.actions.len(), "action")
     );
     let summary = format!("`{}`: {counts}.", package.name);
     for (name, body) in &modules {
@@ -254,13 +254,16 @@ fn package_source(index: &Index, package: &Package) -> PackageSource {
         let what = what.replace("CRATE", &index.options.crate_path);
         let _ = writeln!(
             out,
-            "\n/// {what}\n#[allow(non_camel_case_types, clippy::all)]\npub mod {name} {{"
+            "\n/// {what}\n#[allow(non_camel_case_types, dead_code, clippy::all)]\npub mod {name} {{"
         );
         out.push_str(body);
         out.push_str("}\n");
     }
     if modules.contains_key("msg") {
-        let _ = writeln!(out, "\n#[doc(no_inline)]\npub use msg::*;");
+        let _ = writeln!(
+            out,
+            "\n#[doc(no_inline)]\n#[allow(unused_imports)]\npub use msg::*;"
+        );
     }
     PackageSource {
         name: package.name.clone(),
@@ -294,7 +297,10 @@ fn shm_forms_source(index: &Index, package: &Package) -> PackageSource {
         out.push_str("}\n");
     }
     if modules.contains_key("msg") {
-        let _ = writeln!(out, "\n#[doc(no_inline)]\npub use msg::*;");
+        let _ = writeln!(
+            out,
+            "\n#[doc(no_inline)]\n#[allow(unused_imports)]\npub use msg::*;"
+        );
     }
     PackageSource {
         name: package.name.clone(),
@@ -858,4 +864,12 @@ fn write_doc_line(out: &mut String, indent: &str, line: &str) {
         rest = after;
     }
     write_doc_line_raw(out, indent, &text);
+}
+
+/// `n` things, in English: "1 message", "2 messages".
+pub fn count(n: usize, thing: &str) -> String {
+    match n {
+        1 => format!("1 {thing}"),
+        n => format!("{n} {thing}s"),
+    }
 }

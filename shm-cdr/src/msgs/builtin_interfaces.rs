@@ -2,7 +2,7 @@
 //! `builtin_interfaces`: 2 messages, 0 services, 0 actions.
 
 /// Messages (`msg/*.msg`).
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod msg {
     /// Duration defines a period between two time points.
     /// Messages of this datatype are of ROS Time following this design:
@@ -73,4 +73,5 @@ pub mod msg {
 }
 
 #[doc(no_inline)]
+#[allow(unused_imports)]
 pub use msg::*;

@@ -2,7 +2,7 @@
 //! `diagnostic_msgs`: 3 messages, 2 services, 0 actions.
 
 /// Messages (`msg/*.msg`).
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod msg {
     /// `diagnostic_msgs/msg/DiagnosticArray` (from `msg/DiagnosticArray.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
@@ -187,7 +187,7 @@ pub mod msg {
 }
 
 /// Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](crate::RosService) identity.
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod srv {
     /// This service is used as part of the process for loading analyzers at runtime,
     /// and should be used by a loader script or program, not as a standalone service.
@@ -576,4 +576,5 @@ pub mod srv {
 }
 
 #[doc(no_inline)]
+#[allow(unused_imports)]
 pub use msg::*;

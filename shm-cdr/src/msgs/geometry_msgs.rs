@@ -2,7 +2,7 @@
 //! `geometry_msgs`: 32 messages, 0 services, 0 actions.
 
 /// Messages (`msg/*.msg`).
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod msg {
     /// `geometry_msgs/msg/Accel` (from `msg/Accel.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy)]
@@ -1473,4 +1473,5 @@ pub mod msg {
 }
 
 #[doc(no_inline)]
+#[allow(unused_imports)]
 pub use msg::*;

@@ -2,7 +2,7 @@
 //! `lifecycle_msgs`: 4 messages, 4 services, 0 actions.
 
 /// Messages (`msg/*.msg`).
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod msg {
     /// Primary state definitions as depicted in:
     /// <http://design.ros2.org/articles/node_lifecycle.html>
@@ -338,7 +338,7 @@ pub mod msg {
 }
 
 /// Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](crate::RosService) identity.
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod srv {
     /// `lifecycle_msgs/srv/ChangeState_Request` (from `srv/ChangeState.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
@@ -948,4 +948,5 @@ pub mod srv {
 }
 
 #[doc(no_inline)]
+#[allow(unused_imports)]
 pub use msg::*;

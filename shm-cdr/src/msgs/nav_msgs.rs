@@ -2,7 +2,7 @@
 //! `nav_msgs`: 6 messages, 4 services, 0 actions.
 
 /// Messages (`msg/*.msg`).
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod msg {
     /// An array of navigation goals
     ///
@@ -356,7 +356,7 @@ pub mod msg {
 }
 
 /// Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](crate::RosService) identity.
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod srv {
     /// Get the map as a nav_msgs/OccupancyGrid
     ///
@@ -1066,4 +1066,5 @@ pub mod srv {
 }
 
 #[doc(no_inline)]
+#[allow(unused_imports)]
 pub use msg::*;

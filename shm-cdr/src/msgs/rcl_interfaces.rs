@@ -2,7 +2,7 @@
 //! `rcl_interfaces`: 13 messages, 8 services, 0 actions.
 
 /// Messages (`msg/*.msg`).
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod msg {
     /// Represents bounds and a step value for a floating point typed parameter.
     ///
@@ -892,7 +892,7 @@ pub mod msg {
 }
 
 /// Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](crate::RosService) identity.
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod srv {
     /// `rcl_interfaces/srv/DescribeParameters_Request` (from `srv/DescribeParameters.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
@@ -2340,4 +2340,5 @@ pub mod srv {
 }
 
 #[doc(no_inline)]
+#[allow(unused_imports)]
 pub use msg::*;

@@ -2,7 +2,7 @@
 //! `std_msgs`: 30 messages, 0 services, 0 actions.
 
 /// Messages (`msg/*.msg`).
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod msg {
     /// This was originally provided as an example message.
     /// It is deprecated as of Foxy
@@ -1345,4 +1345,5 @@ pub mod msg {
 }
 
 #[doc(no_inline)]
+#[allow(unused_imports)]
 pub use msg::*;

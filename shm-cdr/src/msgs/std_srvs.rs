@@ -2,7 +2,7 @@
 //! `std_srvs`: 0 messages, 3 services, 0 actions.
 
 /// Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](crate::RosService) identity.
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod srv {
     /// `std_srvs/srv/Empty_Request` (from `srv/Empty.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]

@@ -2,7 +2,7 @@
 //! `test_msgs`: 13 messages, 3 services, 2 actions.
 
 /// Actions (`action/*.action`): goal, result and feedback, the services and message built from them, and the [`RosAction`](crate::RosAction) identity.
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod action {
     /// `test_msgs/action/Fibonacci_Goal` (from `action/Fibonacci.action`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Copy, Eq, Hash)]
@@ -1020,7 +1020,7 @@ pub mod action {
 }
 
 /// Messages (`msg/*.msg`).
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod msg {
     /// `test_msgs/msg/Arrays` (from `msg/Arrays.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
@@ -2564,7 +2564,7 @@ pub mod msg {
 }
 
 /// Services (`srv/*.srv`): each one's request, response and event messages and its [`RosService`](crate::RosService) identity.
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod srv {
     /// `test_msgs/srv/Arrays_Request` (from `srv/Arrays.srv`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq)]
@@ -3621,4 +3621,5 @@ pub mod srv {
 }
 
 #[doc(no_inline)]
+#[allow(unused_imports)]
 pub use msg::*;

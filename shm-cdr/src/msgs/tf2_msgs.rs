@@ -2,7 +2,7 @@
 //! `tf2_msgs`: 2 messages, 0 services, 0 actions.
 
 /// Messages (`msg/*.msg`).
-#[allow(non_camel_case_types, clippy::all)]
+#[allow(non_camel_case_types, dead_code, clippy::all)]
 pub mod msg {
     /// `tf2_msgs/msg/TF2Error` (from `msg/TF2Error.msg`).
     #[derive(crate::RosMessage, Debug, Clone, PartialEq, Eq, Hash)]
@@ -113,4 +113,5 @@ pub mod msg {
 }
 
 #[doc(no_inline)]
+#[allow(unused_imports)]
 pub use msg::*;

@@ -159,4 +159,5 @@ pub mod msg {
 }
 
 #[doc(no_inline)]
+#[allow(unused_imports)]
 pub use msg::*;
