@@ -85,8 +85,11 @@ pub(crate) fn run(context: &Context, command: ParamCommand) -> Result<(), Error>
             for node in nodes {
                 let client = match client(context, &node) {
                     Ok(client) => client,
+                    // The node asked for: an error (exit 1), as ros2cli's.
+                    Err(e) if node_name.is_some() => return Err(e),
+                    // One of all the nodes: said, and the others listed.
                     Err(e) => {
-                        writeln!(out, "{e}")?;
+                        eprintln!("{e}");
                         continue;
                     }
                 };

@@ -138,6 +138,21 @@ fn the_router_lets_programs_that_know_only_it_find_each_other() {
         stdout.lines().any(|l| l == "/talker") && stdout.lines().any(|l| l == "/listener"),
         "{stdout}"
     );
+    // A node that is not there: an error, as ros2cli gives it.
+    let out = shm_ros2(port)
+        .args(["--timeout", "1", "param", "list", "/nobody"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(out.stdout.is_empty());
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr).trim(),
+        "Node not found"
+    );
+
+    let out = shm_ros2(port).args(["node", "list"]).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
     // A working command prints nothing else at the default log level.
     assert_eq!(warnings(&stderr), Vec::<&str>::new());
     assert_eq!(stderr, "", "a working command wrote to stderr");
