@@ -287,6 +287,67 @@ pub fn expand(container: &Container) -> TokenStream {
     }
 }
 
+/// For a type the derive refused: the traits it would implement, with bodies
+/// that never run (the crate does not compile, the derive's errors say why).
+/// Without them every use of the type adds an error that the trait is not
+/// implemented, listing every type that implements it.
+pub fn placeholder(input: &syn::DeriveInput, crate_path: Option<&syn::Path>) -> TokenStream {
+    let krate = match crate_path {
+        Some(path) => quote!(#path),
+        None => quote!(::shm_cdr),
+    };
+    let ident = &input.ident;
+    let (impl_generics, ty_generics, where_clause) = input.generics.split_for_impl();
+    let de = Lifetime::new("'__de", proc_macro2::Span::call_site());
+    let mut de_generics = input.generics.clone();
+    let mut de_param = LifetimeParam::new(de.clone());
+    de_param
+        .bounds
+        .extend(input.generics.lifetimes().map(|l| l.lifetime.clone()));
+    de_generics
+        .params
+        .insert(0, GenericParam::Lifetime(de_param));
+    let (de_impl_generics, _, _) = de_generics.split_for_impl();
+    quote! {
+        #[automatically_derived]
+        #[allow(clippy::all, clippy::pedantic, unused)]
+        const _: () = {
+            impl #impl_generics #krate::CdrEncode for #ident #ty_generics #where_clause {
+                fn encoded_end(&self, _: usize) -> usize {
+                    ::core::unreachable!()
+                }
+                fn encode<__B: #krate::ByteOrder>(
+                    &self,
+                    _: &mut #krate::Writer<'_, __B>,
+                ) -> ::core::result::Result<(), #krate::EncodeError> {
+                    ::core::unreachable!()
+                }
+            }
+            impl #de_impl_generics #krate::CdrDecode<#de> for #ident #ty_generics #where_clause {
+                const MIN_WIRE_SIZE: usize = 0;
+                fn decode<__B: #krate::ByteOrder>(
+                    _: &mut #krate::Reader<#de, __B>,
+                ) -> ::core::result::Result<Self, #krate::DecodeError> {
+                    ::core::unreachable!()
+                }
+            }
+            impl #impl_generics #krate::RosType for #ident #ty_generics #where_clause {
+                const FIELD_TYPE: #krate::describe::FieldType =
+                    #krate::describe::FieldType::nested("");
+            }
+            impl #impl_generics #krate::RosElement for #ident #ty_generics #where_clause {}
+            impl #impl_generics #krate::RosMessage for #ident #ty_generics #where_clause {
+                const TYPE_NAME: &'static str = "";
+                const DDS_TYPE_NAME: &'static str = "";
+                const FIELDS: &'static [#krate::describe::Field] = &[];
+                fn type_hash() -> &'static str {
+                    ::core::unreachable!()
+                }
+            }
+        };
+    }
+}
+
 /// `pkg/msg/Name` → `pkg::msg::dds_::Name_`.
 fn dds_type_name(type_name: &str) -> String {
     match type_name.rsplit_once('/') {

@@ -100,7 +100,14 @@ pub fn derive_ros_message(input: TokenStream) -> TokenStream {
     }
     match (cx.check(), container) {
         (Ok(()), Some(container)) => expand::expand(&container).into(),
-        (Err(errors), _) => errors.to_compile_error().into(),
+        // The errors, and impls that never run, so that the type's uses do
+        // not each add an error of their own: one error per mistake.
+        (Err(errors), container) => {
+            let krate = container.as_ref().and_then(|c| c.attrs.crate_path.as_ref());
+            let mut out = errors.to_compile_error();
+            out.extend(expand::placeholder(&input, krate));
+            out.into()
+        }
         (Ok(()), None) => TokenStream::new(),
     }
 }
