@@ -41,6 +41,13 @@ fn example(name: &str) -> PathBuf {
     path
 }
 
+/// The log lines at warning level or above.
+fn warnings(log: &str) -> Vec<&str> {
+    log.lines()
+        .filter(|l| l.contains(" WARN ") || l.contains(" ERROR "))
+        .collect()
+}
+
 /// Waits for `child` at most `limit`, killing it past that; its stdout and
 /// stderr, and whether it succeeded.
 fn finish(mut child: Child, limit: Duration) -> (bool, String, String) {
@@ -63,6 +70,7 @@ fn a_talker_and_a_listener_exchange_the_users_struct_through_shared_memory() {
     let spawn = |args: &[&str]| {
         Command::new(&quickstart)
             .args(args)
+            .env_remove("RUST_LOG")
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -75,6 +83,10 @@ fn a_talker_and_a_listener_exchange_the_users_struct_through_shared_memory() {
     assert!(heard_ok, "listener: {heard}{listener_log}");
     assert!(talked_ok, "talker: {said}{talker_log}");
     assert_eq!(said.lines().count(), 16);
+    // Quiet when it works, at the default log level (also as an ordinary
+    // user, where Zenoh cannot raise its watchdog's priority).
+    assert_eq!(warnings(&talker_log), Vec::<&str>::new(), "talker");
+    assert_eq!(warnings(&listener_log), Vec::<&str>::new(), "listener");
     // Every message goes through shared memory, except one published just as
     // the listener appeared, before the talker had its answer to whether the
     // listener maps its pool: that one goes from the heap, and says so.
@@ -111,9 +123,14 @@ fn a_talker_and_a_listener_exchange_the_users_struct_through_shared_memory() {
 /// memory does not (Zenoh's implicit copy into a pool of its own is off).
 #[test]
 fn the_main_example_sends_each_pattern_where_it_says() {
-    let run = Command::new(example("pointcloud_shm")).output().unwrap();
+    let run = Command::new(example("pointcloud_shm"))
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap();
     let out = String::from_utf8(run.stdout).unwrap();
     assert!(run.status.success(), "{out}");
+    let log = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(warnings(&log), Vec::<&str>::new());
     let line = |prefix: &str| {
         out.lines()
             .find(|line| line.starts_with(prefix))
