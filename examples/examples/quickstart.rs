@@ -36,6 +36,11 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         _ => return Err("usage: quickstart talk|listen [count]".into()),
     };
     config.insert_json5(side, r#"["tcp/127.0.0.1:7448"]"#)?;
+    // Large heap payloads stay where they are: no copy into a pool of Zenoh's.
+    config.insert_json5(
+        "transport/shared_memory/transport_optimization/enabled",
+        "false",
+    )?;
     let session = zenoh::open(config).wait()?;
 
     // A shared-memory pool that fits the memory-lock limit (`ulimit -l`).

@@ -61,8 +61,9 @@ const COMMON_DEFAULTS: &[(&str, &str)] = &[
 
 /// The session's own defaults: a peer that reaches the others through the
 /// router at [`DEFAULT_ROUTER_ENDPOINT`] and listens on a local port of its
-/// own. Two differences from rmw_zenoh_cpp: shared memory is on, where
-/// rmw_zenoh_cpp ships it off; and a peer gossips to peers as well as to
+/// own. Two differences from rmw_zenoh_cpp: shared memory is on (without
+/// Zenoh's implicit copy of large heap payloads), where rmw_zenoh_cpp ships
+/// it off; and a peer gossips to peers as well as to
 /// routers (Zenoh's default, where rmw_zenoh_cpp gossips to routers only),
 /// so that peers joined to one another without a router still find each
 /// other.
@@ -71,6 +72,13 @@ const SESSION_DEFAULTS: &[(&str, &str)] = &[
     ("connect/endpoints", r#"["tcp/localhost:7447"]"#),
     ("listen/endpoints", r#"["tcp/localhost:0"]"#),
     ("transport/shared_memory/enabled", "true"),
+    // Zenoh's implicit copy of large heap payloads into a pool of its own,
+    // whose collection can overwrite a sample a stalled reader holds (the
+    // guide's Reliability chapter): off, as the guide says for every session.
+    (
+        "transport/shared_memory/transport_optimization/enabled",
+        "false",
+    ),
 ];
 
 /// rmw_zenohd's own defaults: a router on port 7447 of every interface,
