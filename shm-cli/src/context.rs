@@ -92,6 +92,7 @@ impl Context {
         })?;
         let check = rmw::config::RouterCheck::from_env()?;
         let found = rmw::config::wait_for_router_or_peer(&session, check, |_| {});
+        rmw::config::router_looked_for(&session);
         if found {
             rmw::config::wait_for_peers(&session, PEERS_QUIET, PEERS_LIMIT);
         }

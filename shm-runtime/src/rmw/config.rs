@@ -356,6 +356,59 @@ pub fn wait_for_peers(session: &Session, quiet: Duration, limit: Duration) -> us
     peers
 }
 
+/// What rmw_zenoh_cpp's nodes do when they start, once per session: when
+/// the session's configuration connects somewhere, look for a router or peer
+/// as [`RouterCheck::from_env`] says (one second by default), and warn,
+/// naming the endpoints and what to start, when none was reached. The
+/// session goes on and connects when one comes. [`RosNode`](crate::RosNode)s
+/// do this as they are built.
+pub fn look_for_router_once(session: &Session) {
+    if !first_look(session) {
+        return;
+    }
+    let endpoints: Vec<String> = session
+        .config()
+        .get_typed("connect/endpoints")
+        .unwrap_or_default();
+    if endpoints.is_empty() {
+        return;
+    }
+    let endpoints = format!("{endpoints:?}");
+    let check = match RouterCheck::from_env() {
+        Ok(check) => check,
+        Err(e) => {
+            tracing::warn!("{e}; looking for a router for 1 s");
+            RouterCheck::Attempts(1)
+        }
+    };
+    if !wait_for_router_or_peer(session, check, |_| {}) {
+        tracing::warn!(
+            "No Zenoh router or peer reached at {endpoints}: start a router (`shm-ros2 router`, or \
+             `ros2 run rmw_zenoh_cpp rmw_zenohd`), or connect elsewhere (ZENOH_SESSION_CONFIG_URI, \
+             ZENOH_CONFIG_OVERRIDE). The node goes on, and finds the others when one comes"
+        );
+    }
+}
+
+/// Tell [`look_for_router_once`] that the program looked for a router on
+/// `session` itself (and said what it found), so that its nodes do not look
+/// again.
+pub fn router_looked_for(session: &Session) {
+    first_look(session);
+}
+
+/// Whether this is the first look for a router on `session`.
+fn first_look(session: &Session) -> bool {
+    static LOOKED: std::sync::Mutex<Vec<zenoh::session::ZenohId>> =
+        std::sync::Mutex::new(Vec::new());
+    let mut looked = LOOKED.lock().unwrap_or_else(|e| e.into_inner());
+    if looked.contains(&session.zid()) {
+        return false;
+    }
+    looked.push(session.zid());
+    true
+}
+
 fn wait_for(
     session: &Session,
     check: RouterCheck,

@@ -103,6 +103,7 @@ impl RosNode {
             invalid: None,
             invalid_override: None,
             invalid_log_level: None,
+            router_check: true,
         }
     }
 
@@ -854,9 +855,19 @@ pub struct RosNodeBuilder<'a> {
     invalid: Option<NameError>,
     invalid_override: Option<OverrideError>,
     invalid_log_level: Option<String>,
+    router_check: bool,
 }
 
 impl RosNodeBuilder<'_> {
+    /// Whether building the node looks for a router or peer first, as
+    /// rmw_zenoh_cpp's nodes do (default: yes; see
+    /// [`rmw::config::look_for_router_once`](crate::rmw::config::look_for_router_once)).
+    /// A program that checks for itself turns it off.
+    pub fn router_check(mut self, on: bool) -> Self {
+        self.router_check = on;
+        self
+    }
+
     /// The node's namespace (default `/`; `demo` means `/demo`).
     pub fn namespace(mut self, namespace: &str) -> Self {
         self.namespace = namespace.to_owned();
@@ -1017,6 +1028,9 @@ impl RosNodeBuilder<'_> {
         }
         let distro = self.distro?;
         names::validate_node_name(&self.name)?;
+        if self.router_check {
+            crate::rmw::config::look_for_router_once(self.session);
+        }
         names::validate_enclave(&self.enclave)?;
         // As rcl: the name first, then the namespace rules of the renamed node.
         let name = self.remaps.node_name(&self.name);
