@@ -11,7 +11,7 @@ mod common;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use common::{connect_to, loopback_sessions};
+use common::{connect_to, loopback_sessions, shm_serial};
 use shm_cdr::msgs::std_msgs::UInt8MultiArray;
 use shm_runtime::{
     PayloadKind, Reach, RosPublisher, RosSubscriber, SessionExt, ShmConfig, ShmContext,
@@ -26,7 +26,7 @@ const TIMEOUT: Duration = Duration::from_secs(10);
 
 fn message(i: usize) -> UInt8MultiArray {
     UInt8MultiArray {
-        data: vec![i as u8; 64 * 1024],
+        data: vec![i as u8; 16 * 1024],
         ..Default::default()
     }
 }
@@ -41,7 +41,9 @@ fn topic(
     RosPublisher<UInt8MultiArray>,
     RosSubscriber<UInt8MultiArray>,
 ) {
-    let shm = ShmContext::new(ShmConfig::enabled().pool_size(4 << 20).threshold(1024)).unwrap();
+    // 1 MiB: every test of this binary's pool fits an ordinary user's
+    // 8 MiB memory-lock limit, one test at a time.
+    let shm = ShmContext::new(ShmConfig::enabled().pool_size(1 << 20).threshold(1024)).unwrap();
     let publisher = a
         .declare_ros_publisher::<UInt8MultiArray>(name)
         .shm(&shm)
@@ -106,6 +108,7 @@ fn publish_and_receive_in_place(
 #[test]
 fn a_token_naming_a_session_that_is_not_there_holds_nothing_back() {
     shm_runtime::init_logging();
+    let _one_at_a_time = shm_serial();
     let (a, b, port) = loopback_sessions();
     let attacker = connect_to(port);
     let (publisher, subscriber) = topic(&a, &b, "forged/absent");
@@ -135,6 +138,7 @@ fn a_token_naming_a_session_that_is_not_there_holds_nothing_back() {
 #[test]
 fn answers_given_for_another_session_are_not_believed() {
     shm_runtime::init_logging();
+    let _one_at_a_time = shm_serial();
     let (a, b, port) = loopback_sessions();
     let attacker = connect_to(port);
     let ghost: ZenohId = "6b6b6b6b6b6b6b6b6b6b6b6b6b6b6b6b".parse().unwrap();
@@ -174,6 +178,7 @@ fn answers_given_for_another_session_are_not_believed() {
 #[test]
 fn a_linked_session_that_never_confirms_holds_messages_back_once_and_only_until_the_timeout() {
     shm_runtime::init_logging();
+    let _one_at_a_time = shm_serial();
     let (a, b, port) = loopback_sessions();
     let attacker = connect_to(port);
     // Linked to the publisher's session, so its token is waited for while
@@ -241,6 +246,7 @@ fn a_linked_session_that_never_confirms_holds_messages_back_once_and_only_until_
 #[test]
 fn a_flood_of_forged_tokens_leaves_the_topic_on_shared_memory() {
     shm_runtime::init_logging();
+    let _one_at_a_time = shm_serial();
     let (a, b, port) = loopback_sessions();
     let attacker = connect_to(port);
     let (publisher, subscriber) = topic(&a, &b, "forged/flood");
