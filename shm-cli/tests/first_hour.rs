@@ -151,8 +151,8 @@ fn the_router_lets_programs_that_know_only_it_find_each_other() {
     );
 
     let out = shm_ros2(port).args(["node", "list"]).output().unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
     // A working command prints nothing else at the default log level.
     assert_eq!(warnings(&stderr), Vec::<&str>::new());
     assert_eq!(stderr, "", "a working command wrote to stderr");
