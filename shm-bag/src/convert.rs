@@ -58,8 +58,9 @@ pub struct Converted {
 pub fn convert(input: &Bag, output: &Path, options: &ConvertOptions) -> Result<Converted, Error> {
     let topics = input.topics()?;
     for wanted in &options.topics {
-        if !topics.contains_key(wanted) {
-            let list: Vec<&str> = topics.keys().map(String::as_str).collect();
+        if !topics.iter().any(|t| &t.name == wanted) {
+            let mut list: Vec<&str> = topics.iter().map(|t| t.name.as_str()).collect();
+            list.dedup();
             return Err(format!(
                 "the input has no topic {wanted}; it has {}",
                 list.join(", ")
@@ -68,7 +69,7 @@ pub fn convert(input: &Bag, output: &Path, options: &ConvertOptions) -> Result<C
         }
     }
     let selected: Vec<&RecordedTopic> = topics
-        .values()
+        .iter()
         .filter(|t| options.topics.is_empty() || options.topics.contains(&t.name))
         .filter(|t| {
             !options
@@ -113,14 +114,24 @@ pub fn convert(input: &Bag, output: &Path, options: &ConvertOptions) -> Result<C
                 .collect(),
             type_description_hash: topic.type_hash.clone(),
         };
-        ids.insert(topic.name.clone(), writer.add_topic(metadata, definition)?);
+        let id = writer.add_topic(metadata, definition)?;
+        ids.entry(topic.name.clone())
+            .or_insert_with(Vec::new)
+            .push((topic.type_name.clone(), id));
     }
     let mut failure = None;
     input.read(
         0,
         |_| {},
         |message| {
-            let Some(&id) = ids.get(message.topic) else {
+            // A topic may be recorded with several types: each its channel.
+            let id = ids.get(message.topic).and_then(|by_type| {
+                by_type
+                    .iter()
+                    .find(|(type_name, _)| type_name == message.type_name)
+                    .map(|(_, id)| *id)
+            });
+            let Some(id) = id else {
                 return std::ops::ControlFlow::Continue(());
             };
             match writer.write(

@@ -24,15 +24,23 @@ pub fn of_description(description: &FullDescription) -> String {
     )
 }
 
+/// The most bytes of one type's source text taken from a type-description
+/// service; a longer one (no `.msg` file of ROS 2 comes near it) is replaced
+/// by text written back from the description, so that a node cannot fill a
+/// recording with text.
+pub const MAX_SOURCE_TEXT: usize = 64 * 1024;
+
 /// The definition of a type a type-description service described: the
-/// `.msg` sources it sent where it sent them (`include_type_sources`), else
-/// text written back from the description.
+/// `.msg` sources it sent where it sent them (`include_type_sources`) and
+/// they are at most [`MAX_SOURCE_TEXT`] bytes, else text written back from
+/// the description.
 pub fn of_reply(description: &TypeDescription, sources: &[TypeSource]) -> String {
     match DynamicType::from_type_description_msg(description) {
         Ok(ty) => of_dynamic(&ty, |name| {
             sources
                 .iter()
                 .find(|s| s.type_name == name && s.encoding == "msg")
+                .filter(|s| s.raw_file_contents.len() <= MAX_SOURCE_TEXT)
                 .map(|s| s.raw_file_contents.clone())
         }),
         Err(_) => String::new(),

@@ -46,7 +46,8 @@ pub use convert::{convert, ConvertOptions, Converted};
 pub use metadata::BagMetadata;
 pub use player::{Bag, ClockTrigger, PlayOptions, PlayStats, Player, RecordedTopic};
 pub use recorder::{
-    service_of_event_topic, RecordOptions, RecordStats, Recorder, RecorderControl, Selection,
+    service_of_event_topic, ChannelStats, RecordOptions, RecordStats, Recorder, RecorderControl,
+    Selection, TypeDefinition,
 };
 pub use reindex::{reindex, FileReport, Reindexed};
 pub use storage::{BagMessage, Storage};

@@ -32,8 +32,8 @@ use crate::Error;
 /// use std::ops::ControlFlow;
 ///
 /// let bag = shm_bag::Bag::open("my_bag".as_ref())?;
-/// for (name, topic) in bag.topics()? {
-///     println!("{name}: {} ({} messages)", topic.type_name, topic.message_count);
+/// for topic in bag.topics()? {
+///     println!("{}: {} ({} messages)", topic.name, topic.type_name, topic.message_count);
 /// }
 /// // Every message in log-time order, whatever the storage.
 /// bag.read(0, |_file| {}, |message| {
@@ -255,7 +255,7 @@ impl Bag {
             },
             message_count: count,
             topics_with_message_count: topics
-                .into_values()
+                .into_iter()
                 .map(|t| crate::metadata::TopicWithMessageCount {
                     message_count: t.message_count,
                     topic_metadata: crate::metadata::TopicMetadata {
@@ -379,20 +379,22 @@ impl Bag {
         self.read(from, on_file, |m| each(m.topic, m.log_time, m.data))
     }
 
-    /// The topics in all files, by name.
-    pub fn topics(&self) -> Result<BTreeMap<String, RecordedTopic>, Error> {
-        let mut out: BTreeMap<String, RecordedTopic> = BTreeMap::new();
+    /// The topics in all files, each with its type, by name and then type:
+    /// a topic recorded with several types is listed once with each.
+    pub fn topics(&self) -> Result<Vec<RecordedTopic>, Error> {
+        let mut out: BTreeMap<(String, String), RecordedTopic> = BTreeMap::new();
         for file in self.open_files() {
             for topic in file?.topics()? {
-                match out.get_mut(&topic.name) {
+                let key = (topic.name.clone(), topic.type_name.clone());
+                match out.get_mut(&key) {
                     Some(known) => known.message_count += topic.message_count,
                     None => {
-                        out.insert(topic.name.clone(), topic);
+                        out.insert(key, topic);
                     }
                 }
             }
         }
-        Ok(out)
+        Ok(out.into_values().collect())
     }
 
     /// The `ros2msg` definition of each type a file keeps one of (all MCAP
@@ -529,7 +531,8 @@ pub struct Player {
     bag: Bag,
     options: PlayOptions,
     _node: RosNode,
-    publishers: HashMap<String, RosPublisher<Serialized>>,
+    /// By topic, then type: a topic may be recorded with several.
+    publishers: HashMap<String, Vec<(String, RosPublisher<Serialized>)>>,
     clock: Option<RosPublisher<Clock>>,
     /// Where the playback starts: the recording's first message time (ns
     /// since the Unix epoch), plus the start offset.
@@ -564,8 +567,9 @@ impl Player {
         let publishes_clock = options.clock_hz.is_some() || options.clock_on != ClockTrigger::Never;
         let topics = bag.topics()?;
         for wanted in &options.topics {
-            if !topics.contains_key(wanted) {
-                let list: Vec<&str> = topics.keys().map(String::as_str).collect();
+            if !topics.iter().any(|t| &t.name == wanted) {
+                let mut list: Vec<&str> = topics.iter().map(|t| t.name.as_str()).collect();
+                list.dedup();
                 return Err(format!(
                     "the recording has no topic {wanted}; it has {}",
                     list.join(", ")
@@ -585,7 +589,7 @@ impl Player {
         }
         let node = builder.wait()?;
         let mut publishers = HashMap::new();
-        for topic in topics.values() {
+        for topic in &topics {
             if !options.topics.is_empty() && !options.topics.contains(&topic.name) {
                 continue;
             }
@@ -611,7 +615,10 @@ impl Player {
             let publisher = node
                 .declare_serialized_publisher(&topic.name, &topic.type_name, &hash, qos)
                 .wait()?;
-            publishers.insert(topic.name.clone(), publisher);
+            publishers
+                .entry(topic.name.clone())
+                .or_insert_with(Vec::new)
+                .push((topic.type_name.clone(), publisher));
         }
         let clock = publishes_clock
             .then(|| {
@@ -702,7 +709,7 @@ impl Player {
     ) -> Result<PlayStats, Error> {
         if let Some(timeout) = self.options.wait_for_subscribers {
             let deadline = Instant::now() + timeout;
-            for publisher in self.publishers.values() {
+            for (_, publisher) in self.publishers.values().flatten() {
                 publisher.wait_for_subscribers(deadline.saturating_duration_since(Instant::now()));
             }
             if let Some(clock) = &self.clock {
@@ -738,7 +745,7 @@ impl Player {
         stats: &mut PlayStats,
     ) -> Result<PassEnd, Error> {
         let mut previous: Option<PathBuf> = None;
-        let ended = self.bag.read_messages(
+        let ended = self.bag.read(
             from,
             |path| {
                 if let Some(closed) = previous.replace(path.to_owned()) {
@@ -748,8 +755,15 @@ impl Player {
                     });
                 }
             },
-            |topic, time, data| {
-                let Some(publisher) = self.publishers.get(topic) else {
+            |message| {
+                let (topic, time, data) = (message.topic, message.log_time, message.data);
+                let publisher = self.publishers.get(topic).and_then(|by_type| {
+                    by_type
+                        .iter()
+                        .find(|(type_name, _)| type_name == message.type_name)
+                        .map(|(_, publisher)| publisher)
+                });
+                let Some(publisher) = publisher else {
                     return ControlFlow::Continue(());
                 };
                 if time < from {

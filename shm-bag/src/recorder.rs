@@ -1,8 +1,19 @@
-//! Recording live topics: discovered on the graph, typed through the
-//! standard set or the announcing node's type-description service, received
-//! in place (a shared-memory sample is written from where it lies) and
-//! written by one thread, with memory bounded and every message that could
-//! not be kept counted.
+//! Recording live topics: discovered on the graph and subscribed at once by
+//! their announced type name and hash, received in place (a shared-memory
+//! sample is written from where it lies) and written by one thread, with
+//! memory bounded and every message that could not be kept counted, per
+//! topic.
+//!
+//! A type's definition (the schema a recording keeps) comes from what is
+//! known without asking anyone first: the standard set, the interface files
+//! given. Any other is asked of a node that announces it
+//! (`~/get_type_description`), each node on its own thread and within the
+//! recorder's timeout, so that no node's silence holds up another's topics.
+//! Messages that arrive meanwhile are held (copied, within the budget) and
+//! written once the definition is known; a type never learned is recorded by
+//! name and hash without a definition, as rosbag2 records a type it has none
+//! of. Each topic and type is a channel of its own, so a second type on a
+//! topic is recorded beside the first.
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::path::PathBuf;
@@ -12,9 +23,9 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use regex::Regex;
-use shm_runtime::graph::Graph;
-use shm_runtime::rmw::{Distro, Durability, History, Qos, Reliability};
-use shm_runtime::{CallbackSubscriber, RosNode, RosSample};
+use shm_runtime::graph::{Entity, GraphCache};
+use shm_runtime::rmw::{Distro, Durability, History, Qos, Reliability, TYPE_HASH_NOT_SUPPORTED};
+use shm_runtime::{CallbackSubscriber, RosNode, RosSample, Serialized};
 use zenoh::Wait;
 
 use crate::interfaces::rosbag2_interfaces::msg::WriteSplitEvent;
@@ -160,6 +171,7 @@ impl RecordOptions {
 
 /// What a recording has done so far.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct RecordStats {
     /// Topics being recorded.
     pub topics: usize,
@@ -177,8 +189,8 @@ pub struct RecordStats {
     pub missed: u64,
     /// Bytes received and not yet written.
     pub queued_bytes: usize,
-    /// Topics selected but not recorded, with why (a type no node
-    /// describes, say).
+    /// Topics selected but not recorded, with why (announced with another
+    /// distribution's conventions, say).
     pub skipped: BTreeMap<String, String>,
     /// In snapshot mode, the messages held for the next snapshot.
     pub buffered: u64,
@@ -186,6 +198,90 @@ pub struct RecordStats {
     /// say), in the OS's words with the file's path; nothing is written after
     /// it and what was written before stays readable.
     pub failure: Option<String>,
+    /// Each topic and type recorded (an MCAP channel each), in the order
+    /// they were found, with its own counts: every message received is
+    /// written, held, dropped or (with a write failure) lost in one of them.
+    pub channels: Vec<ChannelStats>,
+}
+
+/// What a recording knows of a recorded type's definition (the schema kept
+/// in the file).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum TypeDefinition {
+    /// Being learned from a node: the channel's messages are held in memory
+    /// (within the budget) until it is.
+    Learning,
+    /// Known, and from where: the standard set, the interface files, or the
+    /// node that described it.
+    Known(String),
+    /// Never learned, and why: the channel is recorded by type name and hash
+    /// with an empty definition, as rosbag2 records a type it has no
+    /// definition of. Its messages are all there; a reader needs the type
+    /// from elsewhere to decode them.
+    Missing(String),
+}
+
+/// One topic recorded with one type: an MCAP channel, with its counts.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct ChannelStats {
+    /// The topic.
+    pub topic: String,
+    /// Its type, `pkg/msg/Name`.
+    pub type_name: String,
+    /// The type's RIHS01 hash as announced.
+    pub type_hash: String,
+    /// Where its definition comes from.
+    pub definition: TypeDefinition,
+    /// Messages received.
+    pub received: u64,
+    /// Messages written.
+    pub written: u64,
+    /// Messages received and not written: over the budget, or after a write
+    /// failure.
+    pub dropped: u64,
+    /// Gaps in its publishers' sequence numbers.
+    pub missed: u64,
+    /// Messages held in memory until the definition is known.
+    pub held: u64,
+}
+
+/// One channel's counters, shared by its subscriber's callback, the writer
+/// and the lookups.
+struct Channel {
+    topic: String,
+    type_name: String,
+    type_hash: String,
+    definition: Mutex<TypeDefinition>,
+    received: AtomicU64,
+    written: AtomicU64,
+    dropped: AtomicU64,
+    missed: AtomicU64,
+    held: AtomicU64,
+}
+
+impl Channel {
+    fn stats(&self) -> ChannelStats {
+        ChannelStats {
+            topic: self.topic.clone(),
+            type_name: self.type_name.clone(),
+            type_hash: self.type_hash.clone(),
+            definition: self
+                .definition
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .clone(),
+            received: self.received.load(Ordering::Relaxed),
+            written: self.written.load(Ordering::Relaxed),
+            dropped: self.dropped.load(Ordering::Relaxed),
+            missed: self.missed.load(Ordering::Relaxed),
+            held: self.held.load(Ordering::Relaxed),
+        }
+    }
+
+    fn set_definition(&self, definition: TypeDefinition) {
+        *self.definition.lock().unwrap_or_else(|e| e.into_inner()) = definition;
+    }
 }
 
 #[derive(Default)]
@@ -202,6 +298,7 @@ struct Shared {
     queued_bytes: AtomicUsize,
     skipped: Mutex<BTreeMap<String, String>>,
     failure: Mutex<Option<String>>,
+    channels: Mutex<Vec<Arc<Channel>>>,
 }
 
 impl Shared {
@@ -218,15 +315,41 @@ impl Shared {
             skipped: s.skipped.lock().unwrap_or_else(|e| e.into_inner()).clone(),
             buffered: s.buffered.load(Ordering::Relaxed),
             failure: s.failure.lock().unwrap_or_else(|e| e.into_inner()).clone(),
+            channels: s
+                .channels
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .iter()
+                .map(|c| c.stats())
+                .collect(),
         }
+    }
+
+    fn skip(&self, topic: &str, why: String) {
+        self.skipped
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert(topic.to_owned(), why);
     }
 }
 
 enum Event {
-    Topic {
+    /// A channel is subscribed: its metadata, before any of its messages.
+    Channel {
         index: usize,
+        channel: Arc<Channel>,
         metadata: TopicMetadata,
+    },
+    /// The channel's definition: known (`ros2msg` text) or, empty, never
+    /// learned. Its held messages are written after it.
+    Definition {
+        index: usize,
         definition: String,
+    },
+    /// The channel's subscription failed: it has no messages, and is not
+    /// written.
+    Forget {
+        index: usize,
     },
     Sample {
         index: usize,
@@ -383,7 +506,7 @@ impl Recorder {
         if let Some(distro) = options.distro {
             builder = builder.distro(distro);
         }
-        let node = builder.wait()?;
+        let node = Arc::new(builder.wait()?);
         let writer = BagWriter::create(&options.output, options.write.clone())?;
         let shared = Arc::new(Shared::default());
         shared.paused.store(options.start_paused, Ordering::Relaxed);
@@ -394,14 +517,17 @@ impl Recorder {
         };
         let services = declare_services(&node, &control, options.snapshot)?;
         let split_events = SplitEvents::<WriteSplitEvent>::declare(&node)?;
-        let snapshot_budget = options.snapshot.then_some(options.max_queued_bytes);
+        let budgets = Budgets {
+            snapshot: options.snapshot.then_some(options.max_queued_bytes),
+            // Messages held while their type is learned take at most half
+            // of what may wait, so known topics keep the rest.
+            held: options.max_queued_bytes / 2,
+        };
         let writer = {
             let shared = shared.clone();
             std::thread::Builder::new()
                 .name("shm-bag writer".into())
-                .spawn(move || {
-                    write_loop(writer, &receiver, &shared, &split_events, snapshot_budget)
-                })?
+                .spawn(move || write_loop(writer, &receiver, &shared, &split_events, budgets))?
         };
         let discovery = {
             let shared = shared.clone();
@@ -468,10 +594,10 @@ fn now_ns() -> u64 {
         .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
 }
 
-/// The discovery thread: subscribe to each selected topic once it has a
-/// publisher, until told to stop; the subscriptions end with it.
+/// The discovery thread: subscribe to each selected topic and type once it
+/// has a publisher, until told to stop; the subscriptions end with it.
 fn discover(
-    node: &RosNode,
+    node: &Arc<RosNode>,
     options: &RecordOptions,
     shared: &Arc<Shared>,
     events: &flume::Sender<Event>,
@@ -479,61 +605,354 @@ fn discover(
     let cache = match node.graph_cache() {
         Ok(cache) => cache,
         Err(e) => {
-            shared
-                .skipped
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .insert(String::from("*"), format!("no graph: {e}"));
+            shared.skip("*", format!("no graph: {e}"));
             return;
         }
     };
     cache.wait_synced(Duration::from_secs(1));
-    let mut subscribers: Vec<CallbackSubscriber<shm_cdr::dynamic::DynamicType>> = Vec::new();
-    let mut recorded: HashMap<String, usize> = HashMap::new();
-    let mut retry: HashMap<String, Instant> = HashMap::new();
+    let lookups = Lookups {
+        node: node.clone(),
+        cache: cache.clone(),
+        timeout: options.type_timeout,
+        shared: shared.clone(),
+        events: events.clone(),
+        nodes: Arc::new(Mutex::new(HashMap::new())),
+    };
+    let mut subscribers: Vec<CallbackSubscriber<Serialized>> = Vec::new();
+    // (topic, type name, type hash) → channel index.
+    let mut recorded: HashMap<(String, String, String), usize> = HashMap::new();
+    let mut next_index = 0;
+    let mut retry: HashMap<(String, String, String), Instant> = HashMap::new();
+    let distro = node.info().distro;
     while !shared.stop.load(Ordering::Relaxed) {
         let graph = cache.snapshot();
         for topic in graph.topics().into_keys() {
-            if recorded.contains_key(&topic) || !options.selection.matches(&topic) {
+            if !options.selection.matches(&topic) {
                 continue;
             }
-            if retry.get(&topic).is_some_and(|at| Instant::now() < *at) {
-                continue;
-            }
-            let publishers = graph.publishers(&topic);
             // The recorder's own (its split events) are not recorded.
-            let own = |p: &Arc<shm_runtime::graph::Entity>| {
-                p.zid == node.info().zid && p.node_id == node.info().node_id
-            };
-            if publishers.is_empty() || publishers.iter().all(own) {
-                continue;
-            }
-            let index = recorded.len();
-            match subscribe(node, options, &graph, &topic, index, shared, events) {
-                Ok(subscriber) => {
-                    subscribers.push(subscriber);
-                    recorded.insert(topic.clone(), index);
-                    shared.topics.store(recorded.len(), Ordering::Relaxed);
-                    shared
-                        .skipped
-                        .lock()
-                        .unwrap_or_else(|e| e.into_inner())
-                        .remove(&topic);
+            let own =
+                |p: &Arc<Entity>| p.zid == node.info().zid && p.node_id == node.info().node_id;
+            let publishers: Vec<Arc<Entity>> = graph
+                .publishers(&topic)
+                .into_iter()
+                .filter(|p| !own(p))
+                .collect();
+            let mut types: BTreeMap<(String, String), Vec<Arc<Entity>>> = BTreeMap::new();
+            for publisher in publishers {
+                if let Some(endpoint) = publisher.endpoint.as_ref() {
+                    let key = (endpoint.type_name.clone(), endpoint.type_hash.clone());
+                    types.entry(key).or_default().push(publisher);
                 }
-                Err(e) => {
-                    tracing::warn!(topic, "not recorded for now: {e}");
-                    shared
-                        .skipped
-                        .lock()
-                        .unwrap_or_else(|e| e.into_inner())
-                        .insert(topic.clone(), e.to_string());
-                    retry.insert(topic, Instant::now() + Duration::from_secs(10));
+            }
+            for ((type_name, type_hash), publishers) in types {
+                let key = (topic.clone(), type_name, type_hash);
+                if recorded.contains_key(&key)
+                    || retry.get(&key).is_some_and(|at| Instant::now() < *at)
+                {
+                    continue;
+                }
+                let (_, type_name, type_hash) = &key;
+                if (type_hash == TYPE_HASH_NOT_SUPPORTED) == distro.has_type_hashes() {
+                    shared.skip(
+                        &topic,
+                        format!(
+                            "announced as {type_name} with type hash {type_hash}, and the recorder \
+                             speaks {distro}'s conventions: set ROS_DISTRO (or --distro) to the \
+                             distribution of the nodes on it{}",
+                            if distro.has_type_hashes() {
+                                " (humble: its nodes have no type hashes)"
+                            } else {
+                                ""
+                            }
+                        ),
+                    );
+                    retry.insert(key, Instant::now() + Duration::from_secs(10));
+                    continue;
+                }
+                let index = next_index;
+                next_index += 1;
+                match subscribe(
+                    node,
+                    options,
+                    &topic,
+                    type_name,
+                    type_hash,
+                    &publishers,
+                    index,
+                    shared,
+                    events,
+                ) {
+                    Ok((subscriber, channel)) => {
+                        subscribers.push(subscriber);
+                        recorded.insert(key.clone(), index);
+                        let topics: std::collections::BTreeSet<&str> =
+                            recorded.keys().map(|(t, _, _)| t.as_str()).collect();
+                        shared.topics.store(topics.len(), Ordering::Relaxed);
+                        shared
+                            .skipped
+                            .lock()
+                            .unwrap_or_else(|e| e.into_inner())
+                            .remove(&topic);
+                        learn(&lookups, options, index, &channel, &publishers);
+                    }
+                    Err(e) => {
+                        tracing::warn!(topic, "not recorded for now: {e}");
+                        shared.skip(&topic, e.to_string());
+                        retry.insert(key, Instant::now() + Duration::from_secs(10));
+                    }
                 }
             }
         }
         std::thread::sleep(options.discovery_period);
     }
     drop(subscribers);
+}
+
+/// Find the definition of `channel`'s type: at once from what is known
+/// locally, else from a node announcing it, on that node's lookup thread.
+fn learn(
+    lookups: &Lookups,
+    options: &RecordOptions,
+    index: usize,
+    channel: &Arc<Channel>,
+    publishers: &[Arc<Entity>],
+) {
+    let distro = lookups.node.info().distro;
+    let local = types::resolve_locally(
+        distro,
+        &channel.type_name,
+        &channel.type_hash,
+        &options.interfaces,
+    );
+    let why_not_local = match local {
+        Some(Ok(resolved)) => {
+            let from = if types::standard().contains_key(channel.type_name.as_str()) {
+                "the standard set"
+            } else {
+                "the interface files"
+            };
+            lookups.define(
+                index,
+                channel,
+                resolved.definition,
+                TypeDefinition::Known(from.to_owned()),
+            );
+            return;
+        }
+        Some(Err(e)) => Some(e.to_string()),
+        None => None,
+    };
+    if !distro.has_type_hashes() {
+        let why = why_not_local.unwrap_or_else(|| {
+            format!(
+                "not a standard type, and {distro}'s nodes describe no types: give its \
+                 interface files (--interfaces)"
+            )
+        });
+        lookups.define(index, channel, String::new(), TypeDefinition::Missing(why));
+        return;
+    }
+    let mut nodes: Vec<String> = publishers.iter().map(|p| p.node_fqn()).collect();
+    nodes.sort();
+    nodes.dedup();
+    lookups.ask(Lookup {
+        index,
+        channel: channel.clone(),
+        nodes,
+    });
+}
+
+/// A type to ask of the nodes that announce it.
+struct Lookup {
+    index: usize,
+    channel: Arc<Channel>,
+    /// The nodes publishing it, by full name: asked in turn.
+    nodes: Vec<String>,
+}
+
+/// The type lookups of a recording: one thread per node asked, so that a
+/// silent node holds up only its own types, each question bounded by the
+/// recorder's timeout. A node that let one question time out is not asked
+/// again: its other types are recorded without definitions at once.
+#[derive(Clone)]
+struct Lookups {
+    node: Arc<RosNode>,
+    cache: GraphCache,
+    timeout: Duration,
+    shared: Arc<Shared>,
+    events: flume::Sender<Event>,
+    /// Each node's queue of lookups (its thread's), and why a node is not
+    /// asked any more.
+    nodes: Arc<Mutex<HashMap<String, NodeLookups>>>,
+}
+
+enum NodeLookups {
+    Asking(flume::Sender<Lookup>),
+    Silent(String),
+}
+
+impl Lookups {
+    /// Record the channel's definition, known or (empty) missing.
+    fn define(&self, index: usize, channel: &Channel, definition: String, how: TypeDefinition) {
+        if let TypeDefinition::Missing(why) = &how {
+            tracing::warn!(
+                topic = channel.topic,
+                "{} is recorded without its definition: {why}",
+                channel.type_name
+            );
+        }
+        channel.set_definition(how);
+        let _ = self.events.send(Event::Definition { index, definition });
+    }
+
+    /// Ask the first of the lookup's nodes, on its thread.
+    fn ask(&self, mut lookup: Lookup) {
+        if lookup.nodes.is_empty() {
+            let why = lookup
+                .channel
+                .definition
+                .lock()
+                .map(|d| match &*d {
+                    TypeDefinition::Missing(why) => why.clone(),
+                    _ => String::new(),
+                })
+                .unwrap_or_default();
+            let why = if why.is_empty() {
+                "no node announcing it describes it".to_owned()
+            } else {
+                why
+            };
+            self.define(
+                lookup.index,
+                &lookup.channel,
+                String::new(),
+                TypeDefinition::Missing(why),
+            );
+            return;
+        }
+        let fqn = lookup.nodes[0].clone();
+        let mut nodes = self.nodes.lock().unwrap_or_else(|e| e.into_inner());
+        match nodes.get(&fqn) {
+            Some(NodeLookups::Silent(why)) => {
+                let why = why.clone();
+                drop(nodes);
+                lookup.nodes.remove(0);
+                lookup.channel.set_definition(TypeDefinition::Missing(why));
+                self.ask(lookup);
+                return;
+            }
+            Some(NodeLookups::Asking(queue)) => match queue.send(lookup) {
+                Ok(()) => return,
+                // Its thread has just finished: start another.
+                Err(flume::SendError(back)) => lookup = back,
+            },
+            None => {}
+        }
+        let (queue, work) = flume::unbounded();
+        let _ = queue.send(lookup);
+        nodes.insert(fqn.clone(), NodeLookups::Asking(queue));
+        drop(nodes);
+        let lookups = self.clone();
+        let spawned = std::thread::Builder::new()
+            .name("shm-bag type lookup".into())
+            .stack_size(256 * 1024)
+            .spawn(move || lookups.serve(&fqn, &work));
+        if let Err(e) = spawned {
+            tracing::warn!("no thread to ask a node for a type: {e}");
+        }
+    }
+
+    /// A node's lookup thread: its questions one after another, until none
+    /// is left.
+    fn serve(&self, fqn: &str, work: &flume::Receiver<Lookup>) {
+        loop {
+            let lookup = {
+                let mut nodes = self.nodes.lock().unwrap_or_else(|e| e.into_inner());
+                match work.try_recv() {
+                    Ok(lookup) => lookup,
+                    Err(_) => {
+                        // Nothing more: this thread ends, and the next
+                        // lookup for the node starts another.
+                        if matches!(nodes.get(fqn), Some(NodeLookups::Asking(_))) {
+                            nodes.remove(fqn);
+                        }
+                        return;
+                    }
+                }
+            };
+            if self.shared.stop.load(Ordering::Relaxed) {
+                continue;
+            }
+            match self.describe(fqn, &lookup.channel) {
+                Ok(definition) => self.define(
+                    lookup.index,
+                    &lookup.channel,
+                    definition,
+                    TypeDefinition::Known(fqn.to_owned()),
+                ),
+                Err((why, silent)) => {
+                    if silent {
+                        // Its other questions are not asked: they would wait as long.
+                        let mut nodes = self.nodes.lock().unwrap_or_else(|e| e.into_inner());
+                        nodes.insert(fqn.to_owned(), NodeLookups::Silent(why.clone()));
+                        drop(nodes);
+                        for other in work.drain() {
+                            let mut other = other;
+                            other.nodes.retain(|n| n != fqn);
+                            other
+                                .channel
+                                .set_definition(TypeDefinition::Missing(why.clone()));
+                            self.ask(other);
+                        }
+                    }
+                    let mut rest = lookup;
+                    rest.nodes.retain(|n| n != fqn);
+                    rest.channel.set_definition(TypeDefinition::Missing(why));
+                    self.ask(rest);
+                    if silent {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The definition `fqn` gives of the channel's type, or why not and
+    /// whether the node is to be taken as silent.
+    fn describe(&self, fqn: &str, channel: &Channel) -> Result<String, (String, bool)> {
+        let service = format!("{}/get_type_description", fqn.trim_end_matches('/'));
+        // A node's service is announced with it, but its token may come a
+        // moment after the publisher's.
+        let offered = self
+            .cache
+            .wait_until(self.timeout.min(Duration::from_secs(1)), |g| {
+                !g.servers(&service).is_empty()
+            });
+        if !offered {
+            return Err((
+                format!(
+                    "{fqn} offers no {service} (Humble's nodes have none, and a node can be \
+                     started without it): give the type's interface files (--interfaces)"
+                ),
+                true,
+            ));
+        }
+        let asked = Instant::now();
+        types::ask_node(
+            &self.node,
+            self.timeout,
+            fqn,
+            &channel.type_name,
+            &channel.type_hash,
+        )
+        .map(|resolved| resolved.definition)
+        .map_err(|e| {
+            // A question that took the whole timeout went unanswered: the
+            // node's other questions would wait as long.
+            (e.to_string(), asked.elapsed() >= self.timeout)
+        })
+    }
 }
 
 /// The QoS to record a topic with, from its publishers' (as rosbag2
@@ -572,51 +991,60 @@ fn recording_qos(offered: &[Qos]) -> Qos {
     }
 }
 
+/// Subscribe to `topic` with the type its `publishers` announce, as bytes:
+/// nothing about the type beyond its name and hash is needed to receive.
+#[allow(clippy::too_many_arguments)]
 fn subscribe(
     node: &RosNode,
     options: &RecordOptions,
-    graph: &Graph,
     topic: &str,
+    type_name: &str,
+    type_hash: &str,
+    publishers: &[Arc<Entity>],
     index: usize,
     shared: &Arc<Shared>,
     events: &flume::Sender<Event>,
-) -> Result<CallbackSubscriber<shm_cdr::dynamic::DynamicType>, Error> {
-    let resolved = types::of_topic(
-        node,
-        options.type_timeout,
-        graph,
-        topic,
-        &options.interfaces,
-    )?;
-    let offered: Vec<Qos> = graph
-        .publishers(topic)
+) -> Result<(CallbackSubscriber<Serialized>, Arc<Channel>), Error> {
+    let offered: Vec<Qos> = publishers
         .iter()
         .filter_map(|p| p.endpoint.as_ref().map(|e| e.qos))
         .collect();
     let metadata = TopicMetadata {
         name: topic.to_owned(),
-        type_name: resolved.ty.name().to_owned(),
+        type_name: type_name.to_owned(),
         serialization_format: "cdr".to_owned(),
         offered_qos_profiles: offered.iter().map(QosProfile::from).collect(),
-        type_description_hash: resolved.ty.type_hash(),
+        type_description_hash: type_hash.to_owned(),
     };
-    // The writer learns of the topic before any of its messages.
+    let channel = Arc::new(Channel {
+        topic: topic.to_owned(),
+        type_name: type_name.to_owned(),
+        type_hash: type_hash.to_owned(),
+        definition: Mutex::new(TypeDefinition::Learning),
+        received: AtomicU64::new(0),
+        written: AtomicU64::new(0),
+        dropped: AtomicU64::new(0),
+        missed: AtomicU64::new(0),
+        held: AtomicU64::new(0),
+    });
+    // The writer learns of the channel before any of its messages.
     events
-        .send(Event::Topic {
+        .send(Event::Channel {
             index,
+            channel: channel.clone(),
             metadata,
-            definition: resolved.definition,
         })
         .map_err(|_| "the writer has stopped")?;
     let budget = options.max_queued_bytes;
     let shared_cb = shared.clone();
+    let channel_cb = channel.clone();
     let events_cb = events.clone();
-    let subscriber = node
-        .declare_dynamic_subscriber(topic, &resolved.ty, recording_qos(&offered))
+    let subscribed = node
+        .declare_serialized_subscriber(topic, type_name, type_hash, recording_qos(&offered))
         // Zenoh's thread only hands the sample over: the writer's pace never
         // reaches the network, and the budget bounds what waits.
         .callback_inline(move |sample| {
-            let shared = &shared_cb;
+            let (shared, channel) = (&shared_cb, &channel_cb);
             if shared.paused.load(Ordering::Relaxed) {
                 if let Some(Ok(attachment)) = sample.attachment() {
                     let _ = events_cb.send(Event::Unrecorded {
@@ -627,11 +1055,13 @@ fn subscribe(
                 return;
             }
             shared.received.fetch_add(1, Ordering::Relaxed);
+            channel.received.fetch_add(1, Ordering::Relaxed);
             let len = sample.payload().len();
             let queued = shared.queued_bytes.fetch_add(len, Ordering::Relaxed);
             if queued.saturating_add(len) > budget {
                 shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
                 shared.dropped.fetch_add(1, Ordering::Relaxed);
+                channel.dropped.fetch_add(1, Ordering::Relaxed);
                 // Counted as dropped, so not as missed too.
                 if let Some(Ok(attachment)) = sample.attachment() {
                     let _ = events_cb.send(Event::Unrecorded {
@@ -649,10 +1079,25 @@ fn subscribe(
             if events_cb.send(event).is_err() {
                 shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
                 shared.dropped.fetch_add(1, Ordering::Relaxed);
+                channel.dropped.fetch_add(1, Ordering::Relaxed);
             }
         })
-        .wait()?;
-    Ok(subscriber)
+        .wait();
+    match subscribed {
+        Ok(subscriber) => {
+            shared
+                .channels
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push(channel.clone());
+            Ok((subscriber, channel))
+        }
+        Err(e) => {
+            // The writer forgets the channel: it had no messages.
+            let _ = events.send(Event::Forget { index });
+            Err(e)
+        }
+    }
 }
 
 /// Each publisher's last sequence number, and the gaps between them.
@@ -738,22 +1183,32 @@ fn declare_services(
     Ok(servers)
 }
 
-/// The writer thread: topics and messages in arrival order, until `Stop`.
+/// How much memory the writer may hold messages in.
+struct Budgets {
+    /// In snapshot mode, the bytes of the newest messages kept.
+    snapshot: Option<usize>,
+    /// The bytes of messages held while their types are learned.
+    held: usize,
+}
+
+/// The writer thread: channels and messages in arrival order, until `Stop`.
 fn write_loop(
     writer: BagWriter,
     events: &flume::Receiver<Event>,
     shared: &Shared,
     split_events: &SplitEvents<WriteSplitEvent>,
-    snapshot_budget: Option<usize>,
+    budgets: Budgets,
 ) -> Result<BagMetadata, Error> {
     let mut writing = Writing {
         writer,
         shared,
         split_events,
-        topics: HashMap::new(),
+        channels: HashMap::new(),
+        held_bytes: 0,
+        held_budget: budgets.held,
         sequences: Sequences::default(),
         failure: None,
-        snapshot: snapshot_budget.map(|budget| SnapshotBuffer {
+        snapshot: budgets.snapshot.map(|budget| SnapshotBuffer {
             messages: VecDeque::new(),
             bytes: 0,
             budget,
@@ -769,42 +1224,43 @@ fn write_loop(
             Err(flume::RecvTimeoutError::Disconnected) => break,
         };
         match event {
-            Event::Topic {
-                index,
-                metadata,
-                definition,
-            } => match writing.writer.add_topic(metadata, definition) {
-                Ok(id) => {
-                    writing.topics.insert(index, id);
-                }
-                Err(e) => writing.fail(e),
-            },
-            Event::Sample {
-                index,
-                sample,
-                log_time,
-            } => writing.sample(index, &sample, log_time),
-            Event::Unrecorded { gid, sequence } => {
-                writing.sequences.gap(gid, sequence);
-            }
-            Event::Split { reply } => {
-                let split = writing.split();
-                let _ = reply.send(split);
-            }
-            Event::Snapshot { reply } => {
-                let _ = reply.send(writing.snapshot());
-            }
             Event::Stop => break,
+            event => writing.handle(event),
         }
     }
     // Whatever a callback still handed over after the stop is counted.
     for event in events.try_iter() {
-        if let Event::Sample { sample, .. } = event {
-            shared
-                .queued_bytes
-                .fetch_sub(sample.payload().len(), Ordering::Relaxed);
-            shared.dropped.fetch_add(1, Ordering::Relaxed);
+        match event {
+            Event::Sample { index, sample, .. } => {
+                shared
+                    .queued_bytes
+                    .fetch_sub(sample.payload().len(), Ordering::Relaxed);
+                shared.dropped.fetch_add(1, Ordering::Relaxed);
+                if let Some(channel) = writing.channels.get(&index) {
+                    channel.counts.dropped.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+            // A definition learned as the recording stopped still names
+            // its held messages.
+            event @ Event::Definition { .. } => writing.handle(event),
+            _ => {}
         }
+    }
+    // Messages still held for a type being learned are written under the
+    // name and hash alone: in the file rather than lost.
+    let waiting: Vec<usize> = writing
+        .channels
+        .iter()
+        .filter(|(_, c)| matches!(c.state, State::Held(_)))
+        .map(|(index, _)| *index)
+        .collect();
+    for index in waiting {
+        if let Some(channel) = writing.channels.get(&index) {
+            channel.counts.set_definition(TypeDefinition::Missing(
+                "the recording stopped before a node described it".to_owned(),
+            ));
+        }
+        writing.define(index, String::new());
     }
     let finished = writing.writer.finish();
     match writing.failure {
@@ -822,12 +1278,31 @@ struct Writing<'a> {
     writer: BagWriter,
     shared: &'a Shared,
     split_events: &'a SplitEvents<WriteSplitEvent>,
-    topics: HashMap<usize, TopicId>,
+    channels: HashMap<usize, WriterChannel>,
+    /// Bytes of messages held for types being learned, and the most.
+    held_bytes: usize,
+    held_budget: usize,
     sequences: Sequences,
     /// The first write failure: nothing is written after it.
     failure: Option<Error>,
     /// In snapshot mode, the messages held for the next snapshot.
     snapshot: Option<SnapshotBuffer>,
+}
+
+/// A channel as the writer has it.
+struct WriterChannel {
+    counts: Arc<Channel>,
+    metadata: TopicMetadata,
+    state: State,
+}
+
+enum State {
+    /// Its definition is being learned: its messages, copied (a
+    /// shared-memory sample is not held: its publisher's pool needs it
+    /// back), oldest first.
+    Held(VecDeque<Held>),
+    /// In the file.
+    Open(TopicId),
 }
 
 /// The newest messages received, up to a byte budget, as copies (a
@@ -838,7 +1313,7 @@ struct SnapshotBuffer {
     budget: usize,
 }
 
-/// A message waiting in the snapshot buffer.
+/// A message held in memory.
 struct Held {
     index: usize,
     log_time: u64,
@@ -848,6 +1323,96 @@ struct Held {
 }
 
 impl Writing<'_> {
+    fn handle(&mut self, event: Event) {
+        match event {
+            Event::Channel {
+                index,
+                channel,
+                metadata,
+            } => {
+                self.channels.insert(
+                    index,
+                    WriterChannel {
+                        counts: channel,
+                        metadata,
+                        state: State::Held(VecDeque::new()),
+                    },
+                );
+            }
+            Event::Definition { index, definition } => self.define(index, definition),
+            Event::Forget { index } => {
+                self.channels.remove(&index);
+            }
+            Event::Sample {
+                index,
+                sample,
+                log_time,
+            } => self.sample(index, &sample, log_time),
+            Event::Unrecorded { gid, sequence } => {
+                self.sequences.gap(gid, sequence);
+            }
+            Event::Split { reply } => {
+                let split = self.split();
+                let _ = reply.send(split);
+            }
+            Event::Snapshot { reply } => {
+                let _ = reply.send(self.snapshot());
+            }
+            Event::Stop => {}
+        }
+    }
+
+    /// The channel's definition is known (or, empty, never will be): add it
+    /// to the file and write what it held.
+    fn define(&mut self, index: usize, definition: String) {
+        let Some(channel) = self.channels.get_mut(&index) else {
+            return;
+        };
+        if matches!(channel.state, State::Open(_)) {
+            return;
+        }
+        let metadata = channel.metadata.clone();
+        let held = match self.failure.is_none() {
+            true => match self.writer.add_topic(metadata, definition) {
+                Ok(id) => std::mem::replace(&mut channel.state, State::Open(id)),
+                Err(e) => {
+                    self.fail(e);
+                    return self.drop_held(index);
+                }
+            },
+            false => return self.drop_held(index),
+        };
+        if let State::Held(messages) = held {
+            for message in messages {
+                let len = message.data.len();
+                self.held_bytes -= len;
+                if let Some(channel) = self.channels.get(&index) {
+                    channel.counts.held.fetch_sub(1, Ordering::Relaxed);
+                }
+                self.take(message);
+            }
+        }
+    }
+
+    /// Count a channel's held messages as dropped (the file could not take
+    /// the channel).
+    fn drop_held(&mut self, index: usize) {
+        let Some(channel) = self.channels.get_mut(&index) else {
+            return;
+        };
+        if let State::Held(messages) = &mut channel.state {
+            for message in messages.drain(..) {
+                self.held_bytes -= message.data.len();
+                self.shared
+                    .queued_bytes
+                    .fetch_sub(message.data.len(), Ordering::Relaxed);
+                self.shared.dropped.fetch_add(1, Ordering::Relaxed);
+                channel.counts.held.fetch_sub(1, Ordering::Relaxed);
+                channel.counts.dropped.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+    }
+
     fn sample(&mut self, index: usize, sample: &RosSample, log_time: u64) {
         let payload = sample.payload().to_bytes();
         let len = payload.len();
@@ -856,6 +1421,9 @@ impl Writing<'_> {
                 let seq = attachment.sequence_number;
                 let missed = self.sequences.gap(attachment.gid.0, seq);
                 self.shared.missed.fetch_add(missed, Ordering::Relaxed);
+                if let Some(channel) = self.channels.get(&index) {
+                    channel.counts.missed.fetch_add(missed, Ordering::Relaxed);
+                }
                 (
                     u64::try_from(attachment.source_timestamp).unwrap_or(log_time),
                     seq as u32,
@@ -863,15 +1431,56 @@ impl Writing<'_> {
             }
             _ => (log_time, 0),
         };
+        let Some(channel) = self.channels.get_mut(&index) else {
+            // A channel the writer was never told of: cannot happen, but
+            // counted all the same.
+            self.shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
+            self.shared.dropped.fetch_add(1, Ordering::Relaxed);
+            return;
+        };
+        match &mut channel.state {
+            State::Held(held) => {
+                if self.held_bytes.saturating_add(len) > self.held_budget {
+                    self.shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
+                    self.shared.dropped.fetch_add(1, Ordering::Relaxed);
+                    channel.counts.dropped.fetch_add(1, Ordering::Relaxed);
+                    return;
+                }
+                self.held_bytes += len;
+                channel.counts.held.fetch_add(1, Ordering::Relaxed);
+                held.push_back(Held {
+                    index,
+                    log_time,
+                    publish_time,
+                    sequence,
+                    data: payload.to_vec(),
+                });
+            }
+            State::Open(_) if self.snapshot.is_some() => {
+                self.take(Held {
+                    index,
+                    log_time,
+                    publish_time,
+                    sequence,
+                    data: payload.to_vec(),
+                });
+            }
+            State::Open(_) => {
+                let written = self.write(index, log_time, publish_time, sequence, &payload);
+                drop(payload);
+                self.shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
+                self.count(index, written, len);
+            }
+        }
+    }
+
+    /// A message of an open channel, held in memory: into the snapshot
+    /// buffer in snapshot mode, else into the file.
+    fn take(&mut self, message: Held) {
+        let len = message.data.len();
         if let Some(buffer) = self.snapshot.as_mut() {
             buffer.bytes += len;
-            buffer.messages.push_back(Held {
-                index,
-                log_time,
-                publish_time,
-                sequence,
-                data: payload.to_vec(),
-            });
+            buffer.messages.push_back(message);
             // The oldest make room: a snapshot holds the newest messages.
             while buffer.bytes > buffer.budget {
                 match buffer.messages.pop_front() {
@@ -885,10 +1494,15 @@ impl Writing<'_> {
             self.shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
             return;
         }
-        let written = self.write(index, log_time, publish_time, sequence, &payload);
-        drop(payload);
+        let written = self.write(
+            message.index,
+            message.log_time,
+            message.publish_time,
+            message.sequence,
+            &message.data,
+        );
         self.shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
-        self.count(written, len);
+        self.count(message.index, written, len);
     }
 
     fn write(
@@ -899,8 +1513,12 @@ impl Writing<'_> {
         sequence: u32,
         data: &[u8],
     ) -> bool {
-        let written = match (self.failure.is_none(), self.topics.get(&index)) {
-            (true, Some(&id)) => {
+        let topic = match self.channels.get(&index).map(|c| &c.state) {
+            Some(State::Open(id)) => Some(*id),
+            _ => None,
+        };
+        let written = match (self.failure.is_none(), topic) {
+            (true, Some(id)) => {
                 match self
                     .writer
                     .write(id, log_time, publish_time, sequence, data)
@@ -943,12 +1561,19 @@ impl Writing<'_> {
         self.failure = Some(e);
     }
 
-    fn count(&self, written: bool, len: usize) {
+    fn count(&self, index: usize, written: bool, len: usize) {
+        let channel = self.channels.get(&index).map(|c| &c.counts);
         if written {
             self.shared.written.fetch_add(1, Ordering::Relaxed);
             self.shared.bytes.fetch_add(len as u64, Ordering::Relaxed);
+            if let Some(channel) = channel {
+                channel.written.fetch_add(1, Ordering::Relaxed);
+            }
         } else {
             self.shared.dropped.fetch_add(1, Ordering::Relaxed);
+            if let Some(channel) = channel {
+                channel.dropped.fetch_add(1, Ordering::Relaxed);
+            }
         }
     }
 
@@ -984,7 +1609,7 @@ impl Writing<'_> {
                 message.sequence,
                 &message.data,
             );
-            self.count(ok, message.data.len());
+            self.count(message.index, ok, message.data.len());
             written += u64::from(ok);
         }
         match &self.failure {

@@ -209,19 +209,9 @@ pub fn of_topic(
         )
         .into());
     }
-    if let Some(known) = standard_message_announced(&endpoint.type_name, &endpoint.type_hash) {
-        let description = (known.describe)();
-        return Ok(ResolvedType {
-            ty: DynamicType::from_description(&description)?,
-            definition: definition::of_description(&description),
-        });
-    }
-    if let Some(resolved) = local.resolve(&endpoint.type_name) {
-        let resolved = resolved?;
-        // Humble announces no hash: its types are known by name.
-        if !distro.has_type_hashes() || resolved.ty.type_hash() == endpoint.type_hash {
-            return Ok(resolved);
-        }
+    if let Some(resolved) = resolve_locally(distro, &endpoint.type_name, &endpoint.type_hash, local)
+    {
+        return resolved;
     }
     if !distro.has_type_hashes() {
         return Err(format!(
@@ -238,6 +228,37 @@ pub fn of_topic(
         &endpoint.type_name,
         &endpoint.type_hash,
     )
+}
+
+/// The message type `name` announced with `hash`, from what is known without
+/// asking any node: the standard set (on Humble, which announces no hashes,
+/// by name as Humble defines it), else the interface files `local` (whose
+/// type must have the announced hash, except on Humble). `None` when neither
+/// has it.
+pub fn resolve_locally(
+    distro: Distro,
+    name: &str,
+    hash: &str,
+    local: &LocalInterfaces,
+) -> Option<Result<ResolvedType, Error>> {
+    if let Some(known) = standard_message_announced(name, hash) {
+        let description = (known.describe)();
+        return Some(
+            DynamicType::from_description(&description)
+                .map(|ty| ResolvedType {
+                    ty,
+                    definition: definition::of_description(&description),
+                })
+                .map_err(Error::from),
+        );
+    }
+    match local.resolve(name)? {
+        Ok(resolved) if !distro.has_type_hashes() || resolved.ty.type_hash() == hash => {
+            Some(Ok(resolved))
+        }
+        Ok(_) => None,
+        Err(e) => Some(Err(e)),
+    }
 }
 
 /// The type `name` with hash `hash`, from `node_fqn`'s
@@ -265,12 +286,14 @@ fn ask(
     name: &str,
     hash: &str,
 ) -> Result<(DynamicType, GetTypeDescription_Response), Error> {
+    // The whole question, service discovery and reply, within `timeout`.
+    let deadline = std::time::Instant::now() + timeout;
     let service = format!("{}/get_type_description", node_fqn.trim_end_matches('/'));
     let client = node.declare_client::<GetTypeDescription>(&service).wait()?;
     if !client.wait_for_service(timeout) {
         return Err(format!(
-            "{name} is not a type this binary knows, and {node_fqn} does not answer {service} (waited {timeout:?}): \
-             run the node with its type-description service on"
+            "{name} is not a type this binary knows, and {node_fqn} offers no {service} (waited {timeout:?}): \
+             run the node with its type-description service on, or give the type's interface files"
         )
         .into());
     }
@@ -280,8 +303,14 @@ fn ask(
             type_hash: hash.to_owned(),
             include_type_sources: true,
         })
+        .timeout(deadline.saturating_duration_since(std::time::Instant::now()))
         .wait()
-        .map_err(|e| format!("{service}: {e}"))?;
+        .map_err(|e| {
+            format!(
+                "{name} is not a type this binary knows, and {service} gave no description \
+                 within {timeout:?} ({e}): give the type's interface files"
+            )
+        })?;
     if !reply.successful {
         return Err(format!(
             "{service} has no description of {name}: {}",

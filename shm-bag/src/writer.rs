@@ -543,7 +543,13 @@ fn add_channel(current: &mut Current, id: usize, topic: &Topic) -> Result<u16, E
         .writer
         .add_schema(
             &topic.metadata.type_name,
-            definition::ENCODING,
+            // A type recorded without its definition has an empty schema,
+            // encoding and text both, as rosbag2 writes one.
+            if topic.definition.is_empty() {
+                ""
+            } else {
+                definition::ENCODING
+            },
             topic.definition.as_bytes(),
         )
         .map_err(|e| format!("{}: {}", current.path, mcap_error(e)))?;

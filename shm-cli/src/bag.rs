@@ -394,7 +394,7 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
                 last = (now, stats.bytes);
             }
             bar.set_message(format!(
-                "{} {} topics: {} messages, {}, {}/s | dropped {} | missed {}{}{}",
+                "{} {} topics: {} messages, {}, {}/s | dropped {} | missed {}{}{}{}",
                 if control.is_paused() {
                     "Paused:"
                 } else {
@@ -415,6 +415,15 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
                     String::new()
                 } else {
                     format!(" | not recorded: {}", stats.skipped.len())
+                },
+                match stats
+                    .channels
+                    .iter()
+                    .filter(|c| c.definition == shm_bag::TypeDefinition::Learning)
+                    .count()
+                {
+                    0 => String::new(),
+                    learning => format!(" | learning {learning} types"),
                 }
             ));
             bar.tick();
@@ -452,10 +461,40 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
             stats.buffered
         );
     }
+    for channel in &stats.channels {
+        if let Some(line) = channel_summary(channel) {
+            eprintln!("{line}");
+        }
+    }
     for (topic, why) in &stats.skipped {
         eprintln!("Not recorded: {topic}: {why}");
     }
     stopped.map(|_| ())
+}
+
+/// A line for a recorded topic and type that lost messages or was recorded
+/// without its definition; `None` for one recorded whole.
+fn channel_summary(channel: &shm_bag::ChannelStats) -> Option<String> {
+    let missing = match &channel.definition {
+        shm_bag::TypeDefinition::Missing(why) => Some(why.as_str()),
+        _ => None,
+    };
+    if channel.dropped == 0 && channel.missed == 0 && missing.is_none() {
+        return None;
+    }
+    let mut line = format!(
+        "{} ({}): {} received, {} written, {} dropped, {} missed",
+        channel.topic,
+        channel.type_name,
+        channel.received,
+        channel.written,
+        channel.dropped,
+        channel.missed
+    );
+    if let Some(why) = missing {
+        line += &format!("; recorded without its definition: {why}");
+    }
+    Some(line)
 }
 
 fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {
@@ -543,7 +582,7 @@ fn service_calls(bag: &Bag) -> Result<BTreeMap<String, (u64, u64)>, Error> {
     use std::collections::HashSet;
     let services: BTreeMap<String, String> = bag
         .topics()?
-        .values()
+        .iter()
         .filter_map(|t| {
             recorded_service(&t.name, &t.type_name).map(|(service, _)| (t.name.clone(), service))
         })

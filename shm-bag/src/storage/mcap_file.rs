@@ -145,7 +145,8 @@ struct McapMessages {
     map: Arc<memmap2::Mmap>,
     /// Channel id → index into `topics`.
     channels: HashMap<u16, usize>,
-    topics: Vec<String>,
+    /// Each channel's topic and type.
+    topics: Vec<(String, String)>,
     from: u64,
     /// Chunks to read, the earliest last.
     pending: Vec<Unit>,
@@ -162,7 +163,8 @@ impl McapMessages {
         let mut channels = HashMap::new();
         for (id, channel) in &file.summary.channels {
             channels.insert(*id, topics.len());
-            topics.push(channel.topic.clone());
+            let type_name = channel.schema.as_ref().map(|s| s.name.clone());
+            topics.push((channel.topic.clone(), type_name.unwrap_or_default()));
         }
         let mut cursor = Self {
             path: file.path.clone(),
@@ -388,8 +390,10 @@ impl MessageCursor for McapMessages {
             Buffer::Owned(bytes) => bytes,
         };
         // The ranges were taken from slices of this very buffer.
+        let (topic, type_name) = self.topics.get(entry.topic)?;
         Some(BagMessage {
-            topic: self.topics.get(entry.topic)?,
+            topic,
+            type_name,
             log_time: entry.time,
             publish_time: entry.publish_time,
             sequence: entry.sequence,

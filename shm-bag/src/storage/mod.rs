@@ -165,6 +165,8 @@ pub(crate) fn decompress_message<'a>(
 pub struct BagMessage<'a> {
     /// Its topic.
     pub topic: &'a str,
+    /// Its type, `pkg/msg/Name` (a topic may be recorded with several).
+    pub type_name: &'a str,
     /// When it was recorded, in nanoseconds since the Unix epoch.
     pub log_time: u64,
     /// When it was sent, where the storage keeps it (MCAP); else its log
@@ -405,9 +407,11 @@ mod tests {
                     .collect::<Vec<_>>()
             );
             let topics = bag.topics().unwrap();
-            assert_eq!(topics["/t"].message_count, times.len() as u64);
-            assert_eq!(topics["/t"].type_name, "std_msgs/msg/String");
-            assert_eq!(topics["/t"].type_hash.is_empty(), n < 2);
+            assert_eq!(topics.len(), 1);
+            assert_eq!(topics[0].name, "/t");
+            assert_eq!(topics[0].message_count, times.len() as u64);
+            assert_eq!(topics[0].type_name, "std_msgs/msg/String");
+            assert_eq!(topics[0].type_hash.is_empty(), n < 2);
             assert_eq!(bag.definitions().unwrap().len(), usize::from(n == 2));
             let described = bag.describe().unwrap();
             assert_eq!(described.storage_identifier, "sqlite3");

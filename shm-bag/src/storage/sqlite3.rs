@@ -59,14 +59,14 @@ impl Sqlite3File {
         )
     }
 
-    /// Topic id → name.
-    fn topic_names(&self) -> Result<HashMap<i64, String>, Error> {
+    /// Topic id → name and type.
+    fn topic_names(&self) -> Result<HashMap<i64, (String, String)>, Error> {
         Ok(query(
             &self.path,
             &self.db,
-            "SELECT id, name FROM topics",
+            "SELECT id, name, type FROM topics",
             [],
-            |r| Ok((r.get(0)?, r.get(1)?)),
+            |r| Ok((r.get(0)?, (r.get(1)?, r.get(2)?))),
         )?
         .into_iter()
         .collect())
@@ -221,7 +221,7 @@ impl StorageFile for Sqlite3File {
             topics: self
                 .topic_names()?
                 .into_iter()
-                .map(|(id, name)| (id, Rc::from(name)))
+                .map(|(id, (name, type_name))| (id, (Rc::from(name), Rc::from(type_name))))
                 .collect(),
             after: (i64::try_from(from).unwrap_or(i64::MAX), None),
             batch: VecDeque::new(),
@@ -235,11 +235,12 @@ impl StorageFile for Sqlite3File {
 struct Sqlite3Messages {
     path: PathBuf,
     db: Connection,
-    topics: HashMap<i64, Rc<str>>,
+    /// Topic id → name and type.
+    topics: HashMap<i64, (Rc<str>, Rc<str>)>,
     /// The (timestamp, id) the next batch starts after (the id `None` for
     /// the first: at the timestamp, inclusive).
     after: (i64, Option<i64>),
-    batch: VecDeque<(Rc<str>, u64, Vec<u8>)>,
+    batch: VecDeque<((Rc<str>, Rc<str>), u64, Vec<u8>)>,
     done: bool,
 }
 
@@ -266,13 +267,16 @@ impl Sqlite3Messages {
                 let topic: i64 = row.get(1).map_err(bad)?;
                 let timestamp: i64 = row.get(2).map_err(bad)?;
                 self.after = (timestamp, Some(id));
-                let Some(name) = self.topics.get(&topic) else {
+                let Some((name, type_name)) = self.topics.get(&topic) else {
                     continue;
                 };
                 let data: Vec<u8> = row.get(3).map_err(bad)?;
                 bytes += data.len();
-                self.batch
-                    .push_back((Rc::clone(name), time(&self.path, timestamp)?, data));
+                self.batch.push_back((
+                    (Rc::clone(name), Rc::clone(type_name)),
+                    time(&self.path, timestamp)?,
+                    data,
+                ));
                 if bytes >= BATCH_BYTES {
                     break;
                 }
@@ -287,9 +291,10 @@ impl Sqlite3Messages {
 
 impl MessageCursor for Sqlite3Messages {
     fn current(&self) -> Option<BagMessage<'_>> {
-        let (topic, log_time, data) = self.batch.front()?;
+        let ((topic, type_name), log_time, data) = self.batch.front()?;
         Some(BagMessage {
             topic,
+            type_name,
             log_time: *log_time,
             publish_time: *log_time,
             sequence: 0,

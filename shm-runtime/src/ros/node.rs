@@ -305,6 +305,55 @@ impl RosNode {
         )
     }
 
+    /// A subscriber to messages of the type `type_name` (`pkg/msg/Name`) with
+    /// RIHS01 hash `type_hash`, taken as bytes without knowing the type's
+    /// fields: announced and keyed exactly as a subscriber of that type, for a
+    /// program that moves messages it need not read, such as a recorder that
+    /// subscribes at once and learns the type's definition meanwhile.
+    ///
+    /// Not knowing whether the type has a `uint8[]` field of its own, it also
+    /// listens where a buffer-aware publisher of Lyrical and later sends such
+    /// types (see [`crate::rmw::buffer_key_expr`]); a publisher of any other
+    /// type never sends there.
+    ///
+    /// ```no_run
+    /// use shm_runtime::rmw::Qos;
+    /// use shm_runtime::RosNode;
+    /// use zenoh::Wait;
+    ///
+    /// let session = zenoh::open(zenoh::Config::default()).wait()?;
+    /// let node = RosNode::builder(&session, "relay").wait()?;
+    /// let subscriber = node
+    ///     .declare_serialized_subscriber("/scan", "my_robot/msg/Scan", "RIHS01_…", Qos::default())
+    ///     .wait()?;
+    /// while let Ok(sample) = subscriber.recv() {
+    ///     println!("{} bytes", sample.payload().len());
+    /// }
+    /// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+    /// ```
+    pub fn declare_serialized_subscriber(
+        &self,
+        topic: &str,
+        type_name: &str,
+        type_hash: &str,
+        qos: Qos,
+    ) -> SubscriberBuilder<'_, crate::Serialized> {
+        let topic_type = TopicType {
+            name: type_name.into(),
+            hash: type_hash.into(),
+            has_buffer_fields: true,
+        };
+        node_subscriber(
+            &self.session,
+            &self.info,
+            &self.remaps,
+            topic,
+            qos,
+            topic_type,
+            None,
+        )
+    }
+
     /// A server of service `S` on `service` (e.g. `"/trigger"`, resolved like a
     /// topic name): a queryable on rmw_zenoh's service key with an `SS`
     /// liveliness token. Resolve it as it is for a queue of
