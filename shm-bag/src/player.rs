@@ -82,6 +82,10 @@ impl Bag {
     /// Open `path`: a bag directory, or one `.mcap` or `.db3` file.
     pub fn open(path: &Path) -> Result<Self, Error> {
         if path.is_dir() {
+            let listing = path.join(crate::metadata::FILE_NAME);
+            if listing.exists() {
+                regular_file_inside(path, &listing)?;
+            }
             let metadata = BagMetadata::read(path)?;
             let Some(storage) = Storage::from_identifier(&metadata.storage_identifier) else {
                 return Err(format!(
@@ -114,7 +118,7 @@ impl Bag {
                     )
                     .into());
                 }
-                files.push(path.join(file));
+                files.push(regular_file_inside(path, &path.join(file))?);
             }
             return Ok(Self {
                 storages: vec![storage; files.len()],
@@ -124,7 +128,8 @@ impl Bag {
                 decompressed: Mutex::default(),
             });
         }
-        if path.is_file() {
+        if path.exists() {
+            regular_file(path)?;
             return Ok(Self {
                 files: vec![path.to_owned()],
                 storages: vec![Storage::of_file(path)?],
@@ -408,6 +413,70 @@ impl Bag {
         }
         Ok(out)
     }
+}
+
+/// `file`, listed by the bag directory `dir`, if it is a regular file inside
+/// the directory once links are resolved. A file not there yet is let
+/// through: reading it says it is missing.
+fn regular_file_inside(dir: &Path, file: &Path) -> Result<PathBuf, Error> {
+    if std::fs::symlink_metadata(file).is_err() {
+        return Ok(file.to_owned());
+    }
+    let resolved = std::fs::canonicalize(file)
+        .map_err(|e| format!("{}: cannot resolve it: {e}", file.display()))?;
+    let dir_resolved = std::fs::canonicalize(dir)
+        .map_err(|e| format!("{}: cannot resolve it: {e}", dir.display()))?;
+    if !resolved.starts_with(&dir_resolved) {
+        return Err(format!(
+            "{}: a link to {}, outside the bag directory: a recording's files are inside it",
+            file.display(),
+            resolved.display()
+        )
+        .into());
+    }
+    regular_file(&resolved)?;
+    Ok(file.to_owned())
+}
+
+/// Refuse anything but a regular file (a FIFO, a device or a directory
+/// would block or mislead the reader), naming what it is.
+fn regular_file(path: &Path) -> Result<(), Error> {
+    let kind = std::fs::metadata(path)
+        .map_err(|e| format!("{}: {e}", path.display()))?
+        .file_type();
+    if kind.is_file() {
+        return Ok(());
+    }
+    let what = if kind.is_dir() {
+        "a directory without metadata.yaml"
+    } else {
+        special_file(&kind)
+    };
+    Err(format!(
+        "{}: {what}; a bag is a directory with metadata.yaml, or one .mcap or .db3 file",
+        path.display()
+    )
+    .into())
+}
+
+/// What a file that is neither regular nor a directory is.
+#[cfg(unix)]
+fn special_file(kind: &std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if kind.is_fifo() {
+        "a FIFO"
+    } else if kind.is_socket() {
+        "a socket"
+    } else if kind.is_block_device() || kind.is_char_device() {
+        "a device"
+    } else {
+        "not a regular file"
+    }
+}
+
+#[cfg(not(unix))]
+fn special_file(_: &std::fs::FileType) -> &'static str {
+    "not a regular file"
 }
 
 /// How to play.
@@ -1008,5 +1077,46 @@ mod tests {
             "{error}"
         );
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A bag directory's files are regular files inside it once links are
+    /// resolved: a link out of it, a FIFO (which would block the reader) or
+    /// a directory is refused, naming it; a link within it is followed.
+    #[cfg(unix)]
+    #[test]
+    fn a_bag_file_that_links_out_or_is_not_a_regular_file_is_refused_by_name() {
+        let root = std::env::temp_dir().join(format!("shm-bag-links-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = root.join("bag");
+        let mut writer = BagWriter::create(&dir, WriteOptions::default()).unwrap();
+        writer.add_topic(topic("/chatter"), String::new()).unwrap();
+        let mut metadata = writer.finish().unwrap();
+        let recorded = dir.join(&metadata.relative_file_paths[0]);
+        let outside = root.join("outside.mcap");
+        std::fs::copy(&recorded, &outside).unwrap();
+        let listing = dir.join(crate::metadata::FILE_NAME);
+        let open_with = |name: &str, metadata: &mut BagMetadata| {
+            metadata.relative_file_paths = vec![name.to_owned()];
+            std::fs::write(&listing, metadata.to_yaml()).unwrap();
+            Bag::open(&dir).map(|_| ()).map_err(|e| e.to_string())
+        };
+        std::os::unix::fs::symlink(&outside, dir.join("out.mcap")).unwrap();
+        let error = open_with("out.mcap", &mut metadata).unwrap_err();
+        assert!(error.contains("outside the bag directory"), "{error}");
+        assert!(error.contains("out.mcap"), "{error}");
+        std::os::unix::fs::symlink(&recorded, dir.join("in.mcap")).unwrap();
+        open_with("in.mcap", &mut metadata).unwrap();
+        let fifo = dir.join("fifo.mcap");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if made.is_ok_and(|s| s.success()) {
+            let error = open_with("fifo.mcap", &mut metadata).unwrap_err();
+            assert!(error.contains("a FIFO"), "{error}");
+            let error = Bag::open(&fifo).unwrap_err().to_string();
+            assert!(error.contains("a FIFO"), "{error}");
+        }
+        std::fs::create_dir(dir.join("sub.mcap")).unwrap();
+        let error = open_with("sub.mcap", &mut metadata).unwrap_err();
+        assert!(error.contains("a directory"), "{error}");
+        let _ = std::fs::remove_dir_all(&root);
     }
 }

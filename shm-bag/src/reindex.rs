@@ -81,9 +81,16 @@ pub fn reindex(dir: &Path) -> Result<Reindexed, Error> {
         metadata.ros_distro = old.ros_distro;
         metadata.custom_data = old.custom_data;
     }
+    // Written beside it and moved over it: a full disk leaves the old one.
     let path = dir.join(FILE_NAME);
-    std::fs::write(&path, metadata.to_yaml())
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    let partial = sibling(&path, ".reindex-partial");
+    let written = std::fs::write(&partial, metadata.to_yaml())
+        .and_then(|()| File::open(&partial)?.sync_all())
+        .and_then(|()| std::fs::rename(&partial, &path));
+    if let Err(e) = written {
+        let _ = std::fs::remove_file(&partial);
+        return Err(format!("cannot write {}: {e}", path.display()).into());
+    }
     Ok(Reindexed {
         files: reports,
         metadata,
@@ -168,8 +175,35 @@ fn recover(path: &Path) -> Result<FileReport, Error> {
     }
 
     let partial = sibling(path, ".reindex-partial");
+    let written = write_recovered(path, &partial, records, profile, compression);
+    let report = match written {
+        Ok(report) => report,
+        Err(e) => {
+            // The original stays as it was, and no partial copy is left.
+            let _ = std::fs::remove_file(&partial);
+            return Err(e);
+        }
+    };
+    let unfinished = sibling(path, ".unfinished");
+    std::fs::rename(path, &unfinished)
+        .and_then(|()| std::fs::rename(&partial, path))
+        .map_err(|e| format!("cannot replace {}: {e}", path.display()))?;
+    Ok(report)
+}
+
+/// Write `records`, the complete ones of the unfinished `path`, into the new
+/// file `partial`: flushed and synced, so that every write error (a full
+/// disk) is seen here, in the OS's words, before the original is replaced.
+fn write_recovered(
+    path: &Path,
+    partial: &Path,
+    records: mcap::read::LinearReader<'_>,
+    profile: String,
+    compression: Option<mcap::Compression>,
+) -> Result<FileReport, Error> {
+    let where_ = |e: &dyn std::fmt::Display| format!("{}: {e}", partial.display());
     let file =
-        File::create(&partial).map_err(|e| format!("cannot create {}: {e}", partial.display()))?;
+        File::create(partial).map_err(|e| format!("cannot create {}: {e}", partial.display()))?;
     let mut writer = mcap::WriteOptions::new()
         .profile(profile)
         .library(concat!(
@@ -179,7 +213,7 @@ fn recover(path: &Path) -> Result<FileReport, Error> {
         ))
         .compression(compression)
         .create(BufWriter::new(file))
-        .map_err(|e| where_(&e))?;
+        .map_err(|e| where_(&crate::writer::mcap_error(e)))?;
     let mut copy = Copy::default();
     let mut report = FileReport {
         path: path.to_owned(),
@@ -212,21 +246,23 @@ fn recover(path: &Path) -> Result<FileReport, Error> {
                 match inner {
                     Ok(inner) => {
                         for record in inner {
-                            report.messages += copy.record(&mut writer, record, path)?;
+                            report.messages += copy.record(&mut writer, record, partial)?;
                         }
                     }
                     Err(_) => report.damaged_chunks += 1,
                 }
             }
-            other => report.messages += copy.record(&mut writer, other, path)?,
+            other => report.messages += copy.record(&mut writer, other, partial)?,
         }
     }
-    writer.finish().map_err(|e| where_(&e))?;
-    drop(writer);
-    let unfinished = sibling(path, ".unfinished");
-    std::fs::rename(path, &unfinished)
-        .and_then(|()| std::fs::rename(&partial, path))
-        .map_err(|e| format!("cannot replace {}: {e}", path.display()))?;
+    writer
+        .finish()
+        .map_err(|e| where_(&crate::writer::mcap_error(e)))?;
+    let file = writer
+        .into_inner()
+        .into_inner()
+        .map_err(|e| where_(&e.into_error()))?;
+    file.sync_all().map_err(|e| where_(&e))?;
     Ok(report)
 }
 
@@ -256,7 +292,8 @@ impl Copy {
         record: Record<'_>,
         path: &Path,
     ) -> Result<u64, Error> {
-        let bad = |e: mcap::McapError| format!("{}: {e}", path.display());
+        let bad =
+            |e: mcap::McapError| format!("{}: {}", path.display(), crate::writer::mcap_error(e));
         match record {
             Record::Schema { header, data } => {
                 self.schemas
@@ -457,5 +494,70 @@ mod tests {
         let refused = refused.unwrap_err().to_string();
         assert!(refused.to_lowercase().contains("crc"), "{refused}");
         let _ = std::fs::remove_dir_all(&root);
+    }
+
+    /// On a full disk (a small tmpfs, where this process may mount one),
+    /// reindex names the OS error and leaves the unfinished file as it was,
+    /// with no partial copy beside it.
+    #[test]
+    fn reindex_on_a_full_disk_names_the_error_and_leaves_the_original() {
+        let root = std::env::temp_dir().join(format!("shm_bag_full_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        std::fs::create_dir_all(&root).unwrap();
+        let mounted = std::process::Command::new("mount")
+            .args(["-t", "tmpfs", "-o", "size=1m", "tmpfs"])
+            .arg(&root)
+            .stderr(std::process::Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        if !mounted {
+            eprintln!("no tmpfs could be mounted here (not root): the full-disk case is not run");
+            let _ = std::fs::remove_dir_all(&root);
+            return;
+        }
+        // Cut on the ordinary disk (the dead writer's file stays open in this
+        // process), then copied in: about 600 KiB in a 1 MiB file system,
+        // no room for a second copy.
+        let cut = std::env::temp_dir().join(format!("shm_bag_cut_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&cut);
+        let mut writer = BagWriter::create(
+            &cut,
+            WriteOptions {
+                chunk_size: 64 * 1024,
+                chunk_crcs: false,
+                ..WriteOptions::default()
+            },
+        )
+        .unwrap();
+        let id = writer.add_topic(topic("/chatter"), String::new()).unwrap();
+        let big = vec![7u8; 8 * 1024];
+        for i in 0..75 {
+            writer.write(id, 1_000 + u64::from(i), 0, i, &big).unwrap();
+        }
+        writer.flush().unwrap();
+        std::mem::forget(writer);
+        let dir = root.join("bag");
+        std::fs::create_dir(&dir).unwrap();
+        for entry in std::fs::read_dir(&cut).unwrap() {
+            let entry = entry.unwrap();
+            std::fs::copy(entry.path(), dir.join(entry.file_name())).unwrap();
+        }
+        let _ = std::fs::remove_dir_all(&cut);
+        let file = dir.join(mcap_files(&dir).unwrap().remove(0));
+        let before = std::fs::read(&file).unwrap();
+        let error = reindex(&dir).unwrap_err().to_string();
+        let after = std::fs::read(&file);
+        let listing: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .collect();
+        let _ = std::process::Command::new("umount").arg(&root).status();
+        let _ = std::fs::remove_dir_all(&root);
+        assert!(error.contains("No space left on device"), "{error}");
+        assert_eq!(after.unwrap(), before, "the unfinished file is untouched");
+        assert!(
+            !listing.iter().any(|n| n.contains("partial")),
+            "{listing:?}"
+        );
     }
 }

@@ -531,7 +531,7 @@ impl Drop for BagWriter {
 
 /// An MCAP error in words, with the OS's for an I/O error ("No space left on
 /// device"), which the MCAP error's own text leaves out.
-fn mcap_error(e: mcap::McapError) -> String {
+pub(crate) fn mcap_error(e: mcap::McapError) -> String {
     match e {
         mcap::McapError::Io(io) => io.to_string(),
         other => other.to_string(),
