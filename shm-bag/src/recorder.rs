@@ -261,6 +261,20 @@ struct Channel {
 }
 
 impl Channel {
+    fn new(topic: &str, type_name: &str, type_hash: &str) -> Self {
+        Self {
+            topic: topic.to_owned(),
+            type_name: type_name.to_owned(),
+            type_hash: type_hash.to_owned(),
+            definition: Mutex::new(TypeDefinition::Learning),
+            received: AtomicU64::new(0),
+            written: AtomicU64::new(0),
+            dropped: AtomicU64::new(0),
+            missed: AtomicU64::new(0),
+            held: AtomicU64::new(0),
+        }
+    }
+
     fn stats(&self) -> ChannelStats {
         ChannelStats {
             topic: self.topic.clone(),
@@ -672,18 +686,27 @@ fn discover(
                 }
                 let index = next_index;
                 next_index += 1;
+                // What is known locally is known before the first message.
+                let local = known_locally(distro, options, type_name, type_hash);
+                let channel = Channel::new(&topic, type_name, type_hash);
+                if let Ok((_, how)) = &local {
+                    channel.set_definition(how.clone());
+                }
+                let channel = Arc::new(channel);
                 match subscribe(
                     node,
                     options,
-                    &topic,
-                    type_name,
-                    type_hash,
                     &publishers,
                     index,
+                    &channel,
+                    local
+                        .as_ref()
+                        .ok()
+                        .map(|(definition, _)| definition.clone()),
                     shared,
                     events,
                 ) {
-                    Ok((subscriber, channel)) => {
+                    Ok(subscriber) => {
                         subscribers.push(subscriber);
                         recorded.insert(key.clone(), index);
                         let topics: std::collections::BTreeSet<&str> =
@@ -694,7 +717,9 @@ fn discover(
                             .lock()
                             .unwrap_or_else(|e| e.into_inner())
                             .remove(&topic);
-                        learn(&lookups, options, index, &channel, &publishers);
+                        if let Err(why_not_local) = local {
+                            learn(&lookups, index, &channel, &publishers, why_not_local);
+                        }
                     }
                     Err(e) => {
                         tracing::warn!(topic, "not recorded for now: {e}");
@@ -709,40 +734,39 @@ fn discover(
     drop(subscribers);
 }
 
-/// Find the definition of `channel`'s type: at once from what is known
-/// locally, else from a node announcing it, on that node's lookup thread.
-fn learn(
-    lookups: &Lookups,
+/// The definition of a type from what is known without asking any node (the
+/// standard set, the interface files), and where it comes from; else why
+/// not, if something was wrong with what is known.
+fn known_locally(
+    distro: Distro,
     options: &RecordOptions,
-    index: usize,
-    channel: &Arc<Channel>,
-    publishers: &[Arc<Entity>],
-) {
-    let distro = lookups.node.info().distro;
-    let local = types::resolve_locally(
-        distro,
-        &channel.type_name,
-        &channel.type_hash,
-        &options.interfaces,
-    );
-    let why_not_local = match local {
+    type_name: &str,
+    type_hash: &str,
+) -> Result<(String, TypeDefinition), Option<String>> {
+    match types::resolve_locally(distro, type_name, type_hash, &options.interfaces) {
         Some(Ok(resolved)) => {
-            let from = if types::standard().contains_key(channel.type_name.as_str()) {
+            let from = if types::standard().contains_key(type_name) {
                 "the standard set"
             } else {
                 "the interface files"
             };
-            lookups.define(
-                index,
-                channel,
-                resolved.definition,
-                TypeDefinition::Known(from.to_owned()),
-            );
-            return;
+            Ok((resolved.definition, TypeDefinition::Known(from.to_owned())))
         }
-        Some(Err(e)) => Some(e.to_string()),
-        None => None,
-    };
+        Some(Err(e)) => Err(Some(e.to_string())),
+        None => Err(None),
+    }
+}
+
+/// Learn the definition of `channel`'s type, not known locally, from a node
+/// announcing it, on that node's lookup thread.
+fn learn(
+    lookups: &Lookups,
+    index: usize,
+    channel: &Arc<Channel>,
+    publishers: &[Arc<Entity>],
+    why_not_local: Option<String>,
+) {
+    let distro = lookups.node.info().distro;
     if !distro.has_type_hashes() {
         let why = why_not_local.unwrap_or_else(|| {
             format!(
@@ -991,43 +1015,33 @@ fn recording_qos(offered: &[Qos]) -> Qos {
     }
 }
 
-/// Subscribe to `topic` with the type its `publishers` announce, as bytes:
-/// nothing about the type beyond its name and hash is needed to receive.
+/// Subscribe to the channel's topic and type as its `publishers` announce
+/// them, as bytes: nothing about the type beyond its name and hash is needed
+/// to receive. The writer is told of the channel (and of its `definition`,
+/// when known) before any of its messages.
 #[allow(clippy::too_many_arguments)]
 fn subscribe(
     node: &RosNode,
     options: &RecordOptions,
-    topic: &str,
-    type_name: &str,
-    type_hash: &str,
     publishers: &[Arc<Entity>],
     index: usize,
+    channel: &Arc<Channel>,
+    definition: Option<String>,
     shared: &Arc<Shared>,
     events: &flume::Sender<Event>,
-) -> Result<(CallbackSubscriber<Serialized>, Arc<Channel>), Error> {
+) -> Result<CallbackSubscriber<Serialized>, Error> {
     let offered: Vec<Qos> = publishers
         .iter()
         .filter_map(|p| p.endpoint.as_ref().map(|e| e.qos))
         .collect();
+    let (topic, type_name, type_hash) = (&channel.topic, &channel.type_name, &channel.type_hash);
     let metadata = TopicMetadata {
-        name: topic.to_owned(),
-        type_name: type_name.to_owned(),
+        name: topic.clone(),
+        type_name: type_name.clone(),
         serialization_format: "cdr".to_owned(),
         offered_qos_profiles: offered.iter().map(QosProfile::from).collect(),
-        type_description_hash: type_hash.to_owned(),
+        type_description_hash: type_hash.clone(),
     };
-    let channel = Arc::new(Channel {
-        topic: topic.to_owned(),
-        type_name: type_name.to_owned(),
-        type_hash: type_hash.to_owned(),
-        definition: Mutex::new(TypeDefinition::Learning),
-        received: AtomicU64::new(0),
-        written: AtomicU64::new(0),
-        dropped: AtomicU64::new(0),
-        missed: AtomicU64::new(0),
-        held: AtomicU64::new(0),
-    });
-    // The writer learns of the channel before any of its messages.
     events
         .send(Event::Channel {
             index,
@@ -1035,6 +1049,11 @@ fn subscribe(
             metadata,
         })
         .map_err(|_| "the writer has stopped")?;
+    if let Some(definition) = definition {
+        events
+            .send(Event::Definition { index, definition })
+            .map_err(|_| "the writer has stopped")?;
+    }
     let budget = options.max_queued_bytes;
     let shared_cb = shared.clone();
     let channel_cb = channel.clone();
@@ -1090,7 +1109,7 @@ fn subscribe(
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
                 .push(channel.clone());
-            Ok((subscriber, channel))
+            Ok(subscriber)
         }
         Err(e) => {
             // The writer forgets the channel: it had no messages.
