@@ -142,6 +142,10 @@ struct Loaded {
 
 struct McapMessages {
     path: PathBuf,
+    /// Messages given so far, and how many the summary says a reading from
+    /// the start gives: they are compared at the end.
+    given: u64,
+    expected: Option<u64>,
     map: Arc<memmap2::Mmap>,
     /// Channel id → index into `topics`.
     channels: HashMap<u16, usize>,
@@ -168,6 +172,13 @@ impl McapMessages {
         }
         let mut cursor = Self {
             path: file.path.clone(),
+            given: 0,
+            expected: file
+                .summary
+                .stats
+                .as_ref()
+                .filter(|_| from == 0)
+                .map(|s| s.message_count),
             map: Arc::clone(&file.map),
             channels,
             topics,
@@ -405,6 +416,7 @@ impl MessageCursor for McapMessages {
         let Some(Reverse((_, order, slot))) = self.heap.pop() else {
             return Ok(());
         };
+        self.given += 1;
         if let Some(entry) = self.loaded.get_mut(slot) {
             if let Some(loaded) = entry {
                 loaded.next += 1;
@@ -419,7 +431,21 @@ impl MessageCursor for McapMessages {
                 }
             }
         }
-        self.load_due()
+        self.load_due()?;
+        if self.heap.is_empty() && self.pending.is_empty() {
+            if let Some(expected) = self.expected.take() {
+                if expected != self.given {
+                    tracing::warn!(
+                        "{}: its summary counts {expected} messages, and {} were read: the \
+                         summary does not describe the data (`bag info` and the counts of \
+                         metadata.yaml come from it)",
+                        self.path.display(),
+                        self.given
+                    );
+                }
+            }
+        }
+        Ok(())
     }
 }
 
@@ -504,7 +530,10 @@ fn summary(path: &Path, file: &[u8]) -> Result<mcap::Summary, Error> {
         )
     };
     match mcap::Summary::read(file) {
-        Ok(Some(summary)) => Ok(summary),
+        Ok(Some(summary)) => {
+            check_summary(path, file, &summary)?;
+            Ok(summary)
+        }
         Ok(None) => Err(unfinished().into()),
         // It starts as an MCAP file and does not end as one.
         Err(_) if file.starts_with(mcap::MAGIC) && !file.ends_with(mcap::MAGIC) => {
@@ -512,4 +541,34 @@ fn summary(path: &Path, file: &[u8]) -> Result<mcap::Summary, Error> {
         }
         Err(e) => Err(format!("{}: not a readable MCAP file: {e}", path.display()).into()),
     }
+}
+
+/// Refuse a summary whose chunk index points outside the file or declares
+/// chunks larger than are read, before anything is sized from it (a player's
+/// shared-memory pool is sized from the largest chunk).
+fn check_summary(path: &Path, file: &[u8], summary: &mcap::Summary) -> Result<(), Error> {
+    for index in &summary.chunk_indexes {
+        let end = index.chunk_start_offset.checked_add(index.chunk_length);
+        if end.is_none_or(|end| end > file.len() as u64) {
+            return Err(format!(
+                "{}: its chunk index points past the file's end (offset {}, length {}): \
+                 the summary is damaged",
+                path.display(),
+                index.chunk_start_offset,
+                index.chunk_length
+            )
+            .into());
+        }
+        if index.uncompressed_size > crate::chunk::MAX_CHUNK_SIZE {
+            return Err(format!(
+                "{}: its chunk index declares a chunk of {} bytes, more than the {} read: \
+                 the summary is damaged",
+                path.display(),
+                index.uncompressed_size,
+                crate::chunk::MAX_CHUNK_SIZE
+            )
+            .into());
+        }
+    }
+    Ok(())
 }

@@ -293,6 +293,46 @@ mod tests {
         }
     }
 
+    /// A chunk index declaring a chunk of 2^40 bytes is refused when the
+    /// file is opened, before a reader or a player sizes anything from it.
+    #[test]
+    fn a_chunk_index_that_lies_about_its_size_is_refused_at_open() {
+        let dir = temp("lying-index");
+        let options = WriteOptions {
+            chunk_crcs: false,
+            ..Default::default()
+        };
+        let mut writer = BagWriter::create(&dir, options).unwrap();
+        let a = writer.add_topic(topic("/a"), String::new()).unwrap();
+        for t in 0..5 {
+            writer.write(a, 1000 + t, 0, t as u32, &cdr(t)).unwrap();
+        }
+        let metadata = writer.finish().unwrap();
+        let path = dir.join(&metadata.relative_file_paths[0]);
+        let mut bytes = std::fs::read(&path).unwrap();
+        let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+        let index = &summary.chunk_indexes[0];
+        // An uncompressed chunk's index ends with its compressed and its
+        // uncompressed size, the same number.
+        let mut sizes = index.compressed_size.to_le_bytes().to_vec();
+        sizes.extend_from_slice(&index.uncompressed_size.to_le_bytes());
+        let at = bytes
+            .windows(16)
+            .rposition(|w| w == sizes.as_slice())
+            .unwrap();
+        bytes[at + 8..at + 16].copy_from_slice(&(1u64 << 40).to_le_bytes());
+        // No summary CRC, so that only the lie is to be found.
+        let crc_at = bytes.len() - mcap::MAGIC.len() - 4;
+        bytes[crc_at..crc_at + 4].fill(0);
+        std::fs::write(&path, &bytes).unwrap();
+        let error = Bag::open(&dir).unwrap().topics().unwrap_err().to_string();
+        assert!(
+            error.contains("declares a chunk of 1099511627776 bytes"),
+            "{error}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     #[test]
     fn a_file_without_chunk_index_or_chunks_is_read_in_time_order() {
         for use_chunks in [true, false] {
