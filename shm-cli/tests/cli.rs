@@ -746,7 +746,7 @@ fn types_come_from_interface_files_when_the_node_does_not_describe_them() {
     let unknown = run(port, &["topic", "echo", "/battery", "--once"]);
     assert!(!unknown.status.success());
     assert!(
-        String::from_utf8_lossy(&unknown.stderr).contains("does not answer"),
+        String::from_utf8_lossy(&unknown.stderr).contains("offers no /quiet/get_type_description"),
         "{}",
         String::from_utf8_lossy(&unknown.stderr)
     );

@@ -232,15 +232,18 @@ impl StorageFile for Sqlite3File {
     }
 }
 
+/// A topic's name and type.
+type TopicAndType = (Rc<str>, Rc<str>);
+
 struct Sqlite3Messages {
     path: PathBuf,
     db: Connection,
     /// Topic id → name and type.
-    topics: HashMap<i64, (Rc<str>, Rc<str>)>,
+    topics: HashMap<i64, TopicAndType>,
     /// The (timestamp, id) the next batch starts after (the id `None` for
     /// the first: at the timestamp, inclusive).
     after: (i64, Option<i64>),
-    batch: VecDeque<((Rc<str>, Rc<str>), u64, Vec<u8>)>,
+    batch: VecDeque<(TopicAndType, u64, Vec<u8>)>,
     done: bool,
 }
 
