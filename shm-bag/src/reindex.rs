@@ -16,6 +16,7 @@ use crate::metadata::{
     BagMetadata, FileInformation, Nanoseconds, NanosecondsSinceEpoch, FILE_NAME,
 };
 use crate::player::Bag;
+use crate::writer::ChannelCopy;
 use crate::Error;
 
 /// What [`reindex`] did to one file.
@@ -30,6 +31,9 @@ pub struct FileReport {
     pub messages: u64,
     /// Chunks left out because their CRC or their compressed data was wrong.
     pub damaged_chunks: u64,
+    /// Where each damaged chunk lay (its offset, log times) and what was
+    /// wrong with it.
+    pub damage: Vec<String>,
     /// Why reading stopped before the end of the file, if it did: the end
     /// of a file cut off mid-record (all that follows is lost).
     pub cut: Option<String>,
@@ -112,10 +116,7 @@ fn mcap_files(dir: &Path) -> Result<Vec<String>, Error> {
 
 /// One file's facts for `metadata.yaml`, from its summary.
 fn file_information(name: &str, path: &Path) -> Result<FileInformation, Error> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let stats = mcap::Summary::read(&bytes)
-        .map_err(|e| format!("{}: {e}", path.display()))?
-        .and_then(|s| s.stats);
+    let stats = read_summary(path)?.and_then(|s| s.stats);
     let (start, end, count) = stats.map_or((0, 0, 0), |s| {
         (s.message_start_time, s.message_end_time, s.message_count)
     });
@@ -131,38 +132,127 @@ fn file_information(name: &str, path: &Path) -> Result<FileInformation, Error> {
     })
 }
 
-/// Rewrite `path` from its complete records if it has no summary.
-fn recover(path: &Path) -> Result<FileReport, Error> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    if let Ok(Some(summary)) = mcap::Summary::read(&bytes) {
-        return Ok(FileReport {
-            path: path.to_owned(),
-            rewritten: false,
-            messages: summary.stats.map_or(0, |s| s.message_count),
-            damaged_chunks: 0,
-            cut: None,
-        });
-    }
-    let where_ = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let records = mcap::read::LinearReader::new_with_options(
-        &bytes,
-        mcap::read::Options::IgnoreEndMagic.into(),
-    )
-    .map_err(|e| where_(&format!("not an MCAP file ({e})")))?;
+/// The file's summary, if it has one: read from the map, which touches only
+/// the file's end.
+fn read_summary(path: &Path) -> Result<Option<mcap::Summary>, Error> {
+    let map = crate::storage::map_file(path)?;
+    Ok(mcap::Summary::read(&map).unwrap_or(None))
+}
 
+/// The most bytes one record of a file may hold: a chunk at the read limit
+/// with its header and a compression that did not shrink it.
+const MAX_RECORD: u64 = crate::chunk::MAX_CHUNK_SIZE + (1 << 20);
+
+/// A file's records one at a time, read from the file in order: memory holds
+/// one record (a chunk at most), whatever the file's size.
+struct RecordStream {
+    reader: std::io::BufReader<File>,
+    /// Where the next record starts, and where the file ends.
+    offset: u64,
+    len: u64,
+}
+
+impl RecordStream {
+    fn open(path: &Path) -> Result<Self, Error> {
+        use std::io::Read;
+        let file = File::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+        let len = file
+            .metadata()
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?
+            .len();
+        let mut reader = std::io::BufReader::with_capacity(1 << 20, file);
+        let mut magic = [0u8; 8];
+        let magic_ok = reader.read_exact(&mut magic).is_ok() && magic[..] == *mcap::MAGIC;
+        if !magic_ok {
+            return Err(format!("{}: not an MCAP file (no MCAP magic)", path.display()).into());
+        }
+        Ok(Self {
+            reader,
+            offset: mcap::MAGIC.len() as u64,
+            len,
+        })
+    }
+
+    /// The next record's opcode, its body in `body`; `Ok(None)` at the end of
+    /// the data (the file's end, a footer or the end of data); `Err` with
+    /// where and why for a file cut inside a record.
+    fn next(&mut self, body: &mut Vec<u8>) -> Result<Option<u8>, String> {
+        use std::io::Read;
+        let left = self.len.saturating_sub(self.offset);
+        if left == 0 {
+            return Ok(None);
+        }
+        let at = self.offset;
+        if left < 9 {
+            return Err(format!(
+                "{left} bytes at offset {at}, less than a record header"
+            ));
+        }
+        let mut header = [0u8; 9];
+        self.reader
+            .read_exact(&mut header)
+            .map_err(|e| format!("at offset {at}: {e}"))?;
+        let opcode = header[0];
+        let mut length = [0u8; 8];
+        length.copy_from_slice(&header[1..]);
+        let length = u64::from_le_bytes(length);
+        // Checked before anything is allocated from it.
+        if length > left - 9 {
+            return Err(format!(
+                "a record at offset {at} declares {length} bytes, and the file ends {} bytes on",
+                left - 9
+            ));
+        }
+        if length > MAX_RECORD {
+            return Err(format!(
+                "a record at offset {at} declares {length} bytes, more than the {MAX_RECORD} read"
+            ));
+        }
+        body.clear();
+        let read = (&mut self.reader)
+            .take(length)
+            .read_to_end(body)
+            .map_err(|e| format!("at offset {at}: {e}"))?;
+        if read as u64 != length {
+            return Err(format!("a record at offset {at} is cut short"));
+        }
+        self.offset = at + 9 + length;
+        if matches!(
+            opcode,
+            mcap::records::op::FOOTER | mcap::records::op::DATA_END
+        ) {
+            return Ok(None);
+        }
+        Ok(Some(opcode))
+    }
+}
+
+/// Rewrite `path` from its intact records if it has no summary or a chunk
+/// of it is damaged; a file that is whole is left as it is. The file is read
+/// as a stream: memory holds a chunk at a time, not the file.
+fn recover(path: &Path) -> Result<FileReport, Error> {
+    if let Some(summary) = read_summary(path)? {
+        let damaged = damaged_chunks(path)?;
+        if damaged.is_empty() {
+            return Ok(FileReport {
+                path: path.to_owned(),
+                rewritten: false,
+                messages: summary.stats.map_or(0, |s| s.message_count),
+                damaged_chunks: 0,
+                damage: Vec::new(),
+                cut: None,
+            });
+        }
+    }
     // The file's profile and its chunks' compression carry over.
     let mut profile = String::from("ros2");
     let mut compression = None;
-    for record in mcap::read::LinearReader::new_with_options(
-        &bytes,
-        mcap::read::Options::IgnoreEndMagic.into(),
-    )
-    .map_err(|e| where_(&e))?
-    .map_while(Result::ok)
-    {
-        match record {
-            Record::Header(header) => profile = header.profile,
-            Record::Chunk { header, .. } => {
+    let mut stream = RecordStream::open(path)?;
+    let mut body = Vec::new();
+    while let Ok(Some(opcode)) = stream.next(&mut body) {
+        match mcap::parse_record(opcode, &body) {
+            Ok(Record::Header(header)) => profile = header.profile,
+            Ok(Record::Chunk { header, .. }) => {
                 compression = match header.compression.as_str() {
                     "zstd" => Some(mcap::Compression::Zstd),
                     "lz4" => Some(mcap::Compression::Lz4),
@@ -173,9 +263,8 @@ fn recover(path: &Path) -> Result<FileReport, Error> {
             _ => {}
         }
     }
-
     let partial = sibling(path, ".reindex-partial");
-    let written = write_recovered(path, &partial, records, profile, compression);
+    let written = write_recovered(path, &partial, profile, compression);
     let report = match written {
         Ok(report) => report,
         Err(e) => {
@@ -191,13 +280,47 @@ fn recover(path: &Path) -> Result<FileReport, Error> {
     Ok(report)
 }
 
-/// Write `records`, the complete ones of the unfinished `path`, into the new
-/// file `partial`: flushed and synced, so that every write error (a full
-/// disk) is seen here, in the OS's words, before the original is replaced.
+/// Where each damaged chunk of a finished file lies: the chunks its CRC or
+/// its compressed data disowns, read one at a time.
+fn damaged_chunks(path: &Path) -> Result<Vec<String>, Error> {
+    let mut stream = RecordStream::open(path)?;
+    let (mut body, mut scratch) = (Vec::new(), Vec::new());
+    let mut damaged = Vec::new();
+    loop {
+        let at = stream.offset;
+        match stream.next(&mut body) {
+            Ok(Some(mcap::records::op::CHUNK)) => {}
+            Ok(Some(_)) => continue,
+            Ok(None) => break,
+            Err(e) => {
+                damaged.push(e);
+                break;
+            }
+        }
+        let why = match mcap::parse_record(mcap::records::op::CHUNK, &body) {
+            Ok(Record::Chunk { header, data }) => {
+                match crate::chunk::contents(&header, &data, &mut scratch) {
+                    Ok(_) => continue,
+                    Err(e) => format!(
+                        "{e} (log times {} to {})",
+                        header.message_start_time, header.message_end_time
+                    ),
+                }
+            }
+            Ok(_) => continue,
+            Err(e) => e.to_string(),
+        };
+        damaged.push(format!("chunk at offset {at}: {why}"));
+    }
+    Ok(damaged)
+}
+
+/// Write the intact records of `path` into the new file `partial`: flushed
+/// and synced, so that every write error (a full disk) is seen here, in the
+/// OS's words, before the original is replaced.
 fn write_recovered(
     path: &Path,
     partial: &Path,
-    records: mcap::read::LinearReader<'_>,
     profile: String,
     compression: Option<mcap::Compression>,
 ) -> Result<FileReport, Error> {
@@ -220,14 +343,25 @@ fn write_recovered(
         rewritten: true,
         messages: 0,
         damaged_chunks: 0,
+        damage: Vec::new(),
         cut: None,
     };
-    let mut scratch = Vec::new();
-    for record in records {
-        let record = match record {
+    let mut stream = RecordStream::open(path)?;
+    let (mut body, mut scratch) = (Vec::new(), Vec::new());
+    loop {
+        let at = stream.offset;
+        let opcode = match stream.next(&mut body) {
+            Ok(Some(opcode)) => opcode,
+            Ok(None) => break,
+            Err(e) => {
+                report.cut = Some(e);
+                break;
+            }
+        };
+        let record = match mcap::parse_record(opcode, &body) {
             Ok(record) => record,
             Err(e) => {
-                report.cut = Some(e.to_string());
+                report.cut = Some(format!("a record at offset {at} does not parse: {e}"));
                 break;
             }
         };
@@ -235,8 +369,9 @@ fn write_recovered(
             Record::Chunk { header, data } => {
                 let contents = match crate::chunk::contents(&header, &data, &mut scratch) {
                     Ok(contents) => contents,
-                    Err(_) => {
+                    Err(e) => {
                         report.damaged_chunks += 1;
+                        report.damage.push(format!("chunk at offset {at}: {e}"));
                         continue;
                     }
                 };
@@ -249,7 +384,10 @@ fn write_recovered(
                             report.messages += copy.record(&mut writer, record, partial)?;
                         }
                     }
-                    Err(_) => report.damaged_chunks += 1,
+                    Err(e) => {
+                        report.damaged_chunks += 1;
+                        report.damage.push(format!("chunk at offset {at}: {e}"));
+                    }
                 }
             }
             other => report.messages += copy.record(&mut writer, other, partial)?,
@@ -310,7 +448,24 @@ impl Copy {
                     ),
                 );
             }
-            Record::Metadata(metadata) => writer.write_metadata(&metadata).map_err(bad)?,
+            Record::Metadata(metadata) => match ChannelCopy::read(&metadata) {
+                // Kept only where its own records are lost; the new file
+                // gets its own copy when the channel is added to it.
+                Some(described) => {
+                    self.schemas.entry(described.schema_id).or_insert((
+                        described.schema_name,
+                        described.schema_encoding,
+                        described.schema_data,
+                    ));
+                    self.channels.entry(described.channel_id).or_insert((
+                        described.schema_id,
+                        described.topic,
+                        described.message_encoding,
+                        described.channel_metadata,
+                    ));
+                }
+                None => writer.write_metadata(&metadata).map_err(bad)?,
+            },
             Record::Message { header, data } => {
                 let channel_id = match self.added.get(&header.channel_id) {
                     Some(&id) => id,
@@ -322,7 +477,8 @@ impl Copy {
                         else {
                             return Ok(0);
                         };
-                        let schema = match self.schemas.get(schema_id) {
+                        let described = self.schemas.get(schema_id);
+                        let schema = match described {
                             Some((name, encoding, data)) => {
                                 writer.add_schema(name, encoding, data).map_err(bad)?
                             }
@@ -331,6 +487,20 @@ impl Copy {
                         let id = writer
                             .add_channel(schema, topic, encoding, metadata)
                             .map_err(bad)?;
+                        if let Some((name, schema_encoding, data)) = described {
+                            writer
+                                .write_metadata(&ChannelCopy::describe(
+                                    id,
+                                    schema,
+                                    topic,
+                                    encoding,
+                                    metadata,
+                                    name,
+                                    schema_encoding,
+                                    data,
+                                ))
+                                .map_err(bad)?;
+                        }
                         self.added.insert(header.channel_id, id);
                         id
                     }
@@ -493,6 +663,79 @@ mod tests {
         );
         let refused = refused.unwrap_err().to_string();
         assert!(refused.to_lowercase().contains("crc"), "{refused}");
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    /// The schema and channel records live in the first chunk: when that
+    /// chunk is damaged, their copies outside the chunks still name the
+    /// channel, and every other chunk is recovered.
+    #[test]
+    fn a_damaged_first_chunk_loses_only_its_own_messages() {
+        let root = std::env::temp_dir().join(format!("shm_bag_first_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = root.join("bag");
+        crashed(&dir, None, 40, 0);
+        let path = dir.join(mcap_files(&dir).unwrap().remove(0));
+        let mut bytes = std::fs::read(&path).unwrap();
+        let at = bytes.windows(8).position(|w| w == b"msg 0000").unwrap();
+        bytes[at + 4] ^= 0x01;
+        std::fs::write(&path, &bytes).unwrap();
+        let done = reindex(&dir).unwrap();
+        let report = &done.files[0];
+        assert_eq!(report.damaged_chunks, 1, "{report:?}");
+        assert!(report.damage[0].contains("CRC"), "{report:?}");
+        let read = read_all(&dir);
+        assert_eq!(read.len() as u64, report.messages);
+        // The first chunk's few messages are gone, the rest are all there.
+        assert!((30..40).contains(&report.messages), "{report:?}");
+        assert!(read.iter().all(|(_, data)| !data.ends_with(b"msg 0000\0")));
+        let last: Vec<(u64, Vec<u8>)> = (40 - report.messages as u32..40)
+            .map(|i| (1_000 + u64::from(i), message(i)))
+            .collect();
+        assert_eq!(read, last);
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    /// A finished file with a damaged chunk is reported as damaged, with
+    /// where, and rewritten with every intact chunk: it reads to its end.
+    #[test]
+    fn a_finished_file_with_a_damaged_chunk_is_reported_and_rewritten() {
+        let root = std::env::temp_dir().join(format!("shm_bag_finished_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = root.join("bag");
+        let mut writer = BagWriter::create(
+            &dir,
+            WriteOptions {
+                chunk_size: 256,
+                ..WriteOptions::default()
+            },
+        )
+        .unwrap();
+        let id = writer.add_topic(topic("/chatter"), String::new()).unwrap();
+        for i in 0..40 {
+            writer
+                .write(id, 1_000 + u64::from(i), 0, i, &message(i))
+                .unwrap();
+        }
+        writer.finish().unwrap();
+        let path = dir.join(mcap_files(&dir).unwrap().remove(0));
+        let mut bytes = std::fs::read(&path).unwrap();
+        let at = bytes.windows(8).position(|w| w == b"msg 0021").unwrap();
+        bytes[at + 4] ^= 0x01;
+        std::fs::write(&path, &bytes).unwrap();
+        let done = reindex(&dir).unwrap();
+        let report = &done.files[0];
+        assert!(report.rewritten, "{report:?}");
+        assert_eq!(report.damaged_chunks, 1, "{report:?}");
+        assert!(
+            report.damage[0].starts_with("chunk at offset "),
+            "{report:?}"
+        );
+        let read = read_all(&dir);
+        assert_eq!(read.len() as u64, report.messages);
+        assert!((30..40).contains(&report.messages), "{report:?}");
+        assert!(read.iter().any(|(_, data)| data.ends_with(b"msg 0039\0")));
+        assert_eq!(done.metadata.message_count, report.messages);
         let _ = std::fs::remove_dir_all(&root);
     }
 

@@ -572,8 +572,106 @@ fn add_channel(current: &mut Current, id: usize, topic: &Topic) -> Result<u16, E
             &metadata,
         )
         .map_err(|e| format!("{}: {}", current.path, mcap_error(e)))?;
+    // Outside any chunk as well: recovery finds the channel even when the
+    // chunk holding its records is damaged.
+    current
+        .writer
+        .write_metadata(&ChannelCopy::describe(
+            channel,
+            schema,
+            &topic.metadata.name,
+            &topic.metadata.serialization_format,
+            &metadata,
+            &topic.metadata.type_name,
+            if topic.definition.is_empty() {
+                ""
+            } else {
+                definition::ENCODING
+            },
+            topic.definition.as_bytes(),
+        ))
+        .map_err(|e| format!("{}: {}", current.path, mcap_error(e)))?;
     current.channels.insert(id, channel);
     Ok(channel)
+}
+
+/// A channel and its schema as a metadata record of their own, written
+/// outside the chunks when the channel is added: MCAP keeps channel and
+/// schema records in the chunk where they are first used, and when that
+/// chunk is damaged, `bag reindex` finds them here. Readers that do not know
+/// the name skip it.
+pub(crate) struct ChannelCopy {
+    pub(crate) channel_id: u16,
+    pub(crate) schema_id: u16,
+    pub(crate) topic: String,
+    pub(crate) message_encoding: String,
+    pub(crate) channel_metadata: BTreeMap<String, String>,
+    pub(crate) schema_name: String,
+    pub(crate) schema_encoding: String,
+    pub(crate) schema_data: Vec<u8>,
+}
+
+impl ChannelCopy {
+    /// The metadata record's name.
+    pub(crate) const NAME: &'static str = "shm_bag_channel";
+    /// The prefix of the channel's own metadata keys within it.
+    const CHANNEL_KEY: &'static str = "channel.";
+
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn describe(
+        channel_id: u16,
+        schema_id: u16,
+        topic: &str,
+        message_encoding: &str,
+        channel_metadata: &BTreeMap<String, String>,
+        schema_name: &str,
+        schema_encoding: &str,
+        schema_data: &[u8],
+    ) -> mcap::records::Metadata {
+        let mut metadata = BTreeMap::from([
+            ("channel_id".to_owned(), channel_id.to_string()),
+            ("schema_id".to_owned(), schema_id.to_string()),
+            ("topic".to_owned(), topic.to_owned()),
+            ("message_encoding".to_owned(), message_encoding.to_owned()),
+            ("schema_name".to_owned(), schema_name.to_owned()),
+            ("schema_encoding".to_owned(), schema_encoding.to_owned()),
+            (
+                "schema_data".to_owned(),
+                String::from_utf8_lossy(schema_data).into_owned(),
+            ),
+        ]);
+        for (key, value) in channel_metadata {
+            metadata.insert(format!("{}{key}", Self::CHANNEL_KEY), value.clone());
+        }
+        mcap::records::Metadata {
+            name: Self::NAME.to_owned(),
+            metadata,
+        }
+    }
+
+    /// The channel and schema a metadata record describes, if it is one.
+    pub(crate) fn read(record: &mcap::records::Metadata) -> Option<Self> {
+        if record.name != Self::NAME {
+            return None;
+        }
+        let field = |key: &str| record.metadata.get(key).cloned();
+        Some(Self {
+            channel_id: field("channel_id")?.parse().ok()?,
+            schema_id: field("schema_id")?.parse().ok()?,
+            topic: field("topic")?,
+            message_encoding: field("message_encoding")?,
+            channel_metadata: record
+                .metadata
+                .iter()
+                .filter_map(|(k, v)| {
+                    Some((k.strip_prefix(Self::CHANNEL_KEY)?.to_owned(), v.clone()))
+                })
+                .collect(),
+            schema_name: field("schema_name")?,
+            schema_encoding: field("schema_encoding")?,
+            schema_data: field("schema_data")?.into_bytes(),
+        })
+    }
 }
 
 #[cfg(test)]

@@ -310,6 +310,9 @@ fn reindex(dir: &std::path::Path) -> Result<(), Error> {
         );
         if file.damaged_chunks > 0 {
             said += &format!("; {} damaged chunks left out", file.damaged_chunks);
+            for damage in &file.damage {
+                said += &format!("\n  {damage}");
+            }
         }
         if let Some(cut) = &file.cut {
             said += &format!("; the file ends inside a record ({cut}): what followed was lost");

@@ -509,7 +509,7 @@ fn recorded_topic(channel: &mcap::Channel<'_>) -> RecordedTopic {
     }
 }
 
-fn map(path: &Path) -> Result<memmap2::Mmap, Error> {
+pub(crate) fn map(path: &Path) -> Result<memmap2::Mmap, Error> {
     let file =
         std::fs::File::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
     // SAFETY: the map is only read, and only while this process holds it; a

@@ -12,6 +12,7 @@ use crate::player::RecordedTopic;
 use crate::Error;
 
 mod mcap_file;
+pub(crate) use mcap_file::map as map_file;
 mod sqlite3;
 
 /// A storage format of rosbag2.
