@@ -332,13 +332,15 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
         let bytes = sample.payload().to_bytes();
         // Shared memory another process may write is read as such.
         let shared = sample.is_shm();
+        // Printed cut to `truncate_length` elements, a message is decoded
+        // cut too: memory follows what is printed, whatever its shape.
+        let keep = match (args.json, args.no_arr, options.truncate_length) {
+            (false, false, Some(keep)) => keep,
+            _ => usize::MAX,
+        };
         let text = match &path {
             Some(path) => echo_field(&ty, &bytes, shared, path, &options),
-            None => match if shared {
-                ty.decode_shared(&bytes)
-            } else {
-                ty.decode(&bytes)
-            } {
+            None => match ty.decode_truncated(&bytes, shared, keep) {
                 Ok(message) if args.json => serde_json::to_string(&message)
                     .map(|line| line + "\n")
                     .map_err(Into::into),

@@ -467,3 +467,66 @@ fn yaml_text_written_reads_back_to_the_same_message() {
     let json = serde_json::to_string(&finite).unwrap();
     assert_eq!(ty.message_from_yaml(&json).unwrap(), finite);
 }
+
+/// A message decoded for printing with a truncation keeps only what is
+/// printed: the same text as the whole message printed with that
+/// truncation, from `keep + 1` elements of each sequence of strings or
+/// messages however long it is.
+#[test]
+fn a_truncated_decode_prints_as_the_whole_message_and_keeps_only_what_is_printed() {
+    use shm_cdr::dynamic::YamlOptions;
+
+    #[derive(Debug, Clone, Default, PartialEq, RosMessage)]
+    #[ros(type_name = "grid_msgs/msg/Cell")]
+    struct Cell {
+        v: u8,
+        tags: Vec<String>,
+    }
+
+    #[derive(Debug, Clone, Default, PartialEq, RosMessage)]
+    #[ros(type_name = "grid_msgs/msg/Grid")]
+    struct Grid {
+        cells: Vec<Cell>,
+        names: Vec<String>,
+        fixed: [Cell; 3],
+        data: Vec<u8>,
+        label: String,
+    }
+
+    let cell = |i: usize| Cell {
+        v: i as u8,
+        tags: (0..i % 7).map(|t| format!("t{t}")).collect(),
+    };
+    let grid = Grid {
+        cells: (0..100_000).map(cell).collect(),
+        names: (0..50_000).map(|i| format!("n{i}")).collect(),
+        fixed: [cell(1), cell(2), cell(3)],
+        data: vec![9; 10_000],
+        label: "a label longer than the truncation".into(),
+    };
+    let bytes = shm_cdr::to_vec(&grid).unwrap();
+    let ty = dynamic::<Grid>();
+    for keep in [0, 1, 2, 5, 128] {
+        let options = YamlOptions::echo().truncate_length(Some(keep));
+        let whole = ty.decode(&bytes).unwrap().to_yaml_with(&options);
+        let cut = ty.decode_truncated(&bytes, false, keep).unwrap();
+        assert_eq!(cut.to_yaml_with(&options), whole, "keep {keep}");
+        assert_eq!(ty.decode_truncated(&bytes, true, keep).unwrap(), cut);
+        match cut.get("cells") {
+            Some(Value::Messages(cells)) => assert_eq!(cells.len(), keep + 1),
+            other => panic!("{other:?}"),
+        }
+        match cut.get("names") {
+            Some(Value::Strings(names)) => assert_eq!(names.len(), keep + 1),
+            other => panic!("{other:?}"),
+        }
+    }
+    // Untruncated, it is the whole message; damage past the kept elements
+    // is still found.
+    assert_eq!(
+        ty.decode_truncated(&bytes, false, usize::MAX).unwrap(),
+        ty.decode(&bytes).unwrap()
+    );
+    let short = &bytes[..bytes.len() - 20];
+    assert!(ty.decode_truncated(short, false, 1).is_err());
+}

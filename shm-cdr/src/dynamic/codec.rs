@@ -34,22 +34,38 @@ impl DynamicType {
         self.decode_from(bytes, true)
     }
 
-    fn decode_from<'de>(
+    /// [`decode`](Self::decode) (or, `shared`, [`decode_shared`](Self::decode_shared))
+    /// for printing with a truncation of `keep` elements: of each array or
+    /// sequence of strings or nested messages, only the first `keep + 1` are
+    /// kept (enough to show that more follow); the others are checked and
+    /// skipped. Memory then follows what is printed, not the message's
+    /// shape: a sequence of millions of one-byte messages costs `keep + 1`
+    /// of them. Arrays of numbers are borrowed from `bytes` as in `decode`.
+    pub fn decode_truncated<'de>(
         &self,
         bytes: &'de [u8],
         shared: bool,
+        keep: usize,
     ) -> Result<Message<'de>, DecodeError> {
         let body = bytes.get(4..).unwrap_or_default();
         match crate::read_header(bytes)? {
             Endianness::Little => {
                 let r = Reader::<LittleEndian>::new(body);
-                self.decode_message(&mut if shared { r.shared() } else { r }, 0)
+                self.decode_message_kept(&mut if shared { r.shared() } else { r }, 0, keep)
             }
             Endianness::Big => {
                 let r = Reader::<BigEndian>::new(body);
-                self.decode_message(&mut if shared { r.shared() } else { r }, 0)
+                self.decode_message_kept(&mut if shared { r.shared() } else { r }, 0, keep)
             }
         }
+    }
+
+    fn decode_from<'de>(
+        &self,
+        bytes: &'de [u8],
+        shared: bool,
+    ) -> Result<Message<'de>, DecodeError> {
+        self.decode_truncated(bytes, shared, usize::MAX)
     }
 
     /// Read one message of struct `index` at the reader's position.
@@ -58,19 +74,33 @@ impl DynamicType {
         r: &mut Reader<'de, B>,
         index: usize,
     ) -> Result<Message<'de>, DecodeError> {
+        self.decode_message_kept(r, index, usize::MAX)
+    }
+
+    /// [`decode_message`](Self::decode_message), keeping `keep + 1` elements
+    /// of each array or sequence of strings or messages (see
+    /// [`decode_truncated`](Self::decode_truncated)).
+    fn decode_message_kept<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        index: usize,
+        keep: usize,
+    ) -> Result<Message<'de>, DecodeError> {
         let def = &self.inner.structs[index];
         let checks = self.inner.checks.get(index).map_or(&[][..], Vec::as_slice);
         let mut values = Vec::with_capacity(def.fields.len());
         for (field, check) in def.fields.iter().zip(checks) {
             values.push(match *check {
-                Check::Message { index, .. } => Value::Message(self.decode_message(r, index)?),
+                Check::Message { index, .. } => {
+                    Value::Message(self.decode_message_kept(r, index, keep)?)
+                }
                 Check::Many {
                     element,
                     container,
                     min,
                 } => {
                     let n = read_len(r, container, min)?;
-                    self.decode_elements(r, element, n)?
+                    self.decode_elements_kept(r, element, n, keep)?
                 }
                 _ => self.decode_single(r, field.element)?,
             });
@@ -97,6 +127,20 @@ impl DynamicType {
         element: Element,
         n: usize,
     ) -> Result<Value<'de>, DecodeError> {
+        self.decode_elements_kept(r, element, n, usize::MAX)
+    }
+
+    /// [`decode_elements`](Self::decode_elements), keeping the first
+    /// `keep + 1` strings or messages and checking the others.
+    #[inline]
+    fn decode_elements_kept<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        element: Element,
+        n: usize,
+        keep: usize,
+    ) -> Result<Value<'de>, DecodeError> {
+        let kept = n.min(keep.saturating_add(1));
         Ok(match element {
             Element::Bool => Value::Bools(bool::decode_vec(r, n)?),
             Element::Byte | Element::Char | Element::U8 => Value::U8s(u8::decode_cow_slice(r, n)?),
@@ -110,23 +154,32 @@ impl DynamicType {
             Element::F32 => Value::F32s(f32::decode_cow_slice(r, n)?),
             Element::F64 => Value::F64s(f64::decode_cow_slice(r, n)?),
             Element::String(bound) => {
-                let mut out = Vec::with_capacity(n);
-                for _ in 0..n {
+                let mut out = Vec::with_capacity(kept);
+                for _ in 0..kept {
                     out.push(decode_string(r, bound)?);
+                }
+                for _ in kept..n {
+                    decode_string(r, bound)?;
                 }
                 Value::Strings(out)
             }
             Element::WString(bound) => {
-                let mut out = Vec::with_capacity(n);
-                for _ in 0..n {
+                let mut out = Vec::with_capacity(kept);
+                for _ in 0..kept {
                     out.push(read_wstring(r, bound)?);
+                }
+                for _ in kept..n {
+                    read_wstring(r, bound)?;
                 }
                 Value::WStrings(out)
             }
             Element::Message(index) => {
-                let mut out = Vec::with_capacity(n);
-                for _ in 0..n {
-                    out.push(self.decode_message(r, index)?);
+                let mut out = Vec::with_capacity(kept);
+                for _ in 0..kept {
+                    out.push(self.decode_message_kept(r, index, keep)?);
+                }
+                for _ in kept..n {
+                    self.decode_message_kept(r, index, keep)?;
                 }
                 Value::Messages(out)
             }
