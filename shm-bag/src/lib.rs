@@ -47,7 +47,7 @@ pub use metadata::BagMetadata;
 pub use player::{Bag, ClockTrigger, PlayOptions, PlayStats, Player, RecordedTopic};
 pub use recorder::{
     service_of_event_topic, ChannelStats, RecordOptions, RecordStats, Recorder, RecorderControl,
-    Selection, TypeDefinition,
+    Selection, TypeDefinition, MAX_DEFINITION, MAX_NODE_DEFINITIONS,
 };
 pub use reindex::{reindex, FileReport, Reindexed};
 pub use storage::{BagMessage, Storage};

@@ -631,6 +631,7 @@ fn discover(
         shared: shared.clone(),
         events: events.clone(),
         nodes: Arc::new(Mutex::new(HashMap::new())),
+        given: Arc::new(Mutex::new(HashMap::new())),
     };
     let mut subscribers: Vec<CallbackSubscriber<Serialized>> = Vec::new();
     // (topic, type name, type hash) → channel index.
@@ -809,7 +810,17 @@ struct Lookups {
     /// Each node's queue of lookups (its thread's), and why a node is not
     /// asked any more.
     nodes: Arc<Mutex<HashMap<String, NodeLookups>>>,
+    /// The bytes of definitions each node has given.
+    given: Arc<Mutex<HashMap<String, usize>>>,
 }
+
+/// The most bytes of one type's definition taken from a node: a definition
+/// of hundreds of types with their comments is well within it.
+pub const MAX_DEFINITION: usize = 1 << 20;
+
+/// The most bytes of definitions taken from one node in a recording: a node
+/// cannot fill a recording (or the recorder's memory) with text.
+pub const MAX_NODE_DEFINITIONS: usize = 8 << 20;
 
 enum NodeLookups {
     Asking(flume::Sender<Lookup>),
@@ -963,7 +974,7 @@ impl Lookups {
             ));
         }
         let asked = Instant::now();
-        types::ask_node(
+        let definition = types::ask_node(
             &self.node,
             self.timeout,
             fqn,
@@ -975,7 +986,31 @@ impl Lookups {
             // A question that took the whole timeout went unanswered: the
             // node's other questions would wait as long.
             (e.to_string(), asked.elapsed() >= self.timeout)
-        })
+        })?;
+        if definition.len() > MAX_DEFINITION {
+            return Err((
+                format!(
+                    "{fqn}'s definition of {} is {} bytes, more than the {MAX_DEFINITION} kept \
+                     for one type: give the type's interface files",
+                    channel.type_name,
+                    definition.len()
+                ),
+                false,
+            ));
+        }
+        let mut given = self.given.lock().unwrap_or_else(|e| e.into_inner());
+        let total = given.entry(fqn.to_owned()).or_insert(0);
+        if total.saturating_add(definition.len()) > MAX_NODE_DEFINITIONS {
+            return Err((
+                format!(
+                    "{fqn}'s definitions pass the {MAX_NODE_DEFINITIONS} bytes kept from one \
+                     node: give the types' interface files"
+                ),
+                false,
+            ));
+        }
+        *total += definition.len();
+        Ok(definition)
     }
 }
 

@@ -343,3 +343,62 @@ fn a_second_type_on_a_topic_is_a_channel_of_its_own_recorded_and_played() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A node that serves megabytes of source text with a small type: the
+/// recording keeps text written back from the description instead, and the
+/// file stays the size of its messages.
+#[test]
+fn a_type_source_of_megabytes_is_not_kept() {
+    use shm_cdr::msgs::type_description_interfaces::msg::TypeSource;
+    use shm_cdr::msgs::type_description_interfaces::srv::GetTypeDescription_Response;
+
+    let (a, b) = sessions();
+    let robot = RosNode::builder(&a, "verbose")
+        .domain_id(0)
+        .type_description_service(false)
+        .wait()
+        .unwrap();
+    let huge = "# padding\n".repeat(400_000) + "float32 voltage\nuint16[] cells\n";
+    let _server = robot
+        .declare_service::<GetTypeDescription>("~/get_type_description")
+        .handler(move |_| GetTypeDescription_Response {
+            successful: true,
+            failure_reason: String::new(),
+            type_description: Battery::full_description().to_msg(),
+            type_sources: vec![TypeSource {
+                type_name: Battery::TYPE_NAME.into(),
+                encoding: "msg".into(),
+                raw_file_contents: huge.clone(),
+            }],
+            extra_information: Vec::new(),
+        })
+        .wait()
+        .unwrap();
+    let battery = robot
+        .declare_publisher::<Battery>("/battery")
+        .wait()
+        .unwrap();
+    let dir = temp("shm_bag_verbose");
+    let selection = Selection {
+        topics: vec!["/battery".into()],
+        ..Selection::default()
+    };
+    let mut options = RecordOptions::new(dir.join("bag"), selection);
+    options.domain_id = Some(0);
+    let recorder = Recorder::start(&b, options).unwrap();
+    assert!(battery.wait_for_subscribers(TIMEOUT));
+    battery.publish(&Battery::default()).wait().unwrap();
+    wait_until("the message written", || recorder.stats().written == 1);
+    let stats = recorder.stats();
+    assert_eq!(
+        stats.channels[0].definition,
+        TypeDefinition::Known("/verbose".into())
+    );
+    recorder.stop().unwrap();
+    let bag = Bag::open(&dir.join("bag")).unwrap();
+    let definition = &bag.definitions().unwrap()[Battery::TYPE_NAME];
+    assert!(definition.contains("uint16[] cells"), "{definition}");
+    assert!(definition.len() <= shm_bag::definition::MAX_SOURCE_TEXT);
+    assert!(bag.size() < 1 << 20, "{} bytes", bag.size());
+    let _ = std::fs::remove_dir_all(&dir);
+}
