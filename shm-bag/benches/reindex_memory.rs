@@ -19,12 +19,13 @@ use shm_bag::{reindex, BagWriter, WriteOptions};
 
 const MESSAGE: usize = 64 * 1024;
 
-/// This process's peak resident memory since the last reset, in bytes.
-fn peak_rss() -> u64 {
+/// A memory figure of this process's `/proc/self/status` (`VmHWM`,
+/// `VmRSS`), in bytes.
+fn status_bytes(field: &str) -> u64 {
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
     status
         .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .find_map(|l| l.strip_prefix(field)?.strip_prefix(':'))
         .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
         .map_or(0, |kb| kb * 1024)
 }
@@ -32,15 +33,6 @@ fn peak_rss() -> u64 {
 /// Start measuring the peak anew (Linux: `5` to `clear_refs`).
 fn reset_peak() -> bool {
     std::fs::write("/proc/self/clear_refs", "5").is_ok()
-}
-
-fn current_rss() -> u64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmRSS:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-        .map_or(0, |kb| kb * 1024)
 }
 
 /// A bag in `dir` whose recording was killed after `bytes` of messages.
@@ -97,12 +89,12 @@ fn main() {
     let copy_time = start.elapsed();
     let _ = std::fs::remove_file(base.join("copy.mcap"));
 
-    let before = current_rss();
+    let before = status_bytes("VmRSS");
     let peak_measured = reset_peak();
     let start = Instant::now();
     let done = reindex(&dir).expect("reindex");
     let reindex_time = start.elapsed();
-    let above = peak_rss().saturating_sub(before);
+    let above = status_bytes("VmHWM").saturating_sub(before);
     let report = &done.files[0];
     println!(
         "file {:.0} MiB, {} messages recovered ({} chunks damaged)",

@@ -277,6 +277,11 @@ pub fn ask_node(
     })
 }
 
+/// The most bytes of a type-description reply that are decoded: the
+/// description of a type with hundreds of nested types, with their sources,
+/// is well within it.
+pub const MAX_DESCRIPTION_REPLY: usize = 16 << 20;
+
 /// `node_fqn`'s description of `name`, checked against `hash`: the type
 /// built from it, and the reply (for its sources).
 fn ask(
@@ -298,7 +303,7 @@ fn ask(
         .into());
     }
     let reply = client
-        .call(&GetTypeDescription_Request {
+        .call_reply(&GetTypeDescription_Request {
             type_name: name.to_owned(),
             type_hash: hash.to_owned(),
             include_type_sources: true,
@@ -311,6 +316,18 @@ fn ask(
                  within {timeout:?} ({e}): give the type's interface files"
             )
         })?;
+    // Checked before it is decoded: a reply's size is the node's to choose.
+    let size = reply.payload().len();
+    if size > MAX_DESCRIPTION_REPLY {
+        return Err(format!(
+            "{service} answered with {size} bytes for {name}, more than the \
+             {MAX_DESCRIPTION_REPLY} read: give the type's interface files"
+        )
+        .into());
+    }
+    let reply = reply
+        .response()
+        .map_err(|e| format!("{service}'s reply does not decode: {e}"))?;
     if !reply.successful {
         return Err(format!(
             "{service} has no description of {name}: {}",

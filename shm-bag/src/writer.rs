@@ -539,17 +539,18 @@ pub(crate) fn mcap_error(e: mcap::McapError) -> String {
 }
 
 fn add_channel(current: &mut Current, id: usize, topic: &Topic) -> Result<u16, Error> {
+    // A type recorded without its definition has an empty schema, encoding
+    // and text both, as rosbag2 writes one.
+    let schema_encoding = if topic.definition.is_empty() {
+        ""
+    } else {
+        definition::ENCODING
+    };
     let schema = current
         .writer
         .add_schema(
             &topic.metadata.type_name,
-            // A type recorded without its definition has an empty schema,
-            // encoding and text both, as rosbag2 writes one.
-            if topic.definition.is_empty() {
-                ""
-            } else {
-                definition::ENCODING
-            },
+            schema_encoding,
             topic.definition.as_bytes(),
         )
         .map_err(|e| format!("{}: {}", current.path, mcap_error(e)))?;
@@ -583,11 +584,7 @@ fn add_channel(current: &mut Current, id: usize, topic: &Topic) -> Result<u16, E
             &topic.metadata.serialization_format,
             &metadata,
             &topic.metadata.type_name,
-            if topic.definition.is_empty() {
-                ""
-            } else {
-                definition::ENCODING
-            },
+            schema_encoding,
             topic.definition.as_bytes(),
         ))
         .map_err(|e| format!("{}: {}", current.path, mcap_error(e)))?;

@@ -14,8 +14,11 @@ use shm_cdr::msgs::sensor_msgs::msg::Image;
 use shm_cdr::msgs::std_msgs::msg::String as RosString;
 use shm_cdr::RosMessage;
 use shm_runtime::rmw::Qos;
-use shm_runtime::{testing, RosNode, ShmConfig, ShmContext};
+use shm_runtime::{RosNode, ShmConfig, ShmContext};
 use zenoh::{Session, Wait};
+
+mod common;
+use common::{sessions, wait_until, TIMEOUT};
 
 /// A type the recorder was not built with: described by its publisher's
 /// `~/get_type_description`.
@@ -27,8 +30,6 @@ struct Battery {
     label: String,
 }
 
-const TIMEOUT: Duration = Duration::from_secs(20);
-
 /// Whether this process may lock all the shared memory it maps (root,
 /// `CAP_IPC_LOCK`, no limit): only then are the pools below sure to be made
 /// and mapped. Under a memory-lock limit messages go from the heap instead,
@@ -38,26 +39,6 @@ fn unlimited() -> bool {
     budget.exempt || budget.limit.is_none()
 }
 const COUNT: usize = 20;
-
-/// Two peer sessions on a local port, as two processes would be.
-fn sessions() -> (Session, Session) {
-    let port = testing::free_port().unwrap();
-    let open = |listen| {
-        zenoh::open(testing::peer_config(port, listen).unwrap())
-            .wait()
-            .unwrap()
-    };
-    let a = open(true);
-    (a, open(false))
-}
-
-fn wait_until(what: &str, mut condition: impl FnMut() -> bool) {
-    let deadline = Instant::now() + TIMEOUT;
-    while !condition() {
-        assert!(Instant::now() < deadline, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(10));
-    }
-}
 
 /// A profile of its own, to see it recorded and played back.
 fn image_qos() -> Qos {

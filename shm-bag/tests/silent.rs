@@ -5,7 +5,7 @@
 //! every message that reaches the recorder is in the file or in a count.
 
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use shm_bag::{Bag, PlayOptions, Player, RecordOptions, Recorder, Selection, TypeDefinition};
 use shm_cdr::msgs::std_msgs::msg::String as RosString;
@@ -13,8 +13,11 @@ use shm_cdr::msgs::type_description_interfaces::srv::GetTypeDescription;
 use shm_cdr::RosMessage;
 use shm_runtime::rmw::Qos;
 use shm_runtime::service::ServiceRequest;
-use shm_runtime::{testing, RosNode};
+use shm_runtime::RosNode;
 use zenoh::{Session, Wait};
+
+mod common;
+use common::{sessions, wait_until, TIMEOUT};
 
 /// A type the recorder was not built with, described by its publisher.
 #[derive(Debug, Clone, Default, PartialEq, RosMessage)]
@@ -22,27 +25,6 @@ use zenoh::{Session, Wait};
 struct Battery {
     voltage: f32,
     cells: Vec<u16>,
-}
-
-const TIMEOUT: Duration = Duration::from_secs(30);
-
-fn sessions() -> (Session, Session) {
-    let port = testing::free_port().unwrap();
-    let open = |listen| {
-        zenoh::open(testing::peer_config(port, listen).unwrap())
-            .wait()
-            .unwrap()
-    };
-    let a = open(true);
-    (a, open(false))
-}
-
-fn wait_until(what: &str, mut condition: impl FnMut() -> bool) {
-    let deadline = Instant::now() + TIMEOUT;
-    while !condition() {
-        assert!(Instant::now() < deadline, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(10));
-    }
 }
 
 fn temp(name: &str) -> std::path::PathBuf {
@@ -352,53 +334,82 @@ fn a_type_source_of_megabytes_is_not_kept() {
     use shm_cdr::msgs::type_description_interfaces::msg::TypeSource;
     use shm_cdr::msgs::type_description_interfaces::srv::GetTypeDescription_Response;
 
+    /// A node `name` publishing Battery on `topic`, whose
+    /// `~/get_type_description` answers with `source` as the type's text.
+    fn verbose_node(
+        session: &Session,
+        name: &str,
+        topic: &str,
+        source: String,
+    ) -> (RosNode, impl Sized, shm_runtime::RosPublisher<Battery>) {
+        let node = RosNode::builder(session, name)
+            .domain_id(0)
+            .type_description_service(false)
+            .wait()
+            .unwrap();
+        let server = node
+            .declare_service::<GetTypeDescription>("~/get_type_description")
+            .handler(move |_| GetTypeDescription_Response {
+                successful: true,
+                failure_reason: String::new(),
+                type_description: Battery::full_description().to_msg(),
+                type_sources: vec![TypeSource {
+                    type_name: Battery::TYPE_NAME.into(),
+                    encoding: "msg".into(),
+                    raw_file_contents: source.clone(),
+                }],
+                extra_information: Vec::new(),
+            })
+            .wait()
+            .unwrap();
+        let publisher = node.declare_publisher::<Battery>(topic).wait().unwrap();
+        (node, server, publisher)
+    }
+
     let (a, b) = sessions();
-    let robot = RosNode::builder(&a, "verbose")
-        .domain_id(0)
-        .type_description_service(false)
-        .wait()
-        .unwrap();
     let huge = "# padding\n".repeat(400_000) + "float32 voltage\nuint16[] cells\n";
-    let _server = robot
-        .declare_service::<GetTypeDescription>("~/get_type_description")
-        .handler(move |_| GetTypeDescription_Response {
-            successful: true,
-            failure_reason: String::new(),
-            type_description: Battery::full_description().to_msg(),
-            type_sources: vec![TypeSource {
-                type_name: Battery::TYPE_NAME.into(),
-                encoding: "msg".into(),
-                raw_file_contents: huge.clone(),
-            }],
-            extra_information: Vec::new(),
-        })
-        .wait()
-        .unwrap();
-    let battery = robot
-        .declare_publisher::<Battery>("/battery")
-        .wait()
-        .unwrap();
+    let (_robot, _server, battery) = verbose_node(&a, "verbose", "/battery", huge);
+    // A reply past what is read at all: 20 MiB of text.
+    let (_flood, _flood_server, flooded) =
+        verbose_node(&a, "flood", "/flooded", "#".repeat(20 << 20));
     let dir = temp("shm_bag_verbose");
     let selection = Selection {
-        topics: vec!["/battery".into()],
+        topics: vec!["/battery".into(), "/flooded".into()],
         ..Selection::default()
     };
     let mut options = RecordOptions::new(dir.join("bag"), selection);
     options.domain_id = Some(0);
     let recorder = Recorder::start(&b, options).unwrap();
     assert!(battery.wait_for_subscribers(TIMEOUT));
+    assert!(flooded.wait_for_subscribers(TIMEOUT));
     battery.publish(&Battery::default()).wait().unwrap();
-    wait_until("the message written", || recorder.stats().written == 1);
+    flooded.publish(&Battery::default()).wait().unwrap();
+    wait_until("the messages written", || recorder.stats().written == 2);
     let stats = recorder.stats();
+    let definition = |topic: &str| {
+        stats
+            .channels
+            .iter()
+            .find(|c| c.topic == topic)
+            .map(|c| c.definition.clone())
+            .unwrap()
+    };
     assert_eq!(
-        stats.channels[0].definition,
+        definition("/battery"),
         TypeDefinition::Known("/verbose".into())
     );
+    match definition("/flooded") {
+        TypeDefinition::Missing(why) => {
+            assert!(why.contains("more than the 16777216 read"), "{why}")
+        }
+        other => panic!("{other:?}"),
+    }
     recorder.stop().unwrap();
     let bag = Bag::open(&dir.join("bag")).unwrap();
     let definition = &bag.definitions().unwrap()[Battery::TYPE_NAME];
     assert!(definition.contains("uint16[] cells"), "{definition}");
     assert!(definition.len() <= shm_bag::definition::MAX_SOURCE_TEXT);
     assert!(bag.size() < 1 << 20, "{} bytes", bag.size());
+    assert_eq!(bag.topics().unwrap().len(), 2);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -294,11 +294,10 @@ mod tests {
         }
     }
 
-    /// A chunk index declaring a chunk of 2^40 bytes is refused when the
-    /// file is opened, before a reader or a player sizes anything from it.
-    #[test]
-    fn a_chunk_index_that_lies_about_its_size_is_refused_at_open() {
-        let dir = temp("lying-index");
+    /// A finished bag `name` of five messages without chunk CRCs: its
+    /// directory, its file and the file's bytes, to damage.
+    fn five_messages(name: &str) -> (PathBuf, PathBuf, Vec<u8>) {
+        let dir = temp(name);
         let options = WriteOptions {
             chunk_crcs: false,
             ..Default::default()
@@ -310,7 +309,59 @@ mod tests {
         }
         let metadata = writer.finish().unwrap();
         let path = dir.join(&metadata.relative_file_paths[0]);
-        let mut bytes = std::fs::read(&path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        (dir, path, bytes)
+    }
+
+    /// A summary whose message count is not the file's: reading the file
+    /// gives every message, and says that the summary disagrees.
+    #[test]
+    fn a_summary_whose_count_lies_is_said_to_disagree() {
+        use std::sync::{Arc, Mutex};
+        let (dir, path, mut bytes) = five_messages("lying-count");
+        // The statistics record: opcode, length, then its message count.
+        let at = (0..bytes.len() - 17)
+            .rev()
+            .find(|&i| bytes[i] == 0x0b && bytes[i + 9..i + 17] == 5u64.to_le_bytes())
+            .unwrap();
+        bytes[at + 9..at + 17].copy_from_slice(&3u64.to_le_bytes());
+        let crc_at = bytes.len() - mcap::MAGIC.len() - 4;
+        bytes[crc_at..crc_at + 4].fill(0);
+        std::fs::write(&path, &bytes).unwrap();
+
+        #[derive(Clone, Default)]
+        struct Said(Arc<Mutex<Vec<u8>>>);
+        impl std::io::Write for Said {
+            fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+                self.0.lock().unwrap().extend_from_slice(buf);
+                Ok(buf.len())
+            }
+            fn flush(&mut self) -> std::io::Result<()> {
+                Ok(())
+            }
+        }
+        let said = Said::default();
+        let writer = said.clone();
+        let subscriber = tracing_subscriber::fmt()
+            .with_writer(move || writer.clone())
+            .with_ansi(false)
+            .finish();
+        let read =
+            tracing::subscriber::with_default(subscriber, || played(&Bag::open(&dir).unwrap(), 0));
+        assert_eq!(read.len(), 5);
+        let text = String::from_utf8(said.0.lock().unwrap().clone()).unwrap();
+        assert!(
+            text.contains("its summary counts 3 messages, and 5 were read"),
+            "{text}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A chunk index declaring a chunk of 2^40 bytes is refused when the
+    /// file is opened, before a reader or a player sizes anything from it.
+    #[test]
+    fn a_chunk_index_that_lies_about_its_size_is_refused_at_open() {
+        let (dir, path, mut bytes) = five_messages("lying-index");
         let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
         let index = &summary.chunk_indexes[0];
         // An uncompressed chunk's index ends with its compressed and its
