@@ -785,6 +785,7 @@ fn learn(
         index,
         channel: channel.clone(),
         nodes,
+        why: None,
     });
 }
 
@@ -794,6 +795,8 @@ struct Lookup {
     channel: Arc<Channel>,
     /// The nodes publishing it, by full name: asked in turn.
     nodes: Vec<String>,
+    /// Why the last node asked gave no definition.
+    why: Option<String>,
 }
 
 /// The type lookups of a recording: one thread per node asked, so that a
@@ -845,19 +848,9 @@ impl Lookups {
     fn ask(&self, mut lookup: Lookup) {
         if lookup.nodes.is_empty() {
             let why = lookup
-                .channel
-                .definition
-                .lock()
-                .map(|d| match &*d {
-                    TypeDefinition::Missing(why) => why.clone(),
-                    _ => String::new(),
-                })
-                .unwrap_or_default();
-            let why = if why.is_empty() {
-                "no node announcing it describes it".to_owned()
-            } else {
-                why
-            };
+                .why
+                .take()
+                .unwrap_or_else(|| "no node announcing it describes it".to_owned());
             self.define(
                 lookup.index,
                 &lookup.channel,
@@ -870,10 +863,9 @@ impl Lookups {
         let mut nodes = self.nodes.lock().unwrap_or_else(|e| e.into_inner());
         match nodes.get(&fqn) {
             Some(NodeLookups::Silent(why)) => {
-                let why = why.clone();
+                lookup.why = Some(why.clone());
                 drop(nodes);
                 lookup.nodes.remove(0);
-                lookup.channel.set_definition(TypeDefinition::Missing(why));
                 self.ask(lookup);
                 return;
             }
@@ -932,18 +924,15 @@ impl Lookups {
                         let mut nodes = self.nodes.lock().unwrap_or_else(|e| e.into_inner());
                         nodes.insert(fqn.to_owned(), NodeLookups::Silent(why.clone()));
                         drop(nodes);
-                        for other in work.drain() {
-                            let mut other = other;
+                        for mut other in work.drain() {
                             other.nodes.retain(|n| n != fqn);
-                            other
-                                .channel
-                                .set_definition(TypeDefinition::Missing(why.clone()));
+                            other.why = Some(why.clone());
                             self.ask(other);
                         }
                     }
                     let mut rest = lookup;
                     rest.nodes.retain(|n| n != fqn);
-                    rest.channel.set_definition(TypeDefinition::Missing(why));
+                    rest.why = Some(why);
                     self.ask(rest);
                     if silent {
                         return;
