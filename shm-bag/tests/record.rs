@@ -18,7 +18,7 @@ use shm_runtime::{RosNode, ShmConfig, ShmContext};
 use zenoh::{Session, Wait};
 
 mod common;
-use common::{sessions, wait_until, TIMEOUT};
+use common::{recording, sessions, wait_until, TIMEOUT};
 
 /// A type the recorder was not built with: described by its publisher's
 /// `~/get_type_description`.
@@ -839,20 +839,6 @@ fn chatter_probe(session: &Session) -> (RosNode, shm_runtime::RosSubscriber<RosS
         .wait()
         .unwrap();
     (node, probe)
-}
-
-/// A fresh directory for a recording named `name`, and options recording
-/// `topics` into it on domain 0.
-fn recording(name: &str, topics: Vec<String>) -> (std::path::PathBuf, RecordOptions) {
-    let dir = std::env::temp_dir().join(format!("{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let selection = Selection {
-        topics,
-        ..Selection::default()
-    };
-    let mut options = RecordOptions::new(dir.join("bag"), selection);
-    options.domain_id = Some(0);
-    (dir, options)
 }
 
 /// A node of `session` keeping every `/battery` message it receives.

@@ -17,7 +17,7 @@ use shm_runtime::RosNode;
 use zenoh::{Session, Wait};
 
 mod common;
-use common::{sessions, wait_until, TIMEOUT};
+use common::{recording, sessions, wait_until, TIMEOUT};
 
 /// A type the recorder was not built with, described by its publisher.
 #[derive(Debug, Clone, Default, PartialEq, RosMessage)]
@@ -236,13 +236,7 @@ fn a_second_type_on_a_topic_is_a_channel_of_its_own_recorded_and_played() {
     let robot = RosNode::builder(&a, "robot").domain_id(0).wait().unwrap();
     let battery = robot.declare_publisher::<Battery>("/x").wait().unwrap();
 
-    let dir = temp("shm_bag_two_types");
-    let selection = Selection {
-        topics: vec!["/x".into()],
-        ..Selection::default()
-    };
-    let mut options = RecordOptions::new(dir.join("bag"), selection);
-    options.domain_id = Some(0);
+    let (dir, options) = recording("shm_bag_two_types", vec!["/x".into()]);
     let recorder = Recorder::start(&b, options).unwrap();
     assert!(text.wait_for_subscribers(TIMEOUT));
     assert!(battery.wait_for_subscribers(TIMEOUT));
@@ -372,13 +366,10 @@ fn a_type_source_of_megabytes_is_not_kept() {
     // A reply past what is read at all: 20 MiB of text.
     let (_flood, _flood_server, flooded) =
         verbose_node(&a, "flood", "/flooded", "#".repeat(20 << 20));
-    let dir = temp("shm_bag_verbose");
-    let selection = Selection {
-        topics: vec!["/battery".into(), "/flooded".into()],
-        ..Selection::default()
-    };
-    let mut options = RecordOptions::new(dir.join("bag"), selection);
-    options.domain_id = Some(0);
+    let (dir, options) = recording(
+        "shm_bag_verbose",
+        vec!["/battery".into(), "/flooded".into()],
+    );
     let recorder = Recorder::start(&b, options).unwrap();
     assert!(battery.wait_for_subscribers(TIMEOUT));
     assert!(flooded.wait_for_subscribers(TIMEOUT));

@@ -3,6 +3,7 @@
 
 use std::time::{Duration, Instant};
 
+use shm_bag::{RecordOptions, Selection};
 use shm_runtime::testing;
 use zenoh::{Session, Wait};
 
@@ -28,4 +29,18 @@ pub fn wait_until(what: &str, mut condition: impl FnMut() -> bool) {
         assert!(Instant::now() < deadline, "timed out waiting for {what}");
         std::thread::sleep(Duration::from_millis(10));
     }
+}
+
+/// A fresh directory for a recording named `name`, and options recording
+/// `topics` into it on domain 0.
+pub fn recording(name: &str, topics: Vec<String>) -> (std::path::PathBuf, RecordOptions) {
+    let dir = std::env::temp_dir().join(format!("{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let selection = Selection {
+        topics,
+        ..Selection::default()
+    };
+    let mut options = RecordOptions::new(dir.join("bag"), selection);
+    options.domain_id = Some(0);
+    (dir, options)
 }
