@@ -39,6 +39,16 @@ fn fake_hash(i: usize) -> String {
     format!("RIHS01_{i:064x}")
 }
 
+/// Where the recording found the definition of `topic`'s type.
+fn definition_of(stats: &shm_bag::RecordStats, topic: &str) -> TypeDefinition {
+    stats
+        .channels
+        .iter()
+        .find(|c| c.topic == topic)
+        .map(|c| c.definition.clone())
+        .unwrap_or_else(|| panic!("{topic} is recorded"))
+}
+
 /// Each recorded topic and type with its message count, as the file says.
 fn counts(bag: &Bag) -> Vec<(String, String, u64)> {
     bag.topics()
@@ -161,14 +171,7 @@ fn silent_and_serviceless_nodes_hold_up_no_other_topic_and_lose_nothing() {
         "the silent node was asked"
     );
     assert_eq!((stats.dropped, stats.missed), (0, 0), "{stats:?}");
-    let definition = |topic: &str| {
-        stats
-            .channels
-            .iter()
-            .find(|c| c.topic == topic)
-            .map(|c| c.definition.clone())
-            .unwrap_or_else(|| panic!("{topic} is recorded"))
-    };
+    let definition = |topic: &str| definition_of(&stats, topic);
     assert_eq!(
         definition("/chatter"),
         TypeDefinition::Known("the standard set".into())
@@ -377,14 +380,7 @@ fn a_type_source_of_megabytes_is_not_kept() {
     flooded.publish(&Battery::default()).wait().unwrap();
     wait_until("the messages written", || recorder.stats().written == 2);
     let stats = recorder.stats();
-    let definition = |topic: &str| {
-        stats
-            .channels
-            .iter()
-            .find(|c| c.topic == topic)
-            .map(|c| c.definition.clone())
-            .unwrap()
-    };
+    let definition = |topic: &str| definition_of(&stats, topic);
     assert_eq!(
         definition("/battery"),
         TypeDefinition::Known("/verbose".into())
