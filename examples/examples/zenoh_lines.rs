@@ -3,9 +3,13 @@
 //! pool, against `zenoh_peer` built on another Zenoh line.
 //!
 //! ```text
-//! zenoh_lines publish <listen endpoint> <data bytes> <count>
-//! zenoh_lines subscribe <listen endpoint> <data bytes> <count> <timeout s>
+//! zenoh_lines publish <endpoint> <data bytes> <count>
+//! zenoh_lines subscribe <endpoint> <data bytes> <count> <timeout s>
 //! ```
+//!
+//! The endpoint is listened on, or connected to if written
+//! `connect:<endpoint>`, so that two of ours (on two Zenoh lines, say) can
+//! pair up.
 //!
 //! Both first print `KEY <key expression>` and `PEER_TOKEN <template>`: the
 //! rmw_zenoh key of the topic and the liveliness token the peer declares
@@ -16,15 +20,24 @@
 //! `subscribe` prints how many images arrived, how many in shared memory
 //! (`RosSample::is_shm`) and how many equal to the peer's, field by field.
 //! Each report is one JSON line.
+//!
+//! It names only `zenoh` and `shm_runtime` (and `shm_cdr` through it), so the
+//! same file builds outside this workspace on each Zenoh line the runtime
+//! accepts (`tests/zenoh-lines/<line>/`).
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
+
+#[path = "../src/peer.rs"]
+mod peer;
+
+use shm_runtime::shm_cdr;
 
 use shm_cdr::msgs::builtin_interfaces::Time;
 use shm_cdr::msgs::sensor_msgs::Image;
 use shm_cdr::msgs::std_msgs::Header;
 use shm_runtime::rmw::EntityKind;
-use shm_runtime::{Reach, RosNode, ShmConfig, ShmContext};
+use shm_runtime::{Reach, RosNode, ShmConfig, ShmContext, ZenohLine};
 use zenoh::Wait;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error + Send + Sync>>;
@@ -55,11 +68,16 @@ fn image(seq: u32, data: usize) -> Image {
 
 /// The token of the peer's endpoint of `kind` on the topic.
 fn peer_token(kind: EntityKind) -> String {
-    shm_cdr_examples::zenoh_peer_token::<Image>(&format!("/{TOPIC}"), kind)
+    peer::zenoh_peer_token::<Image>(&format!("/{TOPIC}"), kind)
 }
 
+/// `endpoint` is listened on, or connected to when written `connect:<endpoint>`
+/// (two of our processes on one endpoint).
 fn node(endpoint: &str, name: &str) -> Result<(zenoh::Session, ShmContext, RosNode)> {
-    let session = shm_cdr_examples::peer_session(endpoint, true)?;
+    let session = match endpoint.strip_prefix("connect:") {
+        Some(endpoint) => peer::peer_session(endpoint, false)?,
+        None => peer::peer_session(endpoint, true)?,
+    };
     let shm = ShmContext::new(ShmConfig::enabled().pool_size(POOL))?;
     let node = RosNode::builder(&session, name).shm(&shm).wait()?;
     Ok((session, shm, node))
@@ -95,15 +113,26 @@ fn publish(endpoint: &str, data: usize, count: u32) -> Result<()> {
     }
     let stats = shm.stats();
     println!(
-        r#"{{"published": {count}, "kinds": {}, "copied_to": {copied_to}, "reach": "{:?}", "stats_shm": {}, "stats_copied": {}}}"#,
-        serde_json::to_string(&kinds)?,
+        r#"{{"published": {count}, "kinds": {}, "copied_to": {copied_to}, "reach": "{:?}", "stats_shm": {}, "stats_copied": {}, "zenoh_line": "{}", "shm_protocol": {}}}"#,
+        json_object(&kinds),
         peer.reach,
         stats.shm,
         stats.copied,
+        ZenohLine::BUILT,
+        ZenohLine::BUILT_SHM_PROTOCOL,
     );
     // Let the last images leave before the session closes.
     std::thread::sleep(Duration::from_millis(500));
     Ok(())
+}
+
+/// `{"Shm": 20}`: payload kinds are plain identifiers.
+fn json_object(counts: &BTreeMap<String, u32>) -> String {
+    let fields: Vec<String> = counts
+        .iter()
+        .map(|(k, v)| format!("\"{k}\": {v}"))
+        .collect();
+    format!("{{{}}}", fields.join(", "))
 }
 
 fn subscribe(endpoint: &str, data: usize, count: usize, timeout: Duration) -> Result<()> {

@@ -12,29 +12,11 @@ pub mod generated {
     include!(concat!(env!("OUT_DIR"), "/robot_interfaces.rs"));
 }
 
-use shm_cdr::msgs::sensor_msgs::PointField;
-use zenoh::{Config, Session, Wait};
+mod peer;
+pub use peer::{peer_session, zenoh_peer_token};
 
-/// A peer session on `endpoint` with multicast scouting off: listening on it,
-/// or connecting to it. Zenoh's implicit copy of large heap payloads into a
-/// shared-memory pool of its own is off, as the guide recommends beside
-/// shm-runtime: what travels in shared memory is what a publisher put there.
-pub fn peer_session(endpoint: &str, listen: bool) -> zenoh::Result<Session> {
-    let mut config = Config::default();
-    config.insert_json5("mode", "\"peer\"")?;
-    config.insert_json5("scouting/multicast/enabled", "false")?;
-    config.insert_json5(
-        "transport/shared_memory/transport_optimization/enabled",
-        "false",
-    )?;
-    let key = if listen {
-        "listen/endpoints"
-    } else {
-        "connect/endpoints"
-    };
-    config.insert_json5(key, &format!("[\"{endpoint}\"]"))?;
-    zenoh::open(config).wait()
-}
+use shm_cdr::msgs::sensor_msgs::PointField;
+use zenoh::Session;
 
 /// Two peer sessions: the first listens on `tcp/127.0.0.1:<port>`, the second
 /// connects to it.
@@ -57,27 +39,6 @@ pub fn xyzi_fields() -> Vec<PointField> {
             count: 1,
         })
         .collect()
-}
-
-/// The liveliness token an rmw_zenoh_cpp endpoint of `kind` on `topic` (a
-/// `T`) declares for a plain Zenoh peer named `zenoh_peer` (`examples/examples/zenoh_peer.rs`),
-/// its session left as `{zid}` for the peer to fill in: with it, a node's
-/// graph sees the peer as it would see an rmw_zenoh_cpp node.
-pub fn zenoh_peer_token<T: shm_cdr::RosMessage>(
-    topic: &str,
-    kind: shm_runtime::rmw::EntityKind,
-) -> String {
-    use shm_runtime::rmw::{Distro, NodeInfo, Qos};
-    NodeInfo {
-        domain_id: 0,
-        zid: "{zid}".into(),
-        node_id: 0,
-        enclave: "/".into(),
-        namespace: "/".into(),
-        name: "zenoh_peer".into(),
-        distro: Distro::Kilted,
-    }
-    .topic_token::<T>(1, kind, topic, &Qos::default())
 }
 
 #[cfg(test)]
@@ -129,6 +90,7 @@ pub mod docs {
         SharedMemory = "../../docs/src/shared-memory.md",
         Nodes = "../../docs/src/nodes.md",
         ZenohConfig = "../../docs/src/zenoh-config.md",
+        ZenohLines = "../../docs/src/zenoh-lines.md",
         Security = "../../docs/src/security.md",
         Performance = "../../docs/src/performance.md",
         Interop = "../../docs/src/interop.md",

@@ -80,9 +80,39 @@ pub(crate) fn interrupted() -> Result<std::sync::Arc<std::sync::atomic::AtomicBo
     Ok(flag)
 }
 
+/// `--version` with the Zenoh line, its shared-memory protocol and the ROS 2
+/// distributions whose nodes share memory with this build.
+fn long_version() -> String {
+    let sharing: Vec<&str> = shm_runtime::rmw::DISTRIBUTIONS
+        .iter()
+        .filter(|release| release.shares_memory_with_this_build())
+        .map(|release| release.name)
+        .collect();
+    format!(
+        "{}\nZenoh {} (shared-memory protocol {})\nshared memory with rmw_zenoh_cpp nodes of: {}",
+        env!("CARGO_PKG_VERSION"),
+        shm_runtime::ZenohLine::BUILT,
+        shm_runtime::ZenohLine::BUILT_SHM_PROTOCOL,
+        if sharing.is_empty() {
+            "none (their Zenoh speaks another shared-memory protocol)".to_string()
+        } else {
+            sharing.join(", ")
+        }
+    )
+}
+
+fn parse_cli() -> Cli {
+    use clap::{CommandFactory, FromArgMatches};
+    let matches = Cli::command().long_version(long_version()).get_matches();
+    match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(error) => error.exit(),
+    }
+}
+
 fn main() -> ExitCode {
     shm_runtime::init_logging();
-    let cli = Cli::parse();
+    let cli = parse_cli();
     let result = match cli.command {
         Command::Interface(command) => interface::run(command),
         Command::Router(args) => router::run(&args),

@@ -1186,3 +1186,34 @@ fn a_killed_recording_is_reindexed_with_all_but_its_last_second() {
     let _ = std::fs::remove_dir_all(&dir);
     drop(alive);
 }
+
+#[test]
+fn version_names_the_zenoh_line_and_who_shares_memory_with_it() {
+    let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
+        .arg("--version")
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = stdout(&out);
+    let line = shm_runtime::ZenohLine::BUILT;
+    let protocol = shm_runtime::ZenohLine::BUILT_SHM_PROTOCOL;
+    assert!(
+        text.contains(&format!(
+            "\nZenoh {line} (shared-memory protocol {protocol})\n"
+        )),
+        "{text}"
+    );
+    // The workspace's line shares memory with every distribution's nodes.
+    assert!(
+        text.contains(
+            "shared memory with rmw_zenoh_cpp nodes of: humble, jazzy, kilted, lyrical, rolling"
+        ),
+        "{text}"
+    );
+    // -V stays short, as clap prints it.
+    let short = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
+        .arg("-V")
+        .output()
+        .unwrap();
+    assert_eq!(stdout(&short).lines().count(), 1);
+}

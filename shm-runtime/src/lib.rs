@@ -67,6 +67,7 @@ pub use transport::subscriber::{
 };
 
 pub use shm_cdr;
+pub use transport::zenoh_line::ZenohLine;
 
 use shm_cdr::RosMessage;
 use transport::queue::TopicType;

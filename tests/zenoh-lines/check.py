@@ -1,20 +1,26 @@
 #!/usr/bin/env python3
-"""Shared memory across Zenoh lines: our RosNode (the workspace's Zenoh)
-against a plain Zenoh peer (examples/examples/zenoh_peer.rs) built on
+"""Shared memory across Zenoh lines. Our side (examples/examples/zenoh_lines.rs,
+a RosNode) built on each line the runtime accepts:
 
-- Zenoh 1.8.0, what every rmw_zenoh_cpp release ships (tests/zenoh-lines/1.8),
-- the workspace's own line (the zenoh_peer example),
+- Zenoh 1.8.0, what every rmw_zenoh_cpp release ships (tests/zenoh-lines/1.8,
+  an outside project adding shm-runtime by path, with its own lock file),
+- the workspace's own line (1.9),
 - Zenoh 1.10.2, whose shared-memory protocol differs (tests/zenoh-lines/1.10),
 
-both ways, with sensor_msgs/Image of 1 KiB, 1 MiB and 8 MiB on rmw_zenoh_cpp's
-keys, attachments and liveliness tokens. Each image is checked byte for byte by
-the side that receives it, and counted as shared memory on arrival
-(`ZBytes::as_shm` at the peer, `RosSample::is_shm` at ours). For our
-publisher, what the runtime reported is checked too: the peer's `Reach`
-(SharedMemoryUnprobed, or Bytes for a link without shared memory) and
-`PublishOutcome::copied_to` / `ShmStats::copied` (every image, or none).
+against a plain Zenoh peer (examples/examples/zenoh_peer.rs) built on the
+same three lines, both ways, and ours against ours. Images are
+sensor_msgs/Image on rmw_zenoh_cpp's keys, attachments and liveliness tokens:
+1 KiB, 1 MiB and 8 MiB where ours is on the workspace's line, 1 MiB on the
+others. Each image is checked byte for byte by the side that receives it,
+and counted as shared memory on arrival (`ZBytes::as_shm` at the peer,
+`RosSample::is_shm` at ours). For our publisher, what the runtime reported is
+checked too: its Zenoh line and shared-memory protocol (`ZenohLine`), the
+subscriber's `Reach` (SharedMemoryUnprobed for the peer, SharedMemory for ours,
+Bytes for a link without shared memory) and `PublishOutcome::copied_to` /
+`ShmStats::copied` (every image, or none). Two lines share memory exactly
+when their shared-memory protocols match (1 for 1.8 and 1.9, 2 for 1.10).
 
-    python3 tests/zenoh-lines/check.py <release examples dir> <peers target dir>
+    python3 tests/zenoh-lines/check.py <release examples dir> <lines target dir>
 
 Exit status 1 if any pairing does not do what the table says it should.
 """
@@ -44,15 +50,25 @@ def locked_zenoh(lock_file):
     return found.group(1)
 
 
+def line_of(version):
+    return ".".join(version.split(".")[:2])
+
+
+def shm_protocol(version):
+    """zenoh-shm's SHM_VERSION of a line (tests/zenoh-lines' lines only)."""
+    return {"1.8": 1, "1.9": 1, "1.10": 2}[line_of(version)]
+
+
 LINES = [
-    # (Zenoh version, who ships it, peer binary, shares memory with ours)
+    # (Zenoh version, who ships it, plain peer binary, our binary)
     (locked_zenoh(os.path.join(HERE, "1.8/Cargo.lock")), "rmw_zenoh_cpp, every distribution",
-     os.path.join(PEERS, "1.8/release/zenoh_peer"), True),
+     os.path.join(PEERS, "1.8/release/zenoh_peer"), os.path.join(PEERS, "1.8/release/zenoh_lines")),
     (locked_zenoh(os.path.join(ROOT, "Cargo.lock")), "this workspace",
-     os.path.join(EXAMPLES, "zenoh_peer"), True),
+     os.path.join(EXAMPLES, "zenoh_peer"), os.path.join(EXAMPLES, "zenoh_lines")),
     (locked_zenoh(os.path.join(HERE, "1.10/Cargo.lock")), "newer Zenoh",
-     os.path.join(PEERS, "1.10/release/zenoh_peer"), False),
+     os.path.join(PEERS, "1.10/release/zenoh_peer"), os.path.join(PEERS, "1.10/release/zenoh_lines")),
 ]
+WORKSPACE = LINES[1][0]
 
 next_port = [17650]
 
@@ -62,9 +78,9 @@ def endpoint():
     return f"tcp/127.0.0.1:{next_port[0]}"
 
 
-def start_ours(args):
+def start_ours(ours_bin, args):
     """Start our side; return it with the key and the peer's token it printed."""
-    ours = subprocess.Popen([os.path.join(EXAMPLES, "zenoh_lines"), *args],
+    ours = subprocess.Popen([ours_bin, *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     key = ours.stdout.readline().split()
     token = ours.stdout.readline().split()
@@ -86,9 +102,9 @@ def report(process, what):
     return json.loads(lines[-1]), err
 
 
-def ours_to_peer(peer, data, count):
+def ours_to_peer(ours_bin, peer, data, count):
     ep = endpoint()
-    ours, key, token = start_ours(["publish", ep, str(data), str(count)])
+    ours, key, token = start_ours(ours_bin, ["publish", ep, str(data), str(count)])
     sub = subprocess.Popen([peer, "sub", ep, key, token, str(count), str(data), str(TIMEOUT)],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     got, _ = report(sub, "peer subscriber")
@@ -96,9 +112,9 @@ def ours_to_peer(peer, data, count):
     return sent, got, log
 
 
-def peer_to_ours(peer, data, count):
+def peer_to_ours(ours_bin, peer, data, count):
     ep = endpoint()
-    ours, key, token = start_ours(["subscribe", ep, str(data), str(count), str(TIMEOUT)])
+    ours, key, token = start_ours(ours_bin, ["subscribe", ep, str(data), str(count), str(TIMEOUT)])
     pub = subprocess.Popen([peer, "pub", ep, key, token, str(count), str(data)],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     sent, _ = report(pub, "peer publisher")
@@ -106,45 +122,88 @@ def peer_to_ours(peer, data, count):
     return sent, got
 
 
+def ours_to_ours(publisher_bin, subscriber_bin, data, count):
+    ep = endpoint()
+    pub, _, _ = start_ours(publisher_bin, ["publish", ep, str(data), str(count)])
+    sub, _, _ = start_ours(subscriber_bin, ["subscribe", "connect:" + ep, str(data), str(count), str(TIMEOUT)])
+    got, _ = report(sub, "our subscriber")
+    sent, log = report(pub, "our publisher")
+    return sent, got, log
+
+
+def check_sent(failures, case, sent, log, count, ours_version, shares, want_shared_reach):
+    want_reach = want_shared_reach if shares else "Bytes"
+    want_copied = 0 if shares else count
+    if sent["zenoh_line"] != line_of(ours_version) or sent["shm_protocol"] != shm_protocol(ours_version):
+        failures.append(f"{case}: our publisher said Zenoh {sent['zenoh_line']} protocol {sent['shm_protocol']}, "
+                        f"built on {ours_version}")
+    if sent["kinds"] != {"Shm": count}:
+        failures.append(f"{case}: our publisher wrote {sent['kinds']}, expected {count} into shared memory")
+    if sent["reach"] != want_reach or sent["copied_to"] != want_copied or sent["stats_copied"] != want_copied:
+        failures.append(f"{case}: our publisher reported {sent}, expected reach {want_reach} "
+                        f"and {want_copied} copied")
+    if not shares and "linked without shared memory" not in log:
+        failures.append(f"{case}: our publisher did not warn of the copies")
+    if not shares and f"Zenoh {line_of(ours_version)} (protocol" not in log:
+        failures.append(f"{case}: our publisher's warning does not name its own line: {log}")
+
+
+def check_got(failures, case, got, count, shares):
+    want_shm = count if shares else 0
+    if got["received"] != count or got["exact"] != count or got.get("attachments", count) != count:
+        failures.append(f"{case}: {got}")
+    if got["shm"] != want_shm:
+        failures.append(f"{case}: {got['shm']} of {count} in shared memory, expected {want_shm}")
+
+
 def main():
     failures = []
-    print("| peer's Zenoh | shipped by | image | ours → peer: received / in shared memory | "
+    checks = 0
+    for _, _, peer, ours in LINES:
+        for binary in (peer, ours):
+            if not os.path.exists(binary):
+                raise SystemExit(f"{binary} is missing: build it first (see .ci/run)")
+    print("| our Zenoh | peer's Zenoh | shipped by | image | ours → peer: received / in shared memory | "
           "our publisher reported | peer → ours: received / in shared memory |")
-    print("|---|---|---|---|---|---|")
-    for version, who, peer, shares in LINES:
-        if not os.path.exists(peer):
-            raise SystemExit(f"{peer} is missing: build it first (see .ci/run)")
-        for label, data, count in SIZES:
-            case = f"Zenoh {version}, {label}"
-            sent, got, log = ours_to_peer(peer, data, count)
-            want_shm = count if shares else 0
-            want_reach = "SharedMemoryUnprobed" if shares else "Bytes"
-            want_copied = 0 if shares else count
-            if got["received"] != count or got["exact"] != count or got["attachments"] != count:
-                failures.append(f"{case}, ours → peer: {got}")
-            if got["shm"] != want_shm:
-                failures.append(f"{case}, ours → peer: {got['shm']} of {count} in shared memory, expected {want_shm}")
-            if sent["kinds"] != {"Shm": count}:
-                failures.append(f"{case}: our publisher wrote {sent['kinds']}, expected {count} into shared memory")
-            if sent["reach"] != want_reach or sent["copied_to"] != want_copied \
-                    or sent["stats_copied"] != want_copied:
-                failures.append(f"{case}: our publisher reported {sent}, expected reach {want_reach} "
-                                f"and {want_copied} copied")
-            if not shares and "linked without shared memory" not in log:
-                failures.append(f"{case}: our publisher did not warn of the copies")
-            back_sent, back = peer_to_ours(peer, data, count)
-            if back["received"] != count or back["exact"] != count or back_sent["shm"] != count:
-                failures.append(f"{case}, peer → ours: sent {back_sent}, received {back}")
-            if back["shm"] != want_shm:
-                failures.append(f"{case}, peer → ours: {back['shm']} of {count} in shared memory, expected {want_shm}")
-            copies = f"{sent['copied_to']} copied" if sent["copied_to"] else "0 copied"
-            print(f"| {version} | {who} | {label} | {got['received']}/{count} received, {got['shm']} in shared memory "
-                  f"| {sent['reach']}, {copies} | {back['received']}/{count} received, {back['shm']} in shared memory |",
-                  flush=True)
+    print("|---|---|---|---|---|---|---|")
+    for ours_version, _, _, ours_bin in LINES:
+        sizes = SIZES if ours_version == WORKSPACE else [size for size in SIZES if size[0] == "1 MiB"]
+        for version, who, peer, _ in LINES:
+            shares = shm_protocol(ours_version) == shm_protocol(version)
+            for label, data, count in sizes:
+                case = f"ours on {ours_version}, peer on {version}, {label}"
+                sent, got, log = ours_to_peer(ours_bin, peer, data, count)
+                check_got(failures, case + ", ours → peer", got, count, shares)
+                check_sent(failures, case, sent, log, count, ours_version, shares, "SharedMemoryUnprobed")
+                back_sent, back = peer_to_ours(ours_bin, peer, data, count)
+                if back_sent["shm"] != count:
+                    failures.append(f"{case}, peer → ours: the peer wrote {back_sent}")
+                check_got(failures, case + ", peer → ours", back, count, shares)
+                checks += 2
+                copies = f"{sent['copied_to']} copied" if sent["copied_to"] else "0 copied"
+                print(f"| {ours_version} | {version} | {who} | {label} | {got['received']}/{count} received, "
+                      f"{got['shm']} in shared memory | {sent['reach']}, {copies} | {back['received']}/{count} "
+                      f"received, {back['shm']} in shared memory |", flush=True)
+    print()
+    print("| our publisher's Zenoh | our subscriber's Zenoh | image | received / in shared memory | publisher reported |")
+    print("|---|---|---|---|---|")
+    label, data, count = next(size for size in SIZES if size[0] == "1 MiB")
+    pairs = [(a, b) for a in LINES for b in LINES
+             if a[0] == b[0] or {line_of(a[0]), line_of(b[0])} == {line_of(WORKSPACE), "1.10"}]
+    for (pub_version, _, _, pub_bin), (sub_version, _, _, sub_bin) in pairs:
+        shares = shm_protocol(pub_version) == shm_protocol(sub_version)
+        case = f"ours on {pub_version} → ours on {sub_version}, {label}"
+        sent, got, log = ours_to_ours(pub_bin, sub_bin, data, count)
+        check_got(failures, case, got, count, shares)
+        check_sent(failures, case, sent, log, count, pub_version, shares, "SharedMemory")
+        checks += 1
+        copies = f"{sent['copied_to']} copied" if sent["copied_to"] else "0 copied"
+        print(f"| {pub_version} | {sub_version} | {label} | {got['received']}/{count} received, "
+              f"{got['shm']} in shared memory | {sent['reach']}, {copies} |", flush=True)
     for failure in failures:
         print("FAIL:", failure)
-    print(f"zenoh-lines: {len(LINES) * len(SIZES) * 2 - len(failures)} checks passed, {len(failures)} failed"
-          if failures else f"zenoh-lines: all {len(LINES) * len(SIZES) * 2} pairings as expected")
+    print(f"zenoh-lines: {checks} pairings, {len(failures)} failures" if failures
+          else f"zenoh-lines: all {checks} pairings as expected")
     sys.exit(1 if failures else 0)
 
 

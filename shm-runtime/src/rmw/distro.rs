@@ -22,6 +22,8 @@
 
 use std::fmt;
 
+use crate::ZenohLine;
+
 /// The type-hash field of Humble's keys and tokens.
 pub const TYPE_HASH_NOT_SUPPORTED: &str = "TypeHashNotSupported";
 
@@ -200,8 +202,8 @@ pub struct Distribution {
     pub zenoh_c_commit: &'static str,
     /// The Zenoh (Rust) commit that zenoh-c commit pins.
     pub zenoh_commit: &'static str,
-    /// That commit's Zenoh version. Its shared memory is 1.8's, which this
-    /// crate's Zenoh 1.9 shares; Zenoh 1.10 and later do not.
+    /// That commit's Zenoh version: its line ([`Distribution::zenoh_line`])
+    /// tells which Zenoh lines share memory with the distribution's nodes.
     pub zenoh_version: &'static str,
 }
 
@@ -221,6 +223,23 @@ pub const DISTRIBUTIONS: &[Distribution] = &[
 ];
 
 impl Distribution {
+    /// The Zenoh line of the distribution's rmw_zenoh_cpp.
+    pub fn zenoh_line(&self) -> ZenohLine {
+        // Every row's version is a literal of the form major.minor.patch
+        // (checked by a test below).
+        ZenohLine::parse(self.zenoh_version).unwrap_or(ZenohLine::new(0, 0))
+    }
+
+    /// Whether this program's Zenoh line ([`ZenohLine::BUILT`]) shares memory
+    /// with the distribution's nodes (same host and user): true on 1.8 and
+    /// 1.9, false on 1.10, whose shared-memory protocol differs (their
+    /// messages then travel as counted copies, nothing lost).
+    pub fn shares_memory_with_this_build(&self) -> bool {
+        ZenohLine::BUILT
+            .shares_memory_with(self.zenoh_line())
+            .unwrap_or(false)
+    }
+
     /// A release on the zenoh-c every release to date builds.
     const fn on_zenoh_1_8(distro: Distro, rmw_zenoh_cpp: &'static str) -> Self {
         Self {
@@ -246,6 +265,21 @@ mod tests {
             assert_eq!(distro.name().to_uppercase().parse::<Distro>(), Ok(distro));
         }
         assert_eq!(DISTRIBUTIONS.len(), Distro::ALL.len());
+    }
+
+    #[test]
+    fn every_release_names_a_zenoh_line_the_runtime_knows() {
+        for row in DISTRIBUTIONS {
+            let line = ZenohLine::parse(row.zenoh_version);
+            assert_eq!(line, Some(row.zenoh_line()), "{}", row.name);
+            assert!(row.zenoh_line().shm_protocol().is_some(), "{}", row.name);
+            assert_eq!(
+                row.shares_memory_with_this_build(),
+                ZenohLine::BUILT_SHM_PROTOCOL == 1,
+                "{}",
+                row.name
+            );
+        }
     }
 
     #[test]

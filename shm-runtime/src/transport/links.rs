@@ -6,8 +6,8 @@
 //! same shared-memory protocol; they settle it once, when the transport
 //! opens, and Zenoh copies every shared-memory buffer into a transport that
 //! did not. Zenoh 1.10 changed that protocol (its version 2, with new
-//! handshake fields), so it never shares memory with the Zenoh 1.8 of every
-//! rmw_zenoh_cpp release, nor with this crate's 1.9, which speaks 1.8's.
+//! handshake fields), so a session on 1.10 never shares memory with one on
+//! 1.8 (every rmw_zenoh_cpp release's) or 1.9 ([`ZenohLine`](crate::ZenohLine)).
 //! For a subscriber that does not answer the pool's probe (rmw_zenoh_cpp's),
 //! the transport to its session is what tells how it gets our messages.
 

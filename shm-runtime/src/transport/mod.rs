@@ -18,3 +18,4 @@ pub(crate) mod reach;
 pub(crate) mod receive_failures;
 pub(crate) mod shm_bytes;
 pub(crate) mod subscriber;
+pub(crate) mod zenoh_line;

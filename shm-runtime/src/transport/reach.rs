@@ -50,6 +50,8 @@ use crate::transport::limits::check_key_expr;
 use crate::transport::links::{LinkReach, Links};
 use crate::transport::payload::PayloadKind;
 use crate::transport::pool::ShmContext;
+use crate::transport::zenoh_line::other_lines_hint;
+use crate::ZenohLine;
 
 /// The verbatim chunk between a subscriber's key expression and its session
 /// in a receiver token.
@@ -104,8 +106,9 @@ pub enum Reach {
     SharedMemory,
     /// The link to the session carries no shared memory (another host,
     /// another user, a router without it, shared memory off in that session,
-    /// or a Zenoh whose shared memory differs: 1.10 and later cannot share
-    /// memory with the 1.8 of rmw_zenoh_cpp and this crate's 1.9): Zenoh
+    /// or a Zenoh line whose shared-memory protocol differs from this
+    /// program's, see [`ZenohLine`](crate::ZenohLine): 1.10 cannot share
+    /// memory with 1.8 and 1.9, rmw_zenoh_cpp's among them): Zenoh
     /// copies each message into that link, counted in
     /// [`PublishOutcome::copied_to`](crate::PublishOutcome::copied_to) and
     /// [`ShmStats::copied`](crate::ShmStats::copied). Nothing is lost.
@@ -411,10 +414,12 @@ impl Shared {
             tracing::warn!(
                 key_expr = %self.key_expr,
                 %session,
+                zenoh_line = %ZenohLine::BUILT,
+                shm_protocol = ZenohLine::BUILT_SHM_PROTOCOL,
                 "a subscribing session on this host is linked without shared memory: it gets each shared-memory message as a copy \
-                 (PublishOutcome::copied_to, ShmStats::copied). Its Zenoh's shared memory differs from this program's \
-                 (Zenoh 1.10 and later cannot share memory with 1.8, which every rmw_zenoh_cpp release ships, nor with this program's 1.9), \
-                 shared memory is off there (transport/shared_memory/enabled), or it runs as another user"
+                 (PublishOutcome::copied_to, ShmStats::copied). {}, shared memory is off there (transport/shared_memory/enabled), \
+                 or it runs as another user",
+                other_lines_hint()
             );
         } else {
             tracing::info!(
