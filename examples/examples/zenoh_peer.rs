@@ -243,7 +243,13 @@ fn publish(args: &[String]) -> Result<()> {
     } = common(args)?;
     let count = u32::try_from(count)?;
     let provider = ShmProviderBuilder::default_backend(POOL).wait()?;
-    let publisher = session.declare_publisher(key.to_owned()).wait()?;
+    // Blocking, as rmw_zenoh_cpp's reliable KEEP_ALL publishers: an 8 MiB
+    // image copied into a link without shared memory can fill the queue, and
+    // Zenoh's default (drop) would lose it.
+    let publisher = session
+        .declare_publisher(key.to_owned())
+        .congestion_control(zenoh::qos::CongestionControl::Block)
+        .wait()?;
     let _token = session.liveliness().declare_token(token).wait()?;
     let deadline = Instant::now() + Duration::from_secs(10);
     while !publisher.matching_status().wait()?.matching() {

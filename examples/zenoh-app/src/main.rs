@@ -42,7 +42,11 @@ fn open_session(listen: bool) -> Result<Session> {
     let mut config = Config::default();
     config.insert_json5("mode", r#""peer""#)?;
     config.insert_json5("scouting/multicast/enabled", "false")?;
-    let key = if listen { "listen/endpoints" } else { "connect/endpoints" };
+    let key = if listen {
+        "listen/endpoints"
+    } else {
+        "connect/endpoints"
+    };
     config.insert_json5(key, &format!(r#"["{endpoint}"]"#))?;
     Ok(zenoh::open(config).wait()?)
 }
@@ -89,7 +93,10 @@ fn camera(count: u32) -> Result<()> {
     };
     let mut copied = 0;
     let mut image = Image {
-        header: Header { frame_id: "camera".into(), ..Default::default() },
+        header: Header {
+            frame_id: "camera".into(),
+            ..Default::default()
+        },
         height: HEIGHT,
         width: WIDTH,
         encoding: "mono8".into(),
@@ -139,7 +146,11 @@ fn viewer(count: u32) -> Result<()> {
         let image: ImageRef = sample.decode()?;
         let seq = image.header.stamp.sec as u32;
         let right = image.data.len() == (WIDTH * HEIGHT) as usize
-            && image.data.iter().enumerate().all(|(i, &b)| b == pixel(seq, i));
+            && image
+                .data
+                .iter()
+                .enumerate()
+                .all(|(i, &b)| b == pixel(seq, i));
         exact += u32::from(right);
     }
 
@@ -150,7 +161,12 @@ fn viewer(count: u32) -> Result<()> {
         .wait()?
         .recv()
         .ok()
-        .and_then(|reply| reply.result().ok().map(|s| s.payload().to_bytes().into_owned()))
+        .and_then(|reply| {
+            reply
+                .result()
+                .ok()
+                .map(|s| s.payload().to_bytes().into_owned())
+        })
         .map(|bytes| String::from_utf8_lossy(&bytes).into_owned())
         .unwrap_or_else(|| "no reply".into());
     println!(

@@ -120,7 +120,7 @@ impl ShmConfig {
                 setting: "ShmConfig::pool_size",
                 value: size.to_string(),
                 reason: format!(
-                    "the pool size must be between {} bytes and {} bytes (4 GiB), Zenoh 1.9's limits",
+                    "the pool size must be between {} bytes and {} bytes (4 GiB), Zenoh's limits",
                     Self::MIN_POOL_SIZE,
                     Self::MAX_POOL_SIZE
                 ),
