@@ -37,13 +37,17 @@ use shm_cdr::msgs::builtin_interfaces::Time;
 use shm_cdr::msgs::sensor_msgs::Image;
 use shm_cdr::msgs::std_msgs::Header;
 use shm_runtime::rmw::EntityKind;
-use shm_runtime::{Reach, RosNode, ShmConfig, ShmContext, ZenohLine};
+use shm_runtime::{History, Reach, RosNode, ShmConfig, ShmContext, ZenohLine};
 use zenoh::Wait;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error + Send + Sync>>;
 
 const TOPIC: &str = "camera/image";
-const POOL: usize = 64 << 20;
+/// Room for every image of the largest run (10 of 8 MiB) at once: a receiver
+/// may hold them all before it releases one (a peer built without
+/// optimization checks slower than images arrive), and the check counts each
+/// image in shared memory.
+const POOL: usize = 96 << 20;
 
 /// The image `zenoh_peer` writes as number `seq`.
 fn image(seq: u32, data: usize) -> Image {
@@ -137,7 +141,13 @@ fn json_object(counts: &BTreeMap<String, u32>) -> String {
 
 fn subscribe(endpoint: &str, data: usize, count: usize, timeout: Duration) -> Result<()> {
     let (_session, _shm, node) = node(endpoint, "zenoh_lines_subscriber")?;
-    let subscriber = node.declare_subscriber::<Image>(TOPIC).wait()?;
+    // Every image kept until read: the check counts each one, and a subscriber
+    // built without optimization checks slower than images arrive (ROS 2's
+    // default keep-last 10 would drop the oldest).
+    let subscriber = node
+        .declare_subscriber::<Image>(TOPIC)
+        .history(History::KeepAll)
+        .wait()?;
     println!("KEY {}", subscriber.key_expr());
     println!("PEER_TOKEN {}", peer_token(EntityKind::Publisher));
     let (mut received, mut shm, mut exact) = (0, 0, 0);

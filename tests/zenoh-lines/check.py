@@ -20,7 +20,10 @@ Bytes for a link without shared memory) and `PublishOutcome::copied_to` /
 `ShmStats::copied` (every image, or none). Two lines share memory exactly
 when their shared-memory protocols match (1 for 1.8 and 1.9, 2 for 1.10).
 
-    python3 tests/zenoh-lines/check.py <release examples dir> <lines target dir>
+    python3 tests/zenoh-lines/check.py <release examples dir> <lines target dir> [profile]
+
+The outside projects' programs are taken from <lines target dir>/<line>/<profile>
+(profile: release, the default, or debug).
 
 Exit status 1 if any pairing does not do what the table says it should.
 """
@@ -35,6 +38,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.join(HERE, "..", "..")
 EXAMPLES = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "target/release/examples")
 PEERS = sys.argv[2] if len(sys.argv) > 2 else os.path.join(ROOT, "target/zenoh-lines")
+PROFILE = sys.argv[3] if len(sys.argv) > 3 else "release"
+if PROFILE not in ("release", "debug"):
+    raise SystemExit(f"profile {PROFILE!r}: use release or debug")
 
 SIZES = [("1 KiB", 1 << 10, 20), ("1 MiB", 1 << 20, 20), ("8 MiB", 8 << 20, 10)]
 TIMEOUT = 60
@@ -62,11 +68,11 @@ def shm_protocol(version):
 LINES = [
     # (Zenoh version, who ships it, plain peer binary, our binary)
     (locked_zenoh(os.path.join(HERE, "1.8/Cargo.lock")), "rmw_zenoh_cpp, every distribution",
-     os.path.join(PEERS, "1.8/release/zenoh_peer"), os.path.join(PEERS, "1.8/release/zenoh_lines")),
+     os.path.join(PEERS, "1.8", PROFILE, "zenoh_peer"), os.path.join(PEERS, "1.8", PROFILE, "zenoh_lines")),
     (locked_zenoh(os.path.join(ROOT, "Cargo.lock")), "this workspace",
      os.path.join(EXAMPLES, "zenoh_peer"), os.path.join(EXAMPLES, "zenoh_lines")),
     (locked_zenoh(os.path.join(HERE, "1.10/Cargo.lock")), "newer Zenoh",
-     os.path.join(PEERS, "1.10/release/zenoh_peer"), os.path.join(PEERS, "1.10/release/zenoh_lines")),
+     os.path.join(PEERS, "1.10", PROFILE, "zenoh_peer"), os.path.join(PEERS, "1.10", PROFILE, "zenoh_lines")),
 ]
 WORKSPACE = LINES[1][0]
 
