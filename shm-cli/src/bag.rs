@@ -15,7 +15,7 @@ use shm_bag::{
 use shm_cdr::msgs::service_msgs::msg::ServiceEventInfo;
 
 use crate::context::Context;
-use crate::Error;
+use crate::{counted, Error};
 
 #[derive(Debug, Subcommand)]
 pub(crate) enum BagCommand {
@@ -286,11 +286,11 @@ fn convert(args: &ConvertArgs) -> Result<(), Error> {
     }
     let metadata = &converted.metadata;
     println!(
-        "Converted {} messages on {} topics into {} ({} files)",
-        metadata.message_count,
-        metadata.topics_with_message_count.len(),
+        "Converted {} on {} into {} ({})",
+        counted(metadata.message_count, "message"),
+        counted(metadata.topics_with_message_count.len() as u64, "topic"),
         args.output.display(),
-        metadata.relative_file_paths.len()
+        counted(metadata.relative_file_paths.len() as u64, "file")
     );
     Ok(())
 }
@@ -320,10 +320,10 @@ fn reindex(dir: &std::path::Path) -> Result<(), Error> {
         println!("{said}");
     }
     println!(
-        "{}: {} messages on {} topics",
+        "{}: {} on {}",
         dir.join(shm_bag::metadata::FILE_NAME).display(),
-        done.metadata.message_count,
-        done.metadata.topics_with_message_count.len()
+        counted(done.metadata.message_count, "message"),
+        counted(done.metadata.topics_with_message_count.len() as u64, "topic")
     );
     Ok(())
 }
@@ -397,14 +397,14 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
                 last = (now, stats.bytes);
             }
             bar.set_message(format!(
-                "{} {} topics: {} messages, {}, {}/s | dropped {} | missed {}{}{}{}",
+                "{} {}: {}, {}, {}/s | dropped {} | missed {}{}{}{}",
                 if control.is_paused() {
                     "Paused:"
                 } else {
                     "Recording"
                 },
-                stats.topics,
-                stats.written,
+                counted(stats.topics as u64, "topic"),
+                counted(stats.written, "message"),
                 size(stats.bytes),
                 size(rate as u64),
                 stats.dropped,
@@ -426,7 +426,7 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
                     .count()
                 {
                     0 => String::new(),
-                    learning => format!(" | learning {learning} types"),
+                    learning => format!(" | learning {}", counted(learning as u64, "type")),
                 }
             ));
             bar.tick();
@@ -441,9 +441,9 @@ fn record(context: &Context, args: RecordArgs) -> Result<(), Error> {
     let seconds = started.elapsed().as_secs_f64();
     match &stopped {
         Ok(metadata) => eprintln!(
-            "Recorded {} messages on {} topics ({}) into {} in {seconds:.1} s; dropped {}, missed {}",
-            metadata.message_count,
-            metadata.topics_with_message_count.len(),
+            "Recorded {} on {} ({}) into {} in {seconds:.1} s; dropped {}, missed {}",
+            counted(metadata.message_count, "message"),
+            counted(metadata.topics_with_message_count.len() as u64, "topic"),
             size(stats.bytes),
             output.display(),
             stats.dropped,

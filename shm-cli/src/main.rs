@@ -80,6 +80,14 @@ pub(crate) fn interrupted() -> Result<std::sync::Arc<std::sync::atomic::AtomicBo
     Ok(flag)
 }
 
+/// `n` and the noun, plural unless `n` is 1: "1 topic", "3 topics".
+pub(crate) fn counted(n: impl Into<u64>, noun: &str) -> String {
+    match n.into() {
+        1 => format!("1 {noun}"),
+        n => format!("{n} {noun}s"),
+    }
+}
+
 /// `--version` with the Zenoh line, its shared-memory protocol and the ROS 2
 /// distributions whose nodes share memory with this build.
 fn long_version() -> String {
@@ -149,6 +157,9 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of the output went away (`| head`): it has what it
+        // wanted, and nothing is left to say.
+        Err(e) if is_broken_pipe(e.as_ref()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("{e}");
             ExitCode::FAILURE
@@ -156,9 +167,30 @@ fn main() -> ExitCode {
     }
 }
 
+/// Whether `error`, or one of its causes, is a write to a closed pipe.
+fn is_broken_pipe(error: &(dyn std::error::Error + 'static)) -> bool {
+    let mut cause = Some(error);
+    while let Some(e) = cause {
+        if e.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+        {
+            return true;
+        }
+        cause = e.source();
+    }
+    false
+}
+
 #[cfg(test)]
 mod tests {
     use clap::CommandFactory;
+
+    #[test]
+    fn counts_take_the_plural_unless_one() {
+        assert_eq!(super::counted(1u64, "topic"), "1 topic");
+        assert_eq!(super::counted(0u64, "topic"), "0 topics");
+        assert_eq!(super::counted(20u64, "message"), "20 messages");
+    }
 
     /// Clap's own checks of every verb's arguments (unique short names, …),
     /// which otherwise run only when a verb is used in a debug build.

@@ -8,7 +8,7 @@ use clap::{Args, Subcommand};
 use shm_cdr::describe::Container;
 use shm_cdr::dynamic::{DynamicType, Element, FieldDef, FieldView, YamlOptions};
 use shm_runtime::graph::Graph;
-use shm_runtime::rmw::{Durability, EntityKind, Qos, Reliability};
+use shm_runtime::rmw::{Durability, EntityKind, Liveliness, Qos, Reliability};
 use zenoh::Wait;
 
 use crate::context::{is_hidden, Context};
@@ -211,7 +211,7 @@ fn info(context: &Context, topic: &str, verbose: bool) -> Result<(), Error> {
                 let qos = &endpoint.qos;
                 write!(
                     out,
-                    "Node name: {}\nNode namespace: {}\nTopic type: {}\nTopic type hash: {}\nEndpoint type: {}\nGID: {}\nQoS profile:\n  Reliability: {}\n  History (Depth): {}\n  Durability: {}\n{end}",
+                    "Node name: {}\nNode namespace: {}\nTopic type: {}\nTopic type hash: {}\nEndpoint type: {}\nGID: {}\nQoS profile:\n  Reliability: {}\n  History (Depth): {}\n  Durability: {}\n  Lifespan: {}\n  Deadline: {}\n  Liveliness: {}\n  Liveliness lease duration: {}{end}",
                     entity.node_name,
                     entity.namespace,
                     endpoint.type_name,
@@ -230,11 +230,28 @@ fn info(context: &Context, topic: &str, verbose: bool) -> Result<(), Error> {
                         Durability::TransientLocal => "TRANSIENT_LOCAL",
                         Durability::Volatile => "VOLATILE",
                     },
+                    qos_duration(qos.lifespan),
+                    qos_duration(qos.deadline),
+                    match qos.liveliness {
+                        Liveliness::Automatic => "AUTOMATIC",
+                        Liveliness::ManualByTopic => "MANUAL_BY_TOPIC",
+                    },
+                    qos_duration(qos.liveliness_lease),
                 )?;
             }
         }
     }
     Ok(())
+}
+
+/// A QoS duration as rclpy prints it (`rclpy.duration.Duration.__str__`):
+/// `Infinite` for none (rmw_zenoh_cpp's default, `RMW_DURATION_INFINITE`) and
+/// for anything at or past it, else the nanoseconds.
+fn qos_duration(duration: Option<Duration>) -> String {
+    match duration.map(|d| d.as_nanos()) {
+        Some(nanos) if nanos < i64::MAX as u128 => format!("{nanos} nanoseconds"),
+        _ => "Infinite".to_owned(),
+    }
 }
 
 /// The topic's type: the one given (a standard type), else the one its
@@ -248,7 +265,8 @@ fn resolve_type(
     match given {
         Some(name) => types::message_by_name(context, name)?.ok_or_else(|| {
             format!(
-                "{name} is not a standard type this binary knows nor in --interfaces: leave the type out, and it is asked of the node that uses {topic}"
+                "{name} is not a standard type this binary knows nor in --interfaces{}: leave the type out, and it is asked of the node that uses {topic}",
+                types::did_you_mean(name)
             )
             .into()
         }),
@@ -604,10 +622,20 @@ fn publish(context: &Context, args: PubArgs) -> Result<(), Error> {
             let graph = context
                 .wait_for(|g| !g.subscribers(&args.topic_name).is_empty())
                 .unwrap_or_else(|| context.graph());
+            let hint = types::did_you_mean(&args.message_type);
+            if graph.publishers(&args.topic_name).is_empty()
+                && graph.subscribers(&args.topic_name).is_empty()
+            {
+                return Err(format!(
+                    "The passed message type is invalid: {} is not a standard type this binary knows nor in --interfaces{hint}, and no node on {} uses a type whose description could be asked for",
+                    args.message_type, args.topic_name
+                )
+                .into());
+            }
             let ty = types::of_topic(context, &graph, &args.topic_name)?;
             if ty.name() != types::full_name(&args.message_type) {
                 return Err(format!(
-                    "{} is not a standard type, and {} carries {}",
+                    "The passed message type is invalid: {} is not a standard type{hint}, and {} carries {}",
                     args.message_type,
                     args.topic_name,
                     ty.name()

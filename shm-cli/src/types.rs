@@ -10,6 +10,21 @@ pub(crate) use shm_bag::types::{full_name, standard, Kind};
 use crate::context::Context;
 use crate::Error;
 
+/// For a message type name nothing here knows: the closest standard message
+/// name, as " (did you mean pkg/msg/Name?)", when one is a few edits away
+/// (a misspelling), else nothing.
+pub(crate) fn did_you_mean(name: &str) -> String {
+    let name = full_name(name);
+    standard()
+        .iter()
+        .filter(|(_, known)| known.kind == Kind::Message)
+        .map(|(known, _)| (strsim::levenshtein(&name, known), *known))
+        .filter(|(distance, _)| *distance <= 3)
+        .min()
+        .map(|(_, known)| format!(" (did you mean {known}?)"))
+        .unwrap_or_default()
+}
+
 /// A message type by name, as a run-time type: a standard one, else one of
 /// the `--interfaces` files.
 pub(crate) fn message_by_name(context: &Context, name: &str) -> Result<Option<DynamicType>, Error> {

@@ -1217,3 +1217,46 @@ fn version_names_the_zenoh_line_and_who_shares_memory_with_it() {
         .unwrap();
     assert_eq!(stdout(&short).lines().count(), 1);
 }
+
+#[test]
+fn output_into_a_closed_pipe_ends_quietly() {
+    // `shm-ros2 interface list | head -1`, with the reader gone before the
+    // first line: every write fails with EPIPE.
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
+        .args(["interface", "list"])
+        .stdout(writer)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}: {stderr}", out.status);
+    assert!(stderr.is_empty(), "{stderr}");
+}
+
+#[test]
+fn a_misspelt_type_is_named_with_the_type_meant() {
+    let (_session, port) = listening_session();
+    // Nothing on /x: the type cannot be asked of a node either.
+    let output = run(port, &["topic", "pub", "--once", "/x", "std_msgs/msg/Strin", "{}"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("std_msgs/msg/Strin is not a standard type")
+            && stderr.contains("(did you mean std_msgs/msg/String?)")
+            && stderr.contains("no node on /x"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("topic echo"), "another verb's advice: {stderr}");
+    // echo with the type given says the same.
+    let output = run(port, &["topic", "echo", "/x", "std_msgs/Strin", "--once"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("(did you mean std_msgs/msg/String?)"), "{stderr}");
+    // Nothing near: no guess.
+    let output = run(port, &["topic", "pub", "--once", "/x", "my_robot/msg/Scan", "{}"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(!stderr.contains("did you mean"), "{stderr}");
+}

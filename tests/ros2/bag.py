@@ -786,7 +786,7 @@ def check_rosbags_bags(endpoint, peer, work):
     # the mcap library.
     converted = work / "converted"
     done = cli(endpoint, "bag", "convert", "-i", str(sqlite), "-o", str(converted), "--compression-format", "zstd")
-    check(done.returncode == 0 and "Converted 20 messages on 1 topics" in done.stdout,
+    check(done.returncode == 0 and "Converted 20 messages on 1 topic " in done.stdout,
           f"bag convert: {done.returncode} {done.stdout[-300:]} {done.stderr[-300:]}")
     by_rosbags, by_mcap = read_back(converted)
     check(by_rosbags == sent and by_mcap == sent,

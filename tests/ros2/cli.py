@@ -6,7 +6,9 @@ messages and serves the node's parameter services with rclpy's own parameter
 handlers (an rclpy node in this process).
 
 - `topic list -t`, `topic info`, `node list`, `node info`: the peer's tokens,
-  in ros2cli's formats.
+  in ros2cli's formats; `topic info -v` with each endpoint as rclpy's
+  `TopicEndpointInfo` prints it, for the QoS rmw_zenoh_cpp reads from the
+  token (a default one and one with every field set).
 - `topic echo --once`: for random values of several standard types (every
   kind of field, YAML's hard strings), the text must be rosidl_runtime_py's
   `message_to_yaml` through PyYAML (the rules restated in yaml_format.py), the
@@ -31,7 +33,12 @@ import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
 from rcl_interfaces.srv import (DescribeParameters, GetParameterTypes, GetParameters, ListParameters,
                                 SetParameters, SetParametersAtomically)
+from rclpy.duration import Duration, Infinite
+from rclpy.qos import (QoSDurabilityPolicy, QoSHistoryPolicy, QoSLivelinessPolicy, QoSProfile,
+                       QoSReliabilityPolicy)
 from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.topic_endpoint_info import TopicEndpointInfo, TopicEndpointTypeEnum
+from rclpy.type_hash import TypeHash
 from rmw_zenoh import attachment, free_port, gid_of, open_session, parse_attachment, rosidl_hash
 from yaml_format import message_to_yaml
 
@@ -64,17 +71,19 @@ class Peer:
         self.namespace, self.name = namespace, name
         self.next_id = 1
         self.keep = []
+        self.tokens = []
         self.token("NN", None)
 
-    def token(self, kind, entity):
+    def token(self, kind, entity, qos=QOS):
         entity_id = self.next_id
         self.next_id += 1
         ns = self.namespace.replace("/", "%")
         key = f"@ros2_lv/0/{self.zid}/0/{entity_id}/{kind}/%/{ns}/{self.name}"
         if entity is not None:
             topic, type_name = entity
-            key += f"/{topic.replace('/', '%')}/{dds(type_name)}/{rosidl_hash(type_name)}/{QOS}"
+            key += f"/{topic.replace('/', '%')}/{dds(type_name)}/{rosidl_hash(type_name)}/{qos}"
         self.keep.append(self.session.liveliness().declare_token(key))
+        self.tokens.append(key)
         return key
 
     def publisher(self, topic, type_name):
@@ -257,7 +266,48 @@ def check_graph(endpoint):
                                  "    /arrays: test_msgs/msg/Arrays\n")
           and "  Service Servers:\n    /demo/py_node/describe_parameters: rcl_interfaces/srv/DescribeParameters\n"
           in proc.stdout, f"node info: {proc.stdout!r} {proc.stderr[-300:]!r}")
-    print("graph: topic list -t, topic info, node list, node info as ros2cli prints them")
+    check_info_verbose(endpoint, peer)
+    print("graph: topic list -t, topic info (-v), node list, node info as ros2cli prints them")
+
+
+def check_info_verbose(endpoint, peer):
+    """`topic info -v` as ros2topic's info verb prints it: each endpoint is
+    rclpy's `TopicEndpointInfo.__str__`, built here from the QoS
+    rmw_zenoh_cpp's `keyexpr_to_qos` reads out of the token (an empty field is
+    its default: reliable, volatile, keep last, durations RMW_DURATION_INFINITE)."""
+    def endpoint_info(token, endpoint_type, type_name, qos):
+        return str(TopicEndpointInfo(
+            node_name="py_node", node_namespace="/demo", topic_type=type_name,
+            topic_type_hash=TypeHash(version=1, value=bytes.fromhex(rosidl_hash(type_name)[len("RIHS01_"):])),
+            endpoint_type=endpoint_type, endpoint_gid=list(gid_of(token)), qos_profile=qos))
+
+    def want(type_name, publishers, subscriptions):
+        # ros2topic's info verb: every line and endpoint followed by a blank line.
+        text = f"Type: {type_name}\n\nPublisher count: {len(publishers)}\n\n"
+        text += "".join(info + "\n\n" for info in publishers)
+        text += f"Subscription count: {len(subscriptions)}\n\n"
+        return text + "".join(info + "\n\n" for info in subscriptions)
+
+    # Every field set: best effort, transient local, keep last 5, deadline
+    # 1 s 500 ns, lifespan 0, liveliness manual by topic with a 3 s lease.
+    token = peer.token("MP", ("/qos_probe", "std_msgs/msg/Int32"), qos="2:1:,5:1,500:0,0:3,3,0")
+    qos = QoSProfile(history=QoSHistoryPolicy.KEEP_LAST, depth=5, reliability=QoSReliabilityPolicy.BEST_EFFORT,
+                     durability=QoSDurabilityPolicy.TRANSIENT_LOCAL,
+                     deadline=Duration(seconds=1, nanoseconds=500), lifespan=Duration(nanoseconds=0),
+                     liveliness=QoSLivelinessPolicy.MANUAL_BY_TOPIC, liveliness_lease_duration=Duration(seconds=3))
+    expected = want("std_msgs/msg/Int32",
+                    [endpoint_info(token, TopicEndpointTypeEnum.PUBLISHER, "std_msgs/msg/Int32", qos)], [])
+    proc = cli(endpoint, "topic", "info", "-v", "/qos_probe")
+    check(proc.stdout == expected, f"topic info -v /qos_probe: {proc.stdout!r}, ros2topic: {expected!r}")
+    # The peer's subscriber of /cmd, default QoS but for its depth (QOS).
+    cmd = next(t for t in peer.tokens if "/MS/" in t and "/%cmd/" in t)
+    qos = QoSProfile(history=QoSHistoryPolicy.KEEP_LAST, depth=10, reliability=QoSReliabilityPolicy.RELIABLE,
+                     durability=QoSDurabilityPolicy.VOLATILE, deadline=Infinite, lifespan=Infinite,
+                     liveliness=QoSLivelinessPolicy.AUTOMATIC, liveliness_lease_duration=Infinite)
+    expected = want("std_msgs/msg/String", [],
+                    [endpoint_info(cmd, TopicEndpointTypeEnum.SUBSCRIPTION, "std_msgs/msg/String", qos)])
+    proc = cli(endpoint, "topic", "info", "-v", "/cmd")
+    check(proc.stdout == expected, f"topic info -v /cmd: {proc.stdout!r}, ros2topic: {expected!r}")
 
 
 def check_pub(endpoint, received):
