@@ -300,6 +300,32 @@ fn subscriber_qos(graph: &Graph, topic: &str) -> Qos {
 }
 
 /// Wait for the topic to appear on the graph (it may be starting).
+/// The graph once `topic` has an endpoint whose type can be read, waiting for
+/// one as ros2topic's `hz` and `bw` do: after `--timeout` without one, its
+/// warning (on stdout, as ros2topic prints it), then as long as it takes.
+fn graph_with_endpoints(context: &Context, topic: &str) -> Result<Graph, Error> {
+    let graph = graph_with_topic(context, topic);
+    let has_endpoints =
+        |g: &Graph| !g.publishers(topic).is_empty() || !g.subscribers(topic).is_empty();
+    if has_endpoints(&graph) {
+        return Ok(graph);
+    }
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "WARNING: topic [{topic}] does not appear to be published yet"
+    )?;
+    out.flush()?;
+    loop {
+        if let Some(graph) = context.wait_for(has_endpoints) {
+            return Ok(graph);
+        }
+        if context.timeout.is_zero() {
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+}
+
 fn graph_with_topic(context: &Context, topic: &str) -> Graph {
     context
         .wait_for(|g| !g.publishers(topic).is_empty())
@@ -501,7 +527,7 @@ fn subscribe(
     context: &Context,
     topic: &str,
 ) -> Result<shm_runtime::RosSubscriber<DynamicType>, Error> {
-    let graph = graph_with_topic(context, topic);
+    let graph = graph_with_endpoints(context, topic)?;
     let ty = types::of_topic(context, &graph, topic)?;
     let subscriber = context
         .node()?

@@ -1260,3 +1260,27 @@ fn a_misspelt_type_is_named_with_the_type_meant() {
     assert_eq!(output.status.code(), Some(1), "{stderr}");
     assert!(!stderr.contains("did you mean"), "{stderr}");
 }
+
+#[test]
+fn hz_on_a_topic_not_yet_published_warns_and_waits_for_it() {
+    let (session, port) = listening_session();
+    let hz = Running::start(port, &["topic", "hz", "/later"]);
+    // ros2topic's words, after --timeout (5 s) without the topic.
+    assert_eq!(
+        hz.line(),
+        "WARNING: topic [/later] does not appear to be published yet"
+    );
+    let node = RosNode::builder(&session, "late_talker")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let _later = keep_publishing(
+        &node,
+        "/later",
+        RosString {
+            data: "late".into(),
+        },
+    );
+    let first = hz.line();
+    assert!(first.starts_with("average rate: "), "{first}");
+}
