@@ -118,6 +118,10 @@ def wait_subscribed(endpoint, topics, timeout=60):
 
 
 def main():
+    # The programs started here stop on SIGINT as from a terminal, also where
+    # this script was started with SIGINT ignored (a background job of a
+    # non-interactive shell), which they would inherit: a handler is not.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     from geometry_msgs.msg import PoseStamped
     from sensor_msgs.msg import Image, JointState
     from std_msgs.msg import String
