@@ -323,7 +323,10 @@ fn reindex(dir: &std::path::Path) -> Result<(), Error> {
         "{}: {} on {}",
         dir.join(shm_bag::metadata::FILE_NAME).display(),
         counted(done.metadata.message_count, "message"),
-        counted(done.metadata.topics_with_message_count.len() as u64, "topic")
+        counted(
+            done.metadata.topics_with_message_count.len() as u64,
+            "topic"
+        )
     );
     Ok(())
 }

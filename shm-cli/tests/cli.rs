@@ -1239,7 +1239,10 @@ fn output_into_a_closed_pipe_ends_quietly() {
 fn a_misspelt_type_is_named_with_the_type_meant() {
     let (_session, port) = listening_session();
     // Nothing on /x: the type cannot be asked of a node either.
-    let output = run(port, &["topic", "pub", "--once", "/x", "std_msgs/msg/Strin", "{}"]);
+    let output = run(
+        port,
+        &["topic", "pub", "--once", "/x", "std_msgs/msg/Strin", "{}"],
+    );
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(1), "{stderr}");
     assert!(
@@ -1248,14 +1251,23 @@ fn a_misspelt_type_is_named_with_the_type_meant() {
             && stderr.contains("no node on /x"),
         "{stderr}"
     );
-    assert!(!stderr.contains("topic echo"), "another verb's advice: {stderr}");
+    assert!(
+        !stderr.contains("topic echo"),
+        "another verb's advice: {stderr}"
+    );
     // echo with the type given says the same.
     let output = run(port, &["topic", "echo", "/x", "std_msgs/Strin", "--once"]);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("(did you mean std_msgs/msg/String?)"), "{stderr}");
+    assert!(
+        stderr.contains("(did you mean std_msgs/msg/String?)"),
+        "{stderr}"
+    );
     // Nothing near: no guess.
-    let output = run(port, &["topic", "pub", "--once", "/x", "my_robot/msg/Scan", "{}"]);
+    let output = run(
+        port,
+        &["topic", "pub", "--once", "/x", "my_robot/msg/Scan", "{}"],
+    );
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(1), "{stderr}");
     assert!(!stderr.contains("did you mean"), "{stderr}");
