@@ -253,7 +253,7 @@ def check_echo(endpoint, peer):
           "rclpy's value); a field that is not there refused with ros2topic's words")
 
 
-def check_graph(endpoint):
+def check_graph(endpoint, peer):
     proc = cli(endpoint, "topic", "list", "-t")
     check("/chatter [std_msgs/msg/String]" in proc.stdout.splitlines(), f"topic list -t: {proc.stdout!r}")
     proc = cli(endpoint, "topic", "info", "/joints")
@@ -540,7 +540,7 @@ def main():
     received = []
     peer.subscriber("/cmd", "std_msgs/msg/String", received.append)
     check_echo(endpoint, peer)
-    check_graph(endpoint)
+    check_graph(endpoint, peer)
     check_pub(endpoint, received)
     check_params(endpoint, node)
     check_dump_load(endpoint, node)
