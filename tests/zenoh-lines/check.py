@@ -20,10 +20,11 @@ Bytes for a link without shared memory) and `PublishOutcome::copied_to` /
 `ShmStats::copied` (every image, or none). Two lines share memory exactly
 when their shared-memory protocols match (1 for 1.8 and 1.9, 2 for 1.10).
 
-    python3 tests/zenoh-lines/check.py <release examples dir> <lines target dir> [profile]
+    python3 tests/zenoh-lines/check.py <examples dir> <lines target dir> [profile]
 
-The outside projects' programs are taken from <lines target dir>/<line>/<profile>
-(profile: release, the default, or debug).
+Our programs on this workspace's line are taken from <examples dir> (built
+with or without optimization), the outside projects' from
+<lines target dir>/<line>/<profile> (profile: release, the default, or debug).
 
 Exit status 1 if any pairing does not do what the table says it should.
 """

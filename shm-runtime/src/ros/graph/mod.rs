@@ -742,4 +742,100 @@ mod tests {
         graph.remove(&node(0));
         assert!(graph.insert(&node(MAX_ENTITIES + 9)).is_some());
     }
+
+    /// Heap bytes alive, counted per thread, so tests running beside each
+    /// other do not count each other's allocations.
+    mod heap {
+        use std::alloc::{GlobalAlloc, Layout, System};
+        use std::cell::Cell;
+
+        thread_local! {
+            static LIVE: Cell<isize> = const { Cell::new(0) };
+        }
+
+        fn add(bytes: isize) {
+            // A thread being torn down no longer counts.
+            let _ = LIVE.try_with(|live| live.set(live.get() + bytes));
+        }
+
+        pub fn live() -> isize {
+            LIVE.with(Cell::get)
+        }
+
+        struct Counting;
+
+        // SAFETY: every call goes to `System` with the caller's own layout
+        // and pointer; the counter only adds up sizes on the calling thread.
+        unsafe impl GlobalAlloc for Counting {
+            unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+                add(layout.size() as isize);
+                // SAFETY: the caller's layout, as `GlobalAlloc::alloc` requires.
+                unsafe { System.alloc(layout) }
+            }
+            unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+                add(-(layout.size() as isize));
+                // SAFETY: `ptr` came from `alloc` (or `realloc`) with `layout`.
+                unsafe { System.dealloc(ptr, layout) }
+            }
+            unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+                add(new_size as isize - layout.size() as isize);
+                // SAFETY: the caller's pointer, layout and size, as
+                // `GlobalAlloc::realloc` requires.
+                unsafe { System.realloc(ptr, layout, new_size) }
+            }
+        }
+
+        #[global_allocator]
+        static COUNTING: Counting = Counting;
+    }
+
+    #[test]
+    fn entities_that_leave_give_their_memory_back_and_a_token_costs_a_small_multiple_of_its_size() {
+        // Two rounds of 2 000 endpoints with long (4 KB) names appearing and
+        // leaving, each round under names never seen before, as churn brings.
+        let token = |round: usize, i: usize| {
+            let node = crate::rmw::NodeInfo {
+                domain_id: 0,
+                zid: "8b20917502ee955ac4476e0266340d5c".into(),
+                node_id: (i / 50) as u64,
+                enclave: "/".into(),
+                namespace: "/churn".into(),
+                name: format!("node_{round}_{}", i / 50),
+                distro: crate::rmw::Distro::Kilted,
+            };
+            let name = format!("/{}_{round}_{i}", "x".repeat(3800));
+            node.topic_token::<shm_cdr::msgs::std_msgs::String>(
+                i as u64 + 1,
+                EntityKind::Publisher,
+                &name,
+                &Qos::default(),
+            )
+        };
+        let mut graph = Graph::default();
+        let before = heap::live();
+        for round in 0..2 {
+            let tokens: Vec<String> = (0..2000).map(|i| token(round, i)).collect();
+            let token_bytes: usize = tokens.iter().map(String::len).sum();
+            let at_start = heap::live();
+            for t in &tokens {
+                assert!(graph.insert(t).is_some(), "{t}");
+            }
+            let held = (heap::live() - at_start) as usize;
+            assert!(
+                held < 4 * token_bytes,
+                "2 000 tokens of {} bytes hold {held} bytes",
+                token_bytes / 2000
+            );
+            for t in &tokens {
+                assert!(graph.remove(t).is_some());
+            }
+            assert!(graph.is_empty());
+            drop(tokens);
+            let after = heap::live() - before;
+            assert!(
+                after < 64 << 10,
+                "round {round}: {after} bytes still held after every entity left (held {held})"
+            );
+        }
+    }
 }
