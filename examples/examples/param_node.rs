@@ -10,7 +10,10 @@
 //!
 //! The first argument is how many seconds to serve the parameters after
 //! start-up (0: print them and exit). A value out of range, or of the wrong
-//! type, is an error that names the parameter.
+//! type, is an error that names the parameter. The session is configured as
+//! rmw_zenoh_cpp configures a node's (a router on `tcp/localhost:7447`:
+//! `shm-ros2 router`; `ZENOH_SESSION_CONFIG_URI`, `ZENOH_CONFIG_OVERRIDE`),
+//! so `shm-ros2 param list /robot/driver` (or `ros2 param`) reaches it there.
 
 use std::time::Duration;
 
@@ -37,7 +40,7 @@ fn run() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         Some(s) => s.parse().map_err(|e| format!("seconds {s:?}: {e}"))?,
         None => 0,
     };
-    let session = zenoh::open(zenoh::Config::default()).wait()?;
+    let session = zenoh::open(shm_runtime::rmw::config::session_config()?).wait()?;
     let node = RosNode::builder(&session, "driver")
         .namespace("/robot")
         .ros_args(&args)

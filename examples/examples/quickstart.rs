@@ -1,13 +1,16 @@
 //! Your own message type, published by one process and read by another
-//! through shared memory. The README's quick start is this file.
+//! through shared memory, both meeting at a router as ROS 2 nodes on
+//! rmw_zenoh_cpp do. The README's quick start is this file.
 //!
 //! ```sh
+//! cargo run --release -p shm-cdr-examples --example quickstart -- router
 //! cargo run --release -p shm-cdr-examples --example quickstart -- talk
 //! cargo run --release -p shm-cdr-examples --example quickstart -- listen
 //! ```
 use std::time::Duration;
 
 use shm_cdr::RosMessage;
+use shm_runtime::rmw::config;
 use shm_runtime::{RosNode, ShmConfig, ShmContext};
 use zenoh::Wait;
 
@@ -20,28 +23,33 @@ struct Scan {
     ranges: Vec<f32>,
 }
 
+const USAGE: &str = "usage: quickstart router | talk [count] | listen [count]";
+
 fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     shm_runtime::init_logging(); // the runtime's warnings, on stderr
     let role = std::env::args().nth(1).unwrap_or_default();
-    let count = match std::env::args().nth(2) {
-        Some(n) => n.parse()?,
+    let count = match std::env::args().nth(2).map(|n| n.parse::<u32>()) {
         None => u32::MAX,
+        Some(Ok(n)) => n,
+        Some(Err(_)) => usage(),
     };
 
-    // The talker listens on a local port, the listener connects to it.
-    let mut config = zenoh::Config::default();
-    let side = match role.as_str() {
-        "talk" => "listen/endpoints",
-        "listen" => "connect/endpoints",
-        _ => return Err("usage: quickstart talk|listen [count]".into()),
+    // Configured as rmw_zenoh_cpp configures ROS 2's processes: a router on
+    // tcp/localhost:7447 where nodes and the ROS tools meet, changed by
+    // ZENOH_ROUTER_CONFIG_URI, ZENOH_SESSION_CONFIG_URI and ZENOH_CONFIG_OVERRIDE.
+    let session_config = match role.as_str() {
+        "router" => {
+            // What `ros2 run rmw_zenoh_cpp rmw_zenohd` runs.
+            let _router = zenoh::open(config::router_config()?).wait()?;
+            println!("router running; stop it with Ctrl-C");
+            loop {
+                std::thread::park();
+            }
+        }
+        "talk" | "listen" => config::session_config()?,
+        _ => usage(),
     };
-    config.insert_json5(side, r#"["tcp/127.0.0.1:7448"]"#)?;
-    // Large heap payloads stay where they are: no copy into a pool of Zenoh's.
-    config.insert_json5(
-        "transport/shared_memory/transport_optimization/enabled",
-        "false",
-    )?;
-    let session = zenoh::open(config).wait()?;
+    let session = zenoh::open(session_config).wait()?;
 
     // A shared-memory pool that fits the memory-lock limit (`ulimit -l`).
     let shm = ShmContext::new(ShmConfig::enabled().with_env()?)?;
@@ -74,4 +82,9 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         }
     }
     Ok(())
+}
+
+fn usage() -> ! {
+    eprintln!("{USAGE}");
+    std::process::exit(2)
 }

@@ -79,3 +79,59 @@ fn the_simulated_time_node_steps_with_the_simulation() {
         assert!(t >= 2.99, "{out}");
     }
 }
+
+/// The parameter node is configured as ROS 2's nodes are: started beside a
+/// router, a parameter client at the router reaches it (as `shm-ros2 param
+/// get /robot/driver max_speed` does).
+#[test]
+fn the_parameter_node_is_reached_through_the_router_a_ros_tool_uses() {
+    use shm_runtime::parameters::ParameterValue;
+    use shm_runtime::rmw::config;
+    use std::time::Duration;
+    use zenoh::Wait;
+
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let endpoint = format!(r#"["tcp/127.0.0.1:{port}"]"#);
+    let mut router = config::default_router_config();
+    router.insert_json5("listen/endpoints", &endpoint).unwrap();
+    let _router = zenoh::open(router).wait().unwrap();
+
+    let node = Command::new(example("param_node"))
+        .args(["20", "--ros-args", "-p", "max_speed:=1.25"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("RUST_LOG", "off")
+        .env_remove("ZENOH_SESSION_CONFIG_URI")
+        .env(
+            "ZENOH_CONFIG_OVERRIDE",
+            format!("connect/endpoints={endpoint}"),
+        )
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    struct Kill(std::process::Child);
+    impl Drop for Kill {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+    let _node = Kill(node);
+
+    let mut tool = config::default_session_config();
+    tool.insert_json5("connect/endpoints", &endpoint).unwrap();
+    let session = zenoh::open(tool).wait().unwrap();
+    let tool = shm_runtime::RosNode::builder(&session, "tool")
+        .wait()
+        .unwrap();
+    let driver = tool.parameter_client("/robot/driver").unwrap();
+    assert!(
+        driver.wait_for_services(Duration::from_secs(20)),
+        "the node's parameter services never appeared at the router"
+    );
+    let values = driver.get(&["max_speed"]).unwrap();
+    assert_eq!(values, vec![ParameterValue::Double(1.25)]);
+}

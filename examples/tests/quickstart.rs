@@ -64,22 +64,71 @@ fn finish(mut child: Child, limit: Duration) -> (bool, String, String) {
     )
 }
 
+/// A free TCP port on the loopback interface.
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// The quick start as the README runs it: a router, a talker and a listener,
+/// configured as ROS 2's processes are (here only the router's port is
+/// changed, through `ZENOH_CONFIG_OVERRIDE`); the ROS tools meeting at the
+/// router see both nodes.
 #[test]
 fn a_talker_and_a_listener_exchange_the_users_struct_through_shared_memory() {
     let quickstart = example("quickstart");
-    let spawn = |args: &[&str]| {
+    let port = free_port();
+    let spawn = |args: &[&str], overrides: String| {
         Command::new(&quickstart)
             .args(args)
             .env_remove("RUST_LOG")
+            .env_remove("ZENOH_SESSION_CONFIG_URI")
+            .env_remove("ZENOH_ROUTER_CONFIG_URI")
+            .env("ZENOH_CONFIG_OVERRIDE", overrides)
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
             .unwrap()
     };
-    let talker = spawn(&["talk", "16"]);
-    let listener = spawn(&["listen", "3"]);
+    let mut router = spawn(
+        &["router"],
+        format!(r#"listen/endpoints=["tcp/127.0.0.1:{port}"]"#),
+    );
+    // The nodes start once the router runs, as a user starts them.
+    let mut router_said = String::new();
+    std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(router.stdout.take().unwrap()),
+        &mut router_said,
+    )
+    .unwrap();
+    let node = || format!(r#"connect/endpoints=["tcp/127.0.0.1:{port}"]"#);
+    let talker = spawn(&["talk", "16"], node());
+    let listener = spawn(&["listen", "3"], node());
+
+    // A tool at the router sees both nodes, as `shm-ros2 node list` does.
+    let mut config = shm_runtime::rmw::config::default_session_config();
+    config
+        .insert_json5("connect/endpoints", &format!(r#"["tcp/127.0.0.1:{port}"]"#))
+        .unwrap();
+    let session = zenoh::Wait::wait(zenoh::open(config)).unwrap();
+    let graph = shm_runtime::graph::GraphCache::of(&session, 0).unwrap();
+    let both = graph.wait_until(Duration::from_secs(20), |g| {
+        g.contains_node("/talk") && g.contains_node("/listen")
+    });
+    let nodes = graph.read().nodes();
+
     let (heard_ok, heard, listener_log) = finish(listener, Duration::from_secs(30));
     let (talked_ok, said, talker_log) = finish(talker, Duration::from_secs(30));
+    let (_, _, router_log) = finish(router, Duration::ZERO);
+    assert!(both, "the graph at the router holds {nodes:?}");
+    assert!(
+        router_said.starts_with("router running"),
+        "router: {router_said}{router_log}"
+    );
+    assert_eq!(warnings(&router_log), Vec::<&str>::new(), "router");
     assert!(heard_ok, "listener: {heard}{listener_log}");
     assert!(talked_ok, "talker: {said}{talker_log}");
     assert_eq!(said.lines().count(), 16);
