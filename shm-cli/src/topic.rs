@@ -348,6 +348,13 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
             subscriber_qos(&graph, &args.topic_name),
         )
         .wait()?;
+    if let Some(others) = other_types(&graph, &args.topic_name, EntityKind::Publisher, &ty) {
+        eprintln!(
+            "WARNING: {others}: this command hears none of them. Without a type, \
+             `shm-ros2 topic echo {}` takes the one its publishers announce. Still waiting.",
+            args.topic_name
+        );
+    }
     let options = YamlOptions::echo()
         .truncate_length((!args.full_length).then_some(args.truncate_length))
         .no_arr(args.no_arr)
@@ -366,7 +373,7 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
             match subscriber.recv_timeout(context.timeout)? {
                 Some(sample) => sample,
                 None => {
-                    silent_publishers(context, &args.topic_name);
+                    silent_publishers(context, &args.topic_name, &ty);
                     subscriber.recv()?
                 }
             }
@@ -407,10 +414,61 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
     }
 }
 
+/// Whether `entity` is an endpoint of `ty` (its hash unless it announces
+/// none, as Humble's do).
+fn carries(entity: &shm_runtime::graph::Entity, ty: &DynamicType, hash: &str) -> bool {
+    entity.endpoint.as_ref().is_some_and(|e| {
+        e.type_name == ty.name() && (e.type_hash.is_empty() || e.type_hash == hash)
+    })
+}
+
+/// The endpoints of `kind` on `topic` when none of them carries `ty`, said
+/// as what they carry: a ROS 2 publisher and subscription meet only when
+/// type and hash agree, so a command with another type reaches none of them.
+fn other_types(graph: &Graph, topic: &str, kind: EntityKind, ty: &DynamicType) -> Option<String> {
+    let endpoints = graph.endpoints(kind, topic);
+    let hash = ty.type_hash();
+    if endpoints.is_empty() || endpoints.iter().any(|e| carries(e, ty, &hash)) {
+        return None;
+    }
+    let mut carried: Vec<String> = endpoints
+        .iter()
+        .filter_map(|e| e.endpoint.as_ref())
+        .map(|e| match e.type_name == ty.name() {
+            true => format!("{} with type hash {}", e.type_name, e.type_hash),
+            false => e.type_name.clone(),
+        })
+        .collect();
+    carried.sort();
+    carried.dedup();
+    let ours = match carried.iter().any(|c| c.starts_with(ty.name())) {
+        true => format!(
+            "{} with type hash {hash} (another distribution or package version)",
+            ty.name()
+        ),
+        false => ty.name().to_owned(),
+    };
+    let role = match kind {
+        EntityKind::Publisher => "publisher",
+        _ => "subscriber",
+    };
+    Some(format!(
+        "{topic} has {}, of {}, not {ours}",
+        crate::counted(endpoints.len() as u64, role),
+        carried.join(" and ")
+    ))
+}
+
 /// Say on stderr, once, why a topic with publishers may send nothing, where
 /// `echo` would otherwise wait without a word.
-fn silent_publishers(context: &Context, topic: &str) {
-    let publishers = context.graph().publishers(topic).len();
+fn silent_publishers(context: &Context, topic: &str, ty: &DynamicType) {
+    let hash = ty.type_hash();
+    let publishers = context
+        .graph()
+        .publishers(topic)
+        .iter()
+        .filter(|p| carries(p, ty, &hash))
+        .count();
     if publishers > 0 {
         eprintln!(
             "No message on {topic} in {:.0} s from its {publishers} publisher(s): they may \
@@ -687,6 +745,10 @@ fn publish(context: &Context, args: PubArgs) -> Result<(), Error> {
         .node()?
         .declare_dynamic_publisher(&args.topic_name, &ty, Qos::default())
         .wait()?;
+    let topic = publisher_topic(context, &args.topic_name);
+    if let Some(others) = other_types(&context.graph(), &topic, EntityKind::Subscriber, &ty) {
+        eprintln!("WARNING: {others}: none of them receives these messages.");
+    }
     println!("publisher: beginning loop");
     if args.wait_matching_subscriptions > 0 {
         let deadline = Instant::now() + context.timeout;

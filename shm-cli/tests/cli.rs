@@ -1296,3 +1296,86 @@ fn hz_on_a_topic_not_yet_published_warns_and_waits_for_it() {
     let first = hz.line();
     assert!(first.starts_with("average rate: "), "{first}");
 }
+
+#[test]
+fn echo_and_pub_of_another_type_than_the_topics_say_so() {
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "typed")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let _talking = keep_publishing(
+        &node,
+        "/typed",
+        RosString {
+            data: "text".into(),
+        },
+    );
+    let _listening = node
+        .declare_subscriber::<RosString>("/typed_in")
+        .wait()
+        .unwrap();
+
+    // echo says at once what the publishers send, and keeps waiting.
+    let mut echo = cli(port, &["topic", "echo", "/typed", "std_msgs/msg/Int32"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let err = echo.stderr.take().unwrap();
+    let (tx, lines) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let warning = lines.recv_timeout(TIMEOUT).expect("a warning");
+    assert_eq!(
+        warning,
+        "WARNING: /typed has 1 publisher, of std_msgs/msg/String, not std_msgs/msg/Int32: \
+         this command hears none of them. Without a type, `shm-ros2 topic echo /typed` \
+         takes the one its publishers announce. Still waiting."
+    );
+    assert!(echo.try_wait().unwrap().is_none(), "echo stopped");
+    let _ = echo.kill();
+    let _ = echo.wait();
+
+    // pub says that no subscriber receives what it sends.
+    let out = run(
+        port,
+        &[
+            "topic",
+            "pub",
+            "--times",
+            "1",
+            "/typed_in",
+            "std_msgs/msg/Int32",
+            "{data: 7}",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains(
+            "WARNING: /typed_in has 1 subscriber, of std_msgs/msg/String, not \
+             std_msgs/msg/Int32: none of them receives these messages."
+        ),
+        "{err}"
+    );
+
+    // The topic's own type: not a word.
+    let out = run(
+        port,
+        &[
+            "topic",
+            "pub",
+            "--times",
+            "1",
+            "/typed_in",
+            "std_msgs/msg/String",
+            "{data: x}",
+        ],
+    );
+    assert!(out.status.success());
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "");
+}
