@@ -48,7 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     // A large request: in shared memory, read in place by the server (a response
     // at or above the threshold would go back the same way).
     let _parameters = server
-        .declare_service::<SetParameters>("~/set_parameters")
+        .declare_service::<SetParameters>("~/upload_blob")
         .callback(|request| {
             let shm = request.is_shm();
             let view: SetParameters_RequestRef = match request.decode() {
@@ -71,7 +71,7 @@ fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
         })
         .wait()?;
     let parameters = client
-        .declare_client::<SetParameters>("/server/set_parameters")
+        .declare_client::<SetParameters>("/server/upload_blob")
         .wait()?;
     parameters.wait_for_service(Duration::from_secs(5));
     let request = SetParameters_Request {

@@ -135,3 +135,26 @@ fn the_parameter_node_is_reached_through_the_router_a_ros_tool_uses() {
     let values = driver.get(&["max_speed"]).unwrap();
     assert_eq!(values, vec![ParameterValue::Double(1.25)]);
 }
+
+/// The services and latched-topic example says what it did and logs nothing
+/// at warning level or above: it works.
+#[test]
+fn the_services_example_works_without_a_warning() {
+    let out = Command::new(example("services_and_latched"))
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}{stderr}");
+    assert!(
+        stdout.contains("1048576 bytes read in place (shm = true)")
+            && stdout.contains("late subscriber got \"version 5\""),
+        "{stdout}"
+    );
+    let loud: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains(" WARN ") || l.contains(" ERROR "))
+        .collect();
+    assert_eq!(loud, Vec::<&str>::new());
+}

@@ -1,5 +1,6 @@
-//! A node whose session connects somewhere that nobody answers says so once,
-//! as rmw_zenoh_cpp's nodes do, and goes on.
+//! What a node logs: a session that connects somewhere that nobody answers
+//! says so once, as rmw_zenoh_cpp's nodes do, and goes on; a call that works
+//! logs nothing at error level.
 
 use std::io::Write;
 use std::sync::{Arc, Mutex};
@@ -28,14 +29,23 @@ impl Log {
     }
 }
 
+/// Everything logged in this process, from the first call on.
+fn log() -> &'static Log {
+    static LOG: std::sync::OnceLock<Log> = std::sync::OnceLock::new();
+    LOG.get_or_init(|| {
+        let log = Log::default();
+        let writer = log.clone();
+        tracing_subscriber::fmt()
+            .with_writer(move || writer.clone())
+            .with_ansi(false)
+            .init();
+        log
+    })
+}
+
 #[test]
 fn a_node_that_reaches_nobody_says_what_to_start_once() {
-    let log = Log::default();
-    let writer = log.clone();
-    tracing_subscriber::fmt()
-        .with_writer(move || writer.clone())
-        .with_ansi(false)
-        .init();
+    let log = log();
     std::env::remove_var("ZENOH_ROUTER_CHECK_ATTEMPTS");
 
     // Connected to a peer: nothing said.
@@ -68,4 +78,50 @@ fn a_node_that_reaches_nobody_says_what_to_start_once() {
         "{text}"
     );
     assert!(said[0].contains("shm-ros2 router"), "{text}");
+}
+
+/// Two servers answer every call (the caller takes the first): the late
+/// answer is dropped without Zenoh's "sending on a closed channel" ERROR.
+#[test]
+fn calls_answered_twice_log_no_error() {
+    use shm_cdr::msgs::std_srvs::srv::{Trigger, Trigger_Request, Trigger_Response};
+
+    let log = log();
+    let port = free_port().unwrap();
+    let a = zenoh::open(peer_config(port, true).unwrap())
+        .wait()
+        .unwrap();
+    let b = zenoh::open(peer_config(port, false).unwrap())
+        .wait()
+        .unwrap();
+    let first = RosNode::builder(&a, "first")
+        .router_check(false)
+        .wait()
+        .unwrap();
+    let second = RosNode::builder(&b, "second")
+        .router_check(false)
+        .wait()
+        .unwrap();
+    let servers: Vec<_> = [&first, &second]
+        .into_iter()
+        .map(|node| {
+            node.declare_service::<Trigger>("/twice")
+                .handler(|_| Trigger_Response {
+                    success: true,
+                    message: String::new(),
+                })
+                .wait()
+                .unwrap()
+        })
+        .collect();
+    let client = first.declare_client::<Trigger>("/twice").wait().unwrap();
+    assert!(client.wait_for_service(std::time::Duration::from_secs(5)));
+    for _ in 0..20 {
+        assert!(client.call(&Trigger_Request).wait().unwrap().success);
+    }
+    // The late answers arrive after their calls returned.
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let text = log.text();
+    assert!(!text.contains("closed channel"), "{text}");
+    drop(servers);
 }

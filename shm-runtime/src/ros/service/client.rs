@@ -13,7 +13,6 @@ use shm_cdr::interface::RosService;
 use shm_cdr::RosMessage;
 use shm_cdr::{CdrDecode, DecodeError, EncodeError};
 use zenoh::bytes::{Encoding, ZBytes};
-use zenoh::handlers::FifoChannelHandler;
 use zenoh::key_expr::KeyExpr;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::query::{ConsolidationMode, QueryTarget, Reply};
@@ -31,6 +30,10 @@ use crate::transport::queue::type_encoding;
 
 /// Zenoh's default query timeout, which rmw_zenoh_cpp's clients use too.
 const DEFAULT_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Replies to one call that may wait to be read (Zenoh's own channel holds
+/// as many).
+const REPLY_QUEUE: usize = 256;
 
 /// The longest timeout Zenoh carries (`u64::MAX` ms): what "no timeout" means,
 /// as rmw_zenoh_cpp uses for an action's `get_result`.
@@ -315,10 +318,8 @@ impl ServiceClient<crate::Serialized> {
             .map_err(|_| CallError::NotCdr { len: cdr.len() })?;
         let prepared = self.number(encoded)?;
         let sequence_number = prepared.sequence_number;
-        let replies: FifoChannelHandler<Reply> = self
-            .get(prepared, self.timeout)
-            .wait()
-            .map_err(CallError::Zenoh)?;
+        let (query, replies) = self.get(prepared, self.timeout);
+        query.wait().map_err(CallError::Zenoh)?;
         while let Ok(reply) = replies.recv() {
             if let Some(answer) = self.answer(reply, sequence_number, self.timeout) {
                 return answer;
@@ -393,17 +394,28 @@ impl<S> ServiceClient<S> {
         })
     }
 
+    /// The call's query, and where its replies arrive. A reply that comes
+    /// after the caller took its answer (another server's, one past the
+    /// timeout) is dropped without a word: Zenoh's own channel would log an
+    /// ERROR for it on a call that worked. Past `REPLY_QUEUE` replies waiting
+    /// at once (many servers answering one call), the rest are dropped.
     fn get(
         &self,
         prepared: Prepared,
         timeout: Duration,
-    ) -> zenoh::session::SessionGetBuilder<'_, '_, zenoh::handlers::DefaultHandler> {
+    ) -> (
+        zenoh::session::SessionGetBuilder<'_, '_, zenoh::handlers::Callback<Reply>>,
+        flume::Receiver<Reply>,
+    ) {
         let attachment = Attachment {
             sequence_number: prepared.sequence_number,
             source_timestamp: now_ns(),
             gid: self.gid,
         };
-        self.session
+        let (sender, replies) = flume::bounded(REPLY_QUEUE);
+        let key_expr = self.key_expr.clone();
+        let builder = self
+            .session
             .get(&self.key_expr)
             .payload(prepared.payload)
             .encoding(self.request_encoding.clone())
@@ -411,6 +423,12 @@ impl<S> ServiceClient<S> {
             .target(QueryTarget::AllComplete)
             .consolidation(ConsolidationMode::None)
             .timeout(timeout)
+            .callback(move |reply| {
+                if let Err(flume::TrySendError::Full(_)) = sender.try_send(reply) {
+                    tracing::debug!(%key_expr, "more than {REPLY_QUEUE} replies to one call waiting: one dropped");
+                }
+            });
+        (builder, replies)
     }
 
     /// What one reply means for call `sequence_number`: its answer, or `None`
@@ -490,10 +508,8 @@ impl<S: RosService, O> Wait for CallBuilder<'_, S, O> {
         let client = self.client;
         let prepared = client.prepare(self.request)?;
         let sequence_number = prepared.sequence_number;
-        let replies: FifoChannelHandler<Reply> = client
-            .get(prepared, self.timeout)
-            .wait()
-            .map_err(CallError::Zenoh)?;
+        let (query, replies) = client.get(prepared, self.timeout);
+        query.wait().map_err(CallError::Zenoh)?;
         while let Ok(reply) = replies.recv() {
             if let Some(answer) = client.answer(reply, sequence_number, self.timeout) {
                 return answer.and_then(self.finish);
@@ -515,10 +531,8 @@ impl<'c, S: RosService, O: Send + 'c> IntoFuture for CallBuilder<'c, S, O> {
         Box::pin(async move {
             let prepared = prepared?;
             let sequence_number = prepared.sequence_number;
-            let replies = client
-                .get(prepared, timeout)
-                .await
-                .map_err(CallError::Zenoh)?;
+            let (query, replies) = client.get(prepared, timeout);
+            query.await.map_err(CallError::Zenoh)?;
             while let Ok(reply) = replies.recv_async().await {
                 if let Some(answer) = client.answer(reply, sequence_number, timeout) {
                     return answer.and_then(finish);
