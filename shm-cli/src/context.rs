@@ -70,6 +70,22 @@ pub(crate) struct Context {
 const PEERS_QUIET: Duration = Duration::from_millis(150);
 const PEERS_LIMIT: Duration = Duration::from_secs(2);
 
+/// Why `option`'s endpoints could not be set, with what to write instead.
+pub(crate) fn endpoints_error(
+    option: &str,
+    endpoints: &[String],
+    error: &dyn std::fmt::Display,
+) -> String {
+    let given = endpoints.join(" ");
+    match endpoints.iter().find(|e| !e.contains('/')) {
+        Some(bare) => format!(
+            "{option} {given}: an endpoint is <protocol>/<address>; write tcp/{bare} (or tls/, \
+             quic/, udp/, unixsock-stream/)"
+        ),
+        None => format!("{option} {given}: {}", rmw::config::zenoh_reason(error)),
+    }
+}
+
 impl Context {
     pub(crate) fn open(connection: &Connection) -> Result<Self, Error> {
         let mut config = rmw::config::session_config_from(connection.zenoh_config.as_deref())?;
@@ -77,17 +93,18 @@ impl Context {
             let endpoints = serde_json::to_string(&connection.connect)?;
             config
                 .insert_json5("connect/endpoints", &endpoints)
-                .map_err(|e| format!("--connect {}: {e}", connection.connect.join(" ")))?;
+                .map_err(|e| endpoints_error("--connect", &connection.connect, &e))?;
         }
         let endpoints = config
             .get_json("connect/endpoints")
             .unwrap_or_else(|_| "[]".to_owned());
         let session = zenoh::open(config).wait().map_err(|e| {
             format!(
-                "cannot open a Zenoh session (connecting to {endpoints}): {e}. Check that a \
+                "cannot open a Zenoh session (connecting to {endpoints}): {}. Check that a \
                      router is there (`shm-ros2 router`, `ros2 run rmw_zenoh_cpp rmw_zenohd`) \
                      and the transport and credentials it expects (TLS certificates, user and \
-                     password)"
+                     password)",
+                rmw::config::zenoh_reason(&e)
             )
         })?;
         let check = rmw::config::RouterCheck::from_env()?;

@@ -28,15 +28,18 @@ pub(crate) fn run(args: &RouterArgs) -> Result<(), Error> {
         let endpoints = serde_json::to_string(&args.listen)?;
         config
             .insert_json5("listen/endpoints", &endpoints)
-            .map_err(|e| format!("--listen {}: {e}", args.listen.join(" ")))?;
+            .map_err(|e| crate::context::endpoints_error("--listen", &args.listen, &e))?;
     }
     let listen = config
         .get_json("listen/endpoints")
         .unwrap_or_else(|_| "[]".to_owned());
     let stop = crate::interrupted()?;
-    let session = zenoh::open(config)
-        .wait()
-        .map_err(|e| format!("cannot start the router (listening on {listen}): {e}"))?;
+    let session = zenoh::open(config).wait().map_err(|e| {
+        format!(
+            "cannot start the router (listening on {listen}): {}",
+            rmw::config::zenoh_reason(&e)
+        )
+    })?;
     let locators: Vec<String> = session
         .info()
         .locators()

@@ -1379,3 +1379,56 @@ fn echo_and_pub_of_another_type_than_the_topics_say_so() {
     assert!(out.status.success());
     assert_eq!(String::from_utf8_lossy(&out.stderr), "");
 }
+
+/// A configuration mistake is one line naming what to change, never Zenoh's
+/// source paths or debug text, and the status is 1.
+#[test]
+fn configuration_mistakes_say_what_to_write() {
+    let check = |args: &[&str], overrides: Option<&str>, expected: &str| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_shm-ros2"));
+        command
+            .args(args)
+            .env_remove("ZENOH_SESSION_CONFIG_URI")
+            .env_remove("ZENOH_ROUTER_CONFIG_URI")
+            .env_remove("ZENOH_CONFIG_OVERRIDE")
+            .env("RUST_LOG", "error");
+        if let Some(overrides) = overrides {
+            command.env("ZENOH_CONFIG_OVERRIDE", overrides);
+        }
+        let out = command.output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert_eq!(err.trim_end(), expected, "{args:?}");
+    };
+    check(
+        &["--connect", "127.0.0.1:7447", "topic", "list"],
+        None,
+        "--connect 127.0.0.1:7447: an endpoint is <protocol>/<address>; write \
+         tcp/127.0.0.1:7447 (or tls/, quic/, udp/, unixsock-stream/)",
+    );
+    check(
+        &["router", "--listen", "0.0.0.0:7447"],
+        None,
+        "--listen 0.0.0.0:7447: an endpoint is <protocol>/<address>; write tcp/0.0.0.0:7447 \
+         (or tls/, quic/, udp/, unixsock-stream/)",
+    );
+    check(
+        &["topic", "list"],
+        Some("scouting/multicst/enabled=true"),
+        "ZENOH_CONFIG_OVERRIDE: `scouting/multicst/enabled=true` cannot be set (no such key \
+         in Zenoh's configuration); write `key=value` pairs separated by `;`, each key a path \
+         in the Zenoh configuration (`connect/endpoints`) and each value JSON5 \
+         (`[\"tls/host:7447\"]`, `\"client\"`)",
+    );
+    check(
+        &[
+            "--zenoh-config",
+            "/nonexistent/zenoh.json5",
+            "topic",
+            "list",
+        ],
+        None,
+        "--zenoh-config /nonexistent/zenoh.json5: not a Zenoh configuration (No such file or \
+         directory (os error 2)); give the path of a JSON5 Zenoh configuration file",
+    );
+}

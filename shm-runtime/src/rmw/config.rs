@@ -125,6 +125,16 @@ impl fmt::Display for RmwConfigError {
                 variable,
                 path,
                 reason,
+            } if variable.starts_with("--") => write!(
+                f,
+                "{variable} {}: not a Zenoh configuration ({reason}); give the path of a JSON5 \
+                 Zenoh configuration file",
+                path.display()
+            ),
+            Self::File {
+                variable,
+                path,
+                reason,
             } => write!(
                 f,
                 "{variable}={}: not a Zenoh configuration ({reason}); give the path of a JSON5 \
@@ -148,6 +158,60 @@ impl fmt::Display for RmwConfigError {
 }
 
 impl std::error::Error for RmwConfigError {}
+
+/// Zenoh's words in an error, without what is only for Zenoh's developers:
+/// the source locations (` at /…/file.rs:132.`) and the Rust debug wrapping
+/// of the JSON5 parser's message (`Json5Err(Message { msg: "…", … })`).
+pub fn zenoh_reason(error: &dyn fmt::Display) -> String {
+    let text = error.to_string();
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text.as_str();
+    while let Some(at) = rest.find(" at ") {
+        out.push_str(&rest[..at]);
+        let after = &rest[at + 4..];
+        // ` at <path>.rs:<line>` and a full stop after it, if there is one.
+        let location = after
+            .find(".rs:")
+            .filter(|end| !after[..*end].contains(char::is_whitespace))
+            .map(|end| {
+                let digits = after[end + 4..]
+                    .find(|c: char| !c.is_ascii_digit())
+                    .unwrap_or(after.len() - end - 4);
+                let mut len = end + 4 + digits;
+                if after[len..].starts_with('.') {
+                    len += 1;
+                }
+                len
+            });
+        match location {
+            Some(len) if len > 0 => rest = &after[len..],
+            _ => {
+                out.push_str(" at ");
+                rest = after;
+            }
+        }
+    }
+    out.push_str(rest);
+    // The parser's own message, out of its debug form.
+    if let Some(message) = out
+        .strip_prefix("Json5Err(Message { msg: \"")
+        .and_then(|m| m.split_once("\", location:"))
+        .map(|(m, _)| m.replace("\\\"", "\""))
+    {
+        out = message;
+    }
+    if let Some(message) = out
+        .strip_prefix("Str(\"")
+        .and_then(|m| m.strip_suffix("\")"))
+    {
+        out = message.to_owned();
+    }
+    let out = out.trim_end_matches(['.', ' ']).to_owned();
+    match out.as_str() {
+        "unknown key" => "no such key in Zenoh's configuration".to_owned(),
+        _ => out,
+    }
+}
 
 fn variable(name: &'static str) -> Result<Option<String>, RmwConfigError> {
     match std::env::var(name) {
@@ -186,10 +250,15 @@ pub fn session_config() -> Result<Config, RmwConfigError> {
 }
 
 /// [`session_config`] starting from `file` when it is given (a
-/// command line's `--zenoh-config`) instead of the one
-/// `ZENOH_SESSION_CONFIG_URI` names.
+/// command line's `--zenoh-config`, which its error names) instead of the
+/// one `ZENOH_SESSION_CONFIG_URI` names.
 pub fn session_config_from(file: Option<&Path>) -> Result<Config, RmwConfigError> {
-    from_env(SESSION_CONFIG_URI, file, default_session_config)
+    from_env(
+        SESSION_CONFIG_URI,
+        "--zenoh-config",
+        file,
+        default_session_config,
+    )
 }
 
 /// The router configuration rmw_zenohd would use in this environment: the
@@ -200,24 +269,26 @@ pub fn router_config() -> Result<Config, RmwConfigError> {
 }
 
 /// [`router_config`] starting from `file` when it is given (a command
-/// line's `--config`) instead of the one `ZENOH_ROUTER_CONFIG_URI` names.
+/// line's `--config`, which its error names) instead of the one
+/// `ZENOH_ROUTER_CONFIG_URI` names.
 pub fn router_config_from(file: Option<&Path>) -> Result<Config, RmwConfigError> {
-    from_env(ROUTER_CONFIG_URI, file, default_router_config)
+    from_env(ROUTER_CONFIG_URI, "--config", file, default_router_config)
 }
 
-/// `file`, else the one the variable `uri` names, else `defaults`; then
-/// `ZENOH_CONFIG_OVERRIDE`.
+/// `file` (given by `option`), else the one the variable `uri` names, else
+/// `defaults`; then `ZENOH_CONFIG_OVERRIDE`.
 fn from_env(
     uri: &'static str,
+    option: &'static str,
     file: Option<&Path>,
     defaults: fn() -> Config,
 ) -> Result<Config, RmwConfigError> {
-    let named = match file {
-        Some(file) => Some(file.to_owned()),
-        None => variable(uri)?.map(PathBuf::from),
+    let (source, named) = match file {
+        Some(file) => (option, Some(file.to_owned())),
+        None => (uri, variable(uri)?.map(PathBuf::from)),
     };
     configure(
-        uri,
+        source,
         named.as_deref(),
         defaults,
         variable(CONFIG_OVERRIDE)?.as_deref(),
@@ -236,7 +307,7 @@ pub fn configure(
         Some(path) => Config::from_file(path).map_err(|e| RmwConfigError::File {
             variable,
             path: path.to_owned(),
-            reason: e.to_string(),
+            reason: zenoh_reason(&e),
         })?,
         None => defaults(),
     };
@@ -264,7 +335,7 @@ pub fn apply_override(config: &mut Config, overrides: &str) -> Result<(), RmwCon
             .insert_json5(key.trim(), value.trim())
             .map_err(|e| RmwConfigError::Override {
                 pair: pair.to_owned(),
-                reason: e.to_string(),
+                reason: zenoh_reason(&e),
             })?;
     }
     Ok(())
@@ -439,6 +510,43 @@ fn wait_for(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Zenoh's own errors, in the words a user reads: no source paths, no
+    /// debug wrapping.
+    #[test]
+    fn zenoh_errors_read_without_zenohs_internals() {
+        let mut config = Config::default();
+        let bare = config
+            .insert_json5("connect/endpoints", r#"["127.0.0.1:7447"]"#)
+            .unwrap_err();
+        assert!(bare.to_string().contains(".rs:"), "{bare}");
+        let reason = zenoh_reason(&bare);
+        assert!(
+            reason.starts_with("Endpoints must be of the form <protocol>/<address>")
+                && reason.ends_with("127.0.0.1:7447"),
+            "{reason}"
+        );
+        let unknown = config
+            .insert_json5("scouting/multicst/enabled", "true")
+            .unwrap_err();
+        assert_eq!(
+            zenoh_reason(&unknown),
+            "no such key in Zenoh's configuration"
+        );
+        let missing = Config::from_file("/nonexistent/zenoh.json5").unwrap_err();
+        assert_eq!(
+            zenoh_reason(&missing),
+            "No such file or directory (os error 2)"
+        );
+        // Text without a location is kept as it is.
+        assert_eq!(zenoh_reason(&"stopped at the door"), "stopped at the door");
+        let err = session_config_from(Some(Path::new("/nonexistent/zenoh.json5"))).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "--zenoh-config /nonexistent/zenoh.json5: not a Zenoh configuration (No such file \
+             or directory (os error 2)); give the path of a JSON5 Zenoh configuration file"
+        );
+    }
 
     #[test]
     fn every_default_is_a_key_zenoh_knows_with_a_value_it_takes() {
