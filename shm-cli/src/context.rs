@@ -12,8 +12,10 @@ use zenoh::{Session, Wait};
 
 use crate::Error;
 
-/// How to reach the ROS 2 system.
+/// How to reach the ROS 2 system. Every command takes these; its help lists
+/// them under a heading of their own, after the command's own options.
 #[derive(Debug, clap::Args)]
+#[command(next_help_heading = "Reaching the system (every command)")]
 pub(crate) struct Connection {
     /// ROS domain id.
     #[arg(long, global = true, env = "ROS_DOMAIN_ID", default_value_t = 0)]

@@ -58,6 +58,12 @@ enum Command {
     /// Run a Zenoh router configured as rmw_zenoh_cpp's `rmw_zenohd`, for
     /// systems without ROS.
     Router(router::RouterArgs),
+    /// Print the shell completion script for bash, zsh, fish, elvish or
+    /// PowerShell (bash: `source <(shm-ros2 completions bash)`).
+    Completions {
+        /// The shell to complete in.
+        shell: clap_complete::Shell,
+    },
 }
 
 /// A failure to report: the message says what happened and what to do.
@@ -124,6 +130,23 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Interface(command) => interface::run(command),
         Command::Router(args) => router::run(&args),
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            use std::io::Write;
+            // Into memory first: clap_complete panics on a failed write (a
+            // closed pipe), which is an ordinary error here.
+            let mut script = Vec::new();
+            clap_complete::generate(shell, &mut Cli::command(), "shm-ros2", &mut script);
+            if shell == clap_complete::Shell::Bash {
+                // clap_complete spells the hyphenated name two ways in bash,
+                // so nothing past the first word completes
+                // (clap-rs/clap#6421): one spelling for both.
+                let text =
+                    String::from_utf8_lossy(&script).replace("shm__subcmd__ros2", "shm__ros2");
+                script = text.into_bytes();
+            }
+            std::io::stdout().write_all(&script).map_err(Error::from)
+        }
         Command::Bag(
             command @ (bag::BagCommand::Info { .. }
             | bag::BagCommand::Reindex { .. }
@@ -147,7 +170,10 @@ fn main() -> ExitCode {
                     Command::Service(c) => service::run(&context, c),
                     Command::Param(c) => param::run(&context, c),
                     Command::Action(c) => action::run(&context, c),
-                    Command::Bag(_) | Command::Interface(_) | Command::Router(_) => {
+                    Command::Bag(_)
+                    | Command::Interface(_)
+                    | Command::Router(_)
+                    | Command::Completions { .. } => {
                         unreachable!("handled above")
                     }
                 }),

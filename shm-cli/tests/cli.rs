@@ -1432,3 +1432,46 @@ fn configuration_mistakes_say_what_to_write() {
          directory (os error 2)); give the path of a JSON5 Zenoh configuration file",
     );
 }
+
+/// `completions bash` gives a script with which bash completes verbs and
+/// their options at every level (the hyphen in the name included).
+#[test]
+fn bash_completes_verbs_and_options_at_every_level() {
+    let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
+        .args(["completions", "bash"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let script = std::env::temp_dir().join(format!("shm-ros2-{}.bash", std::process::id()));
+    std::fs::write(&script, &out.stdout).unwrap();
+    let complete = |words: &[&str]| -> String {
+        let cword = words.len() - 1;
+        let prev = if cword > 0 { words[cword - 1] } else { "" };
+        let program = format!(
+            "source '{}'; COMP_WORDS=({}); COMP_CWORD={cword}; _shm__ros2 shm-ros2 '{}' '{prev}'; \
+             echo \"${{COMPREPLY[*]}}\"",
+            script.display(),
+            words
+                .iter()
+                .map(|w| format!("'{w}'"))
+                .collect::<Vec<_>>()
+                .join(" "),
+            words[cword],
+        );
+        let out = Command::new("bash")
+            .args(["-c", &program])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap().trim().to_owned()
+    };
+    assert_eq!(complete(&["shm-ros2", "to"]), "topic");
+    assert_eq!(complete(&["shm-ros2", "topic", "ec"]), "echo");
+    assert_eq!(complete(&["shm-ros2", "topic", "echo", "--on"]), "--once");
+    assert_eq!(complete(&["shm-ros2", "bag", "rei"]), "reindex");
+    let _ = std::fs::remove_file(script);
+}
