@@ -521,7 +521,8 @@ impl Recorder {
             builder = builder.distro(distro);
         }
         let node = Arc::new(builder.wait()?);
-        let writer = BagWriter::create(&options.output, options.write.clone())?;
+        let mut writer = BagWriter::create(&options.output, options.write.clone())?;
+        writer.set_ros_distro(node.info().distro.name());
         let shared = Arc::new(Shared::default());
         shared.paused.store(options.start_paused, Ordering::Relaxed);
         let (events, receiver) = flume::unbounded();

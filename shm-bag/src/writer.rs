@@ -125,6 +125,8 @@ pub struct BagWriter {
     chunk_opened: Option<Instant>,
     /// `metadata.yaml` is written when finished (also when dropped).
     finished: bool,
+    /// The distribution `metadata.yaml` names (`ros_distro`).
+    ros_distro: String,
 }
 
 impl std::fmt::Debug for BagWriter {
@@ -170,6 +172,7 @@ impl BagWriter {
             splits: Vec::new(),
             chunk_opened: None,
             finished: false,
+            ros_distro: std::env::var("ROS_DISTRO").unwrap_or_default(),
         };
         writer.open_file()?;
         // The directory is a bag from the start.
@@ -180,6 +183,13 @@ impl BagWriter {
     /// The bag directory.
     pub fn dir(&self) -> &Path {
         &self.dir
+    }
+
+    /// The ROS 2 distribution `metadata.yaml` names as the recording's
+    /// (`ros_distro`, as `ros2 bag info` shows it): the one the recorded
+    /// nodes speak. Without it, `ROS_DISTRO` at creation, if set.
+    pub fn set_ros_distro(&mut self, name: &str) {
+        self.ros_distro = name.to_owned();
     }
 
     /// Add a topic: its metadata (name, type, QoS, hash) and its complete
@@ -369,7 +379,7 @@ impl BagWriter {
             relative_file_paths: self.files.iter().map(|f| f.path.clone()).collect(),
             files: self.file_information(),
             custom_data: None,
-            ros_distro: std::env::var("ROS_DISTRO").unwrap_or_default(),
+            ros_distro: self.ros_distro.clone(),
         }
     }
 

@@ -568,6 +568,14 @@ fn info(path: &std::path::Path, verbose: bool) -> Result<(), Error> {
     };
     print!("{}", format_info(&metadata, bag.size(), calls.as_ref()));
     println!();
+    // metadata.yaml is read without the files: a file cut by a crash (or
+    // still being recorded) is found by opening each, short of decompressing
+    // whole files.
+    if metadata.compression_mode != "file" {
+        if let Err(e) = bag.topics() {
+            eprintln!("WARNING: {e}");
+        }
+    }
     Ok(())
 }
 

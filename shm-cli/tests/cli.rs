@@ -1153,6 +1153,18 @@ fn a_killed_recording_is_reindexed_with_all_but_its_last_second() {
         unfinished.to_string().contains("bag reindex"),
         "{unfinished}"
     );
+    // `bag info` shows what metadata.yaml holds, with the distribution the
+    // recorder spoke, and says that the file was not finished.
+    let info = run(port, &["bag", "info", bag.to_str().unwrap()]);
+    let shown = stdout(&info);
+    assert!(shown.contains("ROS Distro:        kilted"), "{shown}");
+    let said = String::from_utf8_lossy(&info.stderr);
+    assert!(
+        said.starts_with("WARNING: ")
+            && said.contains("was not finished")
+            && said.contains("bag reindex"),
+        "{said}"
+    );
     let out = stdout(&run(port, &["bag", "reindex", bag.to_str().unwrap()]));
     assert!(out.contains("rewritten with"), "{out}");
     assert!(bag.join("bag_0.mcap.unfinished").exists());
@@ -1182,6 +1194,13 @@ fn a_killed_recording_is_reindexed_with_all_but_its_last_second() {
     assert_eq!(
         recorded.topics().unwrap()[0].message_count,
         metadata.message_count
+    );
+    let info = run(port, &["bag", "info", bag.to_str().unwrap()]);
+    assert!(stdout(&info).contains("ROS Distro:        kilted"));
+    assert_eq!(
+        String::from_utf8_lossy(&info.stderr),
+        "",
+        "reindexed: nothing to say"
     );
     let _ = std::fs::remove_dir_all(&dir);
     drop(alive);
