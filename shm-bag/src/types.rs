@@ -37,7 +37,9 @@ pub struct Known {
     pub describe: fn() -> FullDescription,
 }
 
-/// Every standard message, service and action type, by name.
+/// Every standard message, service and action type, by name, and
+/// rosbag2's own interfaces, which the player serves and the recorder
+/// publishes.
 pub fn standard() -> &'static BTreeMap<&'static str, Known> {
     static TABLE: OnceLock<BTreeMap<&'static str, Known>> = OnceLock::new();
     TABLE.get_or_init(|| {
@@ -73,7 +75,21 @@ pub fn standard() -> &'static BTreeMap<&'static str, Known> {
                 out
             }};
         }
-        shm_cdr::for_each_interface!(table)
+        let mut out = shm_cdr::for_each_interface!(table);
+        {
+            use crate::interfaces::rosbag2_interfaces::{msg, srv};
+            out.extend(table! {
+                messages: [msg::ReadSplitEvent, msg::WriteSplitEvent],
+                borrowed: [],
+                services: [
+                    srv::Burst, srv::GetRate, srv::IsPaused, srv::Pause, srv::PlayNext,
+                    srv::Resume, srv::Seek, srv::SetRate, srv::Snapshot, srv::SplitBagfile,
+                    srv::Stop, srv::TogglePaused,
+                ],
+                actions: [],
+            });
+        }
+        out
     })
 }
 

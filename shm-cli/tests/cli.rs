@@ -1494,3 +1494,37 @@ fn bash_completes_verbs_and_options_at_every_level() {
     assert_eq!(complete(&["shm-ros2", "bag", "rei"]), "reindex");
     let _ = std::fs::remove_file(script);
 }
+
+/// The interfaces of rosbag2 that `bag play` serves and `bag record`
+/// publishes are shown and listed like every other.
+#[test]
+fn rosbag2s_own_interfaces_are_shown() {
+    let show = |name: &str| {
+        let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
+            .args(["interface", "show", name])
+            .output()
+            .unwrap();
+        stdout(&out)
+    };
+    let seek = show("rosbag2_interfaces/srv/Seek");
+    assert!(
+        seek.contains(
+            "builtin_interfaces/Time time\n\tint32 sec\n\tuint32 nanosec\n---\nbool success"
+        ),
+        "{seek}"
+    );
+    let event = show("rosbag2_interfaces/msg/WriteSplitEvent");
+    assert!(
+        event.contains("string closed_file") && event.contains("string opened_file"),
+        "{event}"
+    );
+    let list = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
+        .args(["interface", "list"])
+        .output()
+        .unwrap();
+    let list = stdout(&list);
+    assert!(
+        list.contains("    rosbag2_interfaces/srv/TogglePaused\n"),
+        "{list}"
+    );
+}
