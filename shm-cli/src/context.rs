@@ -151,12 +151,11 @@ impl Context {
 
     fn unreached(&self) -> String {
         format!(
-            "No Zenoh router or peer reached at {}: start a router (`shm-ros2 router`, or \
-             `ros2 run rmw_zenoh_cpp rmw_zenohd`), or give where one is (--connect, \
-             ZENOH_SESSION_CONFIG_URI, ZENOH_CONFIG_OVERRIDE). If it is there, check the \
-             transport and credentials it expects (TLS certificates, user and password); \
-             ZENOH_ROUTER_CHECK_ATTEMPTS=N waits N seconds for it.",
-            self.reached.endpoints
+            "No Zenoh router or peer reached at {}: {}. To connect elsewhere: --connect, \
+             ZENOH_SESSION_CONFIG_URI, ZENOH_CONFIG_OVERRIDE; ZENOH_ROUTER_CHECK_ATTEMPTS=N \
+             waits N seconds for a router.",
+            self.reached.endpoints,
+            rmw::config::why_unreached(&self.session)
         )
     }
 

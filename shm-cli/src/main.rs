@@ -164,19 +164,28 @@ fn main() -> ExitCode {
                     context.warn_unreached();
                     bag::run(Some(&context), c)
                 }
-                command => context.require_reached().and_then(|()| match command {
-                    Command::Topic(c) => topic::run(&context, c),
-                    Command::Node(c) => node::run(&context, c),
-                    Command::Service(c) => service::run(&context, c),
-                    Command::Param(c) => param::run(&context, c),
-                    Command::Action(c) => action::run(&context, c),
-                    Command::Bag(_)
-                    | Command::Interface(_)
-                    | Command::Router(_)
-                    | Command::Completions { .. } => {
-                        unreachable!("handled above")
+                command => {
+                    if let Err(e) = context.require_reached() {
+                        // Nothing was reached, so nothing waits to be sent:
+                        // end without closing the session, whose close waits
+                        // (and logs an error) on the links still being tried.
+                        eprintln!("{e}");
+                        std::process::exit(1);
                     }
-                }),
+                    match command {
+                        Command::Topic(c) => topic::run(&context, c),
+                        Command::Node(c) => node::run(&context, c),
+                        Command::Service(c) => service::run(&context, c),
+                        Command::Param(c) => param::run(&context, c),
+                        Command::Action(c) => action::run(&context, c),
+                        Command::Bag(_)
+                        | Command::Interface(_)
+                        | Command::Router(_)
+                        | Command::Completions { .. } => {
+                            unreachable!("handled above")
+                        }
+                    }
+                }
             },
             Err(e) => Err(e),
         },

@@ -157,3 +157,73 @@ fn the_router_lets_programs_that_know_only_it_find_each_other() {
     assert_eq!(warnings(&stderr), Vec::<&str>::new());
     assert_eq!(stderr, "", "a working command wrote to stderr");
 }
+
+/// A router that refuses the login, or that speaks TCP to a `tls/`
+/// endpoint: one line in the project's words that names the cause, and no
+/// Zenoh ERROR lines.
+#[test]
+fn a_router_that_refuses_the_session_is_named_as_the_cause() {
+    let port = testing::free_port().unwrap();
+    let dir = std::env::temp_dir().join(format!("shm_cli_login_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let users = dir.join("users.txt");
+    std::fs::write(&users, "alice:alicepw\n").unwrap();
+    let mut router = config::default_router_config();
+    for (key, value) in [
+        ("listen/endpoints", format!(r#"["tcp/127.0.0.1:{port}"]"#)),
+        (
+            "transport/auth/usrpwd",
+            format!(
+                r#"{{ user: "router", password: "routerpw", dictionary_file: "{}" }}"#,
+                users.display()
+            ),
+        ),
+    ] {
+        router.insert_json5(key, &value).unwrap();
+    }
+    let _router = zenoh::open(router).wait().unwrap();
+
+    let wrong = dir.join("wrong.json5");
+    std::fs::write(
+        &wrong,
+        r#"{ transport: { auth: { usrpwd: { user: "alice", password: "wrong" } } } }"#,
+    )
+    .unwrap();
+    let out = shm_ros2(port)
+        .args(["--zenoh-config", wrong.to_str().unwrap(), "topic", "list"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "a process listens at 127.0.0.1:{port} and closed the session: it refused the user \
+             and password"
+        )),
+        "{stderr}"
+    );
+
+    let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
+        .args([
+            "--connect",
+            &format!("tls/127.0.0.1:{port}"),
+            "topic",
+            "list",
+        ])
+        .env_remove("RUST_LOG")
+        .env_remove("ZENOH_SESSION_CONFIG_URI")
+        .env_remove("ZENOH_CONFIG_OVERRIDE")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains(
+            "no TLS session opened with it: it may listen with tcp/ where tls/ was given"
+        ),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

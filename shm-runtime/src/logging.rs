@@ -27,10 +27,22 @@ pub const DEFAULT_LOG_FILTER: &str = "warn,zenoh_shm::watchdog::periodic_task=er
 ///   says "Scouting delay elapsed before start conditions are met" and goes
 ///   on, connecting to them as they come. With no router there, the
 ///   program's own message says so ([`rmw::config::wait_for_router`](crate::rmw::config::wait_for_router)).
-pub const QUIET_BY_DEFAULT: &[(&str, &str)] = &[(
-    "zenoh::net::runtime::orchestrator",
-    "Scouting delay elapsed before start conditions are met.",
-)];
+/// - A router that refuses this session (its user and password, its
+///   transport) closes the link as it opens; Zenoh logs an ERROR with the
+///   link's internals at every retry. The router check says what happened
+///   in the program's own words ([`rmw::config::why_unreached`](crate::rmw::config::why_unreached)).
+///
+/// A message matches when it starts with the listed text.
+pub const QUIET_BY_DEFAULT: &[(&str, &str)] = &[
+    (
+        "zenoh::net::runtime::orchestrator",
+        "Scouting delay elapsed before start conditions are met.",
+    ),
+    (
+        "zenoh_transport::unicast::establishment::open",
+        "Received a close message",
+    ),
+];
 
 /// Show the runtime's and Zenoh's log on stderr, filtered by `RUST_LOG`
 /// (`RUST_LOG=info` shows more: the pool chosen and why), or by
@@ -84,7 +96,7 @@ impl<S> Filter<S> for QuietByDefault {
         event.record(&mut message);
         !QUIET_BY_DEFAULT
             .iter()
-            .any(|(t, m)| *t == target && message.0 == *m)
+            .any(|(t, m)| *t == target && message.0.starts_with(m))
     }
 }
 

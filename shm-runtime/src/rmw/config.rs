@@ -454,10 +454,87 @@ pub fn look_for_router_once(session: &Session) {
     };
     if !wait_for_router_or_peer(session, check, |_| {}) {
         tracing::warn!(
-            "No Zenoh router or peer reached at {endpoints}: start a router (`shm-ros2 router`, or \
-             `ros2 run rmw_zenoh_cpp rmw_zenohd`), or connect elsewhere (ZENOH_SESSION_CONFIG_URI, \
-             ZENOH_CONFIG_OVERRIDE). The node goes on, and finds the others when one comes"
+            "No Zenoh router or peer reached at {endpoints}: {}. To connect elsewhere: \
+             ZENOH_SESSION_CONFIG_URI, ZENOH_CONFIG_OVERRIDE. The node goes on, and finds the \
+             others when one comes",
+            why_unreached(session)
         );
+    }
+}
+
+/// Why `session` reached no router or peer at its `connect` endpoints, as
+/// far as can be told from outside Zenoh, and what to do about it. Each
+/// endpoint carried over TCP (`tcp/`, `tls/`) is tried with a plain TCP
+/// connection (at most 500 ms):
+///
+/// - nothing answers at any of them: no router runs there, so start one;
+/// - something answers: a router (or another program) runs there and did
+///   not open a session with this one, so its transport or credentials
+///   differ: a `tls/` endpoint to a `tcp/` router, a refused user and
+///   password, certificates it does not trust.
+///
+/// Other transports (QUIC, UDP, Unix sockets) cannot be told apart this way;
+/// the text then names both causes.
+pub fn why_unreached(session: &Session) -> String {
+    let endpoints: Vec<String> = session
+        .config()
+        .get_typed("connect/endpoints")
+        .unwrap_or_default();
+    let login = session
+        .config()
+        .get_typed::<String>("transport/auth/usrpwd/user")
+        .is_ok_and(|user| !user.is_empty());
+    why_unreached_at(&endpoints, login, Duration::from_millis(500))
+}
+
+/// [`why_unreached`] for `endpoints`, with a user and password configured
+/// or not, each TCP try bounded by `patience`.
+fn why_unreached_at(endpoints: &[String], login: bool, patience: Duration) -> String {
+    use std::net::{TcpStream, ToSocketAddrs};
+    const START: &str =
+        "start a router (`shm-ros2 router`, or `ros2 run rmw_zenoh_cpp rmw_zenohd`)";
+    let mut answered = None;
+    let mut over_tcp = 0;
+    for endpoint in endpoints {
+        let Some((protocol, rest)) = endpoint.split_once('/') else {
+            continue;
+        };
+        if !matches!(protocol, "tcp" | "tls") {
+            continue;
+        }
+        over_tcp += 1;
+        let address = rest.split(['?', '#']).next().unwrap_or(rest);
+        let reached = address
+            .to_socket_addrs()
+            .ok()
+            .into_iter()
+            .flatten()
+            .any(|socket| TcpStream::connect_timeout(&socket, patience).is_ok());
+        if reached && answered.is_none() {
+            answered = Some((protocol, address));
+        }
+    }
+    match answered {
+        Some((protocol, address)) if login => format!(
+            "a process listens at {address} and closed the session: it refused the user and \
+             password (transport/auth/usrpwd), or expects another transport than {protocol}/"
+        ),
+        Some(("tls", address)) => format!(
+            "a process listens at {address} and no TLS session opened with it: it may listen \
+             with tcp/ where tls/ was given, or not trust the certificates (transport/link/tls)"
+        ),
+        Some((protocol, address)) => format!(
+            "a process listens at {address} and opened no Zenoh session with {protocol}/: check \
+             the transport it expects (tls/, quic/) and its credentials (TLS certificates, user \
+             and password)"
+        ),
+        None if over_tcp > 0 && over_tcp == endpoints.len() => {
+            format!("nothing listens there; {START}")
+        }
+        None => format!(
+            "{START}, or check the transport and credentials it expects (TLS certificates, user \
+             and password)"
+        ),
     }
 }
 
@@ -510,6 +587,45 @@ fn wait_for(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The cause told from a TCP try: nothing there, a process there (with
+    /// a login, over TLS, or neither), or a transport that cannot be tried.
+    #[test]
+    fn why_a_router_was_not_reached_is_told_from_what_answers() {
+        let patience = Duration::from_millis(500);
+        let nobody = {
+            let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+            listener.local_addr().unwrap().port()
+        };
+        let why = why_unreached_at(&[format!("tcp/127.0.0.1:{nobody}")], false, patience);
+        assert!(
+            why.starts_with("nothing listens there; start a router"),
+            "{why}"
+        );
+
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let port = listener.local_addr().unwrap().port();
+        let at = |protocol: &str| vec![format!("{protocol}/127.0.0.1:{port}#iface=lo")];
+        let why = why_unreached_at(&at("tcp"), true, patience);
+        assert!(
+            why.starts_with(&format!("a process listens at 127.0.0.1:{port} and closed the session: it refused the user and password")),
+            "{why}"
+        );
+        let why = why_unreached_at(&at("tls"), false, patience);
+        assert!(why.contains("no TLS session opened with it"), "{why}");
+        let why = why_unreached_at(&at("tcp"), false, patience);
+        assert!(why.contains("opened no Zenoh session with tcp/"), "{why}");
+        // A router on one endpoint of two is enough to say so.
+        let mut both = vec![format!("tcp/127.0.0.1:{nobody}")];
+        both.extend(at("tcp"));
+        assert!(why_unreached_at(&both, false, patience).starts_with("a process listens"));
+        // QUIC cannot be tried over TCP: both causes are named.
+        let why = why_unreached_at(&at("quic"), false, patience);
+        assert!(
+            why.starts_with("start a router") && why.contains("transport and credentials"),
+            "{why}"
+        );
+    }
 
     /// Zenoh's own errors, in the words a user reads: no source paths, no
     /// debug wrapping.
