@@ -183,6 +183,9 @@ pub(crate) struct ConvertArgs {
 pub(crate) struct PlayArgs {
     /// Bag to open: a bag directory, an MCAP or a sqlite3 (.db3) file.
     bag_path: PathBuf,
+    /// Print no progress line (it is printed only on a terminal).
+    #[arg(long)]
+    no_progress: bool,
     /// Rate at which to play back messages.
     #[arg(short = 'r', long, default_value_t = 1.0)]
     rate: f64,
@@ -503,8 +506,55 @@ fn channel_summary(channel: &shm_bag::ChannelStats) -> Option<String> {
     Some(line)
 }
 
+/// The playback's progress line, on stderr when it is a terminal: where the
+/// playback is in the recording, its rate and whether it runs or is paused,
+/// redrawn ten times a second until the returned flag is set.
+fn play_progress(
+    control: shm_bag::PlayerControl,
+    start: u64,
+    duration: u64,
+) -> (
+    indicatif::ProgressBar,
+    std::sync::Arc<std::sync::atomic::AtomicBool>,
+    std::thread::JoinHandle<()>,
+) {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let bar = indicatif::ProgressBar::new(duration.max(1));
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{wide_bar}]")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let done = std::sync::Arc::new(AtomicBool::new(false));
+    let updater = {
+        let (bar, done) = (bar.clone(), done.clone());
+        std::thread::spawn(move || {
+            while !done.load(Ordering::Relaxed) {
+                let at = control.time().saturating_sub(start).min(duration);
+                let state = if control.is_paused() {
+                    "PAUSED"
+                } else {
+                    "RUNNING"
+                };
+                bar.set_position(at);
+                bar.set_message(format!(
+                    "{:.2}/{:.2} s at {}x [{state}]",
+                    at as f64 / 1e9,
+                    duration as f64 / 1e9,
+                    control.rate()
+                ));
+                std::thread::sleep(Duration::from_millis(100));
+            }
+        })
+    };
+    (bar, done, updater)
+}
+
 fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {
     let bag = Bag::open(&args.bag_path)?;
+    let span = bag.describe().map(|m| {
+        let start = m.starting_time.nanoseconds_since_epoch;
+        (start, m.duration.nanoseconds)
+    });
     let seconds = |flag: &str, value: f64| {
         Duration::try_from_secs_f64(value)
             .map_err(|_| format!("{flag} {value}: give a number of seconds, 0 or more"))
@@ -542,8 +592,17 @@ fn play(context: &Context, args: &PlayArgs) -> Result<(), Error> {
             crate::keyboard::play_key(&control, key)
         })
     };
+    let progress = match (args.no_progress, span) {
+        (false, Ok((start, duration))) => Some(play_progress(player.control(), start, duration)),
+        _ => None,
+    };
     let stats = player.play(&stop);
     drop(keys);
+    if let Some((bar, done, updater)) = progress {
+        done.store(true, std::sync::atomic::Ordering::Relaxed);
+        let _ = updater.join();
+        bar.finish_and_clear();
+    }
     let stats = stats?;
     eprintln!(
         "Played {} messages ({}), {} from shared memory; {} failed",

@@ -1113,6 +1113,34 @@ fn bag_record_finishes_its_files_on_sigterm_sighup_and_sigint() {
             metadata.message_count
         );
     }
+
+    // Played on a terminal, a progress line shows where the playback is in
+    // the recording; off a terminal, nothing of it.
+    let bag = dir.join("INT");
+    let play = format!(
+        "'{}' --connect tcp/127.0.0.1:{port} --domain-id 0 bag play '{}' \
+         --disable-keyboard-controls",
+        env!("CARGO_BIN_EXE_shm-ros2"),
+        bag.display()
+    );
+    let on_terminal = Command::new("script")
+        .args(["-qec", &play, "/dev/null"])
+        .env("RUST_LOG", "error")
+        .output()
+        .unwrap();
+    let shown = String::from_utf8_lossy(&on_terminal.stdout);
+    assert!(on_terminal.status.success(), "{shown}");
+    assert!(
+        shown.contains(" at 1x [RUNNING]") && shown.contains("Played "),
+        "{shown}"
+    );
+    let off_terminal = run(port, &["bag", "play", bag.to_str().unwrap()]);
+    let said = String::from_utf8_lossy(&off_terminal.stderr);
+    assert!(off_terminal.status.success(), "{said}");
+    assert!(
+        !said.contains("[RUNNING]") && said.contains("Played "),
+        "{said}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
     drop(alive);
 }
