@@ -12,7 +12,6 @@
 //!
 //! `cargo bench -p shm-cdr-examples --bench graph_churn` prints the table.
 
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::io::{BufRead, BufReader, Write};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicIsize, Ordering};
@@ -23,28 +22,8 @@ use shm_runtime::graph::GraphCache;
 use shm_runtime::rmw::{Distro, EntityKind, NodeInfo, Qos};
 use zenoh::{Config, Wait};
 
-/// Counts the bytes alive on the heap.
-struct Counting;
-
-static LIVE: AtomicIsize = AtomicIsize::new(0);
-
-// SAFETY: every call goes to `System` with the caller's own layout and
-// pointer; the counter only adds the sizes up.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        LIVE.fetch_add(layout.size() as isize, Ordering::Relaxed);
-        // SAFETY: the caller's layout, as `GlobalAlloc::alloc` requires.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        LIVE.fetch_sub(layout.size() as isize, Ordering::Relaxed);
-        // SAFETY: `ptr` came from `alloc` above with this layout.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static ALLOCATOR: Counting = Counting;
+static ALLOCATOR: shm_cdr_examples::heap::Counting = shm_cdr_examples::heap::Counting;
 
 const TOKENS: usize = 2_000;
 const NAME_LEN: usize = 3_800;
@@ -75,7 +54,7 @@ fn resident_mib() -> f64 {
 }
 
 fn heap_mib() -> f64 {
-    LIVE.load(Ordering::Relaxed) as f64 / (1 << 20) as f64
+    shm_cdr_examples::heap::live_bytes() as f64 / (1 << 20) as f64
 }
 
 /// Hands the pages glibc's allocator keeps for reuse back to the system.

@@ -18,8 +18,7 @@
 //! `cargo bench -p shm-cdr-examples --bench graph_discovery` prints the
 //! tables (medians).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicIsize, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -33,28 +32,8 @@ use shm_runtime::graph::{Graph, GraphCache};
 use shm_runtime::rmw::{Distro, EntityKind, NodeInfo, Qos};
 use zenoh::{Config, Wait};
 
-/// Counts the bytes alive on the heap.
-struct Counting;
-
-static LIVE: AtomicIsize = AtomicIsize::new(0);
-
-// SAFETY: every call goes to `System` with the caller's own layout and
-// pointer; the counter only adds the sizes up.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        LIVE.fetch_add(layout.size() as isize, Ordering::Relaxed);
-        // SAFETY: the caller's layout, as `GlobalAlloc::alloc` requires.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        LIVE.fetch_sub(layout.size() as isize, Ordering::Relaxed);
-        // SAFETY: `ptr` came from `alloc` above with this layout.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static ALLOCATOR: Counting = Counting;
+static ALLOCATOR: shm_cdr_examples::heap::Counting = shm_cdr_examples::heap::Counting;
 
 const TIMEOUT: Duration = Duration::from_secs(30);
 const SIZES: [usize; 3] = [100, 1_000, 10_000];
@@ -272,9 +251,9 @@ fn main() {
     println!("|---:|---:|---:|---:|---:|---:|---:|---:|");
     for n in SIZES {
         let tokens = system_tokens("0123456789abcdef0123456789abcdef", n);
-        let before = LIVE.load(Ordering::Relaxed);
+        let before = shm_cdr_examples::heap::live_bytes();
         let graph = Graph::from_tokens(tokens.iter().map(String::as_str));
-        let bytes = LIVE.load(Ordering::Relaxed) - before;
+        let bytes = shm_cdr_examples::heap::live_bytes() - before;
         assert_eq!(graph.len(), n);
         let node = format!("/robot/node_{}", n / 20);
         let us = |d: Duration| format!("{:.1} µs", d.as_secs_f64() * 1e6);

@@ -1388,18 +1388,21 @@ fn echo_and_pub_of_another_type_than_the_topics_say_so() {
     let _ = echo.wait();
 
     // pub says that no subscriber receives what it sends.
-    let out = run(
-        port,
-        &[
-            "topic",
-            "pub",
-            "--times",
-            "1",
-            "/typed_in",
-            "std_msgs/msg/Int32",
-            "{data: 7}",
-        ],
-    );
+    let publish_once = |type_name: &str, value: &str| {
+        run(
+            port,
+            &[
+                "topic",
+                "pub",
+                "--times",
+                "1",
+                "/typed_in",
+                type_name,
+                value,
+            ],
+        )
+    };
+    let out = publish_once("std_msgs/msg/Int32", "{data: 7}");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(
@@ -1411,18 +1414,7 @@ fn echo_and_pub_of_another_type_than_the_topics_say_so() {
     );
 
     // The topic's own type: not a word.
-    let out = run(
-        port,
-        &[
-            "topic",
-            "pub",
-            "--times",
-            "1",
-            "/typed_in",
-            "std_msgs/msg/String",
-            "{data: x}",
-        ],
-    );
+    let out = publish_once("std_msgs/msg/String", "{data: x}");
     assert!(out.status.success());
     assert_eq!(String::from_utf8_lossy(&out.stderr), "");
 }

@@ -15,9 +15,14 @@ const TIMEOUT: Duration = Duration::from_secs(15);
 
 /// `shm-ros2` as a user runs it: no logging or Zenoh variables set.
 fn shm_ros2(port: u16) -> Command {
+    shm_ros2_at(&format!("tcp/127.0.0.1:{port}"))
+}
+
+/// [`shm_ros2`] connecting to `endpoint`.
+fn shm_ros2_at(endpoint: &str) -> Command {
     let mut command = Command::new(env!("CARGO_BIN_EXE_shm-ros2"));
     command
-        .args(["--connect", &format!("tcp/127.0.0.1:{port}")])
+        .args(["--connect", endpoint])
         .env_remove("RUST_LOG")
         .env_remove("NO_COLOR")
         .env_remove("ZENOH_SESSION_CONFIG_URI")
