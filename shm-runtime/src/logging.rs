@@ -27,7 +27,7 @@ pub const DEFAULT_LOG_FILTER: &str = "warn,zenoh_shm::watchdog::periodic_task=er
 ///   says "Scouting delay elapsed before start conditions are met" and goes
 ///   on, connecting to them as they come. With no router there, the
 ///   program's own message says so ([`rmw::config::wait_for_router`](crate::rmw::config::wait_for_router)).
-/// - A router that refuses this session (its user and password, its
+/// - A router that refuses the program's Zenoh session (its user and password, its
 ///   transport) closes the link as it opens; Zenoh logs an ERROR with the
 ///   link's internals at every retry. The router check says what happened
 ///   in the program's own words ([`rmw::config::why_unreached`](crate::rmw::config::why_unreached)).
