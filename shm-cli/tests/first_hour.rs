@@ -194,41 +194,26 @@ fn a_router_that_refuses_the_session_is_named_as_the_cause() {
         r#"{ transport: { auth: { usrpwd: { user: "alice", password: "wrong" } } } }"#,
     )
     .unwrap();
-    let out = shm_ros2(port)
-        .args(["--zenoh-config", wrong.to_str().unwrap(), "topic", "list"])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert_eq!(stderr.lines().count(), 1, "{stderr}");
-    assert!(
-        stderr.contains(&format!(
+    // One line, exit status 1, naming the cause.
+    let says = |mut command: Command, cause: &str| {
+        let out = command.args(["topic", "list"]).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(cause), "{stderr}");
+    };
+    let mut login = shm_ros2(port);
+    login.args(["--zenoh-config", wrong.to_str().unwrap()]);
+    says(
+        login,
+        &format!(
             "a process listens at 127.0.0.1:{port} and closed the session: it refused the user \
              and password"
-        )),
-        "{stderr}"
-    );
-
-    let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
-        .args([
-            "--connect",
-            &format!("tls/127.0.0.1:{port}"),
-            "topic",
-            "list",
-        ])
-        .env_remove("RUST_LOG")
-        .env_remove("ZENOH_SESSION_CONFIG_URI")
-        .env_remove("ZENOH_CONFIG_OVERRIDE")
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert_eq!(stderr.lines().count(), 1, "{stderr}");
-    assert!(
-        stderr.contains(
-            "no TLS session opened with it: it may listen with tcp/ where tls/ was given"
         ),
-        "{stderr}"
+    );
+    says(
+        shm_ros2_at(&format!("tls/127.0.0.1:{port}")),
+        "no TLS session opened with it: it may listen with tcp/ where tls/ was given",
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
