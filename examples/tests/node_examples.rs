@@ -100,7 +100,7 @@ fn the_parameter_node_is_reached_through_the_router_a_ros_tool_uses() {
     router.insert_json5("listen/endpoints", &endpoint).unwrap();
     let _router = zenoh::open(router).wait().unwrap();
 
-    let node = Command::new(example("param_node"))
+    let mut node = Command::new(example("param_node"))
         .args(["20", "--ros-args", "-p", "max_speed:=1.25"])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .env("RUST_LOG", "off")
@@ -109,9 +109,13 @@ fn the_parameter_node_is_reached_through_the_router_a_ros_tool_uses() {
             "ZENOH_CONFIG_OVERRIDE",
             format!("connect/endpoints={endpoint}"),
         )
-        .stdout(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
         .spawn()
         .unwrap();
+    // As in ROS 2, the parameter services exist from the node's creation and
+    // the parameters from their declaration a moment later: the node prints
+    // its configuration once every one is declared.
+    let mut stdout = std::io::BufReader::new(node.stdout.take().unwrap());
     struct Kill(std::process::Child);
     impl Drop for Kill {
         fn drop(&mut self) {
@@ -120,6 +124,11 @@ fn the_parameter_node_is_reached_through_the_router_a_ros_tool_uses() {
         }
     }
     let _node = Kill(node);
+    let configured = std::io::BufRead::lines(&mut stdout)
+        .map_while(Result::ok)
+        .find(|line| line.starts_with("frame_id="))
+        .expect("the node exited before printing its configuration");
+    assert!(configured.contains("max_speed=1.25"), "{configured:?}");
 
     let mut tool = config::default_session_config();
     tool.insert_json5("connect/endpoints", &endpoint).unwrap();
