@@ -57,6 +57,38 @@ pub fn of_dynamic(ty: &DynamicType, source: impl Fn(&str) -> Option<String>) -> 
     )
 }
 
+/// The texts of a definition, `(name, text)`: `type_name`'s first, then each
+/// type after its `MSG:` line, named as that line names it (`pkg/msg/Name`,
+/// or `pkg/Name` as ROS 1 wrote it).
+pub fn split<'a>(type_name: &'a str, definition: &'a str) -> Vec<(&'a str, &'a str)> {
+    let mut out = Vec::new();
+    let mut name = type_name;
+    let mut rest = definition;
+    loop {
+        // A delimiter is a whole line, followed by the next type's `MSG:` line.
+        let next = rest.match_indices(DELIMITER).find_map(|(at, _)| {
+            let line_start = at == 0 || rest[..at].ends_with('\n');
+            let after = rest[at + DELIMITER.len()..].strip_prefix('\n')?;
+            let header = after.strip_prefix("MSG: ")?;
+            let end = header.find('\n').unwrap_or(header.len());
+            let next_name = header[..end].trim();
+            let body = header.get(end + 1..).unwrap_or("");
+            line_start.then_some((at, next_name, body))
+        });
+        match next {
+            Some((at, next_name, body)) => {
+                out.push((name, rest[..at].trim_end_matches('\n')));
+                name = next_name;
+                rest = body;
+            }
+            None => {
+                out.push((name, rest.trim_end_matches('\n')));
+                return out;
+            }
+        }
+    }
+}
+
 fn join(texts: impl Iterator<Item = (String, String)>) -> String {
     let mut out = String::new();
     for (i, (name, text)) in texts.enumerate() {
@@ -96,6 +128,26 @@ mod tests {
         );
         assert!(text.contains("Pose pose"), "{text}");
         assert_eq!(text.matches(DELIMITER).count(), 5);
+    }
+
+    #[test]
+    fn a_definition_splits_into_the_texts_it_joined() {
+        let description = PoseStamped::full_description();
+        let text = of_description(&description);
+        let parts = split(PoseStamped::TYPE_NAME, &text);
+        let sources: Vec<(String, String)> = description
+            .sources()
+            .map(|(name, _, text)| (name.to_owned(), text.trim_end_matches('\n').to_owned()))
+            .collect();
+        let parts: Vec<(String, String)> = parts
+            .into_iter()
+            .map(|(n, t)| (n.to_owned(), t.to_owned()))
+            .collect();
+        assert_eq!(parts, sources);
+        // A delimiter inside a line, or without a `MSG:` line, is text.
+        let odd = format!("string a # {DELIMITER}\n{DELIMITER}\nint32 b");
+        assert_eq!(split("p/msg/A", &odd), [("p/msg/A", odd.as_str())]);
+        assert_eq!(split("p/msg/A", ""), [("p/msg/A", "")]);
     }
 
     #[test]

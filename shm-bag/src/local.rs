@@ -58,6 +58,30 @@ impl LocalInterfaces {
         Ok(out)
     }
 
+    /// The message types of a complete definition in rosbag2's `ros2msg` form
+    /// (see [`definition`]): `type_name`'s text, then every type it uses, as a
+    /// recording keeps them.
+    pub fn from_definition(type_name: &str, text: &str) -> Result<Self, Error> {
+        let mut out = Self::default();
+        for (name, text) in definition::split(type_name, text) {
+            let full = crate::types::full_name(name);
+            let (package, short) = match full.split('/').collect::<Vec<_>>()[..] {
+                [package, "msg", short] => (package, short),
+                _ => {
+                    return Err(format!(
+                        "the definition of {type_name} holds {name}, which is not a message type (pkg/msg/Name)"
+                    )
+                    .into())
+                }
+            };
+            let file = PathBuf::from(format!("{package}/msg/{short}.msg"));
+            let message = shm_codegen::parse::parse_message(text, &file, package, short)
+                .map_err(|e| format!("the definition of {type_name}: {e}"))?;
+            out.messages.insert(full, message);
+        }
+        Ok(out)
+    }
+
     /// How many message types the files give.
     pub fn len(&self) -> usize {
         self.messages.len()

@@ -9,14 +9,20 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use shm_cdr::dynamic::DynamicType;
 use shm_cdr::msgs::builtin_interfaces::msg::Time;
 use shm_cdr::msgs::rosgraph_msgs::msg::Clock;
 use shm_runtime::rmw::{Distro, Qos};
-use shm_runtime::{PayloadKind, RosNode, RosPublisher, Serialized, ShmConfig, ShmContext};
+use shm_runtime::{
+    PayloadKind, PublishError, PublishOutcome, RosNode, RosPublisher, Serialized, ShmConfig,
+    ShmContext,
+};
 use zenoh::Wait;
 
 use crate::control::{Due, PlayerControl};
+use crate::definition;
 use crate::interfaces::rosbag2_interfaces::msg::ReadSplitEvent;
+use crate::local::LocalInterfaces;
 use crate::metadata::BagMetadata;
 use crate::qos;
 use crate::split_events::SplitEvents;
@@ -601,7 +607,7 @@ pub struct Player {
     options: PlayOptions,
     _node: RosNode,
     /// By topic, then type: a topic may be recorded with several.
-    publishers: HashMap<String, Vec<(String, RosPublisher<Serialized>)>>,
+    publishers: HashMap<String, Vec<(String, PlayedPublisher)>>,
     clock: Option<RosPublisher<Clock>>,
     /// Where the playback starts: the recording's first message time (ns
     /// since the Unix epoch), plus the start offset.
@@ -657,6 +663,7 @@ impl Player {
             builder = builder.distro(distro);
         }
         let node = builder.wait()?;
+        let definitions = bag.definitions()?;
         let mut publishers = HashMap::new();
         for topic in &topics {
             if !options.topics.is_empty() && !options.topics.contains(&topic.name) {
@@ -666,24 +673,35 @@ impl Player {
             if publishes_clock && topic.name == "/clock" {
                 continue;
             }
+            let recorded = recorded_type(topic, &definitions, node.info().distro);
             let hash = if topic.type_hash.is_empty() {
-                // Recorded without a hash (an older rosbag2): the standard
-                // type of that name, if there is one.
-                types::standard_message(&topic.type_name, node.info().distro)
-                    .map(|t| t.ty.type_hash())
-                    .ok_or_else(|| {
-                        format!(
-                            "{}: the recording gives no type hash for {} and it is not a standard type",
-                            topic.name, topic.type_name
-                        )
-                    })?
+                // Recorded without a hash (an older rosbag2): the type's
+                // definition, else the standard type of that name, gives it.
+                recorded.as_ref().map(|t| t.ty.type_hash()).ok_or_else(|| {
+                    format!(
+                        "{}: the recording gives no type hash for {}, keeps no definition of it, \
+                         and it is not a standard type",
+                        topic.name, topic.type_name
+                    )
+                })?
             } else {
                 topic.type_hash.clone()
             };
             let qos = playback_qos(&topic.offered_qos);
-            let publisher = node
-                .declare_serialized_publisher(&topic.name, &topic.type_name, &hash, qos)
-                .wait()?;
+            // A type the recording defines is described by the player's
+            // node, as the recorded node did, so that tools (and a recorder)
+            // can read the played messages.
+            let publisher = match recorded.filter(|t| t.ty.type_hash() == hash) {
+                Some(recorded) => node
+                    .declare_dynamic_publisher(&topic.name, &recorded.ty, qos)
+                    .type_sources(definition::split(&topic.type_name, &recorded.definition))
+                    .wait()
+                    .map(PlayedPublisher::Described)?,
+                None => node
+                    .declare_serialized_publisher(&topic.name, &topic.type_name, &hash, qos)
+                    .wait()
+                    .map(PlayedPublisher::Bytes)?,
+            };
             publishers
                 .entry(topic.name.clone())
                 .or_insert_with(Vec::new)
@@ -857,7 +875,7 @@ impl Player {
         &self,
         stop: &AtomicBool,
         topic: &str,
-        publisher: &RosPublisher<Serialized>,
+        publisher: &PlayedPublisher,
         time: u64,
         data: &[u8],
         stats: &mut PlayStats,
@@ -979,6 +997,52 @@ impl ControlServices {
 }
 
 /// Publish `time` (ns since the Unix epoch) on `/clock`.
+/// A played topic's publisher: of a type the player's node describes, or of
+/// bytes alone.
+enum PlayedPublisher {
+    Described(RosPublisher<DynamicType>),
+    Bytes(RosPublisher<Serialized>),
+}
+
+impl PlayedPublisher {
+    fn publish_serialized(&self, cdr: &[u8]) -> Result<PublishOutcome, PublishError> {
+        match self {
+            Self::Described(publisher) => publisher.publish_serialized(cdr),
+            Self::Bytes(publisher) => publisher.publish_serialized(cdr),
+        }
+    }
+
+    fn wait_for_subscribers(&self, timeout: Duration) -> bool {
+        match self {
+            Self::Described(publisher) => publisher.wait_for_subscribers(timeout),
+            Self::Bytes(publisher) => publisher.wait_for_subscribers(timeout),
+        }
+    }
+}
+
+/// The type of a recorded topic, from the definition the recording keeps,
+/// else the standard type of that name.
+fn recorded_type(
+    topic: &RecordedTopic,
+    definitions: &BTreeMap<String, String>,
+    distro: Distro,
+) -> Option<types::ResolvedType> {
+    let from_definition = definitions
+        .get(&topic.type_name)
+        .filter(|text| !text.is_empty())
+        .and_then(|text| LocalInterfaces::from_definition(&topic.type_name, text).ok())
+        .and_then(|local| local.resolve(&topic.type_name))
+        .and_then(Result::ok);
+    match from_definition {
+        Some(resolved)
+            if topic.type_hash.is_empty() || resolved.ty.type_hash() == topic.type_hash =>
+        {
+            Some(resolved)
+        }
+        _ => types::standard_message(&topic.type_name, distro),
+    }
+}
+
 fn publish_clock(clock: &RosPublisher<Clock>, time: u64) {
     const NANOS: u64 = 1_000_000_000;
     let msg = Clock {

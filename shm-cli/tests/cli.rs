@@ -1234,6 +1234,114 @@ fn a_killed_recording_is_reindexed_with_all_but_its_last_second() {
     drop(alive);
 }
 
+/// Record `topic` into `bag` until `metadata.yaml` counts a message on disk,
+/// then stop the recorder as Ctrl-C does.
+fn record_a_while(port: u16, bag: &std::path::Path, topic: &str) {
+    let mut child = cli(
+        port,
+        &[
+            "bag",
+            "record",
+            "-o",
+            bag.to_str().unwrap(),
+            "--no-progress",
+            "--disable-keyboard-controls",
+            topic,
+        ],
+    )
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    let deadline = std::time::Instant::now() + TIMEOUT;
+    while shm_bag::BagMetadata::read(bag).map_or(true, |m| m.message_count == 0) {
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("nothing recorded of {topic}");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let output = child.wait_with_output().unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
+
+/// A recording of a type no tool was built with plays back as it was
+/// recorded: the player's node describes the type from the definition the
+/// recording keeps, so `topic echo` reads the played messages and a second
+/// recording keeps the same definition.
+#[test]
+fn a_played_type_of_its_own_is_echoed_and_recorded_again() {
+    let (session, port) = listening_session();
+    let dir = std::env::temp_dir().join(format!("shm_cli_replayed_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (first, second) = (dir.join("first"), dir.join("second"));
+    let battery = Battery {
+        voltage: 12.5,
+        cells: vec![3300, 3310, 3290],
+        label: "main".into(),
+    };
+    {
+        let driver = RosNode::builder(&session, "driver")
+            .domain_id(0)
+            .wait()
+            .unwrap();
+        let _alive = keep_publishing(&driver, "/battery", battery.clone());
+        record_a_while(port, &first, "/battery");
+    }
+    let recorded = shm_bag::Bag::open(&first).unwrap().definitions().unwrap();
+    let definition = &recorded[Battery::TYPE_NAME];
+    assert!(definition.contains("uint16[] cells"), "{definition}");
+
+    // The driver is gone: only the player knows the type now.
+    let graph = RosNode::builder(&session, "watch")
+        .domain_id(0)
+        .wait()
+        .unwrap()
+        .graph_cache()
+        .unwrap();
+    assert!(graph.wait_until(TIMEOUT, |g| g.publishers("/battery").is_empty()));
+    let _player = Running::start(port, &["bag", "play", "--loop", first.to_str().unwrap()]);
+    let out = stdout(&run(port, &["topic", "echo", "/battery", "--once"]));
+    assert_eq!(
+        out,
+        "voltage: 12.5\ncells:\n- 3300\n- 3310\n- 3290\nlabel: main\n---\n"
+    );
+
+    record_a_while(port, &second, "/battery");
+    let again = shm_bag::Bag::open(&second).unwrap();
+    assert_eq!(
+        &again.definitions().unwrap()[Battery::TYPE_NAME],
+        definition
+    );
+    let topics = again.topics().unwrap();
+    assert_eq!(topics[0].type_hash, Battery::type_hash());
+    let mut read = 0;
+    again
+        .read_messages(
+            0,
+            |_| {},
+            |_, _, data| {
+                let played: Battery = shm_cdr::from_bytes(data).unwrap();
+                assert_eq!(played, battery);
+                read += 1;
+                std::ops::ControlFlow::<()>::Continue(())
+            },
+        )
+        .unwrap();
+    assert!(read > 0);
+    let info = stdout(&run(port, &["bag", "info", second.to_str().unwrap()]));
+    assert!(!info.contains("without its definition"), "{info}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn version_names_the_zenoh_line_and_who_shares_memory_with_it() {
     let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))

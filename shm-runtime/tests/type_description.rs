@@ -169,3 +169,75 @@ fn run_time_typed_endpoints_are_the_compiled_types_endpoints() {
         .unwrap()
         .is_none());
 }
+
+/// A node describes the types of its run-time typed endpoints as it does
+/// compiled ones: the same description, with `.msg` text written back from
+/// the type, or the interface files' own text where it is given.
+#[test]
+fn run_time_typed_endpoints_are_described_by_their_node() {
+    use shm_cdr::msgs::test_msgs::msg::{BoundedSequences, Defaults};
+    for full in [
+        Imu::full_description(),
+        Header::full_description(),
+        Defaults::full_description(),
+        BoundedSequences::full_description(),
+    ] {
+        let ty = DynamicType::from_description(&full).unwrap();
+        assert_eq!(ty.to_type_description_msg(), full.to_msg(), "{}", ty.name());
+    }
+
+    let (a, b, _) = loopback_sessions();
+    let owner = common::node(&a, "dynamic");
+    let tool = common::node(&b, "tool");
+    let imu = DynamicType::from_description(&Imu::full_description()).unwrap();
+    let header = DynamicType::from_description(&Header::full_description()).unwrap();
+    let own_text = "# As the package's file has it.\nstd_msgs/Header header\n";
+    let publisher = owner
+        .declare_dynamic_publisher("/imu", &imu, Qos::default())
+        .type_sources([("sensor_msgs/msg/Imu", own_text)])
+        .wait()
+        .unwrap();
+    let subscriber = owner
+        .declare_dynamic_subscriber("/stamps", &header, Qos::default())
+        .wait()
+        .unwrap();
+
+    let client = tool
+        .declare_client::<GetTypeDescription>("/dynamic/get_type_description")
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+    let ask = |ty: &DynamicType| {
+        client
+            .call(&GetTypeDescription_Request {
+                type_name: ty.name().to_owned(),
+                type_hash: ty.type_hash(),
+                include_type_sources: true,
+            })
+            .wait()
+            .unwrap()
+    };
+    let reply = ask(&imu);
+    assert!(reply.successful, "{}", reply.failure_reason);
+    assert_eq!(reply.type_description, Imu::full_description().to_msg());
+    let source = |name: &str| {
+        reply
+            .type_sources
+            .iter()
+            .find(|s| s.type_name == name)
+            .map(|s| s.raw_file_contents.clone())
+    };
+    assert_eq!(source("sensor_msgs/msg/Imu").as_deref(), Some(own_text));
+    // Not given: written back from the type.
+    let written = source("geometry_msgs/msg/Quaternion").unwrap();
+    assert!(written.starts_with("float64 x 0.0\n"), "{written}");
+
+    let reply = ask(&header);
+    assert!(reply.successful, "{}", reply.failure_reason);
+    assert_eq!(reply.type_description, Header::full_description().to_msg());
+
+    drop(publisher);
+    drop(subscriber);
+    assert!(!ask(&imu).successful);
+    assert!(!ask(&header).successful);
+}

@@ -611,6 +611,62 @@ impl DynamicType {
             .collect()
     }
 
+    /// The type as `type_description_interfaces/msg/TypeDescription`: what a
+    /// node's `~/get_type_description` answers for it, the type first, then
+    /// every type it uses, sorted by name. Built back into a type with
+    /// [`from_type_description_msg`](Self::from_type_description_msg), it has
+    /// the same hash.
+    ///
+    /// ```
+    /// use shm_cdr::dynamic::DynamicType;
+    /// use shm_cdr::msgs::geometry_msgs::msg::PoseStamped;
+    /// use shm_cdr::RosMessage;
+    ///
+    /// let ty = DynamicType::from_description(&PoseStamped::full_description())?;
+    /// let msg = ty.to_type_description_msg();
+    /// assert_eq!(msg.type_description.type_name.as_str(), "geometry_msgs/msg/PoseStamped");
+    /// assert_eq!(DynamicType::from_type_description_msg(&msg)?.type_hash(), PoseStamped::type_hash());
+    /// # Ok::<(), shm_cdr::dynamic::TypeError>(())
+    /// ```
+    #[cfg(feature = "type_description_interfaces")]
+    pub fn to_type_description_msg(
+        &self,
+    ) -> crate::msgs::type_description_interfaces::msg::TypeDescription {
+        use crate::msgs::type_description_interfaces::msg as td;
+        let individual = |def: &StructDef| td::IndividualTypeDescription {
+            type_name: def.name.as_str().into(),
+            fields: def
+                .fields
+                .iter()
+                .map(|f| {
+                    let d = f.described();
+                    td::Field {
+                        name: d.name.to_owned(),
+                        r#type: td::FieldType {
+                            type_id: d.type_id,
+                            capacity: d.capacity,
+                            string_capacity: d.string_capacity,
+                            nested_type_name: d.nested_type_name.into(),
+                        },
+                        default_value: d.default_value.to_owned(),
+                    }
+                })
+                .collect(),
+        };
+        let structs = &self.inner.structs;
+        let mut referenced: Vec<&StructDef> = structs
+            .iter()
+            .zip(self.reached_from_root())
+            .skip(1)
+            .filter_map(|(def, reached)| reached.then_some(def))
+            .collect();
+        referenced.sort_by(|a, b| a.name.cmp(&b.name));
+        td::TypeDescription {
+            type_description: individual(self.root()),
+            referenced_type_descriptions: referenced.into_iter().map(individual).collect(),
+        }
+    }
+
     fn write_json(&self, out: &mut String, i: usize) {
         let def = &self.inner.structs[i];
         describe::write_individual_json(

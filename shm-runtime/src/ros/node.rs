@@ -141,7 +141,9 @@ impl RosNode {
     /// announced and keyed exactly as a publisher of the compiled type would be,
     /// so ROS 2 subscribers of that type receive them. Publish with
     /// [`RosPublisher::publish_dynamic`](crate::RosPublisher::publish_dynamic).
-    /// (The node's `~/get_type_description` describes compiled types only.)
+    /// The node's `~/get_type_description` describes `ty` while the publisher
+    /// lives, with `.msg` text written back from it, or the files' own text
+    /// given to [`PublisherBuilder::type_sources`](crate::PublisherBuilder::type_sources).
     ///
     /// ```no_run
     /// use shm_cdr::dynamic::{DynamicType, Value};
@@ -167,7 +169,9 @@ impl RosNode {
         ty: &DynamicType,
         qos: Qos,
     ) -> PublisherBuilder<'_, DynamicType> {
-        let mut builder = self.node_publisher(topic, qos, TopicType::of_dynamic(ty), None);
+        let type_use = self.types.register_dynamic(ty);
+        let mut builder =
+            self.node_publisher(topic, qos, TopicType::of_dynamic(ty), Some(type_use));
         builder.dynamic = Some(ty.clone());
         builder
     }
@@ -233,7 +237,7 @@ impl RosNode {
             gid: Gid::from_token(&token),
             token,
             liveliness: None,
-            _type_use: type_use,
+            type_use,
         });
         builder
     }
@@ -301,7 +305,7 @@ impl RosNode {
             topic,
             qos,
             TopicType::of_dynamic(ty),
-            None,
+            Some(self.types.register_dynamic(ty)),
         )
     }
 

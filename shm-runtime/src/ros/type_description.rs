@@ -4,14 +4,17 @@
 //! and clients use, looked up by type hash, with the interface files' text on
 //! request.
 //!
-//! Types come from the one description the derive and the code generator emit
+//! Compiled types come from the one description the derive and the code
+//! generator emit
 //! ([`RosMessage::full_description`](shm_cdr::RosMessage::full_description)),
-//! so the hash in a reply is the one in the node's liveliness tokens.
+//! types known at run time from their [`DynamicType`], so the hash in a reply
+//! is the one in the node's liveliness tokens.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, MutexGuard, Weak};
 
 use shm_cdr::describe::FullDescription;
+use shm_cdr::dynamic::DynamicType;
 
 use crate::ros::topic_types::TopicUse;
 use shm_cdr::msgs::type_description_interfaces::msg as td;
@@ -31,7 +34,51 @@ pub(crate) struct TypeCache {
 
 struct Entry {
     uses: usize,
-    description: Arc<FullDescription>,
+    described: Described,
+}
+
+/// What the node answers for one type: its description and the text of each
+/// interface file it uses.
+pub(crate) struct Described {
+    description: td::TypeDescription,
+    sources: Vec<td::TypeSource>,
+    /// Whether `sources` were written back from the description (a type known
+    /// at run time), so that the files' own text, offered later, replaces
+    /// them.
+    written_back: bool,
+}
+
+impl Described {
+    fn of_full(description: &FullDescription) -> Self {
+        Self {
+            description: description.to_msg(),
+            sources: description
+                .sources()
+                .map(|(type_name, encoding, text)| td::TypeSource {
+                    type_name: type_name.to_owned(),
+                    encoding: encoding.to_owned(),
+                    raw_file_contents: text.into_owned(),
+                })
+                .collect(),
+            written_back: false,
+        }
+    }
+
+    fn of_dynamic(ty: &DynamicType) -> Self {
+        Self {
+            description: ty.to_type_description_msg(),
+            sources: ty
+                .msg_texts()
+                .into_iter()
+                .map(|(type_name, text)| td::TypeSource {
+                    type_name: type_name.to_owned(),
+                    encoding: "msg".to_owned(),
+                    raw_file_contents: text,
+                })
+                .collect(),
+            written_back: true,
+        }
+    }
 }
 
 impl TypeCache {
@@ -48,13 +95,28 @@ impl TypeCache {
         hash: &str,
         describe: impl FnOnce() -> FullDescription,
     ) -> TypeUse {
+        self.register_described(hash, || Described::of_full(&describe()))
+    }
+
+    /// Count one more use of the run-time type `ty`, described as
+    /// [`DynamicType::to_type_description_msg`] gives it, with `.msg` text
+    /// written back from it until [`TypeUse::offer_sources`] gives the files'.
+    pub(crate) fn register_dynamic(self: &Arc<Self>, ty: &DynamicType) -> TypeUse {
+        self.register_described(&ty.type_hash(), || Described::of_dynamic(ty))
+    }
+
+    fn register_described(
+        self: &Arc<Self>,
+        hash: &str,
+        describe: impl FnOnce() -> Described,
+    ) -> TypeUse {
         let mut entries = self.entries();
         entries
             .entry(hash.to_owned())
             .and_modify(|e| e.uses += 1)
             .or_insert_with(|| Entry {
                 uses: 1,
-                description: Arc::new(describe()),
+                described: describe(),
             });
         TypeUse {
             _registration: Arc::new(Registration {
@@ -88,25 +150,36 @@ impl TypeCache {
         let Some(hash) = parse_rihs01(&request.type_hash) else {
             return failure(UNPARSABLE_HASH);
         };
-        let Some(description) = self.entries().get(&hash).map(|e| e.description.clone()) else {
+        let entries = self.entries();
+        let Some(entry) = entries.get(&hash) else {
             return failure(NOT_IN_USE);
         };
         GetTypeDescription_Response {
             successful: true,
-            type_description: description.to_msg(),
+            type_description: entry.described.description.clone(),
             type_sources: if request.include_type_sources {
-                description
-                    .sources()
-                    .map(|(type_name, encoding, text)| td::TypeSource {
-                        type_name: type_name.to_owned(),
-                        encoding: encoding.to_owned(),
-                        raw_file_contents: text.into_owned(),
-                    })
-                    .collect()
+                entry.described.sources.clone()
             } else {
                 Vec::new()
             },
             ..GetTypeDescription_Response::default()
+        }
+    }
+
+    /// Replace the written-back text of the types named in `sources` with
+    /// the text given, for the type with hash `hash`.
+    fn offer_sources(&self, hash: &str, sources: &[(String, String)]) {
+        let mut entries = self.entries();
+        let Some(entry) = entries.get_mut(hash) else {
+            return;
+        };
+        if !entry.described.written_back {
+            return;
+        }
+        for source in &mut entry.described.sources {
+            if let Some((_, text)) = sources.iter().find(|(name, _)| *name == source.type_name) {
+                source.raw_file_contents.clone_from(text);
+            }
         }
     }
 }
@@ -121,6 +194,22 @@ pub(crate) struct TypeUse {
 }
 
 impl TypeUse {
+    /// Offer the interface files' own text (`(pkg/msg/Name, text)`) for a
+    /// type known at run time, in place of the text written back from its
+    /// description; a compiled type keeps the text it was built with.
+    pub(crate) fn offer_sources<N: Into<String>, S: Into<String>>(
+        &self,
+        sources: impl IntoIterator<Item = (N, S)>,
+    ) {
+        if let Some(cache) = self._registration.cache.upgrade() {
+            let sources: Vec<(String, String)> = sources
+                .into_iter()
+                .map(|(name, text)| (name.into(), text.into()))
+                .collect();
+            cache.offer_sources(&self._registration.hash, &sources);
+        }
+    }
+
     /// The same use, holding `topic` too.
     pub(crate) fn with_topic(self, topic: TopicUse) -> Self {
         Self {

@@ -246,8 +246,8 @@ pub(crate) struct RmwPublisher {
     pub(crate) token: String,
     pub(crate) liveliness: Option<LivelinessToken>,
     /// The message type, in the node's type-description cache while this
-    /// lives (compiled types; a run-time type is not described by the node).
-    pub(crate) _type_use: Option<TypeUse>,
+    /// lives (not a serialized publisher's, whose fields are unknown).
+    pub(crate) type_use: Option<TypeUse>,
 }
 
 /// Builder of a [`RosPublisher`]; resolve with `.wait()` or `.await`.
@@ -460,6 +460,41 @@ impl<'a, T> PublisherBuilder<'a, T> {
             dynamic: self.dynamic,
             message: PhantomData,
         })
+    }
+}
+
+impl PublisherBuilder<'_, DynamicType> {
+    /// The interface files' own text of the publisher's type and the types
+    /// it uses, as `(pkg/msg/Name, text)`: what the node's
+    /// `~/get_type_description` gives as the type's sources (comments and
+    /// constants included), in place of text written back from the type.
+    /// A recording's definitions are such texts.
+    ///
+    /// ```no_run
+    /// use shm_cdr::dynamic::DynamicType;
+    /// use shm_cdr::msgs::std_msgs::String as RosString;
+    /// use shm_cdr::RosMessage;
+    /// use shm_runtime::rmw::Qos;
+    /// use shm_runtime::RosNode;
+    /// use zenoh::Wait;
+    ///
+    /// let session = zenoh::open(zenoh::Config::default()).wait()?;
+    /// let node = RosNode::builder(&session, "player").wait()?;
+    /// let ty = DynamicType::from_description(&RosString::full_description())?;
+    /// let publisher = node
+    ///     .declare_dynamic_publisher("/chatter", &ty, Qos::default())
+    ///     .type_sources([("std_msgs/msg/String", "# Some text.\nstring data\n")])
+    ///     .wait()?;
+    /// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+    /// ```
+    pub fn type_sources<N: Into<String>, S: Into<String>>(
+        self,
+        sources: impl IntoIterator<Item = (N, S)>,
+    ) -> Self {
+        if let Some(type_use) = self.rmw.as_ref().and_then(|r| r.type_use.as_ref()) {
+            type_use.offer_sources(sources);
+        }
+        self
     }
 }
 

@@ -276,6 +276,22 @@ impl<'a, T> SubscriberBuilder<'a, T> {
     }
 }
 
+impl SubscriberBuilder<'_, shm_cdr::dynamic::DynamicType> {
+    /// The interface files' own text of the subscriber's type and the types
+    /// it uses, as `(pkg/msg/Name, text)`, for the node's
+    /// `~/get_type_description` (see
+    /// [`PublisherBuilder::type_sources`](crate::PublisherBuilder::type_sources)).
+    pub fn type_sources<N: Into<String>, S: Into<String>>(
+        self,
+        sources: impl IntoIterator<Item = (N, S)>,
+    ) -> Self {
+        if let Some(type_use) = &self.type_use {
+            type_use.offer_sources(sources);
+        }
+        self
+    }
+}
+
 impl<T> Resolvable for SubscriberBuilder<'_, T> {
     type To = zenoh::Result<RosSubscriber<T>>;
 }
