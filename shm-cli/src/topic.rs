@@ -384,17 +384,25 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
         // Shared memory another process may write is read as such.
         let shared = sample.is_shm();
         // Printed cut to `truncate_length` elements, a message is decoded
-        // cut too: memory follows what is printed, whatever its shape.
-        let keep = match (args.json, args.no_arr, options.truncate_length) {
-            (false, false, Some(keep)) => keep,
+        // cut too, and JSON is written as the bytes are read: memory follows
+        // what is printed, whatever the message's shape.
+        let keep = match (args.no_arr, options.truncate_length) {
+            (false, Some(keep)) => keep,
             _ => usize::MAX,
         };
         let text = match &path {
             Some(path) => echo_field(&ty, &bytes, shared, path, &options),
+            None if args.json => match ty.serialize_cdr(&bytes, shared) {
+                Ok(streamed) => {
+                    let mut line = std::io::BufWriter::with_capacity(64 << 10, &mut out);
+                    serde_json::to_writer(&mut line, &streamed).map_err(std::io::Error::from)?;
+                    line.write_all(b"\n")?;
+                    line.flush()?;
+                    Ok(String::new())
+                }
+                Err(e) => Err(e.into()),
+            },
             None => match ty.decode_truncated(&bytes, shared, keep) {
-                Ok(message) if args.json => serde_json::to_string(&message)
-                    .map(|line| line + "\n")
-                    .map_err(Into::into),
                 Ok(message) => Ok(format!("{}---\n", message.to_yaml_with(&options))),
                 Err(e) => Err(e.into()),
             },

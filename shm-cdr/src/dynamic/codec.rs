@@ -133,7 +133,7 @@ impl DynamicType {
     /// [`decode_elements`](Self::decode_elements), keeping the first
     /// `keep + 1` strings or messages and checking the others.
     #[inline]
-    fn decode_elements_kept<'de, B: ByteOrder>(
+    pub(crate) fn decode_elements_kept<'de, B: ByteOrder>(
         &self,
         r: &mut Reader<'de, B>,
         element: Element,

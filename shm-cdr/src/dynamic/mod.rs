@@ -39,6 +39,8 @@ mod yaml_out;
 
 pub use limits::TypeLimits;
 pub use model::{DynamicType, Element, FieldDef, StructDef, TypeError};
+#[cfg(feature = "serde")]
+pub use serde_impl::SerializeCdr;
 pub use value::{Message, Value, ValueError};
 pub use view::{FieldView, MessageView, SequenceView, StructView, ValueView};
 #[cfg(feature = "yaml")]
