@@ -590,6 +590,47 @@ fn param_dump_and_service_call_print_as_ros2cli_does() {
     );
 }
 
+/// The tutorials' interfaces (`example_interfaces`, which `ros2 run
+/// demo_nodes_cpp add_two_ints_server` serves) are known to the tool.
+#[test]
+fn the_tutorials_add_two_ints_is_called_as_ros2_service_call_does() {
+    use shm_cdr::msgs::example_interfaces::srv::{AddTwoInts, AddTwoInts_Response};
+    let (session, port) = listening_session();
+    let node = RosNode::builder(&session, "add_two_ints_server")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let _server = node
+        .declare_service::<AddTwoInts>("add_two_ints")
+        .handler(|request| AddTwoInts_Response {
+            sum: request.a + request.b,
+        })
+        .wait()
+        .unwrap();
+    assert_eq!(
+        stdout(&run(
+            port,
+            &[
+                "service",
+                "call",
+                "/add_two_ints",
+                "example_interfaces/srv/AddTwoInts",
+                "{a: 2, b: 3}"
+            ]
+        )),
+        "requester: making request: example_interfaces.srv.AddTwoInts_Request(a=2, b=3)\n\n\
+         response:\nexample_interfaces.srv.AddTwoInts_Response(sum=5)\n\n"
+    );
+    let shown = stdout(&run(
+        port,
+        &["interface", "show", "example_interfaces/srv/AddTwoInts"],
+    ));
+    assert!(
+        shown.contains("int64 a\nint64 b\n---\nint64 sum"),
+        "{shown}"
+    );
+}
+
 #[test]
 fn action_send_goal_prints_feedback_and_result_as_ros2_action_does() {
     use shm_cdr::msgs::test_msgs::action::{Fibonacci, Fibonacci_Feedback, Fibonacci_Result};

@@ -26,6 +26,7 @@
 //! | `unique_identifier_msgs` | `unique_identifier_msgs` | 1 message, 0 services, 0 actions |
 //! | `visualization_msgs` | `visualization_msgs` | 12 messages, 1 service, 0 actions |
 //! | `tf2_msgs` | `tf2_msgs` | 2 messages, 0 services, 0 actions |
+//! | `example_interfaces` | `example_interfaces` | 29 messages, 3 services, 1 action |
 
 #[cfg(feature = "action_msgs")]
 pub mod action_msgs;
@@ -35,6 +36,8 @@ pub mod actionlib_msgs;
 pub mod builtin_interfaces;
 #[cfg(feature = "diagnostic_msgs")]
 pub mod diagnostic_msgs;
+#[cfg(feature = "example_interfaces")]
+pub mod example_interfaces;
 #[cfg(feature = "geometry_msgs")]
 pub mod geometry_msgs;
 #[cfg(feature = "lifecycle_msgs")]
