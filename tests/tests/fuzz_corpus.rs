@@ -128,7 +128,7 @@ fn write_seed_corpora() {
         "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/0/NN/%/%/talker",
         "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/10/MP/%/%/talker/%chatter/std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18/::,7:,:,:,,",
         "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/11/SS/%/%ns/talker/%ns%talker%get_type_description/type_description_interfaces::srv::dds_::GetTypeDescription_/RIHS01_69b6f8f5b9bd2b5b4d1b1cc8e4b7c5b9d8c1b6b5f1e8d5a8d7b4c2e1f0a9b8c7/1:1:1,1:,:,:,,",
-        "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/12/MS/%/%/talker/%image/sensor_msgs::msg::dds_::Image_/RIHS01_00/::,10:,:,:,,/backends:cuda,cpu",
+        "@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/12/MS/%/%/talker/%image/sensor_msgs::msg::dds_::Image_/RIHS01_00/::,10:,:,:,,/backends:cpu:;cuda:device%3A0",
     ];
     write("liveliness_tokens", "graph", tokens.join("\n").as_bytes());
     for (name, compression) in [("plain", None), ("zstd", Some(shm_bag::Compression::Zstd))] {

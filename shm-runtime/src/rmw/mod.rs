@@ -703,7 +703,7 @@ mod tests {
         let publisher = "@ros2_lv/0/cd/3/4/MP/%/%/m/%image/sensor_msgs::msg::dds_::Image_/RIHS01_00/:1:,1:,:,:,,";
         for token in [
             publisher.to_owned(),
-            format!("{publisher}/backends:cuda,cpu"),
+            format!("{publisher}/backends:cpu:;cuda:device%3A0"),
         ] {
             assert!(
                 pattern.intersects(&KeyExpr::try_from(token.as_str()).unwrap()),

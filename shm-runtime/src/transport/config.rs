@@ -1,6 +1,13 @@
 //! Shared-memory settings: off unless enabled; when enabled a pool of up to
-//! 10 MiB (rmw_zenoh_cpp's size) that fits the process's memory-lock limit, and
-//! a 512-byte threshold.
+//! 10 MiB that fits the process's memory-lock limit, touched whole when it is
+//! made, and rmw_zenoh_cpp's 512-byte threshold.
+//!
+//! rmw_zenoh_cpp's pool is Zenoh's transport-optimization provider, sized by
+//! `transport/shared_memory/transport_optimization/pool_size` in its session
+//! configuration: 48 MiB (`50331648`) in the default configuration of every
+//! release, Humble to Rolling, and mapped lazily. Its `SHM_BUFFER_SIZE_MB`
+//! (10) is defined and never used. Ours is smaller by default because it is
+//! committed when it is made, in every process that publishes.
 
 use std::fmt;
 use std::time::Duration;
@@ -64,7 +71,8 @@ impl PoolSize {
 }
 
 impl ShmConfig {
-    /// rmw_zenoh_cpp's default pool size, 10 MiB: the default maximum.
+    /// The default maximum pool size, 10 MiB (rmw_zenoh_cpp's pool is
+    /// 48 MiB, mapped lazily; see the module's documentation).
     pub const DEFAULT_POOL_SIZE: usize = 10 * 1024 * 1024;
     /// rmw_zenoh_cpp's default threshold: 512 bytes.
     pub const DEFAULT_THRESHOLD: usize = 512;
@@ -154,9 +162,11 @@ impl ShmConfig {
         self
     }
 
-    /// Read `ZENOH_SHM_ALLOC_SIZE` and `ZENOH_SHM_MESSAGE_SIZE_THRESHOLD` as
-    /// rmw_zenoh_cpp does: `Ok(None)` if neither is set (SHM off); setting either
-    /// enables SHM, the other taking its default. A pool size set this way is
+    /// Read `ZENOH_SHM_ALLOC_SIZE` and `ZENOH_SHM_MESSAGE_SIZE_THRESHOLD`, the
+    /// variables rmw_zenoh_cpp reads in place of its session configuration's
+    /// pool size and threshold: `Ok(None)` if neither is set (SHM off);
+    /// setting either enables SHM here (rmw_zenoh_cpp enables it by its
+    /// configuration alone), the other taking its default. A pool size set this way is
     /// exact ([`PoolSize::Exact`]). A value that is not a positive integer is an
     /// error, never silently ignored.
     pub fn from_env() -> Result<Option<Self>, ConfigError> {

@@ -77,16 +77,51 @@ pub struct Endpoint {
     pub type_hash: String,
     /// QoS, with rmw_zenoh_cpp's defaults where the token leaves a field empty.
     pub qos: Qos,
-    /// The buffer backends the endpoint announces (`cpu`, `cuda`, …):
-    /// rmw_zenoh_cpp on Lyrical and Rolling adds them, as a last `backends:…`
-    /// field, to the tokens of buffer-aware endpoints (types with a `uint8[]`
-    /// field of their own). Empty otherwise.
+    /// The names of the buffer backends the endpoint announces (`cpu`,
+    /// `cuda`, …), sorted: rmw_zenoh_cpp on Lyrical and Rolling adds them to
+    /// the tokens of buffer-aware endpoints (types with a `uint8[]` field of
+    /// their own) as a 13th field, `backends:<name>:<metadata>;…`, each part
+    /// `%XX`-escaped; the metadata is not kept. Empty otherwise.
     pub backends: Vec<String>,
 }
 
-/// How rmw_zenoh_cpp on Rolling starts the field listing an endpoint's buffer
-/// backends.
+/// How rmw_zenoh_cpp on Lyrical and Rolling starts the field listing an
+/// endpoint's buffer backends.
 const BACKENDS_FIELD: &str = "backends:";
+
+/// The backend names of a `backends:` field's list, `<name>:<metadata>`
+/// entries joined by `;`, read as rmw_zenoh_cpp reads them
+/// (`liveliness_utils.cpp`): empty entries and names skipped, a name given
+/// twice kept once.
+fn backend_names(list: &str) -> Vec<String> {
+    let names: std::collections::BTreeSet<String> = list
+        .split(';')
+        .map(|entry| unescape_backend(entry.split(':').next().unwrap_or_default()))
+        .filter(|name| !name.is_empty())
+        .collect();
+    names.into_iter().collect()
+}
+
+/// `%XX` back to its byte, as rmw_zenoh_cpp unescapes a backend's name; a
+/// `%` without two hex digits after it stays.
+fn unescape_backend(text: &str) -> String {
+    let bytes = text.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while let Some(&byte) = bytes.get(i) {
+        let hex = |at: usize| bytes.get(at).and_then(|b| (*b as char).to_digit(16));
+        if byte == b'%' && i + 2 < bytes.len() {
+            if let (Some(hi), Some(lo)) = (hex(i + 1), hex(i + 2)) {
+                out.push((hi << 4 | lo) as u8);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(byte);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
 
 /// `%` back to `/` (see [`crate::rmw::mangle_name`]).
 fn demangle(name: &str) -> String {
@@ -167,20 +202,22 @@ impl Entity {
             .strip_prefix("@ros2_lv/")
             .ok_or(error("does not start with @ros2_lv/"))?;
         let mut parts: Vec<&str> = rest.split('/').collect();
-        // Rolling's optional last field of an endpoint: its buffer backends.
-        let backends = match parts.last().and_then(|p| p.strip_prefix(BACKENDS_FIELD)) {
-            Some(list) if parts.len() == 13 => {
-                parts.pop();
-                list.split(',')
-                    .filter(|b| !b.is_empty())
-                    .map(str::to_owned)
-                    .collect()
-            }
-            _ => Vec::new(),
+        // rmw_zenoh_cpp reads the 12 fields of an endpoint and ignores any
+        // after them, but for a 13th that lists buffer backends (Lyrical and
+        // later).
+        let backends = if parts.len() > 12 {
+            let extra = parts.split_off(12);
+            extra
+                .first()
+                .and_then(|field| field.strip_prefix(BACKENDS_FIELD))
+                .map(backend_names)
+                .unwrap_or_default()
+        } else {
+            Vec::new()
         };
         if parts.len() != 8 && parts.len() != 12 {
             return Err(error(
-                "has neither 8 (node) nor 12 or 13 (endpoint, with backends) fields",
+                "has neither 8 (node) nor at least 12 (endpoint) fields",
             ));
         }
         let number = |s: &str| s.parse().map_err(|_| error("an id is not a number"));
@@ -592,27 +629,46 @@ mod tests {
         assert!(t.backends.is_empty());
     }
 
-    /// rmw_zenoh_cpp on Rolling (ros2/rmw_zenoh#930) appends the buffer
-    /// backends to the tokens of endpoints whose type has buffer fields.
+    /// rmw_zenoh_cpp on Lyrical and Rolling appends the buffer backends to
+    /// the tokens of endpoints whose type has buffer fields, as
+    /// `liveliness_utils.cpp` writes them: `backends:<name>:<metadata>`,
+    /// sorted, joined by `;`, `%`, `;`, `:` and `/` escaped.
     #[test]
-    fn rolling_tokens_with_buffer_backends_are_read() {
+    fn lyrical_tokens_with_buffer_backends_are_read() {
         let plain = "@ros2_lv/0/ab/1/2/MS/%/%/n/%image/sensor_msgs::msg::dds_::Image_/RIHS01_00/::,10:,:,:,,";
-        let with_backends = format!("{plain}/backends:cuda,cpu");
-        let e = Entity::parse(&with_backends).unwrap();
-        let t = e.endpoint.as_ref().unwrap();
-        assert_eq!(t.backends, ["cuda", "cpu"]);
-        assert_eq!(t.name, "/image");
-        assert_eq!(t.type_name, "sensor_msgs/msg/Image");
+        let backends = |field: &str| {
+            let token = format!("{plain}/{field}");
+            let e = Entity::parse(&token).unwrap();
+            // The GID is still the hash of the whole token.
+            assert_eq!(e.gid, Gid::from_token(&token));
+            e.endpoint.unwrap().backends
+        };
+        // A default subscriber's, and one with two backends and metadata.
+        assert_eq!(backends("backends:cpu:"), ["cpu"]);
+        assert_eq!(
+            backends("backends:cpu:;cuda:device%3A0%3Bstream%2F1"),
+            ["cpu", "cuda"]
+        );
+        // Names unescaped (a `%` without two hex digits stays); empty
+        // entries and names skipped; a name once.
+        assert_eq!(
+            backends("backends:a%3Bb:x;;:meta;c%3A:;d%3:;e%zz;cpu:1;cpu:2"),
+            ["a;b", "c:", "cpu", "d%3", "e%zz"]
+        );
+        let t = Entity::parse(&format!("{plain}/backends:cpu:"))
+            .unwrap()
+            .endpoint
+            .unwrap();
+        assert_eq!(
+            (t.name.as_str(), t.type_name.as_str()),
+            ("/image", "sensor_msgs/msg/Image")
+        );
         assert_eq!(Entity::parse(plain).unwrap().endpoint.unwrap().qos, t.qos);
-        // The GID is still the hash of the whole token.
-        assert_eq!(e.gid, Gid::from_token(&with_backends));
-        // Only an endpoint's 13th field may list backends.
-        for token in [
-            format!("{plain}/cuda"),
-            "@ros2_lv/0/ab/3/3/NN/%/%/n/backends:cpu".to_owned(),
-        ] {
-            assert!(Entity::parse(&token).is_err(), "{token}");
-        }
+        // Fields after the twelfth that are not backends are ignored, as
+        // rmw_zenoh_cpp ignores them; a node has 8 fields.
+        assert!(backends("cuda").is_empty());
+        assert_eq!(backends("backends:cpu:/later"), ["cpu"]);
+        assert!(Entity::parse("@ros2_lv/0/ab/3/3/NN/%/%/n/backends:cpu").is_err());
     }
 
     #[test]
