@@ -81,16 +81,19 @@ impl From<&Qos> for QosProfile {
             reliability: name(match qos.reliability {
                 Reliability::Reliable => "reliable",
                 Reliability::BestEffort => "best_effort",
+                Reliability::BestAvailable => "best_available",
             }),
             durability: name(match qos.durability {
                 Durability::TransientLocal => "transient_local",
                 Durability::Volatile => "volatile",
+                Durability::BestAvailable => "best_available",
             }),
             deadline: RmwTime::of(qos.deadline),
             lifespan: RmwTime::of(qos.lifespan),
             liveliness: name(match qos.liveliness {
                 Liveliness::Automatic => "automatic",
                 Liveliness::ManualByTopic => "manual_by_topic",
+                Liveliness::BestAvailable => "best_available",
             }),
             liveliness_lease_duration: RmwTime::of(qos.liveliness_lease),
             avoid_ros_namespace_conventions: false,
@@ -114,14 +117,17 @@ impl QosProfile {
         };
         let reliability = match policy(&self.reliability).as_str() {
             "best_effort" | "2" => Reliability::BestEffort,
+            "best_available" | "4" => Reliability::BestAvailable,
             _ => Reliability::Reliable,
         };
         let durability = match policy(&self.durability).as_str() {
             "transient_local" | "1" => Durability::TransientLocal,
+            "best_available" | "4" => Durability::BestAvailable,
             _ => Durability::Volatile,
         };
         let liveliness = match policy(&self.liveliness).as_str() {
             "manual_by_topic" | "3" => Liveliness::ManualByTopic,
+            "best_available" | "5" => Liveliness::BestAvailable,
             _ => Liveliness::Automatic,
         };
         let mut qos = Qos::with_history(reliability, durability, history);

@@ -1009,10 +1009,13 @@ impl Lookups {
 /// heard; transient local when every publisher is, so that their kept
 /// messages are recorded too.
 fn recording_qos(offered: &[Qos]) -> Qos {
-    let reliability = if offered
-        .iter()
-        .any(|q| q.reliability == Reliability::BestEffort)
-    {
+    // A BEST_AVAILABLE publisher puts best effort, as rmw_zenoh_cpp's does.
+    let reliability = if offered.iter().any(|q| {
+        matches!(
+            q.reliability,
+            Reliability::BestEffort | Reliability::BestAvailable
+        )
+    }) {
         Reliability::BestEffort
     } else {
         Reliability::Reliable

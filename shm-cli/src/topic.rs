@@ -221,6 +221,7 @@ fn info(context: &Context, topic: &str, verbose: bool) -> Result<(), Error> {
                     match qos.reliability {
                         Reliability::Reliable => "RELIABLE",
                         Reliability::BestEffort => "BEST_EFFORT",
+                        Reliability::BestAvailable => "BEST_AVAILABLE",
                     },
                     match qos.history {
                         shm_runtime::rmw::History::KeepLast(depth) => format!("KEEP_LAST ({depth})"),
@@ -229,12 +230,14 @@ fn info(context: &Context, topic: &str, verbose: bool) -> Result<(), Error> {
                     match qos.durability {
                         Durability::TransientLocal => "TRANSIENT_LOCAL",
                         Durability::Volatile => "VOLATILE",
+                        Durability::BestAvailable => "BEST_AVAILABLE",
                     },
                     qos_duration(qos.lifespan),
                     qos_duration(qos.deadline),
                     match qos.liveliness {
                         Liveliness::Automatic => "AUTOMATIC",
                         Liveliness::ManualByTopic => "MANUAL_BY_TOPIC",
+                        Liveliness::BestAvailable => "BEST_AVAILABLE",
                     },
                     qos_duration(qos.liveliness_lease),
                 )?;

@@ -299,6 +299,20 @@ def check_info_verbose(endpoint, peer):
                     [endpoint_info(token, TopicEndpointTypeEnum.PUBLISHER, "std_msgs/msg/Int32", qos)], [])
     proc = cli(endpoint, "topic", "info", "-v", "/qos_probe")
     check(proc.stdout == expected, f"topic info -v /qos_probe: {proc.stdout!r}, ros2topic: {expected!r}")
+    # rclpy's qos_profile_best_available (Jazzy and later), as rmw_zenoh_cpp's
+    # qos_to_keyexpr writes it: the policies unresolved (reliability and
+    # durability 4, liveliness 5), deadline and lease one nanosecond short of
+    # infinite (the seconds equal the default's, so they are left out), the
+    # unspecified lifespan made infinite by `best_available_qos`.
+    from rclpy.qos import qos_profile_best_available as best
+    token = peer.token("MP", ("/best_probe", "std_msgs/msg/Int32"), qos="4:4:,10:,854775806:,:5,,854775806")
+    qos = QoSProfile(history=best.history, depth=best.depth, reliability=best.reliability,
+                     durability=best.durability, deadline=best.deadline, lifespan=Infinite,
+                     liveliness=best.liveliness, liveliness_lease_duration=best.liveliness_lease_duration)
+    expected = want("std_msgs/msg/Int32", [endpoint_info(token, TopicEndpointTypeEnum.PUBLISHER, "std_msgs/msg/Int32",
+                                                         qos)], [])
+    proc = cli(endpoint, "topic", "info", "-v", "/best_probe")
+    check(proc.stdout == expected, f"topic info -v /best_probe: {proc.stdout!r}, ros2topic: {expected!r}")
     # The peer's subscriber of /cmd, default QoS but for its depth (QOS).
     cmd = next(t for t in peer.tokens if "/MS/" in t and "/%cmd/" in t)
     qos = QoSProfile(history=QoSHistoryPolicy.KEEP_LAST, depth=10, reliability=QoSReliabilityPolicy.RELIABLE,

@@ -181,6 +181,11 @@ pub enum Reliability {
     Reliable = 1,
     /// `RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT` (2).
     BestEffort = 2,
+    /// `RMW_QOS_POLICY_RELIABILITY_BEST_AVAILABLE` (4), Jazzy and later:
+    /// rclcpp's `BestAvailableQoS`, rclpy's `qos_profile_best_available`.
+    /// rmw_zenoh_cpp announces it unresolved and, not being `Reliable`, puts
+    /// best effort; so does a publisher here.
+    BestAvailable = 4,
 }
 
 /// Durability QoS (rmw values).
@@ -191,6 +196,10 @@ pub enum Durability {
     /// `RMW_QOS_POLICY_DURABILITY_VOLATILE` (2), rmw_zenoh's default since
     /// ros2/rmw_zenoh#521 (every current release) and what ROS 2 nodes ask for.
     Volatile = 2,
+    /// `RMW_QOS_POLICY_DURABILITY_BEST_AVAILABLE` (4), Jazzy and later:
+    /// announced unresolved by rmw_zenoh_cpp, which keeps nothing for late
+    /// subscribers of it (not `TransientLocal`), as a publisher here.
+    BestAvailable = 4,
 }
 
 /// History QoS (rmw values).
@@ -209,6 +218,9 @@ pub enum Liveliness {
     Automatic = 1,
     /// `RMW_QOS_POLICY_LIVELINESS_MANUAL_BY_TOPIC` (3).
     ManualByTopic = 3,
+    /// `RMW_QOS_POLICY_LIVELINESS_BEST_AVAILABLE` (5), Jazzy and later,
+    /// announced unresolved by rmw_zenoh_cpp.
+    BestAvailable = 5,
 }
 
 /// A QoS profile as it goes into a liveliness token and a Zenoh declaration.

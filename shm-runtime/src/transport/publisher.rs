@@ -392,7 +392,9 @@ impl<'a, T> PublisherBuilder<'a, T> {
                 (ZenohReliability::Reliable, CongestionControl::Drop)
             }
             Reliability::Reliable => (ZenohReliability::Reliable, CongestionControl::Block),
-            Reliability::BestEffort => (ZenohReliability::BestEffort, CongestionControl::Drop),
+            Reliability::BestEffort | Reliability::BestAvailable => {
+                (ZenohReliability::BestEffort, CongestionControl::Drop)
+            }
         };
         let builder = self
             .session
@@ -401,7 +403,7 @@ impl<'a, T> PublisherBuilder<'a, T> {
             .congestion_control(self.congestion_control.unwrap_or(congestion_control))
             .encoding(encoding);
         let transient_local = match (self.qos.durability, self.qos.history) {
-            (Durability::Volatile, _) => None,
+            (Durability::Volatile | Durability::BestAvailable, _) => None,
             (Durability::TransientLocal, History::KeepLast(depth)) => Some(depth.max(1)),
             // rmw_zenoh_cpp passes the profile's depth, whatever the kind.
             (Durability::TransientLocal, History::KeepAll) => Some(usize::MAX),

@@ -139,7 +139,8 @@ fn ros_type_name(dds: &str) -> Option<String> {
 }
 
 /// rmw_zenoh_cpp's `keyexpr_to_qos`: empty fields are its defaults (reliable,
-/// volatile, keep last 42).
+/// volatile, keep last 42); BEST_AVAILABLE policies (Jazzy and later) are
+/// announced as they were asked for, unresolved.
 fn parse_qos(text: &str) -> Option<Qos> {
     let fields: Vec<&str> = text.split(':').collect();
     let [reliability, durability, history, ..] = fields[..] else {
@@ -148,11 +149,13 @@ fn parse_qos(text: &str) -> Option<Qos> {
     let reliability = match reliability {
         "" | "1" => Reliability::Reliable,
         "2" => Reliability::BestEffort,
+        "4" => Reliability::BestAvailable,
         _ => return None,
     };
     let durability = match durability {
         "" | "2" => Durability::Volatile,
         "1" => Durability::TransientLocal,
+        "4" => Durability::BestAvailable,
         _ => return None,
     };
     let (kind, depth) = history.split_once(',')?;
@@ -183,6 +186,7 @@ fn parse_qos(text: &str) -> Option<Qos> {
         qos.liveliness = match kind {
             "" | "1" => Liveliness::Automatic,
             "3" => Liveliness::ManualByTopic,
+            "5" => Liveliness::BestAvailable,
             _ => return None,
         };
         let (sec, nsec) = lease.split_once(',')?;
@@ -669,6 +673,32 @@ mod tests {
         assert!(backends("cuda").is_empty());
         assert_eq!(backends("backends:cpu:/later"), ["cpu"]);
         assert!(Entity::parse("@ros2_lv/0/ab/3/3/NN/%/%/n/backends:cpu").is_err());
+    }
+
+    /// An endpoint made with rclpy's `qos_profile_best_available` (or
+    /// rclcpp's `BestAvailableQoS`), Jazzy and later: rmw_zenoh_cpp writes
+    /// the policies unresolved (`qos_to_keyexpr`: reliability and durability
+    /// 4, liveliness 5, deadline and lease one nanosecond short of infinite,
+    /// as rclpy's profile holds them: their seconds equal the default's, so
+    /// they are left out).
+    #[test]
+    fn best_available_endpoints_are_read_as_announced() {
+        let qos = "4:4:,10:,854775806:,:5,,854775806";
+        let token = format!(
+            "@ros2_lv/0/ab/1/2/MP/%/%/talker/%chatter/std_msgs::msg::dds_::String_/RIHS01_00/{qos}"
+        );
+        let endpoint = Entity::parse(&token).unwrap().endpoint.unwrap();
+        let best = Duration::new(9_223_372_036, 854_775_806);
+        assert_eq!(endpoint.qos.reliability, Reliability::BestAvailable);
+        assert_eq!(endpoint.qos.durability, Durability::BestAvailable);
+        assert_eq!(endpoint.qos.liveliness, Liveliness::BestAvailable);
+        assert_eq!(endpoint.qos.history, History::KeepLast(10));
+        assert_eq!(
+            (endpoint.qos.deadline, endpoint.qos.liveliness_lease),
+            (Some(best), Some(best))
+        );
+        // Written back as rmw_zenoh_cpp writes it: the GID peers derive.
+        assert_eq!(endpoint.qos.to_key_expr(), qos);
     }
 
     #[test]
