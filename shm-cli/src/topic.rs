@@ -386,12 +386,14 @@ fn echo(context: &Context, args: EchoArgs) -> Result<(), Error> {
         let bytes = sample.payload().to_bytes();
         // Shared memory another process may write is read as such.
         let shared = sample.is_shm();
-        // Printed cut to `truncate_length` elements, a message is decoded
-        // cut too, and JSON is written as the bytes are read: memory follows
-        // what is printed, whatever the message's shape.
+        // Printed cut to `truncate_length` elements (or with `--no-arr`,
+        // none), a message is decoded cut too, and JSON is written as the
+        // bytes are read: memory follows what is printed, whatever the
+        // message's shape.
         let keep = match (args.no_arr, options.truncate_length) {
+            (true, _) => 0,
             (false, Some(keep)) => keep,
-            _ => usize::MAX,
+            (false, None) => usize::MAX,
         };
         let text = match &path {
             Some(path) => echo_field(&ty, &bytes, shared, path, &options),

@@ -521,6 +521,22 @@ fn a_truncated_decode_prints_as_the_whole_message_and_keeps_only_what_is_printed
             other => panic!("{other:?}"),
         }
     }
+    // Printed without arrays, a message cut to one element of each prints
+    // every length it had.
+    let options = YamlOptions::echo().no_arr(true);
+    let whole = ty.decode(&bytes).unwrap().to_yaml_with(&options);
+    assert!(whole.contains("length: 100000"), "{whole}");
+    let mut cut = ty.decode_truncated(&bytes, false, 0).unwrap();
+    assert_eq!(cut.to_yaml_with(&options), whole);
+    // A field set anew has the length of its new value.
+    cut.set("names", Value::Strings(vec!["only".into()]))
+        .unwrap();
+    assert!(
+        cut.to_yaml_with(&options)
+            .contains("names: '<sequence type: string, length: 1>'"),
+        "{}",
+        cut.to_yaml_with(&options)
+    );
     // Untruncated, it is the whole message; damage past the kept elements
     // is still found.
     assert_eq!(

@@ -1,29 +1,43 @@
 //! A message printed as JSON straight from its CDR bytes
 //! (`DynamicType::serialize_cdr`, what `shm-ros2 topic echo --json` writes)
-//! is the JSON of the decoded message, in either byte order, and takes
-//! memory independent of the message's size and shape: measured with a
-//! counting global allocator that follows the bytes alive.
+//! is the JSON of the decoded message, in either byte order; it and the
+//! YAML `topic echo` prints (truncated, or with `--no-arr`) take memory
+//! independent of the message's size and shape: measured with a counting
+//! global allocator that follows the bytes alive.
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use shm_cdr::dynamic::DynamicType;
 use shm_cdr::msgs::{sensor_msgs, std_msgs, test_msgs};
-use shm_cdr::Endianness;
-use shm_cdr::RosMessage;
+use shm_cdr::{Endianness, RosMessage};
 
 struct Counting;
 
-static ALIVE: AtomicUsize = AtomicUsize::new(0);
-static PEAK: AtomicUsize = AtomicUsize::new(0);
+// Per thread, so that tests running beside one another do not count each
+// other's allocations; what one thread frees of another's is counted where it
+// is freed.
+thread_local! {
+    static ALIVE: std::cell::Cell<isize> = const { std::cell::Cell::new(0) };
+    static PEAK: std::cell::Cell<isize> = const { std::cell::Cell::new(0) };
+}
 
 fn grew(by: usize) {
-    let now = ALIVE.fetch_add(by, Ordering::Relaxed) + by;
-    PEAK.fetch_max(now, Ordering::Relaxed);
+    let by = isize::try_from(by).unwrap_or(isize::MAX);
+    let _ = ALIVE.try_with(|alive| {
+        let now = alive.get().saturating_add(by);
+        alive.set(now);
+        let _ = PEAK.try_with(|peak| peak.set(peak.get().max(now)));
+    });
+}
+
+fn shrank(by: usize) {
+    let by = isize::try_from(by).unwrap_or(isize::MAX);
+    let _ = ALIVE.try_with(|alive| alive.set(alive.get().saturating_sub(by)));
 }
 
 // SAFETY: forwards every call unchanged to the system allocator; it only
-// counts the bytes handed out and not yet returned.
+// counts the bytes handed out and not yet returned, in thread-local cells
+// that allocate nothing.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         grew(layout.size());
@@ -31,12 +45,12 @@ unsafe impl GlobalAlloc for Counting {
         unsafe { System.alloc(layout) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        ALIVE.fetch_sub(layout.size(), Ordering::Relaxed);
+        shrank(layout.size());
         // SAFETY: `ptr` came from `System.alloc` with this layout.
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALIVE.fetch_sub(layout.size(), Ordering::Relaxed);
+        shrank(layout.size());
         grew(new_size);
         // SAFETY: same contract as our caller's.
         unsafe { System.realloc(ptr, layout, new_size) }
@@ -46,12 +60,13 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
-/// The most bytes alive at once while `run` runs, above those alive before.
+/// The most bytes this thread had alive at once while `run` ran, above
+/// those alive before.
 fn peak_during(run: impl FnOnce()) -> usize {
-    let before = ALIVE.load(Ordering::Relaxed);
-    PEAK.store(before, Ordering::Relaxed);
+    let before = ALIVE.with(std::cell::Cell::get);
+    PEAK.with(|peak| peak.set(before));
     run();
-    PEAK.load(Ordering::Relaxed).saturating_sub(before)
+    usize::try_from(PEAK.with(std::cell::Cell::get).saturating_sub(before)).unwrap_or(0)
 }
 
 #[derive(Debug, Clone, Default, PartialEq, RosMessage)]
@@ -160,4 +175,35 @@ fn streamed_json_takes_memory_independent_of_the_messages_size() {
     // The decoded tree holds every one-byte cell as a message of its own.
     assert!(decoded > 4 * size, "decoded: {decoded} for {size} bytes");
     assert!(streamed < 64 << 10, "streamed: {streamed} for {size} bytes");
+}
+
+#[test]
+fn printed_yaml_takes_memory_independent_of_the_messages_size() {
+    use shm_cdr::dynamic::YamlOptions;
+    let ty = dynamic::<Grid>();
+    let grid = Grid {
+        cells: vec![Cell { v: 7 }; 2 << 20],
+        names: vec![String::new(); 100_000],
+        ..Default::default()
+    };
+    let bytes = shm_cdr::to_vec(&grid).unwrap();
+    drop(grid);
+    let size = bytes.len();
+    for (options, keep) in [
+        (YamlOptions::echo(), 128),
+        (YamlOptions::echo().no_arr(true), 0),
+    ] {
+        let mut text = String::new();
+        let peak = peak_during(|| {
+            text = ty
+                .decode_truncated(&bytes, false, keep)
+                .unwrap()
+                .to_yaml_with(&options);
+        });
+        eprintln!(
+            "{size} bytes: {peak} bytes at most alive printing {} bytes of YAML",
+            text.len()
+        );
+        assert!(peak < 256 << 10, "{peak} bytes for {size}: {text}");
+    }
 }

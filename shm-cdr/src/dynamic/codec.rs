@@ -41,6 +41,9 @@ impl DynamicType {
     /// skipped. Memory then follows what is printed, not the message's
     /// shape: a sequence of millions of one-byte messages costs `keep + 1`
     /// of them. Arrays of numbers are borrowed from `bytes` as in `decode`.
+    /// The message remembers each length it cut, so that printing it with
+    /// [`YamlOptions::no_arr`](super::YamlOptions::no_arr), which shows no
+    /// element but every length, needs only `keep` 0.
     pub fn decode_truncated<'de>(
         &self,
         bytes: &'de [u8],
@@ -89,7 +92,8 @@ impl DynamicType {
         let def = &self.inner.structs[index];
         let checks = self.inner.checks.get(index).map_or(&[][..], Vec::as_slice);
         let mut values = Vec::with_capacity(def.fields.len());
-        for (field, check) in def.fields.iter().zip(checks) {
+        let mut cut = Vec::new();
+        for (i, (field, check)) in def.fields.iter().zip(checks).enumerate() {
             values.push(match *check {
                 Check::Message { index, .. } => {
                     Value::Message(self.decode_message_kept(r, index, keep)?)
@@ -100,7 +104,11 @@ impl DynamicType {
                     min,
                 } => {
                     let n = read_len(r, container, min)?;
-                    self.decode_elements_kept(r, element, n, keep)?
+                    let value = self.decode_elements_kept(r, element, n, keep)?;
+                    if value.len().is_some_and(|kept| kept < n) {
+                        cut.push((i, n));
+                    }
+                    value
                 }
                 _ => self.decode_single(r, field.element)?,
             });
@@ -116,6 +124,7 @@ impl DynamicType {
             ty: self.clone(),
             index,
             values,
+            cut,
         })
     }
 

@@ -153,6 +153,10 @@ pub struct Message<'a> {
     /// Which of the type's structs this is.
     pub(crate) index: usize,
     pub(crate) values: Vec<Value<'a>>,
+    /// The fields decoded cut short for printing
+    /// ([`DynamicType::decode_truncated`]), with how many elements each
+    /// holds on the wire: `(field index, length)`.
+    pub(crate) cut: Vec<(usize, usize)>,
 }
 
 impl fmt::Debug for Message<'_> {
@@ -233,7 +237,17 @@ impl<'a> Message<'a> {
         let field = &def.fields[i];
         check(&self.ty, field.element, field.container, &value).map_err(error)?;
         self.values[i] = value;
+        self.cut.retain(|(field, _)| *field != i);
         Ok(())
+    }
+
+    /// How many elements field `i` holds on the wire: its value's length, or
+    /// for a field decoded cut short, the length it was cut from.
+    pub(crate) fn wire_len(&self, i: usize) -> Option<usize> {
+        match self.cut.iter().find(|(field, _)| *field == i) {
+            Some((_, len)) => Some(*len),
+            None => self.values.get(i)?.len(),
+        }
     }
 
     /// The message with everything it borrows copied.
@@ -242,6 +256,7 @@ impl<'a> Message<'a> {
             ty: self.ty,
             index: self.index,
             values: self.values.into_iter().map(Value::into_owned).collect(),
+            cut: self.cut,
         }
     }
 }
@@ -353,6 +368,7 @@ impl DynamicType {
             ty: self.clone(),
             index,
             values,
+            cut: Vec::new(),
         }
     }
 

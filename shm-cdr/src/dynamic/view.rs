@@ -754,6 +754,7 @@ impl<'v, 'de> StructView<'v, 'de> {
             ty: self.view.ty.clone(),
             index: self.index,
             values,
+            cut: Vec::new(),
         })
     }
 }

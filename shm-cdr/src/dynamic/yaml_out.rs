@@ -234,10 +234,10 @@ fn message_node<'m>(message: &'m Message<'_>, options: &YamlOptions) -> Node<'m>
     let placeholder = def.fields.len() == 1 && def.fields[0].name == EMPTY_PLACEHOLDER;
     let mut entries = Vec::with_capacity(def.fields.len());
     if !placeholder {
-        for (field, value) in def.fields.iter().zip(&message.values) {
+        for (i, (field, value)) in def.fields.iter().zip(&message.values).enumerate() {
             entries.push((
                 field.name.as_str(),
-                field_node(message, field, value, options),
+                field_node(message, i, field, value, options),
             ));
         }
     }
@@ -246,19 +246,20 @@ fn message_node<'m>(message: &'m Message<'_>, options: &YamlOptions) -> Node<'m>
 
 fn field_node<'m>(
     message: &'m Message<'_>,
+    i: usize,
     field: &FieldDef,
     value: &'m Value<'_>,
     options: &YamlOptions,
 ) -> Node<'m> {
     if options.no_arr && field.container != Container::Single {
-        return Node::Str(Cow::Owned(abbreviate(message, field, value)));
+        return Node::Str(Cow::Owned(abbreviate(message, field, message.wire_len(i))));
     }
     value_node(field.element, value, options)
 }
 
 /// `--no-arr`'s text: rosidl_parser's name of the element type, with the
 /// array's size or the sequence's bound and length.
-fn abbreviate(message: &Message<'_>, field: &FieldDef, value: &Value<'_>) -> String {
+fn abbreviate(message: &Message<'_>, field: &FieldDef, len: Option<usize>) -> String {
     let element = match field.element {
         Element::Bool => "boolean",
         Element::Byte => "octet",
@@ -281,7 +282,7 @@ fn abbreviate(message: &Message<'_>, field: &FieldDef, value: &Value<'_>) -> Str
             .get(i)
             .map_or("unknown", |s| s.name.as_str()),
     };
-    let len = value.len().unwrap_or(0);
+    let len = len.unwrap_or(0);
     match field.container {
         Container::Array(n) => format!("<array type: {element}[{n}]>"),
         Container::BoundedSequence(n) => {
