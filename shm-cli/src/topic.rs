@@ -6,7 +6,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use clap::{Args, Subcommand};
 use shm_cdr::describe::Container;
-use shm_cdr::dynamic::{DynamicType, Element, FieldDef, FieldView, YamlOptions};
+use shm_cdr::dynamic::{DynamicType, Element, FieldDef, Value, YamlOptions};
 use shm_runtime::graph::Graph;
 use shm_runtime::rmw::{Durability, EntityKind, Liveliness, Qos, Reliability};
 use zenoh::Wait;
@@ -557,8 +557,8 @@ fn python_type(field: &FieldDef) -> &'static str {
 }
 
 /// What ros2topic prints for the field at `path` of a message: a message
-/// as YAML, anything else as Python's `str` of it; read from a view, so the
-/// rest of the message is checked but not built.
+/// as YAML, anything else as Python's `str` of it; that field alone is
+/// decoded, the rest of the message checked and skipped.
 fn echo_field(
     ty: &DynamicType,
     bytes: &[u8],
@@ -566,29 +566,14 @@ fn echo_field(
     path: &FieldPath,
     options: &YamlOptions,
 ) -> Result<String, Error> {
-    let view = if shared {
-        ty.view_shared(bytes)?
-    } else {
-        ty.view(bytes)?
-    };
-    let mut message = view.root();
-    let (last, parents) = path.names.split_last().ok_or("an empty field path")?;
-    for name in parents {
-        match message.get(name) {
-            Some(FieldView::Message(nested)) => message = nested,
-            _ => return Err(format!("no message field {name}").into()),
-        }
-    }
-    match message.get(last) {
-        Some(FieldView::Message(nested)) => Ok(format!(
-            "{}---\n",
-            nested.to_message()?.to_yaml_with(options)
-        )),
-        Some(field) => Ok(format!(
+    let names: Vec<&str> = path.names.iter().map(String::as_str).collect();
+    match ty.decode_field(bytes, shared, &names)? {
+        Some(Value::Message(nested)) => Ok(format!("{}---\n", nested.to_yaml_with(options))),
+        Some(value) => Ok(format!(
             "{}\n---\n",
-            crate::python::value_str(&path.field, &field.read()?, ty)
+            crate::python::value_str(&path.field, &value, ty)
         )),
-        None => Err(format!("no field {last}").into()),
+        None => Err(format!("no field {}", names.join(".")).into()),
     }
 }
 

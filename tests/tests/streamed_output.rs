@@ -1,7 +1,8 @@
 //! A message printed as JSON straight from its CDR bytes
 //! (`DynamicType::serialize_cdr`, what `shm-ros2 topic echo --json` writes)
-//! is the JSON of the decoded message, in either byte order; it and the
-//! YAML `topic echo` prints (truncated, or with `--no-arr`) take memory
+//! is the JSON of the decoded message, in either byte order; it, the
+//! YAML `topic echo` prints (truncated, or with `--no-arr`) and one field
+//! decoded alone (`--field`) take memory
 //! independent of the message's size and shape: measured with a counting
 //! global allocator that follows the bytes alive.
 
@@ -206,4 +207,45 @@ fn printed_yaml_takes_memory_independent_of_the_messages_size() {
         );
         assert!(peak < 256 << 10, "{peak} bytes for {size}: {text}");
     }
+}
+
+#[test]
+fn one_field_is_decoded_alone() {
+    use shm_cdr::dynamic::Value;
+    let ty = dynamic::<Grid>();
+    let grid = Grid {
+        cells: vec![Cell { v: 7 }; 2 << 20],
+        fixed: [
+            Tagged::default(),
+            Tagged {
+                v: 3,
+                tags: vec!["x".into()],
+                empty: Default::default(),
+            },
+        ],
+        label: "the label".into(),
+        ..Default::default()
+    };
+    let bytes = shm_cdr::to_vec(&grid).unwrap();
+    let whole = ty.decode(&bytes).unwrap();
+    for path in [&["label"][..], &["fixed"], &["data"], &["names"]] {
+        assert_eq!(
+            ty.decode_field(&bytes, false, path).unwrap().as_ref(),
+            whole.get(path[0]),
+            "{path:?}"
+        );
+    }
+    assert_eq!(ty.decode_field(&bytes, true, &["nothing"]).unwrap(), None);
+    assert!(ty
+        .decode_field(&bytes[..bytes.len() - 2], false, &["label"])
+        .is_err());
+    drop(whole);
+    let mut label = None;
+    let peak = peak_during(|| label = ty.decode_field(&bytes, false, &["label"]).unwrap());
+    eprintln!(
+        "{} bytes: {peak} bytes at most alive decoding one field",
+        bytes.len()
+    );
+    assert_eq!(label, Some(Value::String("the label".into())));
+    assert!(peak < 64 << 10, "{peak}");
 }

@@ -63,6 +63,101 @@ impl DynamicType {
         }
     }
 
+    /// The field at `path` (the names of nested message fields, then the
+    /// field's own) of a CDR payload of this type, decoded alone; the rest of
+    /// the payload is checked as [`decode`](Self::decode) checks it (or,
+    /// `shared`, [`decode_shared`](Self::decode_shared)) and skipped, one
+    /// element of each sequence at a time. `None` if the type has no such
+    /// field. Memory follows the field, not the message: what
+    /// `shm-ros2 topic echo --field` prints.
+    ///
+    /// ```
+    /// use shm_cdr::dynamic::{DynamicType, Value};
+    /// use shm_cdr::msgs::geometry_msgs::msg::PoseStamped;
+    /// use shm_cdr::RosMessage;
+    ///
+    /// let mut pose = PoseStamped::default();
+    /// pose.pose.position.x = 1.5;
+    /// let bytes = shm_cdr::to_vec(&pose)?;
+    /// let ty = DynamicType::from_description(&PoseStamped::full_description())?;
+    /// let x = ty.decode_field(&bytes, false, &["pose", "position", "x"])?;
+    /// assert_eq!(x, Some(Value::F64(1.5)));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn decode_field<'de>(
+        &self,
+        bytes: &'de [u8],
+        shared: bool,
+        path: &[&str],
+    ) -> Result<Option<Value<'de>>, DecodeError> {
+        let body = bytes.get(4..).unwrap_or_default();
+        let mut found = None;
+        match crate::read_header(bytes)? {
+            Endianness::Little => {
+                let r = Reader::<LittleEndian>::new(body);
+                let mut r = if shared { r.shared() } else { r };
+                self.decode_field_in(&mut r, 0, path, &mut found)?;
+            }
+            Endianness::Big => {
+                let r = Reader::<BigEndian>::new(body);
+                let mut r = if shared { r.shared() } else { r };
+                self.decode_field_in(&mut r, 0, path, &mut found)?;
+            }
+        }
+        Ok(found)
+    }
+
+    /// Read one message of struct `index`, keeping into `found` only the
+    /// field at `path` (`None` or empty: nothing).
+    fn decode_field_in<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        index: usize,
+        path: &[&str],
+        found: &mut Option<Value<'de>>,
+    ) -> Result<(), DecodeError> {
+        let def = &self.inner.structs[index];
+        let checks = self.inner.checks.get(index).map_or(&[][..], Vec::as_slice);
+        for (field, check) in def.fields.iter().zip(checks) {
+            let (on_path, rest) = match path.split_first() {
+                Some((name, rest)) if *name == field.name => (true, rest),
+                _ => (false, &[][..]),
+            };
+            let wanted = on_path && rest.is_empty();
+            match *check {
+                Check::Message { index, .. } if on_path && !rest.is_empty() => {
+                    self.decode_field_in(r, index, rest, found)?;
+                }
+                Check::Message { index, .. } => {
+                    let keep = if wanted { usize::MAX } else { 0 };
+                    let message = self.decode_message_kept(r, index, keep)?;
+                    if wanted {
+                        *found = Some(Value::Message(message));
+                    }
+                }
+                Check::Many {
+                    element,
+                    container,
+                    min,
+                } => {
+                    let n = read_len(r, container, min)?;
+                    let keep = if wanted { usize::MAX } else { 0 };
+                    let value = self.decode_elements_kept(r, element, n, keep)?;
+                    if wanted {
+                        *found = Some(value);
+                    }
+                }
+                _ => {
+                    let value = self.decode_single(r, field.element)?;
+                    if wanted {
+                        *found = Some(value);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
     fn decode_from<'de>(
         &self,
         bytes: &'de [u8],
