@@ -1,6 +1,6 @@
 //! `shm-ros2 topic …`: ros2topic's verbs and output.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::io::Write;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -61,6 +61,16 @@ pub(crate) enum TopicCommand {
     },
     /// Publish a message to a topic.
     Pub(PubArgs),
+    /// Show how a topic's messages reach this process, from each publisher:
+    /// in shared memory (read where the publisher wrote them) or copied.
+    Shm {
+        /// Name of the ROS topic to listen to (e.g. '/camera/image').
+        topic_name: String,
+        /// Stop after this many messages and print the totals once
+        /// (default: print them every second, until Ctrl-C).
+        #[arg(short = 'n', long = "messages")]
+        messages: Option<u64>,
+    },
 }
 
 #[derive(Debug, Args)]
@@ -130,7 +140,7 @@ impl TopicCommand {
     pub(crate) fn waits(&self) -> bool {
         matches!(
             self,
-            Self::Echo(_) | Self::Hz { .. } | Self::Bw { .. } | Self::Pub(_)
+            Self::Echo(_) | Self::Hz { .. } | Self::Bw { .. } | Self::Pub(_) | Self::Shm { .. }
         )
     }
 }
@@ -181,6 +191,10 @@ pub(crate) fn run(context: &Context, command: TopicCommand) -> Result<(), Error>
         TopicCommand::Hz { topic_name, window } => hz(context, &topic_name, window),
         TopicCommand::Bw { topic_name, window } => bw(context, &topic_name, window),
         TopicCommand::Pub(args) => publish(context, args),
+        TopicCommand::Shm {
+            topic_name,
+            messages,
+        } => shm_use(context, &topic_name, messages),
     }
 }
 
@@ -683,6 +697,120 @@ fn bw(context: &Context, topic: &str, window: usize) -> Result<(), Error> {
             unit(max)
         )?;
         out.flush()?;
+    }
+}
+
+/// How many messages arrived, and how many bytes of them, in shared memory
+/// and copied.
+#[derive(Default)]
+struct Arrivals {
+    messages: u64,
+    in_shm: u64,
+    shm_bytes: u64,
+    copied_bytes: u64,
+}
+
+impl Arrivals {
+    fn add(&mut self, len: usize, shm_len: usize) {
+        let len = len as u64;
+        let shm_len = (shm_len as u64).min(len);
+        self.messages += 1;
+        if shm_len > 0 {
+            self.in_shm += 1;
+        }
+        self.shm_bytes += shm_len;
+        self.copied_bytes += len - shm_len;
+    }
+}
+
+impl std::fmt::Display for Arrivals {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let percent = |part: u64| {
+            if self.messages == 0 {
+                0.0
+            } else {
+                100.0 * part as f64 / self.messages as f64
+            }
+        };
+        write!(
+            f,
+            "{} messages: {} in shared memory ({:.0}%, {} bytes), {} copied ({:.0}%, {} bytes)",
+            self.messages,
+            self.in_shm,
+            percent(self.in_shm),
+            self.shm_bytes,
+            self.messages - self.in_shm,
+            percent(self.messages - self.in_shm),
+            self.copied_bytes
+        )
+    }
+}
+
+/// `topic shm`: each message of `topic` counted as it arrives here, in
+/// shared memory or copied, by the publisher its attachment names; the totals
+/// every second, or once after `limit` messages. A subscriber of bytes alone:
+/// no type needs to be known.
+fn shm_use(context: &Context, topic: &str, limit: Option<u64>) -> Result<(), Error> {
+    let graph = graph_with_endpoints(context, topic)?;
+    let endpoint = graph
+        .publishers(topic)
+        .into_iter()
+        .chain(graph.subscribers(topic))
+        .find_map(|e| e.endpoint.clone())
+        .ok_or_else(|| format!("topic {topic}: its endpoints announce no type"))?;
+    let subscriber = context
+        .node()?
+        .declare_serialized_subscriber(
+            topic,
+            &endpoint.type_name,
+            &endpoint.type_hash,
+            subscriber_qos(&graph, topic),
+        )
+        .wait()?;
+    let mut total = Arrivals::default();
+    let mut by_publisher: BTreeMap<Option<[u8; 16]>, Arrivals> = BTreeMap::new();
+    let mut printed = 0;
+    let mut next_report = Instant::now() + Duration::from_secs(1);
+    let mut out = std::io::stdout().lock();
+    loop {
+        let wait = next_report.saturating_duration_since(Instant::now());
+        if let Some(sample) = subscriber.recv_timeout(wait)? {
+            let (len, shm_len) = (sample.payload().len(), sample.shm_len());
+            let gid = sample.attachment().and_then(Result::ok).map(|a| a.gid.0);
+            total.add(len, shm_len);
+            by_publisher.entry(gid).or_default().add(len, shm_len);
+        }
+        let done = limit.is_some_and(|n| total.messages >= n);
+        if !done && (limit.is_some() || Instant::now() < next_report) {
+            continue;
+        }
+        next_report += Duration::from_secs(1);
+        if total.messages == printed && !done {
+            continue;
+        }
+        printed = total.messages;
+        let graph = context.graph();
+        writeln!(out, "{topic}: {total}")?;
+        for (gid, arrivals) in &by_publisher {
+            let who = gid
+                .and_then(|gid| {
+                    graph
+                        .publishers(topic)
+                        .into_iter()
+                        .find(|e| e.gid.0 == gid)
+                        .map(|e| e.node_fqn())
+                })
+                .unwrap_or_else(|| match gid {
+                    // As `topic info -v` prints a GID.
+                    Some(gid) => format!("publisher {}", gid.map(|b| format!("{b:02x}")).join(".")),
+                    None => "publishers without an rmw_zenoh attachment".to_owned(),
+                });
+            writeln!(out, "  from {who}: {arrivals}")?;
+        }
+        out.flush()?;
+        if done {
+            return Ok(());
+        }
     }
 }
 

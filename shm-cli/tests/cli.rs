@@ -1383,6 +1383,57 @@ fn a_played_type_of_its_own_is_echoed_and_recorded_again() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `topic shm` counts how a topic's messages reached the tool, by
+/// publisher: in shared memory when the publisher's pool holds them (where
+/// the memory-lock limit leaves it one), copied below its threshold.
+#[test]
+fn topic_shm_counts_what_arrived_in_shared_memory_by_publisher() {
+    use shm_cdr::msgs::sensor_msgs::Image;
+    use shm_runtime::{ShmConfig, ShmContext};
+    let (session, port) = listening_session();
+    let shm = ShmContext::new(ShmConfig::enabled()).unwrap();
+    let node = RosNode::builder(&session, "camera")
+        .domain_id(0)
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    let image = Image {
+        data: vec![7; 64 << 10],
+        ..Default::default()
+    };
+    let _images = keep_publishing(&node, "/image", image.clone());
+    let _chatter = keep_publishing(&node, "/chatter", RosString { data: "hi".into() });
+    // What the publisher does with each image: a pool, or none to be had.
+    let probe = node.declare_publisher::<Image>("/probe").wait().unwrap();
+    let pooled = probe.publish(&image).wait().unwrap().kind.is_shm();
+
+    let counts = |topic: &str| {
+        let out = stdout(&run(port, &["topic", "shm", topic, "-n", "20"]));
+        let mut lines = out.lines();
+        let total = lines.next().unwrap_or_default().to_owned();
+        let from = lines.next().unwrap_or_default().to_owned();
+        let number = |after: &str| -> u64 {
+            let (_, rest) = total.split_once(after).unwrap_or_else(|| panic!("{out}"));
+            rest.split_whitespace().next().unwrap().parse().unwrap()
+        };
+        (number(": "), number("messages: "), from, out.clone())
+    };
+    let (messages, in_shm, from, out) = counts("/chatter");
+    assert_eq!((messages, in_shm), (20, 0), "{out}");
+    assert!(
+        from.starts_with("  from /camera: 20 messages: 0 in shared memory"),
+        "{out}"
+    );
+    let (messages, in_shm, from, out) = counts("/image");
+    assert_eq!(messages, 20, "{out}");
+    if pooled {
+        assert!(in_shm > 0, "{out}");
+    } else {
+        assert_eq!(in_shm, 0, "{out}");
+    }
+    assert!(from.starts_with("  from /camera: 20 messages"), "{out}");
+}
+
 #[test]
 fn version_names_the_zenoh_line_and_who_shares_memory_with_it() {
     let out = Command::new(env!("CARGO_BIN_EXE_shm-ros2"))
