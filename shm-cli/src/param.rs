@@ -152,12 +152,14 @@ pub(crate) fn run(context: &Context, command: ParamCommand) -> Result<(), Error>
             } else {
                 format!(": {}", result.reason)
             };
+            // A refusal is the node's answer, not the command's failure:
+            // ros2param prints it on stderr and exits 0.
             if result.successful {
                 println!("Set parameter successful{reason}");
-                Ok(())
             } else {
-                Err(format!("Setting parameter failed{reason}").into())
+                eprintln!("Setting parameter failed{reason}");
             }
+            Ok(())
         }
         ParamCommand::Dump { node_name } => dump(context, &node_name),
         ParamCommand::Load {
@@ -334,6 +336,15 @@ fn type_string(code: u8) -> &'static str {
     }
 }
 
+/// Python's `repr` of an `array.array` of `typecode` holding `items`.
+fn python_array(typecode: char, items: Vec<String>) -> String {
+    if items.is_empty() {
+        format!("array('{typecode}')")
+    } else {
+        format!("array('{typecode}', [{}])", items.join(", "))
+    }
+}
+
 /// `ros2 param get`'s label and value, the value as Python prints it.
 fn describe(value: &ParameterValue) -> (&'static str, Option<String>) {
     let list = |items: Vec<String>| format!("[{}]", items.join(", "));
@@ -351,13 +362,18 @@ fn describe(value: &ParameterValue) -> (&'static str, Option<String>) {
             "Boolean values are:",
             Some(list(v.iter().map(|b| py_bool(*b)).collect())),
         ),
+        // rclpy holds these two as Python arrays (`int64[]`, `float64[]`),
+        // the others as lists.
         ParameterValue::IntegerArray(v) => (
             "Integer values are:",
-            Some(list(v.iter().map(i64::to_string).collect())),
+            Some(python_array('q', v.iter().map(i64::to_string).collect())),
         ),
         ParameterValue::DoubleArray(v) => (
             "Double values are:",
-            Some(list(v.iter().map(|x| python_float(*x)).collect())),
+            Some(python_array(
+                'd',
+                v.iter().map(|x| python_float(*x)).collect(),
+            )),
         ),
         ParameterValue::StringArray(v) => (
             "String values are:",

@@ -517,9 +517,20 @@ fn params_are_listed_read_and_set_as_ros2_param_does() {
         )),
         "False\n"
     );
-    // Refused: the node's reason, and a failure.
+    // rclpy holds integer and double arrays as Python arrays.
+    node.declare_parameter("counts", vec![1i64, 2, 3]).unwrap();
+    node.declare_parameter("weights", vec![1.5, -2.0]).unwrap();
+    assert_eq!(
+        stdout(&run(port, &["param", "get", "/controller", "counts"])),
+        "Integer values are: array('q', [1, 2, 3])\n"
+    );
+    assert_eq!(
+        stdout(&run(port, &["param", "get", "/controller", "weights"])),
+        "Double values are: array('d', [1.5, -2.0])\n"
+    );
+    // Refused: the node's reason on stderr, and exit 0, as ros2param.
     let refused = run(port, &["param", "set", "/controller", "gain", "fast"]);
-    assert!(!refused.status.success());
+    assert!(refused.status.success());
     assert!(
         String::from_utf8_lossy(&refused.stderr).starts_with("Setting parameter failed"),
         "{}",

@@ -350,8 +350,19 @@ def check_params(endpoint, node):
     proc = cli(endpoint, "param", "set", "/demo/py_node", "gain", "2.5")
     check(proc.stdout == "Set parameter successful\n" and node.get_parameter("gain").value == 2.5,
           f"param set: {proc.stdout!r} {proc.stderr[-300:]!r}, rclpy holds {node.get_parameter('gain').value}")
+    # Integer and double arrays: rclpy's message holds them as Python arrays,
+    # which ros2param prints as they are.
+    from rcl_interfaces.msg import ParameterValue
+    for name, values, label, field in [("counts", [1, -2, 3], "Integer values are:", "integer_array_value"),
+                                       ("weights", [1.5, -2.0], "Double values are:", "double_array_value")]:
+        node.declare_parameter(name, values)
+        line = f"{label} {getattr(ParameterValue(**{field: values}), field)}"
+        proc = cli(endpoint, "param", "get", "/demo/py_node", name)
+        check(proc.stdout == line + "\n", f"param get {name}: {proc.stdout!r} expected {line!r} {proc.stderr[-300:]!r}")
+        node.undeclare_parameter(name)
+    # A refused set: the node's reason on stderr, exit 0, as ros2param.
     proc = cli(endpoint, "param", "set", "/demo/py_node", "gain", "fast")
-    check(proc.returncode != 0 and proc.stderr.startswith("Setting parameter failed"),
+    check(proc.returncode == 0 and proc.stderr.startswith("Setting parameter failed"),
           f"param set refused: exit {proc.returncode} {proc.stderr!r}")
     print("param: list, get (every kind printed as ros2param prints it), set (and a refused set) "
           "answered by rclpy's parameter handlers")
