@@ -96,6 +96,17 @@ struct Grid {
     label: String,
 }
 
+/// A 2.9 MB message of two million one-byte messages and 100 000 empty
+/// strings: as small on the wire as a message of its shape can be.
+fn two_million_cells() -> Vec<u8> {
+    shm_cdr::to_vec(&Grid {
+        cells: vec![Cell { v: 7 }; 2 << 20],
+        names: vec![String::new(); 100_000],
+        ..Default::default()
+    })
+    .unwrap()
+}
+
 fn dynamic<T: RosMessage>() -> DynamicType {
     DynamicType::from_description(&T::full_description()).unwrap()
 }
@@ -155,13 +166,7 @@ fn streamed_json_is_the_decoded_messages_json() {
 #[test]
 fn streamed_json_takes_memory_independent_of_the_messages_size() {
     let ty = dynamic::<Grid>();
-    let grid = Grid {
-        cells: vec![Cell { v: 7 }; 2 << 20],
-        names: vec![String::new(); 100_000],
-        ..Default::default()
-    };
-    let bytes = shm_cdr::to_vec(&grid).unwrap();
-    drop(grid);
+    let bytes = two_million_cells();
     let size = bytes.len();
 
     let streamed = peak_during(|| {
@@ -182,13 +187,7 @@ fn streamed_json_takes_memory_independent_of_the_messages_size() {
 fn printed_yaml_takes_memory_independent_of_the_messages_size() {
     use shm_cdr::dynamic::YamlOptions;
     let ty = dynamic::<Grid>();
-    let grid = Grid {
-        cells: vec![Cell { v: 7 }; 2 << 20],
-        names: vec![String::new(); 100_000],
-        ..Default::default()
-    };
-    let bytes = shm_cdr::to_vec(&grid).unwrap();
-    drop(grid);
+    let bytes = two_million_cells();
     let size = bytes.len();
     for (options, keep) in [
         (YamlOptions::echo(), 128),

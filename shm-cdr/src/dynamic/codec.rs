@@ -5,7 +5,7 @@
 
 use std::borrow::Cow;
 
-use super::model::{Check, DynamicType, Element};
+use super::model::{Check, DynamicType, Element, FieldDef};
 use super::value::{Message, Value};
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::Container;
@@ -128,27 +128,9 @@ impl DynamicType {
                 Check::Message { index, .. } if on_path && !rest.is_empty() => {
                     self.decode_field_in(r, index, rest, found)?;
                 }
-                Check::Message { index, .. } => {
-                    let keep = if wanted { usize::MAX } else { 0 };
-                    let message = self.decode_message_kept(r, index, keep)?;
-                    if wanted {
-                        *found = Some(Value::Message(message));
-                    }
-                }
-                Check::Many {
-                    element,
-                    container,
-                    min,
-                } => {
-                    let n = read_len(r, container, min)?;
-                    let keep = if wanted { usize::MAX } else { 0 };
-                    let value = self.decode_elements_kept(r, element, n, keep)?;
-                    if wanted {
-                        *found = Some(value);
-                    }
-                }
                 _ => {
-                    let value = self.decode_single(r, field.element)?;
+                    let keep = if wanted { usize::MAX } else { 0 };
+                    let (value, _) = self.decode_field_kept(r, field, check, keep)?;
                     if wanted {
                         *found = Some(value);
                     }
@@ -189,24 +171,11 @@ impl DynamicType {
         let mut values = Vec::with_capacity(def.fields.len());
         let mut cut = Vec::new();
         for (i, (field, check)) in def.fields.iter().zip(checks).enumerate() {
-            values.push(match *check {
-                Check::Message { index, .. } => {
-                    Value::Message(self.decode_message_kept(r, index, keep)?)
-                }
-                Check::Many {
-                    element,
-                    container,
-                    min,
-                } => {
-                    let n = read_len(r, container, min)?;
-                    let value = self.decode_elements_kept(r, element, n, keep)?;
-                    if value.len().is_some_and(|kept| kept < n) {
-                        cut.push((i, n));
-                    }
-                    value
-                }
-                _ => self.decode_single(r, field.element)?,
-            });
+            let (value, cut_from) = self.decode_field_kept(r, field, check, keep)?;
+            if let Some(n) = cut_from {
+                cut.push((i, n));
+            }
+            values.push(value);
         }
         // rosidl's placeholder member of an empty message carries no value:
         // read as 0 whatever the byte, as the generated types read it.
@@ -220,6 +189,36 @@ impl DynamicType {
             index,
             values,
             cut,
+        })
+    }
+
+    /// One field's value at the reader, keeping `keep + 1` elements of each
+    /// array or sequence of strings or messages; with the count on the wire
+    /// when fewer were kept.
+    #[inline]
+    fn decode_field_kept<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        field: &FieldDef,
+        check: &Check,
+        keep: usize,
+    ) -> Result<(Value<'de>, Option<usize>), DecodeError> {
+        Ok(match *check {
+            Check::Message { index, .. } => (
+                Value::Message(self.decode_message_kept(r, index, keep)?),
+                None,
+            ),
+            Check::Many {
+                element,
+                container,
+                min,
+            } => {
+                let n = read_len(r, container, min)?;
+                let value = self.decode_elements_kept(r, element, n, keep)?;
+                let cut_from = value.len().is_some_and(|kept| kept < n).then_some(n);
+                (value, cut_from)
+            }
+            _ => (self.decode_single(r, field.element)?, None),
         })
     }
 
