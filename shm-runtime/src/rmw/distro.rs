@@ -14,9 +14,14 @@
 //!   endpoints for types with a `uint8[]` field of their own: their tokens
 //!   may end in one more field, `backends:<name>:<metadata>;…`, which older
 //!   releases ignore. Their subscribers keep the topic's key; their volatile
-//!   publishers send each discovered subscriber its messages on a key of its
-//!   own ([`buffer_key_expr`](super::buffer_key_expr)), which our
-//!   subscribers of such types read too.
+//!   publishers, while they match no more subscribers than they discovered,
+//!   send each message once on `<key>/_buf_cpu` for every subscriber whose
+//!   only backend is `cpu`, and on `<key>/_buf/<GID>` for each other one
+//!   ([`buffer_key_expr`](super::buffer_key_expr)), which our subscribers of
+//!   such types read too; with no subscriber discovered they put nothing, not
+//!   even on the topic's key (`rmw_publisher_data.cpp`,
+//!   `publish_buffer_aware`). A subscriber once discovered is never
+//!   forgotten: they keep putting on its key after it leaves.
 //! - **Node services**: `~/get_type_description` exists from Iron on, so a
 //!   Humble node has none; logger-level services likewise.
 
