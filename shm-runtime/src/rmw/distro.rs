@@ -15,8 +15,8 @@
 //!   may end in one more field, `backends:<name>:<metadata>;…`, which older
 //!   releases ignore. Their subscribers keep the topic's key; their volatile
 //!   publishers, while they match no more subscribers than they discovered,
-//!   send each message once on `<key>/_buf_cpu` for every subscriber whose
-//!   only backend is `cpu`, and on `<key>/_buf/<GID>` for each other one
+//!   send each message once on `<key>/_buf_cpu`, shared by the subscribers
+//!   whose only backend is `cpu`, and on `<key>/_buf/<GID>` for each other one
 //!   ([`buffer_key_expr`](super::buffer_key_expr)), which our subscribers of
 //!   such types read too; with no subscriber discovered they put nothing, not
 //!   even on the topic's key (`rmw_publisher_data.cpp`,
