@@ -996,7 +996,6 @@ impl ControlServices {
     }
 }
 
-/// Publish `time` (ns since the Unix epoch) on `/clock`.
 /// A played topic's publisher: of a type the player's node describes, or of
 /// bytes alone.
 enum PlayedPublisher {
@@ -1043,6 +1042,7 @@ fn recorded_type(
     }
 }
 
+/// Publish `time` (ns since the Unix epoch) on `/clock`.
 fn publish_clock(clock: &RosPublisher<Clock>, time: u64) {
     const NANOS: u64 = 1_000_000_000;
     let msg = Clock {
