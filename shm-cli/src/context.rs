@@ -47,6 +47,13 @@ pub(crate) struct Connection {
     interfaces: Vec<std::path::PathBuf>,
 }
 
+impl Connection {
+    /// The distribution `--distro` or `ROS_DISTRO` names, else the default.
+    pub(crate) fn distro(&self) -> Distro {
+        self.distro.unwrap_or_default()
+    }
+}
+
 /// What the session reached when it opened.
 pub(crate) struct Reached {
     /// A router or a peer (or the check was turned off).
@@ -123,7 +130,7 @@ impl Context {
             reached: Reached { found, endpoints },
             session,
             domain_id: connection.domain_id,
-            distro: connection.distro.unwrap_or_default(),
+            distro: connection.distro(),
             timeout,
             local,
             graph,

@@ -4,6 +4,7 @@
 use std::io::Write;
 
 use clap::Subcommand;
+use shm_runtime::rmw::Distro;
 
 use crate::types::{self, Kind};
 use crate::Error;
@@ -26,7 +27,7 @@ pub(crate) enum InterfaceCommand {
     },
 }
 
-pub(crate) fn run(command: InterfaceCommand) -> Result<(), Error> {
+pub(crate) fn run(command: InterfaceCommand, distro: Distro) -> Result<(), Error> {
     let mut out = std::io::stdout().lock();
     match command {
         InterfaceCommand::List => {
@@ -53,19 +54,19 @@ pub(crate) fn run(command: InterfaceCommand) -> Result<(), Error> {
             no_comments,
         } => {
             let mut text = String::new();
-            show(&type_name, !no_comments, all_comments, 0, &mut text)?;
+            show(distro, &type_name, !no_comments, all_comments, 0, &mut text)?;
             out.write_all(text.as_bytes())?;
             Ok(())
         }
     }
 }
 
-/// The interface file of a standard type.
-fn source(type_name: &str) -> Result<String, Error> {
-    let known = types::standard().get(type_name).ok_or_else(|| {
-        format!("Unknown interface '{type_name}': not a standard interface this binary knows")
-    })?;
-    let description = (known.describe)();
+/// The interface file of a standard type, as released for `distro`.
+fn source(distro: Distro, type_name: &str) -> Result<String, Error> {
+    let (_, description) =
+        shm_bag::types::standard_description(type_name, distro).ok_or_else(|| {
+            format!("Unknown interface '{type_name}': not a standard interface this binary knows")
+        })?;
     let text = description
         .sources()
         .find(|(name, _, _)| *name == type_name)
@@ -78,6 +79,7 @@ fn source(type_name: &str) -> Result<String, Error> {
 /// that type's lines, one tab further in (without comments or blank lines
 /// unless `nested_comments`).
 fn show(
+    distro: Distro,
     type_name: &str,
     comments: bool,
     nested_comments: bool,
@@ -87,8 +89,11 @@ fn show(
     let (package, _) = type_name.split_once('/').ok_or_else(|| {
         format!("Invalid name '{type_name}'. Expected three parts separated by '/'")
     })?;
-    let text = source(type_name)?;
-    for line in text.lines() {
+    let text = source(distro, type_name)?;
+    // Every line of the file, a blank last one too (`lines` would drop it);
+    // none of an empty one.
+    let lines = text.split('\n').filter(|_| !text.is_empty());
+    for line in lines {
         let line = line.trim_end();
         let code = strip_comment(line);
         let is_comment_or_blank = code.trim().is_empty();
@@ -104,7 +109,14 @@ fn show(
             out.push('\n');
         }
         if let Some(nested) = nested_type(package, code) {
-            show(&nested, nested_comments, nested_comments, indent + 1, out)?;
+            show(
+                distro,
+                &nested,
+                nested_comments,
+                nested_comments,
+                indent + 1,
+                out,
+            )?;
         }
     }
     Ok(())

@@ -128,7 +128,7 @@ fn main() -> ExitCode {
     shm_runtime::init_logging();
     let cli = parse_cli();
     let result = match cli.command {
-        Command::Interface(command) => interface::run(command),
+        Command::Interface(command) => interface::run(command, cli.connection.distro()),
         Command::Router(args) => router::run(&args),
         Command::Completions { shell } => {
             use clap::CommandFactory;

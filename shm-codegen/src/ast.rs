@@ -330,3 +330,91 @@ impl Package {
         deps
     }
 }
+
+/// An interface file of `theirs` whose text differs from the same file in
+/// `ours`, though it defines the same types: another release's wording of its
+/// comments. The text is as in [`Message::source`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RewordedSource {
+    /// `pkg/msg/Name`, `pkg/srv/Name` or `pkg/action/Name`.
+    pub type_name: String,
+    /// `theirs`' text.
+    pub text: String,
+}
+
+/// Every interface file `theirs` words differently from `ours`, where both
+/// have the file. A file that defines its types differently (fields,
+/// constants, default values) is an error naming it: such a type needs a
+/// definition of its own, not only another text.
+pub fn reworded_sources(ours: &Package, theirs: &Package) -> Result<Vec<RewordedSource>, String> {
+    fn definition(message: &Message) -> (Vec<Field>, Vec<Constant>) {
+        let fields = message
+            .fields
+            .iter()
+            .map(|f| Field {
+                doc: Vec::new(),
+                ..f.clone()
+            })
+            .collect();
+        let constants = message
+            .constants
+            .iter()
+            .map(|c| Constant {
+                doc: Vec::new(),
+                ..c.clone()
+            })
+            .collect();
+        (fields, constants)
+    }
+    // Each file's type name and text, with the messages it defines.
+    fn files(package: &Package) -> Vec<(String, Option<&str>, Vec<&Message>)> {
+        let messages = package
+            .messages
+            .iter()
+            .map(|m| (m.ty.full_name(), m.source.as_deref(), vec![m]));
+        let services = package.services.iter().map(|s| {
+            (
+                s.ty.full_name(),
+                s.source.as_deref(),
+                vec![&s.request, &s.response],
+            )
+        });
+        let actions = package.actions.iter().map(|a| {
+            (
+                a.ty.full_name(),
+                a.source.as_deref(),
+                vec![&a.goal, &a.result, &a.feedback],
+            )
+        });
+        messages.chain(services).chain(actions).collect()
+    }
+    let theirs_files = files(theirs);
+    let mut out = Vec::new();
+    for (name, text, messages) in files(ours) {
+        let Some((_, their_text, their_messages)) =
+            theirs_files.iter().find(|(n, _, _)| *n == name)
+        else {
+            continue;
+        };
+        let same_definition = messages.len() == their_messages.len()
+            && messages
+                .iter()
+                .zip(their_messages)
+                .all(|(a, b)| definition(a) == definition(b));
+        if !same_definition {
+            return Err(format!(
+                "{name} is defined differently in {} than here: give that release a type of its own",
+                theirs.name
+            ));
+        }
+        if let (Some(text), Some(their_text)) = (text, their_text) {
+            if text != *their_text {
+                out.push(RewordedSource {
+                    type_name: name,
+                    text: (*their_text).to_owned(),
+                });
+            }
+        }
+    }
+    Ok(out)
+}

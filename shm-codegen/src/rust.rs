@@ -873,3 +873,20 @@ pub fn count(n: usize, thing: &str) -> String {
         n => format!("{n} {thing}s"),
     }
 }
+
+/// The body of a table of the interface files other distributions word
+/// differently, as `(distro, type name, text)` rows in the order given:
+/// `pub(crate) const SOURCES: &[(&str, &str, &str)]`.
+pub fn distro_sources(rows: &[(String, crate::ast::RewordedSource)]) -> String {
+    let mut out = String::from(
+        "/// `(distribution, pkg/kind/Name, the file's text)`.\npub(crate) const SOURCES: &[(&str, &str, &str)] = &[\n",
+    );
+    for (distro, source) in rows {
+        out.push_str(&format!(
+            "    ({distro:?}, {:?}, {:?}),\n",
+            source.type_name, source.text
+        ));
+    }
+    out.push_str("];\n");
+    out
+}

@@ -557,6 +557,62 @@ fn the_graph_lists_nodes_topics_services_and_endpoints_with_qos_and_gids() {
     }
 }
 
+/// A QoS given to the builder, after the node chose its endpoint, is the one
+/// its graph token (and so its GID) says, as much as the one its Zenoh
+/// declaration follows: ROS tools show what the endpoint does.
+#[test]
+fn the_qos_given_to_a_builder_is_the_one_the_graph_shows() {
+    use shm_cdr::msgs::std_msgs;
+    use shm_runtime::rmw::Qos;
+
+    let (a, b, _) = session_pair();
+    let talker = node(&a, "talker");
+    let publisher = talker
+        .declare_publisher::<std_msgs::String>("/latched")
+        .qos(Qos::transient_local(3))
+        .wait()
+        .unwrap();
+    let token = publisher.liveliness_token().unwrap().to_owned();
+    assert!(
+        token.ends_with(&Qos::transient_local(3).to_key_expr()),
+        "{token}"
+    );
+    for n in 0..3 {
+        publisher
+            .publish(&std_msgs::String {
+                data: format!("kept {n}"),
+            })
+            .wait()
+            .unwrap();
+    }
+    let listener = node(&b, "listener");
+    let subscriber = listener
+        .declare_subscriber_with_qos::<std_msgs::String>("/latched", Qos::default())
+        .qos(Qos::transient_local(3))
+        .wait()
+        .unwrap();
+    // Transient local as the token says: the three kept messages arrive.
+    for n in 0..3 {
+        let sample = subscriber.recv_timeout(TIMEOUT).unwrap().unwrap();
+        let message: std_msgs::String = sample.decode().unwrap();
+        assert_eq!(message.data, format!("kept {n}"));
+    }
+    let graph = listener.graph(Duration::from_secs(2)).unwrap();
+    let publishers = graph.publishers("/latched");
+    assert_eq!(publishers.len(), 1);
+    assert_eq!(Some(publishers[0].gid), publisher.gid());
+    assert_eq!(
+        publishers[0].endpoint.as_ref().unwrap().qos,
+        Qos::transient_local(3)
+    );
+    let subscribers = graph.subscribers("/latched");
+    assert_eq!(subscribers.len(), 1);
+    assert_eq!(
+        subscribers[0].endpoint.as_ref().unwrap().qos,
+        Qos::transient_local(3)
+    );
+}
+
 /// Over Zenoh's lowlatency transport (which cannot fragment), a request or a
 /// response too large to travel inline is refused, not lost: the client's call
 /// fails with `Unfragmentable` before anything is sent, and a server that cannot

@@ -20,8 +20,12 @@ a prefix of that escaping of ours.
     python tests/ros2/type_description.py <dir with the interop_type_description binary>
 
 With `ROS_DISTRO=jazzy` and Jazzy's wheels, our node speaks Jazzy and is
-compared with Jazzy's rclpy; a type source that differs from ours only in its
-comments is then counted as equal and named (ours are the Kilted release's text).
+compared with Jazzy's rclpy: its sources must be Jazzy's files, whose comments
+differ from Kilted's in places.
+
+Then `shm-ros2 interface show` (beside the examples' folder), with the same
+distribution, for every interface file the wheels install: the lines it shows
+at the top level must be the file's own.
 """
 import os
 import subprocess
@@ -34,7 +38,7 @@ from rclpy.action import ActionServer
 from type_description_interfaces.srv import GetTypeDescription
 
 from check import message_class
-from rmw_zenoh import call, definition_lines, free_port, gid_of, open_session, rosidl_hash
+from rmw_zenoh import call, free_port, gid_of, open_session, rosidl_hash
 
 DISTRO = os.environ.get("ROS_DISTRO", "kilted")
 BIN = Path(sys.argv[1] if len(sys.argv) > 1 else "target/release/examples") / "interop_type_description"
@@ -91,10 +95,6 @@ def c_embedded(text):
 
 
 escaped = {"sources": 0, "defaults": 0}
-# Types whose installed file differs from ours in comments only: ours carry
-# the text of the Kilted release the Kilted wheels hold; other releases
-# (Jazzy's wheels, later patch releases) reword comments, which no hash sees.
-comments_differ = set()
 
 
 def reconcile(ours, theirs):
@@ -104,17 +104,40 @@ def reconcile(ours, theirs):
         if a.raw_file_contents != b.raw_file_contents and c_embedded(a.raw_file_contents).startswith(b.raw_file_contents):
             b.raw_file_contents = a.raw_file_contents
             escaped["sources"] += 1
-        elif DISTRO != "kilted" and a.raw_file_contents != b.raw_file_contents \
-                and (a.type_name, a.encoding) == (b.type_name, b.encoding) \
-                and definition_lines(a.raw_file_contents) == definition_lines(b.raw_file_contents):
-            b.raw_file_contents = a.raw_file_contents
-            comments_differ.add(a.type_name)
     described = lambda r: [r.type_description.type_description] + list(r.type_description.referenced_type_descriptions)
     for da, db in zip(described(ours), described(theirs)):
         for fa, fb in zip(da.fields, db.fields):
             if fa.default_value != fb.default_value and c_embedded(fa.default_value).startswith(fb.default_value):
                 fb.default_value = fa.default_value
                 escaped["defaults"] += 1
+
+
+def check_interface_show():
+    """`shm-ros2 interface show` of every interface file the wheels install,
+    as released for DISTRO: its top-level lines are the file's lines."""
+    cli = BIN.parent.parent / "shm-ros2"
+    share = Path(sys.prefix) / "share"
+    files = sorted(f for kind in ("msg", "srv", "action") for f in share.glob(f"*/{kind}/*.{kind}"))
+    shown = equal = 0
+    for f in files:
+        name = f"{f.parent.parent.name}/{f.parent.name}/{f.stem}"
+        out = subprocess.run([str(cli), "interface", "show", name, "--distro", DISTRO],
+                             capture_output=True, text=True)
+        if out.returncode != 0:
+            # A package this build does not carry (rclpy's own test types).
+            check("not a standard interface" in out.stderr, f"interface show {name}: {out.stderr.strip()}")
+            continue
+        shown += 1
+        top = [line for line in out.stdout.splitlines() if not line.startswith("\t")]
+        want = [line.rstrip() for line in f.read_text().splitlines()]
+        if top == want:
+            equal += 1
+        else:
+            line = next(i for i, (a, b) in enumerate(zip(top + [None], want + [None])) if a != b)
+            check(False, f"interface show {name} --distro {DISTRO}: line {line + 1} is "
+                  f"{(top + [None])[line]!r}, the file's {(want + [None])[line]!r}")
+    check(shown > 0, "interface show: no interface file was shown")
+    print(f"interface show --distro {DISTRO}: {equal}/{shown} interface files shown as the wheels install them")
 
 
 def first_difference(ours, theirs):
@@ -196,9 +219,8 @@ def main():
     print(f"type description: {equal}/{len(questions)} replies equal to rclpy's ({len(used)} types, "
           f"each with and without sources, {sources} type sources compared, 6 failure cases; "
           f"rosidl_generator_c's escaping: {escaped['sources']} sources, {escaped['defaults']} default values)"
-          + (f"; not in rclpy (no wheel): {len(skipped)} types" if skipped else "")
-          + (f"; {DISTRO}'s files differ from ours in comments only: {', '.join(sorted(comments_differ))}"
-             if comments_differ else ""))
+          + (f"; not in rclpy (no wheel): {len(skipped)} types" if skipped else ""))
+    check_interface_show()
     if failures:
         for f in failures[:20]:
             print("FAIL:", f)

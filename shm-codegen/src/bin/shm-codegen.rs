@@ -3,7 +3,8 @@
 //! ```text
 //! shm-codegen [--crate-path PATH] [--extern-root PATH] [--arbitrary] [--no-borrowed]
 //!             [--shm-bytes TYPE [--shm-forms-only]] [--features CARGO_TOML
-//!             [--forward-features CRATE]] [--registry FILE] --out-dir DIR PKG_DIR...
+//!             [--forward-features CRATE]] [--registry FILE]
+//!             [--distro-sources FILE (--sources-of DISTRO=DIR)...] --out-dir DIR PKG_DIR...
 //! ```
 //!
 //! Writes `DIR/<pkg>.rs` for each package and `DIR/mod.rs` declaring them. With
@@ -16,6 +17,10 @@
 //! message with byte sequences of its own; with `--shm-forms-only` those forms
 //! are all that is written (packages without any are left out), and
 //! `--forward-features CRATE` makes each package's feature enable `CRATE/<pkg>`.
+//! With `--distro-sources`, also writes FILE: the interface files that the
+//! packages in each `--sources-of` DIR (one folder per package, as a
+//! distribution releases them) word differently from PKG_DIR's, with the same
+//! definitions (a definition that differs is an error).
 //! Output goes through `rustfmt` when it is installed.
 //! `shm-codegen/generate-standard-set.sh` runs it for `shm_cdr::msgs` and
 //! `shm_runtime::msgs`.
@@ -34,6 +39,8 @@ struct Args {
     features: Option<PathBuf>,
     registry: Option<PathBuf>,
     forward_features: Option<String>,
+    distro_sources: Option<PathBuf>,
+    sources_of: Vec<(String, PathBuf)>,
     options: rust::Options,
 }
 
@@ -45,6 +52,8 @@ fn parse_args() -> Result<Args, String> {
     let mut features = None;
     let mut registry = None;
     let mut forward_features = None;
+    let mut distro_sources = None;
+    let mut sources_of = Vec::new();
     let mut packages = 0;
     while let Some(arg) = args.next() {
         let mut value = |name: &str| args.next().ok_or(format!("{name} needs a value"));
@@ -59,6 +68,16 @@ fn parse_args() -> Result<Args, String> {
             "--out-dir" => out_dir = Some(PathBuf::from(value("--out-dir")?)),
             "--features" => features = Some(PathBuf::from(value("--features")?)),
             "--registry" => registry = Some(PathBuf::from(value("--registry")?)),
+            "--distro-sources" => {
+                distro_sources = Some(PathBuf::from(value("--distro-sources")?));
+            }
+            "--sources-of" => {
+                let given = value("--sources-of")?;
+                let (distro, dir) = given
+                    .split_once('=')
+                    .ok_or(format!("--sources-of {given}: write DISTRO=DIR"))?;
+                sources_of.push((distro.to_owned(), PathBuf::from(dir)));
+            }
             "-h" | "--help" => return Err(String::new()),
             flag if flag.starts_with("--") => return Err(format!("unknown option {flag}")),
             dir => {
@@ -70,6 +89,9 @@ fn parse_args() -> Result<Args, String> {
     let out_dir = out_dir.ok_or("--out-dir is required")?;
     if packages == 0 {
         return Err("no package folders given".into());
+    }
+    if sources_of.is_empty() != distro_sources.is_none() {
+        return Err("--distro-sources FILE and --sources-of DISTRO=DIR go together".into());
     }
     if options.shm_forms_only && options.shm_bytes.is_none() {
         return Err("--shm-forms-only needs --shm-bytes TYPE".into());
@@ -85,11 +107,13 @@ fn parse_args() -> Result<Args, String> {
         features,
         registry,
         forward_features,
+        distro_sources,
+        sources_of,
         options,
     })
 }
 
-const USAGE: &str = "usage: shm-codegen [--crate-path PATH] [--extern-root PATH] [--arbitrary] [--no-borrowed] [--shm-bytes TYPE [--shm-forms-only]] [--features CARGO_TOML [--forward-features CRATE]] [--registry FILE] --out-dir DIR PKG_DIR...";
+const USAGE: &str = "usage: shm-codegen [--crate-path PATH] [--extern-root PATH] [--arbitrary] [--no-borrowed] [--shm-bytes TYPE [--shm-forms-only]] [--features CARGO_TOML [--forward-features CRATE]] [--registry FILE] [--distro-sources FILE (--sources-of DISTRO=DIR)...] --out-dir DIR PKG_DIR...";
 
 fn main() -> ExitCode {
     let args = match parse_args() {
@@ -111,6 +135,33 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The table of what each distribution words differently, for the packages
+/// it releases.
+fn distro_sources(
+    loaded: &[shm_codegen::ast::Package],
+    sources_of: &[(String, PathBuf)],
+) -> Result<String, String> {
+    let mut rows = Vec::new();
+    for (distro, dir) in sources_of {
+        for ours in loaded {
+            let theirs_dir = dir.join(&ours.name);
+            if !theirs_dir.is_dir() {
+                continue;
+            }
+            let theirs = shm_codegen::load_package(&theirs_dir).map_err(|e| e.to_string())?;
+            let reworded = shm_codegen::ast::reworded_sources(ours, &theirs)
+                .map_err(|e| format!("{distro}: {e}"))?;
+            rows.extend(reworded.into_iter().map(|r| (distro.clone(), r)));
+        }
+    }
+    let distros: Vec<&str> = sources_of.iter().map(|(d, _)| d.as_str()).collect();
+    Ok(format!(
+        "{GENERATED_MARKER}\n//! The interface files of the standard set as released for {}, where\n//! their text differs from the one `msgs` carries (comments only: the same\n//! definitions, so the same bytes and hashes). Written by\n//! `shm-codegen/generate-standard-set.sh` from that release's packages.\n\n{}",
+        distros.join(", "),
+        rust::distro_sources(&rows)
+    ))
 }
 
 fn run(args: Args) -> Result<(), String> {
@@ -180,6 +231,9 @@ fn run(args: Args) -> Result<(), String> {
     }
     if let Some(registry) = &args.registry {
         write(registry, &registry_source(&loaded, args.options.borrowed))?;
+    }
+    if let Some(file) = &args.distro_sources {
+        write(file, &distro_sources(&loaded, &args.sources_of)?)?;
     }
     if args.options.shm_forms_only {
         let forms = sources

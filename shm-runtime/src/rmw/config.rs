@@ -40,37 +40,112 @@ pub const ROUTER_CHECK_ATTEMPTS: &str = "ZENOH_ROUTER_CHECK_ATTEMPTS";
 pub const DEFAULT_ROUTER_ENDPOINT: &str = "tcp/localhost:7447";
 
 /// What rmw_zenoh_cpp's default session and router configurations
-/// (`DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5`,
-/// `DEFAULT_RMW_ZENOH_ROUTER_CONFIG.json5`) both set where they differ from
-/// Zenoh's defaults: no multicast, gossip, long timeouts and lease,
-/// timestamps.
+/// (`config/DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5` and
+/// `DEFAULT_RMW_ZENOH_ROUTER_CONFIG.json5`, the same in every release from
+/// Humble 0.1.9 to Rolling 0.12.0) both set, as Zenoh reads them, wherever
+/// that differs from Zenoh's own default configuration: no multicast,
+/// gossip to routers only, long timeouts and lease, more sessions, the
+/// admin space, timestamps, shared memory off with a 48 MiB pool for Zenoh's
+/// copies of large payloads. Keys Zenoh leaves unset (`null`) are set as the
+/// files set them, though most equal what Zenoh assumes, so that the
+/// configuration is the files' whatever Zenoh line reads it.
+/// A test compares the result with a release's files (the directory
+/// `config` of an rmw_zenoh_cpp release in `RMW_ZENOH_CPP_CONFIG`, then
+/// `cargo test -p shm-runtime --lib -- --ignored a_release_s_files`).
 const COMMON_DEFAULTS: &[(&str, &str)] = &[
+    ("adminspace/enabled", "true"),
+    ("connect/timeout_ms", "{ router: -1, peer: -1, client: 0 }"),
+    (
+        "connect/exit_on_failure",
+        "{ router: false, peer: false, client: true }",
+    ),
+    (
+        "connect/retry",
+        "{ period_init_ms: 1000, period_max_ms: 4000, period_increase_factor: 2.0 }",
+    ),
+    ("listen/timeout_ms", "0"),
+    ("listen/exit_on_failure", "true"),
+    (
+        "listen/retry",
+        "{ period_init_ms: 1000, period_max_ms: 4000, period_increase_factor: 2.0 }",
+    ),
+    (
+        "open/return_conditions",
+        "{ connect_scouted: true, declares: true }",
+    ),
+    ("scouting/timeout", "3000"),
+    ("scouting/delay", "500"),
     ("scouting/multicast/enabled", "false"),
+    ("scouting/multicast/address", r#""224.0.0.224:7446""#),
+    ("scouting/multicast/interface", r#""auto""#),
+    ("scouting/multicast/ttl", "1"),
+    ("scouting/multicast/listen", "true"),
+    (
+        "scouting/multicast/autoconnect",
+        r#"{ router: [], peer: ["router", "peer"], client: ["router"] }"#,
+    ),
     ("scouting/gossip/enabled", "true"),
     ("scouting/gossip/multihop", "false"),
+    (
+        "scouting/gossip/target",
+        r#"{ router: ["router", "peer"], peer: ["router"] }"#,
+    ),
+    (
+        "scouting/gossip/autoconnect",
+        r#"{ router: [], peer: ["router", "peer"] }"#,
+    ),
     (
         "timestamping/enabled",
         "{ router: true, peer: true, client: true }",
     ),
+    ("timestamping/drop_future_timestamp", "false"),
     ("queries_default_timeout", "600000"),
+    ("routing/interests/timeout", "10000"),
     ("transport/unicast/open_timeout", "60000"),
     ("transport/unicast/accept_timeout", "60000"),
+    ("transport/unicast/accept_pending", "10000"),
+    ("transport/unicast/max_sessions", "10000"),
     ("transport/unicast/max_links", "1"),
     ("transport/link/tx/lease", "60000"),
+    ("transport/link/tx/keep_alive", "2"),
+    ("transport/link/tls/enable_mtls", "false"),
+    ("transport/link/tls/verify_name_on_connect", "true"),
+    ("transport/link/tls/close_link_on_expiration", "false"),
+    ("transport/shared_memory/enabled", "false"),
+    (
+        "transport/shared_memory/transport_optimization/pool_size",
+        "50331648",
+    ),
+    (
+        "transport/shared_memory/transport_optimization/message_size_threshold",
+        "512",
+    ),
 ];
 
-/// The session's own defaults: a peer that reaches the others through the
-/// router at [`DEFAULT_ROUTER_ENDPOINT`] and listens on a local port of its
-/// own. Two differences from rmw_zenoh_cpp: shared memory is on (without
-/// Zenoh's implicit copy of large heap payloads), where rmw_zenoh_cpp ships
-/// it off; and a peer gossips to peers as well as to
-/// routers (Zenoh's default, where rmw_zenoh_cpp gossips to routers only),
-/// so that peers joined to one another without a router still find each
-/// other.
+/// The session file's own settings: a peer that reaches the others through
+/// the router at [`DEFAULT_ROUTER_ENDPOINT`] and listens on a local port of
+/// its own, connecting to a peer it learns of only if its id is the greater
+/// one, and blocking a congested publisher for up to a minute before
+/// dropping; then the two places where this crate's sessions differ from
+/// rmw_zenoh_cpp's (`SESSION_DEVIATIONS` in the tests holds the release's
+/// values).
 const SESSION_DEFAULTS: &[(&str, &str)] = &[
     ("mode", r#""peer""#),
     ("connect/endpoints", r#"["tcp/localhost:7447"]"#),
     ("listen/endpoints", r#"["tcp/localhost:0"]"#),
+    (
+        "scouting/multicast/autoconnect_strategy",
+        r#"{ peer: { to_router: "always", to_peer: "greater-zid" } }"#,
+    ),
+    (
+        "scouting/gossip/autoconnect_strategy",
+        r#"{ peer: { to_router: "always", to_peer: "greater-zid" } }"#,
+    ),
+    (
+        "transport/link/tx/queue/congestion_control/block/wait_before_close",
+        "60000000",
+    ),
+    // Shared memory on, where rmw_zenoh_cpp ships it off.
     ("transport/shared_memory/enabled", "true"),
     // Zenoh's implicit copy of large heap payloads into a pool of its own,
     // whose collection can overwrite a sample a stalled reader holds (the
@@ -79,17 +154,44 @@ const SESSION_DEFAULTS: &[(&str, &str)] = &[
         "transport/shared_memory/transport_optimization/enabled",
         "false",
     ),
+    // A peer gossips to peers as well as to routers (Zenoh's default, where
+    // rmw_zenoh_cpp gossips to routers only), so that peers joined to one
+    // another without a router still find each other.
+    (
+        "scouting/gossip/target",
+        r#"{ router: ["router", "peer"], peer: ["router", "peer"] }"#,
+    ),
 ];
 
-/// rmw_zenohd's own defaults: a router on port 7447 of every interface,
-/// gossiping to routers and peers.
+/// Where [`default_session_config`] differs from rmw_zenoh_cpp's default
+/// session configuration, each key with its value there; the router's
+/// configuration has no difference.
+#[cfg(test)]
+const SESSION_DEVIATIONS: &[(&str, &str)] = &[
+    ("transport/shared_memory/enabled", "false"),
+    (
+        "transport/shared_memory/transport_optimization/enabled",
+        "true",
+    ),
+    (
+        "scouting/gossip/target",
+        r#"{ router: ["router", "peer"], peer: ["router"] }"#,
+    ),
+];
+
+/// The router file's own settings: rmw_zenohd on port 7447 of every
+/// interface, gossiping to routers and peers.
 const ROUTER_DEFAULTS: &[(&str, &str)] = &[
     ("mode", r#""router""#),
     ("connect/endpoints", "[]"),
     ("listen/endpoints", r#"["tcp/[::]:7447"]"#),
     (
-        "scouting/gossip/target",
-        r#"{ router: ["router", "peer"], peer: ["router"] }"#,
+        "scouting/multicast/autoconnect_strategy",
+        r#"{ router: { to_router: "always", to_peer: "always" } }"#,
+    ),
+    (
+        "scouting/gossip/autoconnect_strategy",
+        r#"{ router: { to_router: "always", to_peer: "always" } }"#,
     ),
 ];
 
@@ -691,6 +793,99 @@ mod tests {
         assert_eq!(
             router.get_json("listen/endpoints").unwrap(),
             r#"["tcp/[::]:7447"]"#
+        );
+        // Each deviation is a key the session sets, to another value.
+        for (key, release) in SESSION_DEVIATIONS {
+            let ours = json(&session, key);
+            let mut theirs = Config::default();
+            theirs.insert_json5(key, release).unwrap();
+            assert_ne!(ours, json(&theirs, key), "{key}");
+            assert!(SESSION_DEFAULTS.iter().any(|(k, _)| k == key), "{key}");
+        }
+    }
+
+    fn json(config: &Config, key: &str) -> serde_json::Value {
+        serde_json::from_str(&config.get_json(key).unwrap()).unwrap()
+    }
+
+    /// Every key of `theirs` whose value differs in `ours`, as `key: ours
+    /// != theirs`.
+    fn differences(ours: &Config, theirs: &Config) -> Vec<String> {
+        // Every key of `a` (and under it), with `b`'s value beside it.
+        fn walk(
+            path: &str,
+            a: &serde_json::Value,
+            b: &serde_json::Value,
+            out: &mut Vec<(String, String, String)>,
+        ) {
+            match (a, b) {
+                (serde_json::Value::Object(a), serde_json::Value::Object(b)) => {
+                    for (key, value) in a {
+                        let path = if path.is_empty() {
+                            key.clone()
+                        } else {
+                            format!("{path}/{key}")
+                        };
+                        walk(
+                            &path,
+                            value,
+                            b.get(key).unwrap_or(&serde_json::Value::Null),
+                            out,
+                        );
+                    }
+                }
+                _ if a != b => out.push((path.to_owned(), a.to_string(), b.to_string())),
+                _ => {}
+            }
+        }
+        let ours: serde_json::Value = serde_json::from_str(&ours.to_string()).unwrap();
+        let theirs: serde_json::Value = serde_json::from_str(&theirs.to_string()).unwrap();
+        let mut both = Vec::new();
+        walk("", &ours, &theirs, &mut both);
+        let mut reversed = Vec::new();
+        walk("", &theirs, &ours, &mut reversed);
+        both.extend(reversed.into_iter().map(|(key, t, o)| (key, o, t)));
+        let mut out: Vec<String> = both
+            .into_iter()
+            .map(|(key, o, t)| format!("{key}: {o} != {t}"))
+            .collect();
+        out.sort();
+        out.dedup();
+        out
+    }
+
+    /// The defaults against a release's own files, as Zenoh reads both:
+    /// equal, but for the session's deviations, which hold the release's
+    /// values. Run it with `RMW_ZENOH_CPP_CONFIG=<the release's config
+    /// directory> cargo test -p shm-runtime --lib -- --ignored
+    /// a_release_s_files`.
+    #[test]
+    #[ignore = "needs RMW_ZENOH_CPP_CONFIG: the config directory of an rmw_zenoh_cpp release"]
+    fn the_defaults_are_a_release_s_files() {
+        let dir = PathBuf::from(
+            std::env::var_os("RMW_ZENOH_CPP_CONFIG")
+                .expect("RMW_ZENOH_CPP_CONFIG: the config directory of an rmw_zenoh_cpp release"),
+        );
+        let release_router =
+            Config::from_file(dir.join("DEFAULT_RMW_ZENOH_ROUTER_CONFIG.json5")).unwrap();
+        assert_eq!(
+            differences(&default_router_config(), &release_router),
+            Vec::<String>::new()
+        );
+        let release_session =
+            Config::from_file(dir.join("DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5")).unwrap();
+        let mut as_released = default_session_config();
+        for (key, value) in SESSION_DEVIATIONS {
+            as_released.insert_json5(key, value).unwrap();
+        }
+        assert_eq!(
+            differences(&as_released, &release_session),
+            Vec::<String>::new()
+        );
+        // And each deviation is one.
+        assert_eq!(
+            differences(&default_session_config(), &release_session).len(),
+            SESSION_DEVIATIONS.len()
         );
     }
 

@@ -205,6 +205,12 @@ pub struct Distribution {
     pub rmw_zenoh_cpp: &'static str,
     /// The zenoh-c commit its `zenoh_cpp_vendor` builds.
     pub zenoh_c_commit: &'static str,
+    /// The zenoh-c commit the vendor builds instead when the machine's cargo
+    /// is older than Zenoh's minimum (1.75 to 1.87): the same Zenoh commit,
+    /// built with older Rust.
+    pub zenoh_c_fallback_commit: &'static str,
+    /// The zenoh-cpp commit the vendor builds over zenoh-c.
+    pub zenoh_cpp_commit: &'static str,
     /// The Zenoh (Rust) commit that zenoh-c commit pins.
     pub zenoh_commit: &'static str,
     /// That commit's Zenoh version: its line ([`Distribution::zenoh_line`])
@@ -220,12 +226,17 @@ pub struct Distribution {
 /// version, and `tests/zenoh-lines/check.py` proves shared memory with it
 /// both ways.
 pub const DISTRIBUTIONS: &[Distribution] = &[
-    Distribution::on_zenoh_1_8(Distro::Humble, "0.1.9"),
-    Distribution::on_zenoh_1_8(Distro::Jazzy, "0.2.10"),
-    Distribution::on_zenoh_1_8(Distro::Kilted, "0.6.7"),
-    Distribution::on_zenoh_1_8(Distro::Lyrical, "0.10.5"),
-    Distribution::on_zenoh_1_8(Distro::Rolling, "0.12.0"),
+    Distribution::on_zenoh_1_8(Distro::Humble, "0.1.9", ZENOH_CPP_1_8_0),
+    Distribution::on_zenoh_1_8(Distro::Jazzy, "0.2.10", ZENOH_CPP_1_8_0),
+    Distribution::on_zenoh_1_8(Distro::Kilted, "0.6.7", ZENOH_CPP_1_8_0),
+    Distribution::on_zenoh_1_8(Distro::Lyrical, "0.10.5", ZENOH_CPP_LYRICAL),
+    Distribution::on_zenoh_1_8(Distro::Rolling, "0.12.0", ZENOH_CPP_LYRICAL),
 ];
+
+/// The zenoh-cpp commit of Humble's, Jazzy's and Kilted's vendor.
+const ZENOH_CPP_1_8_0: &str = "af381b420cc8837ac7da42c9984594ef8f110e90";
+/// The zenoh-cpp commit of Lyrical's and Rolling's vendor.
+const ZENOH_CPP_LYRICAL: &str = "481b71bf974f684ea75afb4243b0313646d545f9";
 
 impl Distribution {
     /// The Zenoh line of the distribution's rmw_zenoh_cpp.
@@ -246,12 +257,18 @@ impl Distribution {
     }
 
     /// A release on the zenoh-c every release to date builds.
-    const fn on_zenoh_1_8(distro: Distro, rmw_zenoh_cpp: &'static str) -> Self {
+    const fn on_zenoh_1_8(
+        distro: Distro,
+        rmw_zenoh_cpp: &'static str,
+        zenoh_cpp_commit: &'static str,
+    ) -> Self {
         Self {
             distro,
             name: distro.name(),
             rmw_zenoh_cpp,
             zenoh_c_commit: "05bd370343b5161ca9269649b9a914c9c2dc4170",
+            zenoh_c_fallback_commit: "b31348fa7f94f44f1f7b049c111a710e970a2725",
+            zenoh_cpp_commit,
             zenoh_commit: "2687c51352121f006e3a603ce07925a8ad0b295c",
             zenoh_version: "1.8.0",
         }

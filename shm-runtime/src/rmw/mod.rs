@@ -585,6 +585,27 @@ pub(crate) fn token_session(token: &str) -> Option<zenoh::session::ZenohId> {
     }
 }
 
+/// A node's publisher or subscriber while it is being built: everything its
+/// liveliness token says but the QoS. The token is written when the builder
+/// resolves, from the QoS the builder holds then, so that it says what the
+/// Zenoh declaration follows whichever way the QoS was given.
+#[derive(Debug, Clone)]
+pub(crate) struct TopicEndpoint {
+    pub(crate) info: NodeInfo,
+    pub(crate) entity_id: u64,
+    pub(crate) kind: EntityKind,
+    /// The resolved topic name.
+    pub(crate) topic: String,
+}
+
+impl TopicEndpoint {
+    /// The liveliness token, for `ty` with `qos`.
+    pub(crate) fn token(&self, ty: &crate::transport::queue::TopicType, qos: &Qos) -> String {
+        self.info
+            .topic_token_of(self.entity_id, self.kind, &self.topic, ty, qos)
+    }
+}
+
 /// The kind of an entity in a liveliness token.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum EntityKind {

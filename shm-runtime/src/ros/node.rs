@@ -15,7 +15,8 @@ use zenoh::liveliness::LivelinessToken;
 use zenoh::{Resolvable, Session, Wait};
 
 use crate::rmw::{
-    service_key_expr, topic_key_expr_of, Distro, EntityKind, Gid, NodeInfo, Qos, UnknownDistro,
+    service_key_expr, topic_key_expr_of, Distro, EntityKind, Gid, NodeInfo, Qos, TopicEndpoint,
+    UnknownDistro,
 };
 use crate::ros::action::{ActionClientBuilder, ActionServerBuilder};
 use crate::ros::graph::{Graph, GraphCache};
@@ -31,16 +32,9 @@ use crate::ros::topic_types::{TopicTypes, TypeConflict};
 use crate::ros::type_description::{TypeCache, TypeUse};
 use crate::transport::limits::check_key_expr;
 use crate::transport::pool::ShmContext;
-use crate::transport::publisher::{PublisherBuilder, RmwPublisher};
+use crate::transport::publisher::PublisherBuilder;
 use crate::transport::queue::TopicType;
 use crate::transport::subscriber::SubscriberBuilder;
-use crate::History;
-
-/// The depth rmw_zenoh_cpp gives a keep-last QoS of depth 0.
-const RMW_ZENOH_DEFAULT_DEPTH: NonZeroUsize = match NonZeroUsize::new(42) {
-    Some(depth) => depth,
-    None => panic!("42 is not zero"),
-};
 
 /// The parameter every ROS node has, switching its clock to `/clock`.
 const USE_SIM_TIME: &str = "use_sim_time";
@@ -224,21 +218,19 @@ impl RosNode {
     ) -> PublisherBuilder<'_, T> {
         let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
         let (topic, invalid) = self.resolve(topic, NameKind::Topic);
-        let token =
-            self.info
-                .topic_token_of(entity_id, EntityKind::Publisher, &topic, &topic_type, &qos);
         let key_expr =
             topic_key_expr_of(self.info.distro, self.info.domain_id, &topic, &topic_type);
         let mut builder = PublisherBuilder::new(&self.session, key_expr, topic_type);
         builder.invalid = invalid;
         builder.qos = qos;
         builder.shm.inherited = self.shm.clone();
-        builder.rmw = Some(RmwPublisher {
-            gid: Gid::from_token(&token),
-            token,
-            liveliness: None,
-            type_use,
+        builder.node = Some(TopicEndpoint {
+            info: self.info.clone(),
+            entity_id,
+            kind: EntityKind::Publisher,
+            topic,
         });
+        builder.type_use = type_use;
         builder
     }
 
@@ -816,28 +808,15 @@ fn node_subscriber<'s, T>(
     let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
     let (topic, invalid) = resolve(info, remaps, topic, NameKind::Topic);
     let key_expr = topic_key_expr_of(info.distro, info.domain_id, &topic, &topic_type);
-    let liveliness =
-        info.topic_token_of(entity_id, EntityKind::Subscriber, &topic, &topic_type, &qos);
-    let buffer_key = crate::rmw::buffer_key_expr(
-        info.distro,
-        &key_expr,
-        &liveliness,
-        topic_type.has_buffer_fields,
-    );
     let mut builder = SubscriberBuilder::new(session, key_expr, topic_type);
-    builder.buffer_key = buffer_key;
     builder.invalid = invalid;
     builder.qos = qos;
-    // The queue keeps what the QoS announces, as rmw_zenoh_cpp's does: a
-    // reader that stops reading holds `depth` samples (and their
-    // shared-memory chunks), not everything published meanwhile.
-    builder.history = match qos.history {
-        crate::rmw::History::KeepLast(depth) => {
-            History::KeepLast(NonZeroUsize::new(depth).unwrap_or(RMW_ZENOH_DEFAULT_DEPTH))
-        }
-        crate::rmw::History::KeepAll => History::KeepAll,
-    };
-    builder.liveliness = Some(liveliness);
+    builder.node = Some(TopicEndpoint {
+        info: info.clone(),
+        entity_id,
+        kind: EntityKind::Subscriber,
+        topic,
+    });
     builder.type_use = type_use;
     builder
 }
@@ -1110,7 +1089,7 @@ impl RosNodeBuilder<'_> {
             graph: std::sync::Mutex::default(),
             clock: Clock::new(),
             parameters: std::sync::Mutex::default(),
-            types: Arc::default(),
+            types: Arc::new(TypeCache::of(distro)),
             topic_types: TopicTypes::new(distro),
             type_description_service: None,
             logger_services: None,

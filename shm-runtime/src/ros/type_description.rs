@@ -30,6 +30,8 @@ const NOT_IN_USE: &str = "Type not currently in use by this node";
 #[derive(Default)]
 pub(crate) struct TypeCache {
     entries: Mutex<HashMap<String, Entry>>,
+    /// Whose wording of the interface files the sources carry.
+    distro: crate::rmw::Distro,
 }
 
 struct Entry {
@@ -82,6 +84,15 @@ impl Described {
 }
 
 impl TypeCache {
+    /// An empty cache whose sources are the interface files as released for
+    /// `distro`.
+    pub(crate) fn of(distro: crate::rmw::Distro) -> Self {
+        Self {
+            entries: Mutex::default(),
+            distro,
+        }
+    }
+
     fn entries(&self) -> MutexGuard<'_, HashMap<String, Entry>> {
         // The map is whole between statements.
         self.entries.lock().unwrap_or_else(|e| e.into_inner())
@@ -95,7 +106,10 @@ impl TypeCache {
         hash: &str,
         describe: impl FnOnce() -> FullDescription,
     ) -> TypeUse {
-        self.register_described(hash, || Described::of_full(&describe()))
+        let distro = self.distro.name();
+        self.register_described(hash, || {
+            Described::of_full(&shm_cdr::distro_msgs::with_sources_of(distro, describe()))
+        })
     }
 
     /// Count one more use of the run-time type `ty`, described as

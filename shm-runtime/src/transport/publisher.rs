@@ -19,7 +19,8 @@ use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, MissDetectionConfig};
 
 use crate::rmw::{
-    counterpart_tokens_key_expr, Attachment, Durability, EntityKind, Gid, History, Qos, Reliability,
+    counterpart_tokens_key_expr, Attachment, Durability, EntityKind, Gid, History, Qos,
+    Reliability, TopicEndpoint,
 };
 use crate::ros::type_description::TypeUse;
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
@@ -245,9 +246,8 @@ pub(crate) struct RmwPublisher {
     pub(crate) gid: Gid,
     pub(crate) token: String,
     pub(crate) liveliness: Option<LivelinessToken>,
-    /// The message type, in the node's type-description cache while this
-    /// lives (not a serialized publisher's, whose fields are unknown).
-    pub(crate) type_use: Option<TypeUse>,
+    /// Keeps the message type in the node's type-description cache.
+    pub(crate) _type_use: Option<TypeUse>,
 }
 
 /// Builder of a [`RosPublisher`]; resolve with `.wait()` or `.await`.
@@ -256,7 +256,11 @@ pub struct PublisherBuilder<'a, T> {
     pub(crate) session: &'a Session,
     pub(crate) key_expr: String,
     pub(crate) shm: ShmSettings,
-    pub(crate) rmw: Option<RmwPublisher>,
+    /// A node publisher's identity, but its QoS (see [`TopicEndpoint`]).
+    pub(crate) node: Option<TopicEndpoint>,
+    /// The message type, in the node's type-description cache while the
+    /// publisher lives (not a serialized publisher's, whose fields are unknown).
+    pub(crate) type_use: Option<TypeUse>,
     pub(crate) congestion_control: Option<CongestionControl>,
     pub(crate) qos: Qos,
     /// How many published messages to keep for subscribers that missed them.
@@ -277,7 +281,8 @@ impl<'a, T> PublisherBuilder<'a, T> {
             topic_type,
             dynamic: None,
             shm: ShmSettings::default(),
-            rmw: None,
+            node: None,
+            type_use: None,
             congestion_control: None,
             qos: Qos::default(),
             recovery: None,
@@ -303,8 +308,8 @@ impl<'a, T> PublisherBuilder<'a, T> {
     /// transient local keeps the last `depth` messages in a zenoh-ext
     /// `AdvancedPublisher` cache for subscribers that join later (with
     /// publisher detection, and heartbeats every 500 ms for sample-miss
-    /// recovery when reliable). A node publisher's liveliness token carries the
-    /// same QoS: declare those with
+    /// recovery when reliable). A node publisher's liveliness token, and the
+    /// GID made from it, carry the QoS given last, here or to
     /// [`RosNode::declare_publisher_with_qos`](crate::RosNode::declare_publisher_with_qos).
     pub fn qos(mut self, qos: Qos) -> Self {
         self.qos = qos;
@@ -363,11 +368,22 @@ impl<'a, T> PublisherBuilder<'a, T> {
             return Err(invalid.into());
         }
         check_key_expr("key expression", &self.key_expr)?;
-        if let Some(rmw) = &self.rmw {
-            check_key_expr("liveliness token", &rmw.token)?;
-        }
-        let ros_subscribers = self
-            .rmw
+        // The token (and the GID made from it) says the QoS the declaration
+        // below follows.
+        let rmw = match &self.node {
+            Some(node) => {
+                let token = node.token(&self.topic_type, &self.qos);
+                check_key_expr("liveliness token", &token)?;
+                Some(RmwPublisher {
+                    gid: Gid::from_token(&token),
+                    token,
+                    liveliness: None,
+                    _type_use: self.type_use.clone(),
+                })
+            }
+            None => None,
+        };
+        let ros_subscribers = rmw
             .as_ref()
             .and_then(|rmw| counterpart_tokens_key_expr(&rmw.token, EntityKind::Subscriber));
         let policy = self.shm.resolve_for_publisher(
@@ -440,7 +456,7 @@ impl<'a, T> PublisherBuilder<'a, T> {
                 ZenohPublisher::Advanced(builder.wait()?)
             }
         };
-        let rmw = match self.rmw {
+        let rmw = match rmw {
             Some(mut rmw) => {
                 rmw.liveliness = Some(
                     self.session
@@ -493,7 +509,7 @@ impl PublisherBuilder<'_, DynamicType> {
         self,
         sources: impl IntoIterator<Item = (N, S)>,
     ) -> Self {
-        if let Some(type_use) = self.rmw.as_ref().and_then(|r| r.type_use.as_ref()) {
+        if let Some(type_use) = &self.type_use {
             type_use.offer_sources(sources);
         }
         self

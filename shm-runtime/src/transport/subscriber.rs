@@ -5,6 +5,7 @@
 use std::fmt;
 use std::future::IntoFuture;
 use std::marker::PhantomData;
+use std::num::NonZeroUsize;
 use std::pin::Pin;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -22,7 +23,7 @@ use zenoh_ext::{AdvancedSubscriber, AdvancedSubscriberBuilderExt, HistoryConfig,
 
 use crate::rmw::{
     counterpart_tokens_key_expr, Attachment, AttachmentError, Durability, EntityKind,
-    History as RmwHistory, Qos, Reliability,
+    History as RmwHistory, Qos, Reliability, TopicEndpoint,
 };
 use crate::ros::type_description::TypeUse;
 use crate::transport::executor::{Callback, Dispatch, Executor};
@@ -31,20 +32,28 @@ use crate::transport::queue::{sample_type, Queue, TopicType, TypeCheck, DEFAULT_
 
 pub use crate::transport::queue::History;
 
+/// The depth rmw_zenoh_cpp gives a keep-last QoS of depth 0.
+const RMW_ZENOH_DEFAULT_DEPTH: NonZeroUsize = match NonZeroUsize::new(42) {
+    Some(depth) => depth,
+    None => panic!("42 is not zero"),
+};
+
 /// Builder of a [`RosSubscriber`]; resolve with `.wait()` or `.await`.
 #[must_use = "resolve the builder with .wait() or .await"]
 pub struct SubscriberBuilder<'a, T> {
     pub(crate) session: &'a Session,
     pub(crate) key_expr: String,
-    /// rmw_zenoh liveliness token (`MS`) to declare, for node subscribers.
-    pub(crate) liveliness: Option<String>,
-    /// The subscriber's own key, which buffer-aware publishers may send its
-    /// messages to instead (see [`crate::rmw::buffer_key_expr`]).
-    pub(crate) buffer_key: Option<String>,
+    /// A node subscriber's identity but its QoS, for its rmw_zenoh
+    /// liveliness token (`MS`) and its own key, which buffer-aware
+    /// publishers may send its messages to instead (see
+    /// [`crate::rmw::buffer_key_expr`]).
+    pub(crate) node: Option<TopicEndpoint>,
     /// The message type in the node's type-description cache, for node
     /// subscribers.
     pub(crate) type_use: Option<TypeUse>,
-    pub(crate) history: History,
+    /// As given to [`history`](Self::history); else what a node subscriber's
+    /// QoS announces, and every sample for a plain subscriber.
+    pub(crate) history: Option<History>,
     pub(crate) max_queued_bytes: usize,
     pub(crate) qos: Qos,
     /// Ask publishers declared with recovery for what never arrived.
@@ -61,10 +70,9 @@ impl<'a, T> SubscriberBuilder<'a, T> {
             session,
             key_expr,
             topic_type,
-            liveliness: None,
-            buffer_key: None,
+            node: None,
             type_use: None,
-            history: History::KeepAll,
+            history: None,
             max_queued_bytes: DEFAULT_MAX_QUEUED_BYTES,
             qos: Qos::default(),
             recovery: false,
@@ -77,8 +85,28 @@ impl<'a, T> SubscriberBuilder<'a, T> {
     /// announces (keep last 10 for ROS 2's default profile), every sample
     /// ([`History::KeepAll`]) for a subscriber on a plain key expression.
     pub fn history(mut self, history: History) -> Self {
-        self.history = history;
+        self.history = Some(history);
         self
+    }
+
+    /// The history the queue keeps: as given, else as a node subscriber's QoS
+    /// announces (as rmw_zenoh_cpp's queue does: a reader that stops reading
+    /// holds `depth` samples and their shared-memory chunks, not everything
+    /// published meanwhile), else every sample.
+    fn queue_history(&self) -> History {
+        match (self.history, &self.node, self.qos.history) {
+            (Some(history), _, _) => history,
+            (None, Some(_), RmwHistory::KeepLast(depth)) => {
+                History::KeepLast(NonZeroUsize::new(depth).unwrap_or(RMW_ZENOH_DEFAULT_DEPTH))
+            }
+            (None, _, _) => History::KeepAll,
+        }
+    }
+
+    /// A node subscriber's liveliness token, saying the QoS the builder holds.
+    fn token(&self) -> Option<String> {
+        let node = self.node.as_ref()?;
+        Some(node.token(&self.topic_type, &self.qos))
     }
 
     /// The memory budget of a [`History::KeepAll`] subscriber: the bytes of
@@ -96,9 +124,11 @@ impl<'a, T> SubscriberBuilder<'a, T> {
     /// its last `depth` messages before the live ones (and, when reliable,
     /// recovers messages it missed, told by the publisher's heartbeats).
     /// Volatile (the default) receives only what is published after it is
-    /// declared. A node subscriber's liveliness token carries the same QoS:
-    /// declare those with
-    /// [`RosNode::declare_subscriber_with_qos`](crate::RosNode::declare_subscriber_with_qos).
+    /// declared. A node subscriber's liveliness token carries the QoS given
+    /// last, here or to
+    /// [`RosNode::declare_subscriber_with_qos`](crate::RosNode::declare_subscriber_with_qos),
+    /// and its queue keeps the QoS's history unless given one with
+    /// [`history`](Self::history).
     pub fn qos(mut self, qos: Qos) -> Self {
         self.qos = qos;
         self
@@ -129,9 +159,18 @@ impl<'a, T> SubscriberBuilder<'a, T> {
     ) -> zenoh::Result<ZenohSubscriber> {
         let qos = self.qos;
         let callback = std::sync::Arc::new(callback);
-        let buffer = match &self.buffer_key {
+        let buffer_key = match (&self.node, self.token()) {
+            (Some(node), Some(token)) => crate::rmw::buffer_key_expr(
+                node.info.distro,
+                &self.key_expr,
+                &token,
+                self.topic_type.has_buffer_fields,
+            ),
+            _ => None,
+        };
+        let buffer = match buffer_key {
             Some(key) => {
-                check_key_expr("key expression", key)?;
+                check_key_expr("key expression", &key)?;
                 let callback = callback.clone();
                 Some(
                     self.session
@@ -192,17 +231,13 @@ impl<'a, T> SubscriberBuilder<'a, T> {
             return Err(invalid.clone().into());
         }
         check_key_expr("key expression", &self.key_expr)?;
-        if let Some(token) = &self.liveliness {
+        let token = self.token();
+        if let Some(token) = &token {
             check_key_expr("liveliness token", token)?;
         }
         let receiver = ReceiverMark::announce(self.session, &self.key_expr)?;
-        let rmw = match &self.liveliness {
-            Some(token) => Some(
-                self.session
-                    .liveliness()
-                    .declare_token(token.clone())
-                    .wait()?,
-            ),
+        let rmw = match token {
+            Some(token) => Some(self.session.liveliness().declare_token(token).wait()?),
             None => None,
         };
         Ok(Announced {
@@ -248,7 +283,7 @@ impl<'a, T> SubscriberBuilder<'a, T> {
     fn build(self) -> zenoh::Result<RosSubscriber<T>> {
         let token = self.declare_token()?;
         let (queue, receiver) = Queue::new(
-            self.history,
+            self.queue_history(),
             self.max_queued_bytes,
             &self.key_expr,
             TypeCheck::new(&self.key_expr, &self.topic_type),
@@ -259,8 +294,8 @@ impl<'a, T> SubscriberBuilder<'a, T> {
         let subscriber = self.declare(move |sample| {
             queue.push(sample);
         })?;
-        let publishers = self.liveliness.as_deref().and_then(|token| {
-            let key = counterpart_tokens_key_expr(token, EntityKind::Publisher)?;
+        let publishers = self.token().and_then(|token| {
+            let key = counterpart_tokens_key_expr(&token, EntityKind::Publisher)?;
             Some((self.session.clone(), key))
         });
         Ok(RosSubscriber {
@@ -363,7 +398,7 @@ impl<T> CallbackSubscriberBuilder<'_, T> {
         let token = self.inner.declare_token()?;
         let key_expr = self.inner.key_expr.clone();
         let (queue, receiver) = Queue::new(
-            self.inner.history,
+            self.inner.queue_history(),
             self.inner.max_queued_bytes,
             &key_expr,
             TypeCheck::new(&key_expr, &self.inner.topic_type),
