@@ -13,6 +13,12 @@
 //!   separated by `;`, each value JSON5, set on top (`mode="client";
 //!   connect/endpoints=["tls/10.0.0.1:7447"]`). rmw_zenoh_cpp ignores a pair
 //!   it cannot set, with a warning; here it is an error naming the pair.
+//! - [`SHM_ALLOC_SIZE`] (`ZENOH_SHM_ALLOC_SIZE`) and
+//!   [`SHM_MESSAGE_SIZE_THRESHOLD`] (`ZENOH_SHM_MESSAGE_SIZE_THRESHOLD`): a
+//!   session's `transport/shared_memory/transport_optimization/pool_size`
+//!   and `message_size_threshold`, set last. rmw_zenoh_cpp's own publishers
+//!   use that pool and threshold; this crate's publishers have pools of their
+//!   own ([`crate::ShmContext`]), so these size only Zenoh's pool.
 //! - [`ROUTER_CHECK_ATTEMPTS`] (`ZENOH_ROUTER_CHECK_ATTEMPTS`): how many
 //!   times, a second apart, a session looks for its router before going on
 //!   without one (default 1; 0: until there is one; negative: not at all).
@@ -34,6 +40,11 @@ pub const SESSION_CONFIG_URI: &str = "ZENOH_SESSION_CONFIG_URI";
 pub const ROUTER_CONFIG_URI: &str = "ZENOH_ROUTER_CONFIG_URI";
 /// The variable with `key=value;…` pairs set on top of either configuration.
 pub const CONFIG_OVERRIDE: &str = "ZENOH_CONFIG_OVERRIDE";
+/// The variable with the size in bytes of Zenoh's shared-memory pool.
+pub const SHM_ALLOC_SIZE: &str = "ZENOH_SHM_ALLOC_SIZE";
+/// The variable with the size in bytes from which Zenoh's pool is used (a
+/// power of two).
+pub const SHM_MESSAGE_SIZE_THRESHOLD: &str = "ZENOH_SHM_MESSAGE_SIZE_THRESHOLD";
 /// The variable with the number of router checks.
 pub const ROUTER_CHECK_ATTEMPTS: &str = "ZENOH_ROUTER_CHECK_ATTEMPTS";
 /// Where a session looks for its router by default (rmw_zenohd's port).
@@ -355,12 +366,49 @@ pub fn session_config() -> Result<Config, RmwConfigError> {
 /// command line's `--zenoh-config`, which its error names) instead of the
 /// one `ZENOH_SESSION_CONFIG_URI` names.
 pub fn session_config_from(file: Option<&Path>) -> Result<Config, RmwConfigError> {
-    from_env(
+    let mut config = from_env(
         SESSION_CONFIG_URI,
         "--zenoh-config",
         file,
         default_session_config,
-    )
+    )?;
+    apply_shm_variables(
+        &mut config,
+        variable(SHM_ALLOC_SIZE)?.as_deref(),
+        variable(SHM_MESSAGE_SIZE_THRESHOLD)?.as_deref(),
+    );
+    Ok(config)
+}
+
+/// `ZENOH_SHM_ALLOC_SIZE` and `ZENOH_SHM_MESSAGE_SIZE_THRESHOLD` (given as
+/// `alloc_size` and `threshold`) set on top of a session's configuration, as
+/// rmw_zenoh_cpp sets them. A value that is not a positive whole number, or
+/// a threshold that is not a power of two, is left out with a warning naming
+/// it, as rmw_zenoh_cpp leaves it out with an error in its log.
+fn apply_shm_variables(config: &mut Config, alloc_size: Option<&str>, threshold: Option<&str>) {
+    const POOL_SIZE: &str = "transport/shared_memory/transport_optimization/pool_size";
+    const THRESHOLD: &str = "transport/shared_memory/transport_optimization/message_size_threshold";
+    for (variable, key, value, power_of_two) in [
+        (SHM_ALLOC_SIZE, POOL_SIZE, alloc_size, false),
+        (SHM_MESSAGE_SIZE_THRESHOLD, THRESHOLD, threshold, true),
+    ] {
+        let Some(value) = value else { continue };
+        match value.trim().parse::<u64>() {
+            Ok(bytes) if bytes > 0 && (!power_of_two || bytes.is_power_of_two()) => {
+                if let Err(e) = config.insert_json5(key, &bytes.to_string()) {
+                    tracing::warn!("{variable}={value} left out: {}", zenoh_reason(&e));
+                }
+            }
+            _ => tracing::warn!(
+                "{variable}={value} left out: give a positive whole number of bytes{}",
+                if power_of_two {
+                    " that is a power of two"
+                } else {
+                    ""
+                }
+            ),
+        }
+    }
 }
 
 /// The router configuration rmw_zenohd would use in this environment: the
@@ -887,6 +935,23 @@ mod tests {
             differences(&default_session_config(), &release_session).len(),
             SESSION_DEVIATIONS.len()
         );
+    }
+
+    #[test]
+    fn the_shm_variables_size_zenoh_s_pool_as_rmw_zenoh_cpp_reads_them() {
+        let pool = "transport/shared_memory/transport_optimization/pool_size";
+        let threshold = "transport/shared_memory/transport_optimization/message_size_threshold";
+        let mut config = default_session_config();
+        apply_shm_variables(&mut config, Some("1048576"), Some("1024"));
+        assert_eq!(config.get_json(pool).unwrap(), "1048576");
+        assert_eq!(config.get_json(threshold).unwrap(), "1024");
+        // Left out, as rmw_zenoh_cpp leaves them out: the defaults stay.
+        for (alloc, limit) in [("0", "1000"), ("lots", "-4"), ("", "0")] {
+            let mut config = default_session_config();
+            apply_shm_variables(&mut config, Some(alloc), Some(limit));
+            assert_eq!(config.get_json(pool).unwrap(), "50331648", "{alloc}");
+            assert_eq!(config.get_json(threshold).unwrap(), "512", "{limit}");
+        }
     }
 
     #[test]
