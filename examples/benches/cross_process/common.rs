@@ -77,6 +77,12 @@ impl Path {
 
     /// Whether this path puts a heap payload through plain Zenoh (so under
     /// lowlatency, where Zenoh cannot fragment, a large one is lost).
+    /// Another project's path: its echo failing marks its row; ours failing
+    /// fails the run.
+    pub fn is_theirs(self) -> bool {
+        matches!(self, Path::HirozAutomatic | Path::HirozShm)
+    }
+
     pub fn puts_heap(self) -> bool {
         matches!(self, Path::ToVecPut | Path::HirozAutomatic)
     }

@@ -114,9 +114,7 @@ fn ping() -> zenoh::Result<()> {
     senders.extend(theirs.senders());
 
     let mut seq = 0u64;
-    for sender in senders.iter_mut() {
-        settle(sender.as_mut(), &pongs, &mut seq)?;
-    }
+    settle_all(&mut senders, &pongs, &mut seq)?;
     // (size, path) → (round, latency ns) of every measured message.
     let mut samples: BTreeMap<(usize, u8), Vec<(usize, u64)>> = BTreeMap::new();
     // (size, path) → measured messages our pool could not take (heap fallbacks).
@@ -135,9 +133,7 @@ fn ping() -> zenoh::Result<()> {
             if std::mem::take(&mut resettle) {
                 // The receiver closes the whole transport on a frame it refuses,
                 // so every path waits for the peers to reconnect before going on.
-                for sender in senders.iter_mut() {
-                    settle(sender.as_mut(), &pongs, &mut seq)?;
-                }
+                settle_all(&mut senders, &pongs, &mut seq)?;
             }
             for sender in senders.iter_mut() {
                 if resettle {
@@ -279,6 +275,32 @@ fn paired_median_ratio(a: &[(usize, u64)], b: &[(usize, u64)]) -> Option<f64> {
 
 /// Publish small messages on one path until the echo answers one: discovery,
 /// matching and the first SHM mapping are done before anything is timed.
+/// Settle every path. Another project's path whose echo never answers is
+/// reported (`FAILED`) and left out of the rest of the run, so that its row
+/// says so and every other row is still measured; one of ours failing fails
+/// the run.
+fn settle_all<'a>(
+    senders: &mut Vec<Box<dyn Sender + 'a>>,
+    pongs: &Subscriber<FifoChannelHandler<Sample>>,
+    seq: &mut u64,
+) -> zenoh::Result<()> {
+    let mut failed = Vec::new();
+    for (i, sender) in senders.iter_mut().enumerate() {
+        if let Err(e) = settle(sender.as_mut(), pongs, seq) {
+            let path = sender.path();
+            if !path.is_theirs() {
+                return Err(e);
+            }
+            println!("FAILED\t{}\t{e}", path as u8);
+            failed.push(i);
+        }
+    }
+    for i in failed.into_iter().rev() {
+        senders.remove(i);
+    }
+    Ok(())
+}
+
 fn settle(
     sender: &mut dyn Sender,
     pongs: &Subscriber<FifoChannelHandler<Sample>>,
@@ -354,6 +376,8 @@ struct Cell {
     lost: bool,
     /// Not sent: the setup cannot carry it (see `UNFRAGMENTABLE_FROM`).
     unsent: bool,
+    /// Not measured: the path's echo (another project's) never answered.
+    failed: bool,
 }
 
 impl Cell {
@@ -361,6 +385,14 @@ impl Cell {
     fn lost() -> Cell {
         Cell {
             lost: true,
+            ..Cell::unmeasured()
+        }
+    }
+
+    /// A path whose echo never answered.
+    fn failed() -> Cell {
+        Cell {
+            failed: true,
             ..Cell::unmeasured()
         }
     }
@@ -381,11 +413,12 @@ impl Cell {
             spilled: 0,
             lost: false,
             unsent: false,
+            failed: false,
         }
     }
 
     fn measured(&self) -> bool {
-        !self.lost && !self.unsent
+        !self.lost && !self.unsent && !self.failed
     }
 }
 
@@ -396,6 +429,8 @@ struct Results {
     cells: BTreeMap<(usize, u8), Cell>,
     /// (size, numerator path, denominator path) → median of per-round ratios.
     paired: BTreeMap<(usize, u8, u8), f64>,
+    /// Why another project's paths were left out.
+    failures: Vec<String>,
 }
 
 fn orchestrate() -> zenoh::Result<()> {
@@ -526,8 +561,13 @@ fn run_setup(
             let [path, bytes, median, p90, count, spilled] = f[..] else {
                 return Err(format!("malformed result line {line:?}").into());
             };
+            let key = (bytes.parse()?, path.parse()?);
+            // What a path measured before its echo failed is left out with it.
+            if results.cells.get(&key).is_some_and(|c| c.failed) {
+                continue;
+            }
             results.cells.insert(
-                (bytes.parse()?, path.parse()?),
+                key,
                 Cell {
                     median: median.parse()?,
                     p90: p90.parse()?,
@@ -535,6 +575,7 @@ fn run_setup(
                     spilled: spilled.parse()?,
                     lost: false,
                     unsent: false,
+                    failed: false,
                 },
             );
         } else if let Some(fields) = line.strip_prefix("PAIRED\t") {
@@ -550,6 +591,14 @@ fn run_setup(
             results
                 .cells
                 .insert((bytes.parse()?, path.parse()?), Cell::lost());
+        } else if let Some(fields) = line.strip_prefix("FAILED\t") {
+            let (path, reason) = fields.split_once('\t').ok_or("malformed FAILED line")?;
+            let path: u8 = path.parse()?;
+            // Every size of the path, measured before the failure or not.
+            for (bytes, _) in SIZES {
+                results.cells.insert((bytes, path), Cell::failed());
+            }
+            results.failures.push(reason.to_owned());
         } else if let Some(fields) = line.strip_prefix("UNSENT\t") {
             let (path, bytes) = fields.split_once('\t').ok_or("malformed UNSENT line")?;
             results
@@ -617,6 +666,7 @@ fn print_setup(setup: &Setup, results: &Results) {
         for (bytes, _) in SIZES {
             match results.cells.get(&(bytes, path as u8)) {
                 Some(c) if c.lost => print!(" **lost** |"),
+                Some(c) if c.failed => print!(" **its echo never answered** |"),
                 Some(c) if c.unsent => print!(" not sent |"),
                 Some(c) if c.spilled > 0 => print!(
                     " {:.0} µs (p90 {:.0}), **{} of {} from the heap** |",
@@ -627,6 +677,9 @@ fn print_setup(setup: &Setup, results: &Results) {
             }
         }
         println!();
+    }
+    for reason in &results.failures {
+        println!("\nLeft out: {reason}.");
     }
 }
 
