@@ -138,7 +138,7 @@ const COMMON_DEFAULTS: &[(&str, &str)] = &[
 /// its own, connecting to a peer it learns of only if its id is the greater
 /// one, and blocking a congested publisher for up to a minute before
 /// dropping; then the two places where this crate's sessions differ from
-/// rmw_zenoh_cpp's (`SESSION_DEVIATIONS` in the tests holds the release's
+/// rmw_zenoh_cpp's (`DIFFERENCES_FROM_THE_RELEASE` in the tests holds the release's
 /// values).
 const SESSION_DEFAULTS: &[(&str, &str)] = &[
     ("mode", r#""peer""#),
@@ -178,7 +178,7 @@ const SESSION_DEFAULTS: &[(&str, &str)] = &[
 /// session configuration, each key with its value there; the router's
 /// configuration has no difference.
 #[cfg(test)]
-const SESSION_DEVIATIONS: &[(&str, &str)] = &[
+const DIFFERENCES_FROM_THE_RELEASE: &[(&str, &str)] = &[
     ("transport/shared_memory/enabled", "false"),
     (
         "transport/shared_memory/transport_optimization/enabled",
@@ -843,7 +843,7 @@ mod tests {
             r#"["tcp/[::]:7447"]"#
         );
         // Each deviation is a key the session sets, to another value.
-        for (key, release) in SESSION_DEVIATIONS {
+        for (key, release) in DIFFERENCES_FROM_THE_RELEASE {
             let ours = json(&session, key);
             let mut theirs = Config::default();
             theirs.insert_json5(key, release).unwrap();
@@ -923,7 +923,7 @@ mod tests {
         let release_session =
             Config::from_file(dir.join("DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5")).unwrap();
         let mut as_released = default_session_config();
-        for (key, value) in SESSION_DEVIATIONS {
+        for (key, value) in DIFFERENCES_FROM_THE_RELEASE {
             as_released.insert_json5(key, value).unwrap();
         }
         assert_eq!(
@@ -933,7 +933,7 @@ mod tests {
         // And each deviation is one.
         assert_eq!(
             differences(&default_session_config(), &release_session).len(),
-            SESSION_DEVIATIONS.len()
+            DIFFERENCES_FROM_THE_RELEASE.len()
         );
     }
 
