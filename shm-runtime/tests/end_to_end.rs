@@ -943,3 +943,64 @@ fn a_type_name_too_long_for_zenohs_encoding_schema_is_published_and_received() {
         .expect("message lost");
     assert_eq!(sample.decode::<Long>().unwrap(), Long { value: 7 });
 }
+
+/// A node's samples carry what rmw_zenoh_cpp's carry and no more: the rmw
+/// attachment (sequence number, time, GID), no `SourceInfo`, no encoding
+/// schema (the key names the type). Gaps are still counted, from the
+/// attachment's sequence numbers.
+#[test]
+fn a_node_s_samples_carry_the_rmw_attachment_alone_and_gaps_still_count() {
+    use shm_cdr::msgs::builtin_interfaces::Time;
+    use shm_runtime::rmw::Attachment;
+    let (a, b) = session_pair();
+    let talker = RosNode::builder(&a, "talker").domain_id(0).wait().unwrap();
+    let listener = RosNode::builder(&b, "listener")
+        .domain_id(0)
+        .wait()
+        .unwrap();
+    let publisher = talker.declare_publisher::<Time>("stamps").wait().unwrap();
+    let raw = b
+        .declare_subscriber(publisher.key_expr().to_owned())
+        .wait()
+        .unwrap();
+    let subscriber = listener
+        .declare_subscriber::<Time>("stamps")
+        .history(shm_runtime::History::KeepAll)
+        .wait()
+        .unwrap();
+    assert!(publisher.wait_for_subscribers(TIMEOUT));
+    std::thread::sleep(Duration::from_millis(200));
+    for sec in 1..=3 {
+        publisher.publish(&Time { sec, nanosec: 0 }).wait().unwrap();
+    }
+    let gid = publisher.gid().unwrap();
+    for expected in 1..=3 {
+        let sample = raw.recv_timeout(TIMEOUT).unwrap().expect("lost");
+        assert!(sample.source_info().is_none(), "no SourceInfo");
+        assert!(sample.encoding().schema().is_none(), "no schema");
+        let attachment = Attachment::parse(&sample.attachment().unwrap().to_bytes()).unwrap();
+        assert_eq!(attachment.sequence_number, expected);
+        assert_eq!(attachment.gid, gid);
+    }
+    for _ in 1..=3 {
+        let sample = subscriber.recv_timeout(TIMEOUT).unwrap().expect("lost");
+        assert_eq!(sample.message_type(), None);
+    }
+    // Message 4 of that publisher never arrives; 5 does.
+    let forged = Attachment {
+        sequence_number: 5,
+        source_timestamp: 0,
+        gid,
+    };
+    a.put(
+        publisher.key_expr().to_owned(),
+        shm_cdr::to_vec(&Time { sec: 5, nanosec: 0 }).unwrap(),
+    )
+    .attachment(forged.to_bytes().to_vec())
+    .wait()
+    .unwrap();
+    let fifth = subscriber.recv_timeout(TIMEOUT).unwrap().expect("lost");
+    assert_eq!(fifth.decode::<Time>().unwrap().sec, 5);
+    assert_eq!(subscriber.missed(), 1);
+    assert_eq!(subscriber.lost(), 0);
+}

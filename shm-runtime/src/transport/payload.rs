@@ -171,7 +171,9 @@ fn write_payload<E>(
         }
         policy.context.count(kind, size);
     }
-    let mut buffer = vec![0u8; size];
+    // Not `vec![0; size]`: calloc skips the allocator's per-thread cache.
+    let mut buffer = Vec::with_capacity(size);
+    buffer.resize(size, 0u8);
     write(&mut buffer)?;
     Ok(EncodedPayload {
         bytes: ZBytes::from(buffer),

@@ -11,7 +11,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 use shm_cdr::dynamic::{DynamicType, Message};
 use shm_cdr::{EncodeError, RosMessage};
-use zenoh::bytes::ZBytes;
+use zenoh::bytes::{Encoding, ZBytes};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::qos::{CongestionControl, Reliability as ZenohReliability};
 use zenoh::sample::SourceInfo;
@@ -391,8 +391,15 @@ impl<'a, T> PublisherBuilder<'a, T> {
             &self.key_expr,
             ros_subscribers.as_deref(),
         )?;
-        let encoding =
-            crate::transport::queue::type_encoding(&self.topic_type.name, &self.topic_type.hash);
+        // A node's key expression names the type (and its hash), as
+        // rmw_zenoh_cpp's does, which puts no encoding on its samples either;
+        // on a plain key the encoding names it for the subscriber's check.
+        let encoding = match &rmw {
+            Some(_) => Encoding::default(),
+            None => {
+                crate::transport::queue::type_encoding(&self.topic_type.name, &self.topic_type.hash)
+            }
+        };
         let inline_limit =
             InlineLimit::of(self.session, &self.key_expr, encoding.to_string().len());
         if self.recovery == Some(0) {
@@ -800,6 +807,7 @@ impl<T> RosPublisher<T> {
     /// The attachment and source info for an encoded message; refused if the
     /// session cannot carry it (see [`Unfragmentable`]). Numbers are taken only
     /// for messages that go out.
+    #[inline]
     pub(crate) fn prepare_encoded(
         &self,
         encoded: EncodedPayload,
@@ -827,14 +835,21 @@ impl<T> RosPublisher<T> {
                 .to_bytes(),
             )
         });
+        // A node's attachment already numbers its messages per publisher (its
+        // GID), which is what subscribers count gaps by; a second numbering
+        // would cost every message its bytes and its decoding.
+        let source_info = match attachment {
+            Some(_) => None,
+            None => Some(SourceInfo::new(
+                self.publisher.id(),
+                self.source_sn.fetch_add(1, Ordering::Relaxed),
+            )),
+        };
         Ok(Prepared {
             outcome,
             payload: encoded.bytes,
             attachment,
-            source_info: SourceInfo::new(
-                self.publisher.id(),
-                self.source_sn.fetch_add(1, Ordering::Relaxed),
-            ),
+            source_info,
         })
     }
 
@@ -854,12 +869,13 @@ pub(crate) struct Prepared {
     outcome: PublishOutcome,
     payload: ZBytes,
     attachment: Option<ZBytes>,
-    source_info: SourceInfo,
+    source_info: Option<SourceInfo>,
 }
 
 impl Prepared {
     /// Put, then say what went out. zenoh-ext numbers an advanced publisher's
     /// samples itself (its `SourceInfo`, from 0 like ours).
+    #[inline]
     pub(crate) fn put_wait(
         self,
         publisher: &ZenohPublisher,

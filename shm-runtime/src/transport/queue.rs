@@ -62,10 +62,11 @@ pub(crate) struct Queue {
     pub(crate) type_check: TypeCheck,
 }
 
-/// The check that a sample is of the subscriber's type: our publishers name the
-/// type and its RIHS01 hash in the sample's encoding
+/// The check that a sample is of the subscriber's type: our publishers on a
+/// plain key name the type and its RIHS01 hash in the sample's encoding
 /// (`application/cdr;<type name>;<hash>`, see [`type_encoding`]). Samples
-/// without that (rmw_zenoh_cpp, plain Zenoh, other tools) are taken as they are.
+/// without that (a node's, whose key names the type; rmw_zenoh_cpp, plain
+/// Zenoh, other tools) are taken as they are.
 pub(crate) struct TypeCheck {
     /// `type_encoding(..)` of the type: the common case is one comparison.
     expected: zenoh::bytes::Encoding,
@@ -88,7 +89,9 @@ impl TypeCheck {
     /// say (once) which type arrived.
     pub(crate) fn accepts(&self, sample: &Sample) -> bool {
         let encoding = sample.encoding();
-        if *encoding == self.expected || *encoding == zenoh::bytes::Encoding::ZENOH_BYTES {
+        // Only a schema can name a type: rmw_zenoh_cpp's samples and a node's
+        // (whose key names the type) carry none.
+        if encoding.schema().is_none() || *encoding == self.expected {
             return true;
         }
         let Some((name, hash)) = sample_type(sample) else {
@@ -164,7 +167,7 @@ impl TopicType {
     }
 }
 
-/// The encoding our publishers give every sample of a type:
+/// The encoding our publishers on a plain key give every sample of a type:
 /// `application/cdr;<type name>;<RIHS01 hash>`, or plain `application/cdr`
 /// for a type whose name is too long for that: Zenoh writes an encoding's
 /// schema with a one-byte length, and panics on anything longer than 255

@@ -10,7 +10,7 @@
 //! metadata after (filler dropped). The scope is a thread-local set only for the
 //! duration of one synchronous encode.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::ops::Deref;
 
 use shm_cdr::describe::{FieldType, OctetType, TypeId};
@@ -140,41 +140,63 @@ impl From<bytes::Bytes> for ShmBytes {
     }
 }
 
-/// Splice bookkeeping of the encode running on this thread, if any.
-#[derive(Default)]
-struct SpliceScope {
-    /// Shared-memory fields met while sizing.
+/// What sizing a message met: its shared-memory fields and the bytes they
+/// will not write (`len - len % 8` each).
+#[derive(Clone, Copy, Default)]
+struct Sizing {
     fields: usize,
-    /// Bytes those fields will not write (`len - len % 8` each).
     skipped: usize,
-    /// `(body position of the data, block)`, in stream order, while writing.
-    splices: Vec<(usize, ZBytes)>,
 }
 
 thread_local! {
-    static SCOPE: RefCell<Option<SpliceScope>> = const { RefCell::new(None) };
+    /// The sizing running on this thread, if any: cells, not a `RefCell`, as
+    /// every message published is sized here.
+    static SIZING: Cell<Option<Sizing>> = const { Cell::new(None) };
+    /// `(body position of the data, block)`, in stream order, of the spliced
+    /// write running on this thread, if any.
+    static SPLICES: RefCell<Option<Vec<(usize, ZBytes)>>> = const { RefCell::new(None) };
 }
 
-/// Run `f` with a splice scope on this thread and return the scope's records.
-fn with_scope<R>(f: impl FnOnce() -> R) -> (R, SpliceScope) {
-    // Restores the previous state even if `f` panics.
-    struct Reset(Option<SpliceScope>);
-    impl Drop for Reset {
+/// `msg`'s encoded size with each shared-memory field counted as its filler
+/// (the bytes it writes when spliced), and what the sizing met.
+fn sized<T: CdrEncode + ?Sized>(msg: &T) -> (usize, Sizing) {
+    let _sizing = SizingScope::enter();
+    let size = shm_cdr::encoded_size(msg);
+    (size, SIZING.get().unwrap_or_default())
+}
+
+/// A sizing in progress on this thread; the previous state comes back when
+/// dropped, even if sizing panics.
+struct SizingScope(Option<Sizing>);
+
+impl SizingScope {
+    fn enter() -> Self {
+        Self(SIZING.replace(Some(Sizing::default())))
+    }
+}
+
+impl Drop for SizingScope {
+    fn drop(&mut self) {
+        SIZING.set(self.0);
+    }
+}
+
+/// Run `write` collecting the shared-memory blocks it meets instead of
+/// copying them (sizes seen meanwhile are the spliced ones).
+fn spliced_write<R>(write: impl FnOnce() -> R) -> (R, Vec<(usize, ZBytes)>) {
+    struct Restore(Option<Vec<(usize, ZBytes)>>);
+    impl Drop for Restore {
         fn drop(&mut self) {
             let previous = self.0.take();
-            SCOPE.with(|s| *s.borrow_mut() = previous);
+            SPLICES.with_borrow_mut(|s| *s = previous);
         }
     }
-    let previous = SCOPE.with(|s| s.borrow_mut().replace(SpliceScope::default()));
-    let reset = Reset(previous);
-    let result = f();
-    let scope = SCOPE.with(|s| s.borrow_mut().take()).unwrap_or_default();
-    drop(reset);
-    (result, scope)
-}
-
-fn in_scope<R>(f: impl FnOnce(&mut SpliceScope) -> R) -> Option<R> {
-    SCOPE.with(|s| s.borrow_mut().as_mut().map(f))
+    let _sizing = SizingScope::enter();
+    let restore = Restore(SPLICES.with_borrow_mut(|s| s.replace(Vec::new())));
+    let result = write();
+    let splices = SPLICES.with_borrow_mut(Option::take).unwrap_or_default();
+    drop(restore);
+    (result, splices)
 }
 
 impl CdrEncode for ShmBytes {
@@ -182,11 +204,10 @@ impl CdrEncode for ShmBytes {
         let data_start = shm_cdr::layout::align_up(start, 4) + 4;
         let len = self.len();
         if self.is_shm() {
-            let spliced = in_scope(|scope| {
-                scope.fields += 1;
-                scope.skipped += len - len % 8;
-            });
-            if spliced.is_some() {
+            if let Some(mut sizing) = SIZING.get() {
+                sizing.fields += 1;
+                sizing.skipped += len - len % 8;
+                SIZING.set(Some(sizing));
                 return data_start + len % 8;
             }
         }
@@ -197,7 +218,9 @@ impl CdrEncode for ShmBytes {
         w.write_len(self.len())?;
         if let Repr::Shm(block) = &self.0 {
             let at = w.position();
-            if in_scope(|scope| scope.splices.push((at, block.clone()))).is_some() {
+            let spliced =
+                SPLICES.with_borrow_mut(|s| s.as_mut().map(|s| s.push((at, block.clone()))));
+            if spliced.is_some() {
                 // Filler with the data's length modulo 8 keeps later alignment.
                 return w.write_bytes(&[0u8; 8][..self.len() % 8]);
             }
@@ -256,17 +279,17 @@ pub(crate) enum Splice {
 /// Encode a message that holds shared-memory [`ShmBytes`] as heap metadata around
 /// the untouched blocks. Sizes the message once either way.
 pub(crate) fn encode_spliced<T: CdrEncode + ?Sized>(msg: &T) -> Result<Splice, EncodeError> {
-    let (reduced, sizing) = with_scope(|| shm_cdr::encoded_size(msg));
+    let (reduced, sizing) = sized(msg);
     if sizing.fields == 0 {
         return Ok(Splice::NotNeeded(reduced));
     }
     let mut buffer = vec![0u8; reduced];
-    let (written, scope) = with_scope(|| shm_cdr::encode_into(msg, &mut buffer));
+    let (written, splices) = spliced_write(|| shm_cdr::encode_into(msg, &mut buffer));
     let written = written?;
     let metadata = bytes::Bytes::from(buffer);
     let mut payload = ZBytes::writer();
     let mut cursor = 0;
-    for (body_pos, block) in scope.splices {
+    for (body_pos, block) in splices {
         let at = shm_cdr::HEADER_LEN + body_pos;
         payload.append(ZBytes::from(metadata.slice(cursor..at)));
         cursor = at + block.len() % 8;

@@ -632,8 +632,8 @@ impl<T> RosSubscriber<T> {
     }
 
     /// How many messages never arrived: the gaps in each publisher's sequence
-    /// numbers (Zenoh `SourceInfo`, which our publishers attach, or the
-    /// rmw_zenoh attachment of ROS 2 publishers). Zenoh loses messages when it
+    /// numbers (the rmw_zenoh attachment of a node's or rmw_zenoh_cpp's
+    /// publishers, or the Zenoh `SourceInfo` of publishers on a plain key). Zenoh loses messages when it
     /// closes a transport that stayed congested past its `wait_before_close`
     /// (e.g. this process was stopped); a loss at the very end of a stream shows
     /// only once that publisher sends again.
@@ -881,8 +881,9 @@ impl RosSample {
         self.sample.key_expr().as_str()
     }
 
-    /// The message type (name, RIHS01 hash) the sample's encoding names, if any
-    /// (our publishers name it; rmw_zenoh_cpp's do not).
+    /// The message type (name, RIHS01 hash) the sample's encoding names, if any:
+    /// publishers on a plain key name it; a node's publishers, like
+    /// rmw_zenoh_cpp's, do not, as their key expression names the type.
     pub fn message_type(&self) -> Option<(String, String)> {
         sample_type(&self.sample)
     }
