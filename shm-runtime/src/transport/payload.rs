@@ -120,6 +120,7 @@ impl ShmPolicy {
 }
 
 /// Encode `msg` for publishing under `policy`.
+#[inline]
 pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
     msg: &T,
     policy: Option<&ShmPolicy>,
@@ -144,6 +145,7 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
 /// under `policy` at or above its threshold (the provider hands out exactly
 /// `size` bytes, so the payload is what `write` wrote and nothing else), else
 /// in a heap buffer of exactly `size` bytes: written once either way.
+#[inline]
 fn write_payload<E>(
     size: usize,
     policy: Option<&ShmPolicy>,
