@@ -346,7 +346,7 @@ enum Sender<'a> {
     /// A raw Zenoh publisher; with an rmw attachment, its GID and the
     /// sequence number of the next message.
     Zenoh(zenoh::pubsub::Publisher<'a>, Option<(Gid, AtomicI64)>),
-    Node(shm_runtime::RosPublisher<RosString>),
+    Node(Box<shm_runtime::RosPublisher<RosString>>),
 }
 
 fn publisher_side() -> zenoh::Result<()> {
@@ -392,7 +392,9 @@ fn publisher_side() -> zenoh::Result<()> {
     let mut senders: BTreeMap<Path, Sender> = BTreeMap::new();
     for path in Path::ALL {
         let sender = if path.is_node() {
-            Sender::Node(node.declare_publisher::<RosString>(&path.topic()).wait()?)
+            Sender::Node(Box::new(
+                node.declare_publisher::<RosString>(&path.topic()).wait()?,
+            ))
         } else {
             let publisher = session
                 .declare_publisher(path.topic())

@@ -146,6 +146,10 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
 /// `size` bytes, so the payload is what `write` wrote and nothing else), else
 /// in a heap buffer of exactly `size` bytes: written once either way.
 #[inline]
+#[expect(
+    clippy::slow_vector_initialization,
+    reason = "`vec![0; size]` is calloc, which skips the allocator's per-thread cache"
+)]
 fn write_payload<E>(
     size: usize,
     policy: Option<&ShmPolicy>,
@@ -173,7 +177,6 @@ fn write_payload<E>(
         }
         policy.context.count(kind, size);
     }
-    // Not `vec![0; size]`: calloc skips the allocator's per-thread cache.
     let mut buffer = Vec::with_capacity(size);
     buffer.resize(size, 0u8);
     write(&mut buffer)?;
