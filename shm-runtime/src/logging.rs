@@ -31,6 +31,12 @@ pub const DEFAULT_LOG_FILTER: &str = "warn,zenoh_shm::watchdog::periodic_task=er
 ///   transport) closes the link as it opens; Zenoh logs an ERROR with the
 ///   link's internals at every retry. The router check says what happened
 ///   in the program's own words ([`rmw::config::why_unreached`](crate::rmw::config::why_unreached)).
+/// - A session that closes while a peer's link to it closes too (two nodes'
+///   sessions in one process, or a peer that exits at the same moment) may
+///   still be handed that link's event after it stopped taking publications;
+///   Zenoh (1.8 and later) then logs an ERROR "Unable to publish transport
+///   event: session closed" (eclipse-zenoh/zenoh#2492). Nothing was lost:
+///   the event was for Zenoh's own admin space, of a session that is gone.
 ///
 /// A message matches when it starts with the listed text.
 pub const QUIET_BY_DEFAULT: &[(&str, &str)] = &[
@@ -41,6 +47,14 @@ pub const QUIET_BY_DEFAULT: &[(&str, &str)] = &[
     (
         "zenoh_transport::unicast::establishment::open",
         "Received a close message",
+    ),
+    (
+        "zenoh::api::admin",
+        "Unable to publish transport event: session closed",
+    ),
+    (
+        "zenoh::api::admin",
+        "Unable to publish link event: session closed",
     ),
 ];
 
@@ -69,14 +83,18 @@ pub fn init_logging() {
             .with(receive_failure_layer())
             .try_init(),
         Err(_) => tracing_subscriber::registry()
-            .with(
-                layer
-                    .with_filter(EnvFilter::new(DEFAULT_LOG_FILTER).and(QuietByDefault))
-                    .boxed(),
-            )
+            .with(layer.with_filter(default_filter()).boxed())
             .with(receive_failure_layer())
             .try_init(),
     };
+}
+
+/// [`DEFAULT_LOG_FILTER`] without the events of [`QUIET_BY_DEFAULT`].
+fn default_filter<S>() -> impl Filter<S>
+where
+    S: tracing::Subscriber + for<'a> tracing_subscriber::registry::LookupSpan<'a>,
+{
+    EnvFilter::new(DEFAULT_LOG_FILTER).and(QuietByDefault)
 }
 
 /// Leaves out the events of [`QUIET_BY_DEFAULT`].
@@ -114,5 +132,70 @@ impl Visit for Message {
         if field.name() == "message" {
             self.0 = format!("{value:?}");
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::Write;
+    use std::sync::{Arc, Mutex};
+
+    use super::*;
+
+    /// What a fmt layer wrote.
+    #[derive(Clone, Default)]
+    struct Captured(Arc<Mutex<Vec<u8>>>);
+
+    impl Write for Captured {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            if let Ok(mut out) = self.0.lock() {
+                out.extend_from_slice(buf);
+            }
+            Ok(buf.len())
+        }
+
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn the_default_filter_leaves_out_the_quiet_lines_and_keeps_their_neighbours() {
+        let captured = Captured::default();
+        let writer = captured.clone();
+        let layer = tracing_subscriber::fmt::layer()
+            .with_ansi(false)
+            .with_writer(move || writer.clone())
+            .with_filter(default_filter());
+        let subscriber = tracing_subscriber::registry().with(layer);
+        tracing::subscriber::with_default(subscriber, || {
+            for (target, message) in QUIET_BY_DEFAULT {
+                match *target {
+                    "zenoh::net::runtime::orchestrator" => {
+                        tracing::warn!(target: "zenoh::net::runtime::orchestrator", "{message} (details)")
+                    }
+                    "zenoh_transport::unicast::establishment::open" => {
+                        tracing::error!(target: "zenoh_transport::unicast::establishment::open", "{message} (details)")
+                    }
+                    "zenoh::api::admin" => {
+                        tracing::error!(target: "zenoh::api::admin", "{message}")
+                    }
+                    other => panic!("a quiet line of {other} this test does not emit"),
+                }
+            }
+            tracing::error!(target: "zenoh::api::admin", "Unable to subscribe to transport events: boom");
+            tracing::info!(target: "zenoh::api::admin", "below the default level");
+        });
+        let out = String::from_utf8(captured.0.lock().map(|o| o.clone()).unwrap_or_default())
+            .unwrap_or_default();
+        assert_eq!(
+            out.lines().count(),
+            1,
+            "only the neighbouring error is shown: {out}"
+        );
+        assert!(
+            out.contains("Unable to subscribe to transport events: boom"),
+            "{out}"
+        );
     }
 }
