@@ -19,6 +19,8 @@ use zenoh::sample::SampleKind;
 use zenoh::session::ZenohId;
 use zenoh::{Session, Wait};
 
+use crate::transport::changes::Changes;
+
 /// What one transport negotiated.
 #[derive(Debug, Clone, Default)]
 struct TransportState {
@@ -39,7 +41,12 @@ pub(crate) enum LinkReach {
     Unknown,
 }
 
-type Table = Mutex<HashMap<ZenohId, TransportState>>;
+/// The transports, and a count of their changes.
+#[derive(Default)]
+struct Table {
+    transports: Mutex<HashMap<ZenohId, TransportState>>,
+    changes: Changes,
+}
 
 /// The transports of one session.
 pub(crate) struct Links {
@@ -99,17 +106,20 @@ impl Links {
                     return;
                 };
                 let transport = event.transport();
-                let mut table = lock(&table);
-                match event.kind() {
-                    SampleKind::Put => {
-                        let state = table.entry(*transport.zid()).or_default();
-                        state.whatami = Some(transport.whatami());
-                        state.shm = transport.is_shm();
-                    }
-                    SampleKind::Delete => {
-                        table.remove(transport.zid());
+                {
+                    let mut transports = lock(&table.transports);
+                    match event.kind() {
+                        SampleKind::Put => {
+                            let state = transports.entry(*transport.zid()).or_default();
+                            state.whatami = Some(transport.whatami());
+                            state.shm = transport.is_shm();
+                        }
+                        SampleKind::Delete => {
+                            transports.remove(transport.zid());
+                        }
                     }
                 }
+                table.changes.note();
             })
             .wait()?;
         let link_events = session
@@ -122,20 +132,23 @@ impl Links {
                 };
                 let link = event.link();
                 let remote = link.dst().to_string();
-                let mut table = lock(&table);
-                match event.kind() {
-                    SampleKind::Put => {
-                        let state = table.entry(*link.zid()).or_default();
-                        if !state.remotes.contains(&remote) {
-                            state.remotes.push(remote);
+                {
+                    let mut transports = lock(&table.transports);
+                    match event.kind() {
+                        SampleKind::Put => {
+                            let state = transports.entry(*link.zid()).or_default();
+                            if !state.remotes.contains(&remote) {
+                                state.remotes.push(remote);
+                            }
                         }
-                    }
-                    SampleKind::Delete => {
-                        if let Some(state) = table.get_mut(link.zid()) {
-                            state.remotes.retain(|r| *r != remote);
+                        SampleKind::Delete => {
+                            if let Some(state) = transports.get_mut(link.zid()) {
+                                state.remotes.retain(|r| *r != remote);
+                            }
                         }
                     }
                 }
+                table.changes.note();
             })
             .wait()?;
         let links = Arc::new(Self {
@@ -158,7 +171,7 @@ impl Links {
         if self._events.is_none() {
             return LinkReach::Unknown;
         }
-        let table = lock(&self.transports);
+        let table = lock(&self.transports.transports);
         let shm = |state: &TransportState| match state.shm {
             true => LinkReach::SharedMemory,
             false => LinkReach::Bytes,
@@ -179,12 +192,19 @@ impl Links {
         }
     }
 
+    /// How many times the transports or their links changed: what
+    /// [`reach`](Self::reach), [`is_linked`](Self::is_linked) and
+    /// [`is_local`](Self::is_local) answer holds while it stays the same.
+    pub(crate) fn changes(&self) -> u64 {
+        self.transports.changes.seen()
+    }
+
     /// Whether `session` is this table's own, or one a transport of ours was
     /// opened with: its id came from the transport's handshake (and its
     /// authentication, where configured), not from anything it declared.
     pub(crate) fn is_linked(&self, session: ZenohId) -> bool {
         session == self.session
-            || lock(&self.transports)
+            || lock(&self.transports.transports)
                 .get(&session)
                 .is_some_and(|state| state.whatami.is_some())
     }
@@ -193,7 +213,7 @@ impl Links {
     /// a Unix socket: then only a differing Zenoh, shared memory off over
     /// there, or another user keeps it from carrying shared memory.
     pub(crate) fn is_local(&self, session: ZenohId) -> bool {
-        lock(&self.transports)
+        lock(&self.transports.transports)
             .get(&session)
             .is_some_and(|state| state.remotes.iter().any(|remote| is_loopback(remote)))
     }

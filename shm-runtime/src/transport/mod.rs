@@ -2,6 +2,7 @@
 //! their payloads, the shared-memory pool and loans. Nothing here knows ROS
 //! names or the graph; the [`ros`](crate::ros) tree builds on it.
 
+pub(crate) mod changes;
 pub(crate) mod config;
 pub(crate) mod executor;
 pub(crate) mod inline_limit;

@@ -46,6 +46,7 @@ use zenoh::session::ZenohId;
 use zenoh::{Session, Wait};
 
 use crate::rmw::token_session;
+use crate::transport::changes::Changes;
 use crate::transport::limits::check_key_expr;
 use crate::transport::links::{LinkReach, Links};
 use crate::transport::payload::PayloadKind;
@@ -183,12 +184,19 @@ impl Checked {
 #[derive(Default)]
 pub(crate) struct ReachTable {
     sessions: Mutex<HashMap<ZenohId, Checked>>,
+    changes: Changes,
 }
 
 impl ReachTable {
     fn lock(&self) -> MutexGuard<'_, HashMap<ZenohId, Checked>> {
         // Each entry is written whole.
         self.sessions.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Set what is known of `session`.
+    fn set(&self, session: ZenohId, checked: Checked) {
+        self.lock().insert(session, checked);
+        self.changes.note();
     }
 }
 
@@ -298,8 +306,33 @@ impl Drop for ReceiverMark {
 /// tokens, and the gate they put on its use of shared memory.
 pub(crate) struct Receivers {
     shared: Arc<Shared>,
+    /// What the gate and the copy count last were: every message through
+    /// the pool asks both, and they change only with the receivers' state.
+    kept: Mutex<Kept>,
     _subscriber: zenoh::pubsub::Subscriber<()>,
     _ros_subscriber: Option<zenoh::pubsub::Subscriber<()>>,
+}
+
+/// The counts of changes to all that [`Receivers::look`] and
+/// [`Receivers::copied_to`] read: the receiver tokens and ROS subscribers,
+/// the pool's reach table and the session's links.
+type Seen = [u64; 3];
+
+/// What [`Receivers::look`] found.
+#[derive(Debug, Clone, Copy)]
+struct Looked {
+    gate: Option<PayloadKind>,
+    settled: bool,
+    /// When a token or a session is next due to be asked again, if any is
+    /// waiting to be: the answer holds until then.
+    until: Option<Instant>,
+}
+
+/// The last answers, each with the state it was found in.
+#[derive(Debug, Default)]
+struct Kept {
+    look: Option<(Seen, Looked)>,
+    copied: Option<(Seen, usize)>,
 }
 
 /// Where a receiver token stands.
@@ -353,6 +386,8 @@ struct Shared {
     /// Whether an unconfirmed receiver token was reported at warning level
     /// (later ones are debug lines: forged tokens may come by the thousand).
     warned_unconfirmed: AtomicBool,
+    /// Changes to `tokens`, `distrusted` and `ros_subscribers`.
+    changes: Changes,
 }
 
 fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -363,6 +398,15 @@ fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
 impl Shared {
     fn tokens(&self) -> MutexGuard<'_, HashMap<String, Token>> {
         lock(&self.tokens)
+    }
+
+    /// The counts of changes to what the gate reads, taken before reading it.
+    fn seen(&self) -> Seen {
+        [
+            self.changes.seen(),
+            self.pool.reach_table().changes.seen(),
+            self.links.changes(),
+        ]
     }
 
     /// Sessions of matching ROS subscribers that announce no receiver token
@@ -482,6 +526,7 @@ impl Receivers {
             links: Links::of(session)?,
             warned: Mutex::default(),
             warned_unconfirmed: AtomicBool::new(false),
+            changes: Changes::default(),
         });
         let ros_subscriber = match ros_subscribers {
             Some(selector) => Some(follow_ros_subscribers(session, selector, &shared)?),
@@ -517,17 +562,20 @@ impl Receivers {
                             }
                         };
                         if new {
+                            shared.changes.note();
                             confirm(&shared, token, zid, 0);
                         }
                     }
                     SampleKind::Delete => {
                         shared.tokens().remove(token);
+                        shared.changes.note();
                     }
                 }
             })
             .wait()?;
         Ok(Self {
             shared,
+            kept: Mutex::default(),
             _subscriber: subscriber,
             _ros_subscriber: ros_subscriber,
         })
@@ -580,8 +628,19 @@ impl Receivers {
     /// How many subscribing sessions get a message sent through the pool as
     /// a copy (their link carries no shared memory), each warned about once.
     pub(crate) fn copied_to(&self) -> usize {
-        // Runs on every publish through the pool: no allocation unless a
-        // session gets copies or a ROS subscriber answers no probe.
+        let seen = self.shared.seen();
+        if let Some((at, copied)) = lock(&self.kept).copied {
+            if at == seen {
+                return copied;
+            }
+        }
+        let copied = self.count_copied();
+        lock(&self.kept).copied = Some((seen, copied));
+        copied
+    }
+
+    /// [`copied_to`](Self::copied_to), found again.
+    fn count_copied(&self) -> usize {
         let mut copied: Vec<ZenohId> = Vec::new();
         {
             // Lock order: tokens, then the pool's table (as `probe` takes them).
@@ -626,17 +685,37 @@ impl Receivers {
         self.look().1
     }
 
-    /// The gate, and whether every check has settled.
+    /// The gate, and whether every check has settled: found again only
+    /// when something it reads changed, or a check fell due.
     fn look(&self) -> (Option<PayloadKind>, bool) {
+        let seen = self.shared.seen();
+        if let Some((at, looked)) = lock(&self.kept).look {
+            if at == seen && looked.until.is_none_or(|until| Instant::now() < until) {
+                return (looked.gate, looked.settled);
+            }
+        }
+        let looked = self.look_again();
+        lock(&self.kept).look = Some((seen, looked));
+        (looked.gate, looked.settled)
+    }
+
+    /// [`look`](Self::look), found again, starting the checks that are due.
+    fn look_again(&self) -> Looked {
         let mut gate = None;
         let mut settled = true;
+        let mut until: Option<Instant> = None;
+        let mut wait_until = |at: Instant| until = Some(until.map_or(at, |u| u.min(at)));
         let mut due_probes = Vec::new();
         let mut due_confirmations = Vec::new();
         {
             // Lock order: tokens, then the pool's table (as `probe` takes them).
             let mut tokens = self.shared.tokens();
             if tokens.is_empty() {
-                return (None, true);
+                return Looked {
+                    gate: None,
+                    settled: true,
+                    until: None,
+                };
             }
             let now = Instant::now();
             let table = self.shared.pool.reach_table().lock();
@@ -650,10 +729,12 @@ impl Receivers {
                         }
                         continue;
                     }
-                    Confirmation::Unconfirmed { tries, .. } => {
+                    Confirmation::Unconfirmed { at, tries } => {
                         if token.due_at(now) {
                             token.confirmation = Confirmation::Asking { tries };
                             due_confirmations.push((key.clone(), session, tries));
+                        } else {
+                            wait_until(at + backoff(tries));
                         }
                         continue;
                     }
@@ -671,8 +752,10 @@ impl Receivers {
                             gate = gate.or(Some(PayloadKind::ReceiverPending));
                         }
                         Reach::CannotMap => {
-                            if checked.due() {
+                            if checked.due_at(now) {
                                 due_probes.push(session);
+                            } else {
+                                wait_until(checked.at + backoff(checked.failures));
                             }
                             gate = Some(PayloadKind::ReceiverCannotMap);
                         }
@@ -684,13 +767,20 @@ impl Receivers {
                 }
             }
         }
+        if !due_confirmations.is_empty() {
+            self.shared.changes.note();
+        }
         for session in due_probes {
             probe(&self.shared, session);
         }
         for (key, session, tries) in due_confirmations {
             confirm(&self.shared, &key, session, tries);
         }
-        (gate, settled)
+        Looked {
+            gate,
+            settled,
+            until,
+        }
     }
 }
 
@@ -714,15 +804,18 @@ fn follow_ros_subscribers(
             let Some(zid) = token_session(token).filter(|zid| *zid != own) else {
                 return;
             };
-            let mut subscribers = lock(&shared.ros_subscribers);
-            match sample.kind() {
-                SampleKind::Put => {
-                    subscribers.insert(token.to_owned(), zid);
-                }
-                SampleKind::Delete => {
-                    subscribers.remove(token);
+            {
+                let mut subscribers = lock(&shared.ros_subscribers);
+                match sample.kind() {
+                    SampleKind::Put => {
+                        subscribers.insert(token.to_owned(), zid);
+                    }
+                    SampleKind::Delete => {
+                        subscribers.remove(token);
+                    }
                 }
             }
+            shared.changes.note();
         })
         .wait()
 }
@@ -794,11 +887,13 @@ impl Drop for Confirming {
         }
         if holds {
             lock(&shared.distrusted).remove(&self.session);
+            shared.changes.note();
             probe(&shared, self.session);
         } else {
             if shared.links.is_linked(self.session) {
                 lock(&shared.distrusted).insert(self.session);
             }
+            shared.changes.note();
             shared.report_unconfirmed(&self.token, self.session);
         }
     }
@@ -831,6 +926,7 @@ fn probe(shared: &Shared, session: ZenohId) {
         );
         failures
     };
+    pool.reach_table().changes.note();
     // Never wait for room here (this may run on Zenoh's thread): with the
     // pool full, the next publish asks again.
     let Some(mut chunk) = pool.alloc_message(8, Duration::ZERO) else {
@@ -874,21 +970,20 @@ fn probe(shared: &Shared, session: ZenohId) {
 /// A probe that could not be sent: asked again on the next publish (or, after
 /// failures, at the next backoff).
 fn forget(pool: &ShmContext, session: ZenohId, failures: u32) {
-    let mut table = pool.reach_table().lock();
+    let table = pool.reach_table();
     match failures {
         0 => {
-            table.remove(&session);
+            table.lock().remove(&session);
+            table.changes.note();
         }
-        _ => {
-            table.insert(
-                session,
-                Checked {
-                    reach: Reach::CannotMap,
-                    at: Instant::now(),
-                    failures,
-                },
-            );
-        }
+        _ => table.set(
+            session,
+            Checked {
+                reach: Reach::CannotMap,
+                at: Instant::now(),
+                failures,
+            },
+        ),
     }
 }
 
@@ -921,6 +1016,7 @@ impl Drop for Verdict {
             );
             failures == 1
         };
+        self.pool.reach_table().changes.note();
         if first_failure {
             tracing::warn!(
                 key_expr = %self.key_expr,
