@@ -1055,6 +1055,69 @@ mod tests {
         assert!(!due(Reach::Checking, 0, 7200));
     }
 
+    /// A session's receivers on a pool, with a token of `other`'s confirmed
+    /// and `other` unable to map the pool since `at` (one failure).
+    fn receivers_of_one_that_cannot_map(at: Instant) -> (Session, ShmContext, Receivers, ZenohId) {
+        let port = crate::testing::free_port().unwrap();
+        let session = zenoh::open(crate::testing::peer_config(port, true).unwrap())
+            .wait()
+            .unwrap();
+        let pool = ShmContext::new(crate::ShmConfig::enabled().pool_size(1 << 20)).unwrap();
+        let receivers = Receivers::follow(&session, "kept/gate", &pool, None).unwrap();
+        let other: ZenohId = "a1b2c3".parse().unwrap();
+        let checked = Checked {
+            reach: Reach::CannotMap,
+            at,
+            failures: 1,
+        };
+        pool.reach_table().set(other, checked);
+        receivers.shared.tokens().insert(
+            format!("kept/gate/{RECEIVER_CHUNK}/{other}/0"),
+            Token {
+                session: other,
+                confirmation: Confirmation::Confirmed,
+            },
+        );
+        (session, pool, receivers, other)
+    }
+
+    #[test]
+    fn the_kept_gate_is_found_again_after_a_change_is_noted() {
+        let (_session, _pool, receivers, _) = receivers_of_one_that_cannot_map(Instant::now());
+        // The token went in without a note: the answer kept from before stands.
+        receivers.shared.tokens().clear();
+        assert_eq!(receivers.gate(), None);
+        receivers.shared.tokens().insert(
+            format!("kept/gate/{RECEIVER_CHUNK}/a1b2c3/0"),
+            Token {
+                session: "a1b2c3".parse().unwrap(),
+                confirmation: Confirmation::Confirmed,
+            },
+        );
+        assert_eq!(receivers.gate(), None, "kept while nothing was noted");
+        receivers.shared.changes.note();
+        assert_eq!(receivers.gate(), Some(PayloadKind::ReceiverCannotMap));
+        assert_eq!(receivers.copied_to(), 0);
+    }
+
+    #[test]
+    fn the_kept_gate_is_found_again_when_a_session_falls_due_for_a_probe() {
+        // Due again in 300 ms.
+        let at = Instant::now().checked_sub(backoff(1)).unwrap() + Duration::from_millis(300);
+        let (_session, pool, receivers, other) = receivers_of_one_that_cannot_map(at);
+        let asked_at = || pool.reach_table().lock().get(&other).map(|c| c.at);
+        assert_eq!(receivers.gate(), Some(PayloadKind::ReceiverCannotMap));
+        assert_eq!(asked_at(), Some(at), "not due yet: not asked");
+        std::thread::sleep(Duration::from_millis(400));
+        // Nothing changed meanwhile, but the check fell due: asked again
+        // (showing CannotMap while it is).
+        assert_eq!(receivers.gate(), Some(PayloadKind::ReceiverCannotMap));
+        assert!(
+            asked_at().is_some_and(|again| again > at),
+            "due: asked again"
+        );
+    }
+
     #[test]
     fn a_receiver_token_names_its_session() {
         let zid: ZenohId = "a1b2c3".parse().unwrap();
