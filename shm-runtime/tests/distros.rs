@@ -249,6 +249,61 @@ fn chatter_conflicts(node: &RosNode, count: usize) -> Vec<shm_runtime::TypeConfl
     }
 }
 
+/// The nodes of one session follow the graph together: each still names
+/// only the conflicts on its own topics, and one that leaves takes nothing
+/// from the others.
+#[test]
+fn nodes_of_one_session_each_name_their_own_conflicts() {
+    use shm_cdr::msgs::std_msgs::Int32;
+    let (a, b, _) = loopback_sessions();
+    let first = node(&b, "first_listener", Distro::Kilted);
+    let _first_chatter = first.declare_subscriber::<Text>("/chatter").wait().unwrap();
+    let second = node(&b, "second_listener", Distro::Kilted);
+    let _second_numbers = second
+        .declare_subscriber::<Text>("/numbers")
+        .wait()
+        .unwrap();
+    let third = node(&b, "third_listener", Distro::Kilted);
+    let _third_chatter = third.declare_subscriber::<Text>("/chatter").wait().unwrap();
+
+    let talker = node(&a, "int_talker", Distro::Kilted);
+    let _ints = talker
+        .declare_publisher::<Int32>("/chatter")
+        .wait()
+        .unwrap();
+    for listener in [&first, &third] {
+        let conflicts = chatter_conflicts(listener, 1);
+        assert_eq!(conflicts.len(), 1, "{conflicts:?}");
+        assert_eq!(conflicts[0].node, "/int_talker");
+    }
+    assert!(
+        second
+            .topic_type_conflicts()
+            .iter()
+            .all(|c| c.topic != "/chatter"),
+        "a node without /chatter named a conflict there"
+    );
+
+    // The first node leaves; the third still follows the graph.
+    drop(first);
+    let _more = talker
+        .declare_publisher::<Int32>("/numbers")
+        .wait()
+        .unwrap();
+    let deadline = std::time::Instant::now() + TIMEOUT;
+    while !second
+        .topic_type_conflicts()
+        .iter()
+        .any(|c| c.topic == "/numbers")
+    {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "a conflict after another node of the session left was never named"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 #[test]
 fn a_node_names_the_endpoints_it_cannot_hear() {
     use shm_cdr::msgs::std_msgs::{Float64, Int32};

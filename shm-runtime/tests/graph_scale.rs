@@ -76,16 +76,27 @@ fn system(session: &Session, prefix: &str, count: usize) -> System {
 /// `count` nodes named `<prefix>_<i>`, each with the four endpoints of
 /// [`system`], seen by `cache`.
 fn sees_all(cache: &GraphCache, prefix: &str, count: usize) -> bool {
+    let named = format!("/{prefix}_");
     cache.wait_until(TIMEOUT, |graph| {
+        // Asked at every change of the graph, thousands of times: the counts
+        // (kept by the graph) first, the names once they add up.
+        let servers_each = AUTOMATIC_SERVICES + 1;
+        if graph.count(EntityKind::Node) < count
+            || graph.count(EntityKind::ServiceServer) < count * servers_each
+            || graph.count(EntityKind::Publisher) < count * 3
+            || graph.count(EntityKind::Subscriber) < count
+        {
+            return false;
+        }
         let nodes = graph
             .nodes()
             .iter()
-            .filter(|n| n.starts_with(&format!("/{prefix}_")))
+            .filter(|n| n.starts_with(&named))
             .count();
         let servers = graph
             .services()
             .keys()
-            .filter(|s| s.starts_with(&format!("/{prefix}_")) && s.ends_with("/reset"))
+            .filter(|s| s.starts_with(&named) && s.ends_with("/reset"))
             .count();
         nodes == count
             && servers == count
@@ -147,13 +158,13 @@ fn a_cache_follows_400_nodes_and_their_5200_tokens_coming_and_going_with_an_even
         }
     }
     assert!(
-        cache.wait_until(TIMEOUT, |graph| graph
-            .nodes()
-            .iter()
-            .filter(|n| n.starts_with("/node_"))
-            .count()
-            == 200
-            && graph.publishers("/rosout").len() == 200),
+        cache.wait_until(TIMEOUT, |graph| graph.publishers("/rosout").len() == 200
+            && graph
+                .nodes()
+                .iter()
+                .filter(|n| n.starts_with("/node_"))
+                .count()
+                == 200),
         "the nodes that left stayed on the graph"
     );
     assert!(!cache.read().contains_node("/node_0"));

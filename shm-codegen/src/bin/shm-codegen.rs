@@ -307,24 +307,56 @@ fn registry_source(packages: &[shm_codegen::ast::Package], borrowed: bool) -> St
     )
 }
 
-/// Write `text`, formatted by rustfmt when it is available.
+/// Write `text`, formatted by rustfmt when it is available, to `path`, unless
+/// `path` holds exactly that already: a file left as it was keeps its
+/// modification time, so regenerating an unchanged set rebuilds nothing.
 fn write(path: &Path, text: &str) -> Result<(), String> {
-    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
-    match std::process::Command::new("rustfmt")
-        .args(["--edition", "2021"])
-        .arg(path)
-        .status()
-    {
-        Ok(status) if status.success() => Ok(()),
-        Ok(status) => Err(format!("rustfmt failed on {} ({status})", path.display())),
-        Err(_) => {
-            eprintln!(
-                "shm-codegen: rustfmt not found; {} is left unformatted",
-                path.display()
-            );
-            Ok(())
-        }
+    let formatted = rustfmt(text).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = formatted.as_deref().unwrap_or(text);
+    if formatted.is_none() {
+        eprintln!(
+            "shm-codegen: rustfmt not found; {} is left unformatted",
+            path.display()
+        );
     }
+    if std::fs::read(path).is_ok_and(|old| old == text.as_bytes()) {
+        return Ok(());
+    }
+    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// `text` formatted by rustfmt (from its standard input, so no module it
+/// names is read), or `None` without rustfmt.
+fn rustfmt(text: &str) -> Result<Option<String>, String> {
+    use std::io::Write;
+    use std::process::{Command, Stdio};
+    let mut child = match Command::new("rustfmt")
+        .args(["--edition", "2021"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+    {
+        Ok(child) => child,
+        Err(_) => return Ok(None),
+    };
+    // Fed from a thread: rustfmt may write before it has read everything.
+    let mut stdin = child.stdin.take().ok_or("rustfmt's input is not open")?;
+    let input = text.to_owned();
+    let feeder = std::thread::spawn(move || stdin.write_all(input.as_bytes()));
+    let out = child
+        .wait_with_output()
+        .map_err(|e| format!("rustfmt: {e}"))?;
+    match feeder.join() {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return Err(format!("rustfmt's input: {e}")),
+        Err(_) => return Err("rustfmt's input: the writer panicked".into()),
+    }
+    if !out.status.success() {
+        return Err(format!("rustfmt failed ({})", out.status));
+    }
+    String::from_utf8(out.stdout)
+        .map(Some)
+        .map_err(|e| format!("rustfmt wrote other than UTF-8: {e}"))
 }
 
 fn replace_block(cargo_toml: &Path, block: &str) -> Result<(), String> {
@@ -338,5 +370,8 @@ fn replace_block(cargo_toml: &Path, block: &str) -> Result<(), String> {
     };
     let after_begin = begin + BEGIN.len() + 1;
     let new = format!("{}{block}{}", &text[..after_begin], &text[end..]);
+    if new == text {
+        return Ok(());
+    }
     std::fs::write(cargo_toml, new).map_err(|e| format!("{}: {e}", cargo_toml.display()))
 }

@@ -7,7 +7,7 @@
 //! ([`RosNode::topic_type_conflicts`](crate::RosNode::topic_type_conflicts)).
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard, Weak};
 
 use crate::rmw::{Distro, EntityKind, TYPE_HASH_NOT_SUPPORTED};
 use crate::ros::graph::{Entity, GraphCache, GraphCallback, GraphEvent};
@@ -49,7 +49,56 @@ fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
 pub(crate) struct TopicTypes {
     shared: Arc<Shared>,
     /// Following the graph from the first topic on.
-    callback: Mutex<Option<GraphCallback>>,
+    watch: Mutex<Option<Arc<Watch>>>,
+}
+
+/// The type checks of the nodes that share one graph cache (a session's
+/// domain), fed by one graph callback: a callback, and its thread, per node
+/// would wake every node of a process at every change of the graph.
+struct Watch {
+    cache: GraphCache,
+    nodes: Arc<Mutex<Vec<Weak<Shared>>>>,
+    _callback: GraphCallback,
+}
+
+/// The watch of each graph cache some node follows.
+static WATCHES: Mutex<Vec<Weak<Watch>>> = Mutex::new(Vec::new());
+
+impl Watch {
+    /// The watch of `graph`: the one its nodes share, or a new one.
+    fn of(graph: &GraphCache) -> zenoh::Result<Arc<Watch>> {
+        let mut watches = lock(&WATCHES);
+        if let Some(watch) = watches
+            .iter()
+            .filter_map(Weak::upgrade)
+            .find(|w| w.cache.is(graph))
+        {
+            return Ok(watch);
+        }
+        watches.retain(|w| w.strong_count() > 0);
+        let nodes: Arc<Mutex<Vec<Weak<Shared>>>> = Arc::default();
+        let on_change = nodes.clone();
+        let cache = graph.clone();
+        let callback = graph.on_change(move |event| {
+            let mut nodes = lock(&on_change);
+            nodes.retain(|node| node.strong_count() > 0);
+            for node in nodes.iter().filter_map(Weak::upgrade) {
+                match &event {
+                    GraphEvent::Appeared(entity) => node.check(entity),
+                    // Changes were dropped from the queue: look at it all.
+                    GraphEvent::Missed => node.check_all(&cache),
+                    GraphEvent::Left(_) => {}
+                }
+            }
+        })?;
+        let watch = Arc::new(Watch {
+            cache: graph.clone(),
+            nodes,
+            _callback: callback,
+        });
+        watches.push(Arc::downgrade(&watch));
+        Ok(watch)
+    }
 }
 
 impl TopicTypes {
@@ -60,7 +109,7 @@ impl TopicTypes {
                 conflicts: Mutex::default(),
                 distro,
             }),
-            callback: Mutex::default(),
+            watch: Mutex::default(),
         }
     }
 
@@ -88,21 +137,17 @@ impl TopicTypes {
             }
         };
         if let Some(graph) = graph {
-            let mut callback = lock(&self.callback);
-            if callback.is_none() {
-                let shared = self.shared.clone();
-                let cache = graph.clone();
-                match graph.on_change(move |event| match event {
-                    GraphEvent::Appeared(entity) => shared.check(&entity),
-                    // Changes were dropped from the queue: look at it all.
-                    GraphEvent::Missed => shared.check_all(&cache),
-                    GraphEvent::Left(_) => {}
-                }) {
-                    Ok(handle) => *callback = Some(handle),
+            let mut watch = lock(&self.watch);
+            if watch.is_none() {
+                match Watch::of(&graph) {
+                    Ok(shared_watch) => {
+                        lock(&shared_watch.nodes).push(Arc::downgrade(&self.shared));
+                        *watch = Some(shared_watch);
+                    }
                     Err(e) => tracing::debug!("endpoints of other types are not looked for: {e}"),
                 }
             }
-            drop(callback);
+            drop(watch);
             // What is there already (a change after this is seen by the
             // callback too; a conflict is kept once).
             self.shared.check_topic(&graph, topic);

@@ -150,6 +150,12 @@ impl fmt::Debug for GraphCache {
 }
 
 impl GraphCache {
+    /// Whether `other` is this very cache (a clone of it), not one of another
+    /// session or domain.
+    pub(crate) fn is(&self, other: &GraphCache) -> bool {
+        Arc::ptr_eq(&self.handle, &other.handle)
+    }
+
     /// The graph cache of `session` for ROS domain `domain_id`: the one its
     /// nodes already share, or a new one.
     pub fn of(session: &Session, domain_id: u32) -> zenoh::Result<Self> {
