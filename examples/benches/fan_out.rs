@@ -25,11 +25,13 @@
 //! table gives medians, p90s, and the median of per-turn ratios to the floor.
 //! The publisher's CPU time is its process's, all threads, per message.
 
+mod common;
+
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use std::process::Child;
 use std::time::Duration;
 
+use common::{cpu_ns, list_arg, median, now_ns, spawn_ready};
 use shm_cdr::loan::InPlace;
 use shm_cdr::msgs::sensor_msgs::{Image, ImageLens, ImageRef};
 use shm_cdr::msgs::std_msgs::Header;
@@ -81,22 +83,6 @@ impl Path {
     fn from_u8(byte: u8) -> Option<Path> {
         Path::ALL.into_iter().find(|p| *p as u8 == byte)
     }
-}
-
-/// CLOCK_MONOTONIC in nanoseconds, one clock for every process.
-fn now_ns() -> u64 {
-    use nix::time::{clock_gettime, ClockId};
-    // CLOCK_MONOTONIC always exists on Linux; a failure would be a broken kernel.
-    let t = clock_gettime(ClockId::CLOCK_MONOTONIC).expect("CLOCK_MONOTONIC");
-    t.tv_sec() as u64 * 1_000_000_000 + t.tv_nsec() as u64
-}
-
-/// CPU time this process has used, in nanoseconds (all its threads).
-fn cpu_ns() -> u64 {
-    use nix::time::{clock_gettime, ClockId};
-    // Every Linux has this clock; a failure would be a broken kernel.
-    let t = clock_gettime(ClockId::CLOCK_PROCESS_CPUTIME_ID).expect("CLOCK_PROCESS_CPUTIME_ID");
-    t.tv_sec() as u64 * 1_000_000_000 + t.tv_nsec() as u64
 }
 
 /// The last byte of message `seq`'s data.
@@ -338,15 +324,7 @@ fn publisher_side() -> zenoh::Result<()> {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
     let messages = if quick { 12 } else { 40 };
-    let counts: Vec<usize> = match args.iter().position(|a| a == "--subscribers") {
-        Some(i) => args
-            .get(i + 1)
-            .ok_or("--subscribers needs a comma-separated list")?
-            .split(',')
-            .map(|n| n.parse::<usize>())
-            .collect::<Result<_, _>>()?,
-        None => COUNTS.to_vec(),
-    };
+    let counts: Vec<usize> = list_arg("--subscribers")?.unwrap_or_else(|| COUNTS.to_vec());
     let port = std::net::TcpListener::bind("127.0.0.1:0")?
         .local_addr()?
         .port();
@@ -416,21 +394,11 @@ fn publisher_side() -> zenoh::Result<()> {
 }
 
 fn spawn_subscriber(endpoint: &str, i: usize) -> zenoh::Result<Child> {
-    let mut child = Command::new(std::env::current_exe()?)
-        .env("FAN_OUT_ROLE", "subscriber")
-        .env("FAN_OUT_ENDPOINT", endpoint)
-        .env("FAN_OUT_NAME", format!("fan_out_subscriber_{i}"))
-        .stdout(Stdio::piped())
-        .spawn()?;
-    let ready = child
-        .stdout
-        .take()
-        .map(|out| BufReader::new(out).lines().next());
-    if !matches!(ready, Some(Some(Ok(ref line))) if line == "READY") {
-        let _ = child.kill();
-        return Err("a subscribing process did not start".into());
-    }
-    Ok(child)
+    spawn_ready(&[
+        ("FAN_OUT_ROLE", "subscriber"),
+        ("FAN_OUT_ENDPOINT", endpoint),
+        ("FAN_OUT_NAME", &format!("fan_out_subscriber_{i}")),
+    ])
 }
 
 /// Wait until `count` sessions subscribe to `publisher`, each mapping its pool.
@@ -510,10 +478,6 @@ fn percentile(mut values: Vec<f64>, p: f64) -> f64 {
         0 => f64::NAN,
         n => values[((n - 1) as f64 * p).round() as usize],
     }
-}
-
-fn median(values: Vec<f64>) -> f64 {
-    percentile(values, 0.5)
 }
 
 fn print_table(turns: &BTreeMap<(usize, Path), Vec<Turn>>, messages: usize) {

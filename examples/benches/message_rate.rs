@@ -43,13 +43,14 @@
 //! each process's, all threads. The paths take turns in a new order every
 //! round; the table gives medians and the median of per-round ratios.
 
+mod common;
+
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::Duration;
 
+use common::{cpu_ns, list_arg, median, now_ns, spawn_ready};
 use shm_cdr::msgs::std_msgs::String as RosString;
 use shm_cdr_examples::peer_session;
 use shm_runtime::rmw::{Attachment, Gid};
@@ -150,26 +151,10 @@ impl Path {
     }
 }
 
-/// CLOCK_MONOTONIC in nanoseconds, one clock for both processes.
-fn now_ns() -> u64 {
-    use nix::time::{clock_gettime, ClockId};
-    // CLOCK_MONOTONIC always exists on Linux; a failure would be a broken kernel.
-    let t = clock_gettime(ClockId::CLOCK_MONOTONIC).expect("CLOCK_MONOTONIC");
-    t.tv_sec() as u64 * 1_000_000_000 + t.tv_nsec() as u64
-}
-
 fn message(size: usize) -> RosString {
     RosString {
         data: "x".repeat(size - FENCE_LEN),
     }
-}
-
-/// CPU time this process has used, in nanoseconds (all its threads).
-fn cpu_ns() -> u64 {
-    use nix::time::{clock_gettime, ClockId};
-    // Every Linux has this clock; a failure would be a broken kernel.
-    let t = clock_gettime(ClockId::CLOCK_PROCESS_CPUTIME_ID).expect("CLOCK_PROCESS_CPUTIME_ID");
-    t.tv_sec() as u64 * 1_000_000_000 + t.tv_nsec() as u64
 }
 
 /// The subscribing process's CPU time at the previous fence.
@@ -353,11 +338,9 @@ fn publisher_side() -> zenoh::Result<()> {
     let quick = std::env::args().any(|a| a == "--quick");
     let rounds = if quick { 3 } else { 9 };
     let args: Vec<String> = std::env::args().collect();
-    let paths: Vec<Path> = match args.iter().position(|a| a == "--paths") {
-        Some(i) => args
-            .get(i + 1)
-            .ok_or("--paths needs a comma-separated list")?
-            .split(',')
+    let paths: Vec<Path> = match list_arg::<String>("--paths")? {
+        Some(names) => names
+            .iter()
             .map(|name| {
                 Path::ALL
                     .into_iter()
@@ -371,15 +354,8 @@ fn publisher_side() -> zenoh::Result<()> {
         Some(i) => Some(args.get(i + 1).ok_or("--burst needs a number")?.parse()?),
         None => None,
     };
-    let sizes: Vec<usize> = match args.iter().position(|a| a == "--sizes") {
-        Some(i) => args
-            .get(i + 1)
-            .ok_or("--sizes needs a comma-separated list of bytes")?
-            .split(',')
-            .map(|n| n.parse::<usize>())
-            .collect::<Result<_, _>>()?,
-        None => SIZES.iter().map(|s| s.0).collect(),
-    };
+    let sizes: Vec<usize> =
+        list_arg("--sizes")?.unwrap_or_else(|| SIZES.iter().map(|s| s.0).collect());
     let port = std::net::TcpListener::bind("127.0.0.1:0")?
         .local_addr()?
         .port();
@@ -412,19 +388,7 @@ fn publisher_side() -> zenoh::Result<()> {
     }
     let reports = session.declare_subscriber(REPORT_KEY).wait()?;
 
-    let mut child = Command::new(std::env::current_exe()?)
-        .env("RATE_ROLE", "subscriber")
-        .env("RATE_ENDPOINT", &endpoint)
-        .stdout(Stdio::piped())
-        .spawn()?;
-    let ready = child
-        .stdout
-        .take()
-        .map(|out| BufReader::new(out).lines().next());
-    if !matches!(ready, Some(Some(Ok(ref line))) if line == "READY") {
-        let _ = child.kill();
-        return Err("the subscribing process did not start".into());
-    }
+    let mut child = spawn_ready(&[("RATE_ROLE", "subscriber"), ("RATE_ENDPOINT", &endpoint)])?;
     for (path, sender) in &senders {
         let matched = match sender {
             Sender::Zenoh(p, _) => {
@@ -596,15 +560,6 @@ fn wait_report(
         .into());
     }
     Ok(report)
-}
-
-fn median(mut values: Vec<f64>) -> f64 {
-    values.sort_by(f64::total_cmp);
-    match values.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => values[n / 2],
-        n => (values[n / 2 - 1] + values[n / 2]) / 2.0,
-    }
 }
 
 fn print_table(rates: &BTreeMap<(usize, Path), Vec<Round>>) {
