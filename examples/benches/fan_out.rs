@@ -31,12 +31,12 @@ use std::collections::BTreeMap;
 use std::process::Child;
 use std::time::Duration;
 
-use common::{cpu_ns, list_arg, median, now_ns, spawn_ready};
+use common::{cpu_ns, list_arg, median, now_ns, spawn_ready, Publishing};
 use shm_cdr::loan::InPlace;
 use shm_cdr::msgs::sensor_msgs::{Image, ImageLens, ImageRef};
 use shm_cdr::msgs::std_msgs::Header;
 use shm_cdr_examples::peer_session;
-use shm_runtime::{Reach, RosNode, RosPublisher, ShmConfig, ShmContext};
+use shm_runtime::{Reach, RosNode, RosPublisher, ShmContext};
 use zenoh::qos::{CongestionControl, Reliability};
 use zenoh::sample::Sample;
 use zenoh::Wait;
@@ -325,15 +325,12 @@ fn publisher_side() -> zenoh::Result<()> {
     let quick = args.iter().any(|a| a == "--quick");
     let messages = if quick { 12 } else { 40 };
     let counts: Vec<usize> = list_arg("--subscribers")?.unwrap_or_else(|| COUNTS.to_vec());
-    let port = std::net::TcpListener::bind("127.0.0.1:0")?
-        .local_addr()?
-        .port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let session = peer_session(&endpoint, true)?;
-    let shm = ShmContext::new(ShmConfig::enabled().pool_size(POOL))?;
-    let node = RosNode::builder(&session, "fan_out_publisher")
-        .shm(&shm)
-        .wait()?;
+    let Publishing {
+        endpoint,
+        session,
+        shm,
+        node,
+    } = Publishing::open("fan_out_publisher", POOL)?;
     let publishers = Publishers {
         floor: session
             .declare_publisher(FLOOR_KEY)

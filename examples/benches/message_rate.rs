@@ -50,11 +50,11 @@ use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::Duration;
 
-use common::{cpu_ns, list_arg, median, now_ns, spawn_ready};
+use common::{cpu_ns, list_arg, median, now_ns, spawn_ready, Publishing};
 use shm_cdr::msgs::std_msgs::String as RosString;
 use shm_cdr_examples::peer_session;
 use shm_runtime::rmw::{Attachment, Gid};
-use shm_runtime::{History, RosNode, ShmConfig, ShmContext};
+use shm_runtime::{History, RosNode, ShmContext};
 use zenoh::bytes::ZBytes;
 use zenoh::qos::{CongestionControl, Reliability};
 use zenoh::sample::Sample;
@@ -356,15 +356,12 @@ fn publisher_side() -> zenoh::Result<()> {
     };
     let sizes: Vec<usize> =
         list_arg("--sizes")?.unwrap_or_else(|| SIZES.iter().map(|s| s.0).collect());
-    let port = std::net::TcpListener::bind("127.0.0.1:0")?
-        .local_addr()?
-        .port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let session = peer_session(&endpoint, true)?;
-    let shm = ShmContext::new(ShmConfig::enabled().pool_size(POOL))?;
-    let node = RosNode::builder(&session, "rate_publisher")
-        .shm(&shm)
-        .wait()?;
+    let Publishing {
+        endpoint,
+        session,
+        shm,
+        node,
+    } = Publishing::open("rate_publisher", POOL)?;
     let mut senders: BTreeMap<Path, Sender> = BTreeMap::new();
     for path in Path::ALL {
         let sender = if path.is_node() {

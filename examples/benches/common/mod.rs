@@ -4,6 +4,38 @@
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 
+use shm_cdr_examples::peer_session;
+use shm_runtime::{RosNode, ShmConfig, ShmContext};
+use zenoh::{Session, Wait};
+
+/// The publishing process's side: a peer session listening on a free TCP
+/// port of loopback (its endpoint, for the children), a pool of `pool`
+/// bytes, and a node named `name` using it.
+pub struct Publishing {
+    pub endpoint: String,
+    pub session: Session,
+    pub shm: ShmContext,
+    pub node: RosNode,
+}
+
+impl Publishing {
+    pub fn open(name: &str, pool: usize) -> zenoh::Result<Publishing> {
+        let port = std::net::TcpListener::bind("127.0.0.1:0")?
+            .local_addr()?
+            .port();
+        let endpoint = format!("tcp/127.0.0.1:{port}");
+        let session = peer_session(&endpoint, true)?;
+        let shm = ShmContext::new(ShmConfig::enabled().pool_size(pool))?;
+        let node = RosNode::builder(&session, name).shm(&shm).wait()?;
+        Ok(Publishing {
+            endpoint,
+            session,
+            shm,
+            node,
+        })
+    }
+}
+
 /// CLOCK_MONOTONIC in nanoseconds, one clock for every process.
 pub fn now_ns() -> u64 {
     use nix::time::{clock_gettime, ClockId};
