@@ -11,25 +11,7 @@ use shm_cdr_tests::samples as shared;
 
 use crate::mirror;
 
-/// A string-heavy message: a header and many short strings.
-#[derive(RosMessage, Debug, Clone, Default, PartialEq)]
-#[ros(type_name = "bench_msgs/msg/StringList")]
-pub struct StringList {
-    /// Header.
-    pub header: Header,
-    /// The strings.
-    pub names: Vec<String>,
-}
-
-/// [`StringList`] borrowing every string from the input.
-#[derive(RosMessage, Debug, Clone, Default, PartialEq)]
-#[ros(type_name = "bench_msgs/msg/StringList")]
-pub struct StringListRef<'a> {
-    /// Header.
-    pub header: HeaderRef<'a>,
-    /// The strings.
-    pub names: Vec<&'a str>,
-}
+pub use shm_cdr_tests::msgs::{StringList, StringListRef};
 
 /// A struct whose CDR layout differs from its memory layout inside a sequence:
 /// after the u32 count the first `stamp` starts at offset 4 and `value` needs
@@ -198,10 +180,7 @@ pub mod samples {
     pub fn string_list() -> Sample<StringList> {
         Sample {
             name: "StringList 1000",
-            msg: StringList {
-                header: header("names"),
-                names: (0..1000).map(|i| format!("sensor/{i}")).collect(),
-            },
+            msg: shared::string_list(1000),
         }
     }
 

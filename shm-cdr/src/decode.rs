@@ -108,7 +108,9 @@ pub trait CdrDecode<'de>: Sized {
                 if let Some(items) = plain_slice(plain, bytes) {
                     return Ok(std::borrow::Cow::Borrowed(items));
                 }
-                let mut out = Vec::new();
+                // `n` elements were just read: room for them is no more
+                // than the input holds.
+                let mut out = Vec::with_capacity(n);
                 return match plain_extend(plain, &mut out, bytes, n) {
                     Some(()) => Ok(std::borrow::Cow::Owned(out)),
                     None => Err(r.error_at(
@@ -277,6 +279,13 @@ impl<'de, B: ByteOrder> Reader<'de, B> {
     pub(crate) fn rewind(&mut self, pos: usize) {
         debug_assert!(self.rest.is_none() && pos <= self.pos);
         self.pos = pos.min(self.end);
+    }
+
+    /// Whether the body is one contiguous slice (not [segments](Self::from_segments)),
+    /// so that [`rewind`](Self::rewind) may be used.
+    #[inline(always)]
+    pub(crate) fn is_contiguous(&self) -> bool {
+        self.rest.is_none()
     }
 
     /// An error of `kind` at body position `pos`.

@@ -212,14 +212,14 @@ fn send_goal(
                     return;
                 };
                 let ours = matches!(
-                    message.get("goal_id").and_then(|id| match id {
-                        Value::Message(m) => m.get("uuid"),
-                        _ => None,
-                    }),
+                    message.message("goal_id").and_then(|id| id.value("uuid")),
                     Some(Value::U8s(id)) if id[..] == goal_id[..]
                 );
-                if let (true, Some(Value::Message(feedback))) = (ours, message.get("feedback")) {
-                    printer.print(format!("Feedback:\n    {}", feedback.to_yaml()));
+                if let (true, Some(feedback)) = (ours, message.message("feedback")) {
+                    printer.print(format!(
+                        "Feedback:\n    {}",
+                        feedback.to_message().to_yaml()
+                    ));
                 }
             })
             .wait()?,
@@ -250,7 +250,7 @@ fn send_goal(
     let reply = send.call_serialized(&request)?;
     let bytes = reply.payload().to_bytes();
     let response = resolved.send_goal.response.decode(&bytes)?;
-    if response.get("accepted") != Some(&Value::Bool(true)) {
+    if response.value("accepted") != Some(&Value::Bool(true)) {
         println!("Goal was rejected.");
         return Ok(());
     }
@@ -286,12 +286,12 @@ fn send_goal(
     };
     let bytes = reply.payload().to_bytes();
     let response = resolved.get_result.response.decode(&bytes)?;
-    let status = match response.get("status") {
+    let status = match response.value("status") {
         Some(Value::I8(s)) => *s,
         _ => 0,
     };
-    if let Some(Value::Message(result)) = response.get("result") {
-        println!("Result:\n    {}", result.to_yaml());
+    if let Some(result) = response.message("result") {
+        println!("Result:\n    {}", result.to_message().to_yaml());
     }
     println!("Goal finished with status: {}", status_name(status));
     Ok(())
@@ -351,12 +351,12 @@ impl FeedbackPrinter {
 
 /// `message`'s `goal_id` (a `unique_identifier_msgs/msg/UUID`) holding `id`.
 fn with_uuid(message: &Message<'_>, id: [u8; 16]) -> Result<Value<'static>, Error> {
-    let Some(Value::Message(uuid)) = message.get("goal_id") else {
+    let Some(uuid) = message.message("goal_id") else {
         return Err(format!("{} has no goal_id", message.type_name()).into());
     };
-    let mut uuid = uuid.clone().into_owned();
+    let mut uuid = uuid.to_message().into_owned();
     uuid.set("uuid", Value::U8s(id.to_vec().into()))?;
-    Ok(Value::Message(uuid))
+    Ok(Value::Message(Box::new(uuid)))
 }
 
 /// action_msgs/msg/GoalStatus's names, as ros2action prints them.

@@ -2,7 +2,7 @@
 //! `repr` (`ros2 param get`, `ros2 service call`).
 
 use shm_cdr::describe::Container;
-use shm_cdr::dynamic::{python_float, DynamicType, Element, FieldDef, Message, Value};
+use shm_cdr::dynamic::{python_float, DynamicType, Element, Field, FieldDef, MessageRef, Value};
 use shm_codegen::python::string_repr;
 
 /// Python's `repr` of a one-byte `bytes`.
@@ -20,7 +20,7 @@ pub(crate) fn bytes_repr(b: u8) -> String {
 
 /// rclpy's `repr` of a message (rosidl_generator_py's `__repr__`):
 /// `pkg.msg.Name(field=value, …)`.
-pub(crate) fn message_repr(message: &Message<'_>, ty: &DynamicType) -> String {
+pub(crate) fn message_repr(message: MessageRef<'_, '_>, ty: &DynamicType) -> String {
     let name = message.type_name().replace('/', ".");
     let Some(def) = ty.structs().iter().find(|s| s.name == message.type_name()) else {
         return format!("{name}()");
@@ -30,8 +30,11 @@ pub(crate) fn message_repr(message: &Message<'_>, ty: &DynamicType) -> String {
         .iter()
         .filter(|f| f.name != "structure_needs_at_least_one_member")
         .filter_map(|f| {
-            let value = message.get(&f.name)?;
-            Some(format!("{}={}", f.name, value_repr(f, value, ty)))
+            let text = match message.get(&f.name)? {
+                Field::Value(value) => value_repr(f, value, ty),
+                Field::Message(nested) => message_repr(nested, ty),
+            };
+            Some(format!("{}={text}", f.name))
         })
         .collect();
     format!("{name}({})", fields.join(", "))
@@ -60,7 +63,7 @@ fn value_repr(field: &FieldDef, value: &Value<'_>, ty: &DynamicType) -> String {
         Value::F64(v) => python_float(*v),
         Value::String(s) => string_repr(s),
         Value::WString(s) => string_repr(s),
-        Value::Message(m) => message_repr(m, ty),
+        Value::Message(m) => message_repr(m.as_message_ref(), ty),
         Value::Bools(v) => list(v.iter().map(|b| bool_repr(*b).to_owned()).collect()),
         Value::U8s(v) if field.element == Element::Byte => {
             list(v.iter().map(|b| bytes_repr(*b)).collect())

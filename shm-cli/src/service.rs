@@ -160,14 +160,14 @@ fn call(
         let started = std::time::Instant::now();
         println!(
             "requester: making request: {}\n",
-            python::message_repr(&request, &resolved.request)
+            python::message_repr(request.as_message_ref(), &resolved.request)
         );
         let reply = client.call_serialized(&cdr)?;
         let bytes = reply.payload().to_bytes();
         let response = resolved.response.decode(&bytes)?;
         println!(
             "response:\n{}\n",
-            python::message_repr(&response, &resolved.response)
+            python::message_repr(response.as_message_ref(), &resolved.response)
         );
         let Some(period) = period else {
             return Ok(());

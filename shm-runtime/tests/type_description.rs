@@ -83,15 +83,15 @@ fn a_tool_reads_a_topic_through_the_publishers_type_description() {
     let sample = listener.recv_timeout(TIMEOUT).unwrap().expect("a sample");
     let bytes = sample.payload().to_bytes();
     let message = ty.decode(&bytes).unwrap();
-    let Some(Value::Message(header)) = message.get("header") else {
+    let Some(header) = message.message("header") else {
         panic!("no header in {message:?}");
     };
     assert_eq!(
-        header.get("frame_id"),
+        header.value("frame_id"),
         Some(&Value::String("imu_link".into()))
     );
     assert_eq!(
-        message.get("linear_acceleration_covariance"),
+        message.value("linear_acceleration_covariance"),
         Some(&Value::F64s(vec![0.5; 9].into()))
     );
     assert_eq!(
@@ -160,10 +160,13 @@ fn run_time_typed_endpoints_are_the_compiled_types_endpoints() {
         "publish: a sensor_msgs/msg/Imu message on a publisher of std_msgs/msg/Header"
     );
     // A nested message of the right type is not the type itself either.
-    let Some(Value::Message(stamp)) = message.get("stamp") else {
+    let Some(stamp) = message.message("stamp") else {
         panic!("no stamp")
     };
-    assert!(publisher.publish_dynamic(stamp).wait().is_err());
+    assert!(publisher
+        .publish_dynamic(&stamp.to_message())
+        .wait()
+        .is_err());
     assert!(subscriber
         .recv_timeout(Duration::from_millis(300))
         .unwrap()

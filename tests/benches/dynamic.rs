@@ -11,8 +11,9 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use shm_cdr::dynamic::{DynamicType, FieldView, StructView};
+use shm_cdr::msgs::sensor_msgs::ImuRef;
 use shm_cdr::{encode_into, encoded_size, from_bytes, to_vec, CdrEncode, RosMessage};
-use shm_cdr_tests::msgs::{JointStateRef, PointCloud2Ref};
+use shm_cdr_tests::msgs::{JointStateRef, PointCloud2Ref, StringListRef};
 use shm_cdr_tests::samples;
 
 fn bench_pair<T: RosMessage>(c: &mut Criterion, name: &str, msg: &T, decode_generated: fn(&[u8])) {
@@ -70,8 +71,16 @@ fn pairs(c: &mut Criterion) {
     fn joints(bytes: &[u8]) {
         black_box(from_bytes::<JointStateRef>(bytes).unwrap());
     }
+    fn imu(bytes: &[u8]) {
+        black_box(from_bytes::<ImuRef>(bytes).unwrap());
+    }
+    fn strings(bytes: &[u8]) {
+        black_box(from_bytes::<StringListRef>(bytes).unwrap());
+    }
     bench_pair(c, "PointCloud2 1MiB", &samples::point_cloud(1 << 20), cloud);
+    bench_pair(c, "Imu", &samples::imu(), imu);
     bench_pair(c, "JointState 40", &samples::joint_state(40), joints);
+    bench_pair(c, "StringList 1000", &samples::string_list(1000), strings);
 }
 
 // `CdrEncode` is what `encode_into` takes: the dynamic message implements it.

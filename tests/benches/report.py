@@ -43,7 +43,7 @@ for group in groups:
     print(f"| {group} | {size:,} | " + " | ".join(cells) + " |")
 
 
-dynamic_groups = ["dynamic PointCloud2 1MiB", "dynamic JointState 40"]
+dynamic_groups = ["dynamic PointCloud2 1MiB", "dynamic Imu", "dynamic JointState 40", "dynamic StringList 1000"]
 if any(median(g, "dynamic_decode")[0] for g in dynamic_groups):
     print()
     print("| message | generated decode (borrowed) | dynamic view | dynamic view, every field read | dynamic decode | generated encode_into | dynamic encode_into |")

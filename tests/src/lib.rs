@@ -10,6 +10,27 @@ pub mod msgs {
         Image, ImageRef, JointState, JointStateRef, PointCloud2, PointCloud2Ref, PointField,
     };
     pub use shm_cdr::msgs::std_msgs::{Byte, Char, Empty, Header, HeaderRef, String as StringMsg};
+    use shm_cdr::RosMessage;
+
+    /// A string-heavy message: a header and many short strings.
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "bench_msgs/msg/StringList")]
+    pub struct StringList {
+        /// Header.
+        pub header: Header,
+        /// The strings.
+        pub names: Vec<String>,
+    }
+
+    /// [`StringList`] borrowing every string from the input.
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "bench_msgs/msg/StringList")]
+    pub struct StringListRef<'a> {
+        /// Header.
+        pub header: HeaderRef<'a>,
+        /// The strings.
+        pub names: Vec<&'a str>,
+    }
 }
 
 pub mod samples {
@@ -64,6 +85,41 @@ pub mod samples {
             position: (0..joints).map(|i| i as f64 * 0.1).collect(),
             velocity: (0..joints).map(|i| i as f64 * -0.01).collect(),
             effort: (0..joints).map(|i| i as f64 * 2.5).collect(),
+        }
+    }
+
+    /// `n` short strings (`sensor/0`, `sensor/1`, …).
+    pub fn string_list(n: usize) -> StringList {
+        StringList {
+            header: header("names"),
+            names: (0..n).map(|i| format!("sensor/{i}")).collect(),
+        }
+    }
+
+    /// An IMU reading with every covariance given.
+    pub fn imu() -> shm_cdr::msgs::sensor_msgs::Imu {
+        use shm_cdr::msgs::geometry_msgs::Vector3;
+        shm_cdr::msgs::sensor_msgs::Imu {
+            header: header("imu_link"),
+            orientation: Quaternion {
+                x: 0.0,
+                y: 0.0,
+                z: 0.38,
+                w: 0.92,
+            },
+            orientation_covariance: [0.01; 9],
+            angular_velocity: Vector3 {
+                x: 0.1,
+                y: -0.2,
+                z: 0.3,
+            },
+            angular_velocity_covariance: [0.02; 9],
+            linear_acceleration: Vector3 {
+                x: 0.0,
+                y: 0.0,
+                z: 9.81,
+            },
+            linear_acceleration_covariance: [0.03; 9],
         }
     }
 

@@ -47,11 +47,11 @@ fn byte_and_number_arrays_borrow_from_the_input() {
     };
     let bytes = shm_cdr::to_vec(&image).unwrap();
     let message = dynamic::<sensor_msgs::msg::Image>().decode(&bytes).unwrap();
-    match message.get("data") {
+    match message.value("data") {
         Some(Value::U8s(Cow::Borrowed(data))) => assert_eq!(data.len(), 4096),
         other => panic!("data not borrowed: {other:?}"),
     }
-    match message.get("encoding") {
+    match message.value("encoding") {
         Some(Value::String(Cow::Borrowed(text))) => assert_eq!(*text, "mono8"),
         other => panic!("encoding not borrowed: {other:?}"),
     }
@@ -60,7 +60,7 @@ fn byte_and_number_arrays_borrow_from_the_input() {
         .decode_shared(&bytes)
         .unwrap();
     assert!(matches!(
-        shared.get("encoding"),
+        shared.value("encoding"),
         Some(Value::String(Cow::Owned(_)))
     ));
 }
@@ -255,7 +255,9 @@ fn set_keeps_every_value_of_its_fields_kind() {
     // A nested message must be of the field's type.
     let header = dynamic::<std_msgs::msg::Header>().default_message();
     let mut image = dynamic::<sensor_msgs::msg::Image>().default_message();
-    assert!(image.set("header", Value::Message(header)).is_err());
+    assert!(image
+        .set("header", Value::Message(Box::new(header)))
+        .is_err());
 
     // What set wrote encodes as the generated type with the same values.
     let generated = test_msgs::msg::BoundedSequences {
@@ -344,7 +346,7 @@ fn yaml_text_reads_as_ros2_topic_pub_reads_it() {
             .message_from_yaml(&format!("frame_id: {text}"))
             .unwrap();
         assert_eq!(
-            m.get("frame_id"),
+            m.value("frame_id"),
             Some(&Value::String(text.into())),
             "{text}"
         );
@@ -355,14 +357,14 @@ fn yaml_text_reads_as_ros2_topic_pub_reads_it() {
     let m = stamped
         .message_from_yaml_at("{header: auto, point: {x: 1}}", (12, 34))
         .unwrap();
-    let Some(Value::Message(h)) = m.get("header") else {
+    let Some(h) = m.message("header") else {
         panic!("no header")
     };
-    let Some(Value::Message(stamp)) = h.get("stamp") else {
+    let Some(stamp) = h.message("stamp") else {
         panic!("no stamp")
     };
-    assert_eq!(stamp.get("sec"), Some(&Value::I32(12)));
-    assert_eq!(stamp.get("nanosec"), Some(&Value::U32(34)));
+    assert_eq!(stamp.value("sec"), Some(&Value::I32(12)));
+    assert_eq!(stamp.value("nanosec"), Some(&Value::U32(34)));
     assert!(stamped.message_from_yaml("header: auto").is_err());
 }
 
@@ -434,7 +436,7 @@ fn yaml_text_that_is_not_a_value_of_the_type_says_where_and_why() {
     let m = basic
         .message_from_yaml("{byte_value: 'é', char_value: 65}")
         .unwrap();
-    assert_eq!(m.get("byte_value"), Some(&Value::U8(0xE9)));
+    assert_eq!(m.value("byte_value"), Some(&Value::U8(0xE9)));
     assert!(basic.message_from_yaml("byte_value: 'ab'").is_err());
     assert!(basic.message_from_yaml("byte_value: 256").is_err());
 }
@@ -512,11 +514,11 @@ fn a_truncated_decode_prints_as_the_whole_message_and_keeps_only_what_is_printed
         let cut = ty.decode_truncated(&bytes, false, keep).unwrap();
         assert_eq!(cut.to_yaml_with(&options), whole, "keep {keep}");
         assert_eq!(ty.decode_truncated(&bytes, true, keep).unwrap(), cut);
-        match cut.get("cells") {
+        match cut.value("cells") {
             Some(Value::Messages(cells)) => assert_eq!(cells.len(), keep + 1),
             other => panic!("{other:?}"),
         }
-        match cut.get("names") {
+        match cut.value("names") {
             Some(Value::Strings(names)) => assert_eq!(names.len(), keep + 1),
             other => panic!("{other:?}"),
         }
@@ -545,4 +547,66 @@ fn a_truncated_decode_prints_as_the_whole_message_and_keeps_only_what_is_printed
     );
     let short = &bytes[..bytes.len() - 20];
     assert!(ty.decode_truncated(short, false, 1).is_err());
+}
+
+#[test]
+fn nested_messages_are_read_where_they_lie_and_set_in_place() {
+    use shm_cdr::dynamic::Field as DynamicField;
+    use shm_cdr::msgs::nav_msgs::Odometry;
+
+    let mut odometry = Odometry {
+        child_frame_id: "base_link".into(),
+        ..Default::default()
+    };
+    odometry.header.frame_id = "odom".into();
+    odometry.pose.pose.position.x = 1.5;
+    odometry.twist.covariance[35] = 0.25;
+    let bytes = shm_cdr::to_vec(&odometry).unwrap();
+    let ty = dynamic::<Odometry>();
+    let mut message = ty.decode(&bytes).unwrap();
+
+    // Every field reads as the view reads it, nested messages included.
+    let view = ty.view(&bytes).unwrap();
+    for ((name, field), (view_name, view_field)) in message.fields().zip(view.fields()) {
+        assert_eq!(name, view_name);
+        assert_eq!(field.to_value(), view_field.read().unwrap(), "{name}");
+    }
+    let position = message
+        .message("pose")
+        .and_then(|p| p.message("pose"))
+        .and_then(|p| p.message("position"))
+        .unwrap();
+    assert_eq!(position.value("x"), Some(&Value::F64(1.5)));
+    assert!(matches!(
+        message.get("header"),
+        Some(DynamicField::Message(h)) if h.value("frame_id") == Some(&Value::String("odom".into()))
+    ));
+
+    // A nested message taken out, changed and set back: the generated type
+    // with the same change has the same bytes.
+    let mut pose = message.message("pose").unwrap().to_message();
+    let mut inner = pose.message("pose").unwrap().to_message();
+    let mut point = inner.message("position").unwrap().to_message();
+    point.set("y", Value::F64(-2.0)).unwrap();
+    inner
+        .set("position", Value::Message(Box::new(point)))
+        .unwrap();
+    pose.set("pose", Value::Message(Box::new(inner))).unwrap();
+    message.set("pose", Value::Message(Box::new(pose))).unwrap();
+    odometry.pose.pose.position.y = -2.0;
+    assert_eq!(
+        shm_cdr::to_vec(&message).unwrap(),
+        shm_cdr::to_vec(&odometry).unwrap()
+    );
+    // The fields after it are where they were.
+    assert_eq!(
+        message.value("child_frame_id"),
+        Some(&Value::String("base_link".into()))
+    );
+    // A nested message is not the message's type, nor its own field's.
+    let header = message.message("header").unwrap().to_message();
+    assert!(!header.is_of(&ty));
+    assert!(message
+        .set("pose", Value::Message(Box::new(header)))
+        .is_err());
 }

@@ -312,7 +312,7 @@ fn arrays_no_message_could_carry_are_refused_when_the_type_is_built() {
             };
             let ty = DynamicType::from_type_description_msg(&within).expect("built");
             let message = ty.default_message();
-            let Some(Value::Messages(items)) = message.get("items") else {
+            let Some(Value::Messages(items)) = message.value("items") else {
                 panic!("no items");
             };
             assert_eq!(items.len(), 1000);

@@ -4,7 +4,9 @@
 //! YAML `topic echo` prints (truncated, or with `--no-arr`) and one field
 //! decoded alone (`--field`) take memory
 //! independent of the message's size and shape: measured with a counting
-//! global allocator that follows the bytes alive.
+//! global allocator that follows the bytes alive. The same allocator counts
+//! the allocations of a decoded run-time typed message: one table per
+//! message and per array of messages, not one per nested message.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 
@@ -20,9 +22,11 @@ struct Counting;
 thread_local! {
     static ALIVE: std::cell::Cell<isize> = const { std::cell::Cell::new(0) };
     static PEAK: std::cell::Cell<isize> = const { std::cell::Cell::new(0) };
+    static ALLOCATIONS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
 fn grew(by: usize) {
+    let _ = ALLOCATIONS.try_with(|n| n.set(n.get() + 1));
     let by = isize::try_from(by).unwrap_or(isize::MAX);
     let _ = ALIVE.try_with(|alive| {
         let now = alive.get().saturating_add(by);
@@ -68,6 +72,59 @@ fn peak_during(run: impl FnOnce()) -> usize {
     PEAK.with(|peak| peak.set(before));
     run();
     usize::try_from(PEAK.with(std::cell::Cell::get).saturating_sub(before)).unwrap_or(0)
+}
+
+/// How many allocations (and reallocations) this thread made while `run`
+/// ran.
+fn allocations_during<T>(run: impl FnOnce() -> T) -> (usize, T) {
+    let before = ALLOCATIONS.with(std::cell::Cell::get);
+    let out = run();
+    (ALLOCATIONS.with(std::cell::Cell::get) - before, out)
+}
+
+#[test]
+fn a_decoded_message_allocates_a_table_per_message_and_per_array_of_messages() {
+    use shm_cdr::dynamic::Value;
+    use shm_cdr::msgs::geometry_msgs::{Pose, PoseArray};
+
+    // A PointCloud2 nests a header, its stamp and four point fields: one
+    // table for the message, one for the array of point fields and the box
+    // that holds it. Strings and the points are borrowed from the input.
+    let cloud = sensor_msgs::PointCloud2 {
+        fields: ["x", "y", "z", "rgb"]
+            .iter()
+            .map(|name| sensor_msgs::PointField {
+                name: (*name).into(),
+                datatype: 7,
+                count: 1,
+                ..Default::default()
+            })
+            .collect(),
+        data: vec![1; 4096],
+        ..Default::default()
+    };
+    let bytes = shm_cdr::to_vec(&cloud).unwrap();
+    let ty = DynamicType::from_description(&sensor_msgs::PointCloud2::full_description()).unwrap();
+    let (n, message) = allocations_during(|| ty.decode(&bytes).unwrap());
+    assert_eq!(n, 3, "allocations to decode a PointCloud2");
+    assert_eq!(shm_cdr::to_vec(&message).unwrap(), bytes);
+
+    // A thousand poses are one table of seven thousand numbers, which grows
+    // once: a table starts at no more than 4096 slots, so that a count in
+    // the input cannot make it large before the messages are read.
+    let poses = PoseArray {
+        poses: vec![Pose::default(); 1000],
+        ..Default::default()
+    };
+    let bytes = shm_cdr::to_vec(&poses).unwrap();
+    let ty = DynamicType::from_description(&PoseArray::full_description()).unwrap();
+    let (n, message) = allocations_during(|| ty.decode(&bytes).unwrap());
+    assert_eq!(n, 4, "allocations to decode 1000 poses");
+    let Some(Value::Messages(decoded)) = message.value("poses") else {
+        panic!("no poses")
+    };
+    assert_eq!(decoded.len(), 1000);
+    assert_eq!(shm_cdr::to_vec(&message).unwrap(), bytes);
 }
 
 #[derive(Debug, Clone, Default, PartialEq, RosMessage)]
@@ -230,7 +287,7 @@ fn one_field_is_decoded_alone() {
     for path in [&["label"][..], &["fixed"], &["data"], &["names"]] {
         assert_eq!(
             ty.decode_field(&bytes, false, path).unwrap().as_ref(),
-            whole.get(path[0]),
+            whole.value(path[0]),
             "{path:?}"
         );
     }

@@ -6,7 +6,8 @@
 use std::borrow::Cow;
 
 use super::model::{Check, DynamicType, Element, FieldDef};
-use super::value::{Message, Value};
+use super::plan::{bools_valid, Entry, Member, Step};
+use super::value::{Message, Messages, Value};
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::Container;
 use crate::encode::{CdrEncode, Writer};
@@ -166,30 +167,157 @@ impl DynamicType {
         index: usize,
         keep: usize,
     ) -> Result<Message<'de>, DecodeError> {
-        let def = &self.inner.structs[index];
-        let checks = self.inner.checks.get(index).map_or(&[][..], Vec::as_slice);
-        let mut values = Vec::with_capacity(def.fields.len());
+        let block = self.inner.plans.get(index).map_or(0, |p| p.block);
+        let mut slots = Vec::with_capacity(block);
         let mut cut = Vec::new();
-        for (i, (field, check)) in def.fields.iter().zip(checks).enumerate() {
-            let (value, cut_from) = self.decode_field_kept(r, field, check, keep)?;
-            if let Some(n) = cut_from {
-                cut.push((i, n));
-            }
-            values.push(value);
+        self.decode_struct(r, index, &mut slots, &mut cut, keep)?;
+        let mut message = Message::from_slots(self.clone(), index, slots);
+        message.cut = cut;
+        Ok(message)
+    }
+
+    /// Read one message of struct `index`, pushing its values onto `slots`
+    /// in slot order and noting each field decoded cut short in `cut`. Its
+    /// plan's runs of fixed-size fields are read with one bounds check each;
+    /// where one fails (or the input is in segments), field by field, for
+    /// the exact error.
+    fn decode_struct<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        index: usize,
+        slots: &mut Vec<Value<'de>>,
+        cut: &mut Vec<(usize, usize)>,
+        keep: usize,
+    ) -> Result<(), DecodeError> {
+        let Some(plan) = self.inner.plans.get(index) else {
+            return Ok(());
+        };
+        if !r.is_contiguous() {
+            return self.decode_entries(r, &plan.entries, slots, cut, keep);
         }
-        // rosidl's placeholder member of an empty message carries no value:
-        // read as 0 whatever the byte, as the generated types read it.
-        if let [field] = def.fields.as_slice() {
-            if field.name == EMPTY_MESSAGE_MEMBER {
-                values[0] = Value::U8(0);
+        for step in &plan.steps {
+            match step {
+                Step::Run {
+                    align,
+                    len,
+                    members,
+                    checks,
+                    bools,
+                } => {
+                    let at = r.position();
+                    let filled = slots.len();
+                    let read = r
+                        .read_aligned_bytes(*align, *len)
+                        .ok()
+                        .is_some_and(|bytes| run_values::<B>(bytes, members, *bools, slots));
+                    if !read {
+                        r.rewind(at);
+                        slots.truncate(filled);
+                        for (m, &check) in members.iter().zip(checks.iter()) {
+                            self.decode_check(r, check, Some(m.element), slots, cut, keep)?;
+                            if m.placeholder {
+                                if let Some(last) = slots.last_mut() {
+                                    *last = Value::U8(0);
+                                }
+                            }
+                        }
+                    }
+                }
+                &Step::String { bound, .. } => slots.push(Value::String(decode_string(r, bound)?)),
+                &Step::Numbers { check, .. } => {
+                    self.decode_check(r, check, None, slots, cut, keep)?
+                }
+                &Step::Value { check, element, .. } => {
+                    self.decode_check(r, check, Some(element), slots, cut, keep)?
+                }
+                &Step::Nested { index, .. } => self.decode_struct(r, index, slots, cut, keep)?,
+                &Step::Messages {
+                    index,
+                    container,
+                    min,
+                    ..
+                } => self.decode_check(
+                    r,
+                    Check::Many {
+                        element: Element::Message(index),
+                        container,
+                        min,
+                    },
+                    None,
+                    slots,
+                    cut,
+                    keep,
+                )?,
             }
         }
-        Ok(Message {
-            ty: self.clone(),
-            index,
-            values,
-            cut,
-        })
+        Ok(())
+    }
+
+    /// [`decode_struct`](Self::decode_struct) field by field, as its plan's
+    /// entries list them.
+    fn decode_entries<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        entries: &[Entry],
+        slots: &mut Vec<Value<'de>>,
+        cut: &mut Vec<(usize, usize)>,
+        keep: usize,
+    ) -> Result<(), DecodeError> {
+        for entry in entries {
+            match entry {
+                Entry::Field(leaf) if leaf.placeholder => {
+                    // rosidl's placeholder member of an empty message carries
+                    // no value: read as 0 whatever the byte, as the generated
+                    // types read it.
+                    self.decode_single(r, leaf.element)?;
+                    slots.push(Value::U8(0));
+                }
+                Entry::Field(leaf) => {
+                    self.decode_check(r, leaf.check, Some(leaf.element), slots, cut, keep)?
+                }
+                &Entry::Nested { index, .. } => self.decode_struct(r, index, slots, cut, keep)?,
+            }
+        }
+        Ok(())
+    }
+
+    /// Read one field that is not a message nested by value, as `check`
+    /// says (a single value's `element` given), and push it.
+    #[inline]
+    fn decode_check<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        check: Check,
+        element: Option<Element>,
+        slots: &mut Vec<Value<'de>>,
+        cut: &mut Vec<(usize, usize)>,
+        keep: usize,
+    ) -> Result<(), DecodeError> {
+        let value = match (check, element) {
+            (
+                Check::Many {
+                    element,
+                    container,
+                    min,
+                },
+                _,
+            ) => {
+                let n = read_len(r, container, min)?;
+                let value = self.decode_elements_kept(r, element, n, keep)?;
+                if value.len().is_some_and(|kept| kept < n) {
+                    cut.push((slots.len(), n));
+                }
+                value
+            }
+            (Check::String(bound), _) => Value::String(decode_string(r, bound)?),
+            (Check::WString(bound), _) => Value::WString(read_wstring(r, bound)?),
+            (_, Some(element)) => self.decode_single(r, element)?,
+            // A single number or bool always comes with its element; a
+            // message nested by value is a plan entry of its own.
+            (Check::Number(_) | Check::Bool | Check::Message { .. }, None) => return Ok(()),
+        };
+        slots.push(value);
+        Ok(())
     }
 
     /// One field's value at the reader, keeping `keep + 1` elements of each
@@ -205,7 +333,7 @@ impl DynamicType {
     ) -> Result<(Value<'de>, Option<usize>), DecodeError> {
         Ok(match *check {
             Check::Message { index, .. } => (
-                Value::Message(self.decode_message_kept(r, index, keep)?),
+                Value::Message(Box::new(self.decode_message_kept(r, index, keep)?)),
                 None,
             ),
             Check::Many {
@@ -277,14 +405,23 @@ impl DynamicType {
                 Value::WStrings(out)
             }
             Element::Message(index) => {
-                let mut out = Vec::with_capacity(kept);
+                let block = self.inner.plans.get(index).map_or(0, |p| p.block);
+                // The count was checked against the input, but a message may
+                // take many slots for few bytes: the table grows as they are
+                // read, from a start that a bad count cannot inflate.
+                let mut slots = Vec::with_capacity(kept.saturating_mul(block).min(1 << 12));
+                let mut cut = Vec::new();
                 for _ in 0..kept {
-                    out.push(self.decode_message_kept(r, index, keep)?);
+                    self.decode_struct(r, index, &mut slots, &mut cut, keep)?;
                 }
+                let mut skipped = Vec::new();
                 for _ in kept..n {
-                    self.decode_message_kept(r, index, keep)?;
+                    self.decode_struct(r, index, &mut skipped, &mut Vec::new(), keep)?;
+                    skipped.clear();
                 }
-                Value::Messages(out)
+                let mut messages = Messages::from_slots(self.clone(), index, kept, slots);
+                messages.cut = cut;
+                Value::Messages(Box::new(messages))
             }
         })
     }
@@ -309,7 +446,7 @@ impl DynamicType {
             Element::F64 => Value::F64(f64::decode(r)?),
             Element::String(bound) => Value::String(decode_string(r, bound)?),
             Element::WString(bound) => Value::WString(read_wstring(r, bound)?),
-            Element::Message(index) => Value::Message(self.decode_message(r, index)?),
+            Element::Message(index) => Value::Message(Box::new(self.decode_message(r, index)?)),
         })
     }
 }
@@ -351,6 +488,105 @@ pub(crate) fn read_len<B: ByteOrder>(
     }
 }
 
+/// The values of a run of fixed-size fields from its bytes, pushed onto
+/// `slots`; `false` (some pushed) if a bool is neither 0 nor 1, or a value
+/// cannot be read from where the run says it lies: then the run is read
+/// again field by field, for the exact error.
+#[inline]
+fn run_values<'de, B: ByteOrder>(
+    bytes: &'de [u8],
+    members: &[Member],
+    bools: bool,
+    slots: &mut Vec<Value<'de>>,
+) -> bool {
+    if bools && !bools_valid(members, bytes) {
+        return false;
+    }
+    for m in members {
+        let value = match m.container {
+            Container::Array(n) => array_at::<B>(bytes, m.offset, m.element, n),
+            _ => number_at::<B>(bytes, m.offset, m.element),
+        };
+        match value {
+            Some(_) if m.placeholder => slots.push(Value::U8(0)),
+            Some(value) => slots.push(value),
+            None => return false,
+        }
+    }
+    true
+}
+
+/// The number (or bool) of kind `element` at `bytes[offset..]`.
+#[inline(always)]
+fn number_at<'de, B: ByteOrder>(
+    bytes: &[u8],
+    offset: usize,
+    element: Element,
+) -> Option<Value<'de>> {
+    macro_rules! read {
+        ($t:ty, $variant:ident) => {{
+            let raw = bytes.get(offset..offset + std::mem::size_of::<$t>())?;
+            let raw = raw.try_into().ok()?;
+            Value::$variant(if B::LITTLE {
+                <$t>::from_le_bytes(raw)
+            } else {
+                <$t>::from_be_bytes(raw)
+            })
+        }};
+    }
+    Some(match element {
+        Element::Bool => Value::Bool(*bytes.get(offset)? != 0),
+        Element::Byte | Element::Char | Element::U8 => Value::U8(*bytes.get(offset)?),
+        Element::I8 => read!(i8, I8),
+        Element::I16 => read!(i16, I16),
+        Element::U16 => read!(u16, U16),
+        Element::I32 => read!(i32, I32),
+        Element::U32 => read!(u32, U32),
+        Element::I64 => read!(i64, I64),
+        Element::U64 => read!(u64, U64),
+        Element::F32 => read!(f32, F32),
+        Element::F64 => read!(f64, F64),
+        Element::String(_) | Element::WString(_) | Element::Message(_) => return None,
+    })
+}
+
+/// The array of `n` numbers of kind `element` at `bytes[offset..]`,
+/// borrowed where the generated types borrow.
+#[inline]
+fn array_at<'de, B: ByteOrder>(
+    bytes: &'de [u8],
+    offset: usize,
+    element: Element,
+    n: usize,
+) -> Option<Value<'de>> {
+    fn slice<'de, T: CdrDecode<'de> + Clone, B: ByteOrder>(
+        bytes: &'de [u8],
+        offset: usize,
+        n: usize,
+    ) -> Option<std::borrow::Cow<'de, [T]>> {
+        let len = n.checked_mul(std::mem::size_of::<T>())?;
+        let raw = bytes.get(offset..offset.checked_add(len)?)?;
+        T::decode_cow_slice(&mut Reader::<B>::new(raw), n).ok()
+    }
+    Some(match element {
+        Element::Byte | Element::Char | Element::U8 => {
+            Value::U8s(slice::<u8, B>(bytes, offset, n)?)
+        }
+        Element::I8 => Value::I8s(slice::<i8, B>(bytes, offset, n)?),
+        Element::I16 => Value::I16s(slice::<i16, B>(bytes, offset, n)?),
+        Element::U16 => Value::U16s(slice::<u16, B>(bytes, offset, n)?),
+        Element::I32 => Value::I32s(slice::<i32, B>(bytes, offset, n)?),
+        Element::U32 => Value::U32s(slice::<u32, B>(bytes, offset, n)?),
+        Element::I64 => Value::I64s(slice::<i64, B>(bytes, offset, n)?),
+        Element::U64 => Value::U64s(slice::<u64, B>(bytes, offset, n)?),
+        Element::F32 => Value::F32s(slice::<f32, B>(bytes, offset, n)?),
+        Element::F64 => Value::F64s(slice::<f64, B>(bytes, offset, n)?),
+        Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_) => {
+            return None
+        }
+    })
+}
+
 pub(crate) fn decode_string<'de, B: ByteOrder>(
     r: &mut Reader<'de, B>,
     bound: Option<usize>,
@@ -373,22 +609,71 @@ pub(crate) fn decode_string<'de, B: ByteOrder>(
 /// value of its field's kind, so the two always agree.
 impl CdrEncode for Message<'_> {
     fn encoded_end(&self, start: usize) -> usize {
-        let def = self.def();
-        def.fields
-            .iter()
-            .zip(&self.values)
-            .fold(start, |pos, (field, value)| {
-                let counted = !matches!(field.container, Container::Array(_) | Container::Single);
-                value_end(value, pos, counted)
-            })
+        struct_end(&self.ty, self.index, &self.slots, 0, start)
     }
 
     fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
-        let def = self.def();
-        for (field, value) in def.fields.iter().zip(&self.values) {
-            encode_value(w, field.element, field.container, value)?;
+        encode_struct(w, &self.ty, self.index, &self.slots, 0)
+    }
+}
+
+/// Whether a field's elements follow a count (a sequence's do; an array's,
+/// or a single value, not).
+fn counted(container: Container) -> bool {
+    !matches!(container, Container::Array(_) | Container::Single)
+}
+
+/// The position after the message of struct `index` whose values start at
+/// `slots[first]`, written at `start`.
+fn struct_end(
+    ty: &DynamicType,
+    index: usize,
+    slots: &[Value<'_>],
+    first: usize,
+    start: usize,
+) -> usize {
+    let Some(plan) = ty.inner.plans.get(index) else {
+        return start;
+    };
+    plan.entries.iter().fold(start, |pos, entry| match *entry {
+        Entry::Field(leaf) => match slots.get(first + leaf.slot) {
+            Some(value) => value_end(value, pos, counted(leaf.container)),
+            None => pos,
+        },
+        Entry::Nested { first: at, index } => struct_end(ty, index, slots, first + at, pos),
+    })
+}
+
+/// Write the message of struct `index` whose values start at
+/// `slots[first]`.
+fn encode_struct<B: ByteOrder>(
+    w: &mut Writer<'_, B>,
+    ty: &DynamicType,
+    index: usize,
+    slots: &[Value<'_>],
+    first: usize,
+) -> Result<(), EncodeError> {
+    let Some(plan) = ty.inner.plans.get(index) else {
+        return Ok(());
+    };
+    for entry in &plan.entries {
+        match *entry {
+            Entry::Field(leaf) => {
+                if let Some(value) = slots.get(first + leaf.slot) {
+                    encode_value(w, leaf.element, leaf.container, value)?;
+                }
+            }
+            Entry::Nested { first: at, index } => encode_struct(w, ty, index, slots, first + at)?,
         }
-        Ok(())
+    }
+    Ok(())
+}
+
+impl Messages<'_> {
+    /// Where each message's values start.
+    fn firsts(&self) -> impl Iterator<Item = usize> {
+        let block = self.ty.inner.plans.get(self.index).map_or(0, |p| p.block);
+        (0..self.len).map(move |k| k * block)
     }
 }
 
@@ -431,7 +716,9 @@ fn value_end(value: &Value<'_>, start: usize, counted: bool) -> usize {
         Value::F64s(v) => elements(v, first),
         Value::Strings(v) => v.iter().fold(first, |pos, s| string_end(pos, s.len())),
         Value::WStrings(v) => v.iter().fold(first, |pos, s| wstring_end(pos, s)),
-        Value::Messages(v) => v.iter().fold(first, |pos, m| m.encoded_end(pos)),
+        Value::Messages(v) => v.firsts().fold(first, |pos, at| {
+            struct_end(&v.ty, v.index, &v.slots, at, pos)
+        }),
     }
 }
 
@@ -506,6 +793,8 @@ fn encode_value<B: ByteOrder>(
             write_string(w, s)
         }),
         Value::WStrings(v) => v.iter().try_for_each(|s| write_wstring(w, s, bound)),
-        Value::Messages(v) => v.iter().try_for_each(|m| m.encode(w)),
+        Value::Messages(v) => v
+            .firsts()
+            .try_for_each(|at| encode_struct(w, &v.ty, v.index, &v.slots, at)),
     }
 }

@@ -19,7 +19,7 @@
 //!
 //! let ty = DynamicType::from_description(&Header::full_description())?;
 //! let message = ty.decode(&bytes)?;
-//! assert_eq!(message.get("frame_id"), Some(&Value::String("map".into())));
+//! assert_eq!(message.value("frame_id"), Some(&Value::String("map".into())));
 //! // Encoded again: the same bytes, sized exactly.
 //! assert_eq!(shm_cdr::to_vec(&message)?, bytes);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -29,6 +29,7 @@ mod codec;
 mod defaults;
 mod limits;
 mod model;
+mod plan;
 #[cfg(feature = "serde")]
 mod serde_impl;
 mod value;
@@ -41,7 +42,7 @@ pub use limits::TypeLimits;
 pub use model::{DynamicType, Element, FieldDef, StructDef, TypeError};
 #[cfg(feature = "serde")]
 pub use serde_impl::SerializeCdr;
-pub use value::{Message, Value, ValueError};
+pub use value::{Field, Message, MessageRef, Messages, Value, ValueError};
 pub use view::{FieldView, MessageView, SequenceView, StructView, ValueView};
 #[cfg(feature = "yaml")]
 pub use yaml_in::TextError;

@@ -134,7 +134,7 @@ pub(crate) struct Types {
     /// For each struct, how a view checks each of its fields.
     pub(crate) checks: Vec<Vec<Check>>,
     /// For each struct, how a view checks a message of it.
-    pub(crate) plans: Vec<super::view::StructPlan>,
+    pub(crate) plans: Vec<super::plan::StructPlan>,
 }
 
 /// How a view checks one field: the field's element and container folded
@@ -289,7 +289,7 @@ impl DynamicType {
     ///     "nested_type_name": ""}, "default_value": "0.5"}]}, "referenced_type_descriptions": []}}"#;
     /// let ty = DynamicType::from_rosidl_json(json)?;
     /// assert_eq!(ty.name(), "demo_msgs/msg/Level");
-    /// assert_eq!(ty.default_message().get("value"), Some(&shm_cdr::dynamic::Value::F64(0.5)));
+    /// assert_eq!(ty.default_message().value("value"), Some(&shm_cdr::dynamic::Value::F64(0.5)));
     /// # Ok::<(), shm_cdr::dynamic::TypeError>(())
     /// ```
     #[cfg(feature = "yaml")]
@@ -509,7 +509,7 @@ impl DynamicType {
                     .collect()
             })
             .collect();
-        let plans = super::view::plans(&structs, &checks, &order, &blocks);
+        let plans = super::plan::plans(&structs, &checks, &order, &blocks);
         Ok(Self {
             inner: Arc::new(Types {
                 structs,
@@ -751,7 +751,9 @@ fn measure(
         let def = &structs[i];
         let error = |field: Option<&str>, reason| Err(TypeError::new(&def.name, field, reason));
         let mut wire = 0usize;
-        let mut block = def.fields.len();
+        // Slots: one per field, those of messages nested by value in their
+        // place (see `plan::StructPlan::block`).
+        let mut block = 0usize;
         let mut bytes = message.saturating_add(def.fields.len().saturating_mul(value));
         // The field that adds most memory, named when there is too much.
         let mut largest = ("", 0usize);
@@ -776,14 +778,23 @@ fn measure(
                             );
                         }
                     }
-                    if f.container == Container::Single {
-                        block = block.saturating_add(blocks[j]);
-                    }
+                    block = block.saturating_add(if f.container == Container::Single {
+                        blocks[j]
+                    } else {
+                        1
+                    });
                     (memory[j], structs[j].min_wire_size)
                 }
-                Element::String(_) => (std::mem::size_of::<std::borrow::Cow<'_, str>>(), 4),
-                Element::WString(_) => (std::mem::size_of::<String>(), 4),
+                Element::String(_) => {
+                    block = block.saturating_add(1);
+                    (std::mem::size_of::<std::borrow::Cow<'_, str>>(), 4)
+                }
+                Element::WString(_) => {
+                    block = block.saturating_add(1);
+                    (std::mem::size_of::<String>(), 4)
+                }
                 element => {
+                    block = block.saturating_add(1);
                     let size = element.min_wire_size(structs);
                     (size, size)
                 }

@@ -12,12 +12,18 @@ use serde::{Serialize, Serializer};
 
 use super::codec::read_len;
 use super::model::{Check, DynamicType, Element};
-use super::value::{Message, Value};
+use super::value::{Field, Message, MessageRef, Messages, Value};
 use crate::decode::Reader;
 use crate::endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
 use crate::error::DecodeError;
 
 impl Serialize for Message<'_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        self.as_message_ref().serialize(serializer)
+    }
+}
+
+impl Serialize for MessageRef<'_, '_> {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let def = self.def();
         // rclpy leaves the placeholder of an empty message out.
@@ -25,10 +31,23 @@ impl Serialize for Message<'_> {
             def.fields.len() == 1 && def.fields[0].name == "structure_needs_at_least_one_member";
         let fields = if placeholder { 0 } else { def.fields.len() };
         let mut map = serializer.serialize_map(Some(fields))?;
-        for (field, value) in def.fields.iter().zip(&self.values).take(fields) {
-            map.serialize_entry(&field.name, value)?;
+        for (name, field) in self.fields().take(fields) {
+            match field {
+                Field::Value(value) => map.serialize_entry(name, value)?,
+                Field::Message(message) => map.serialize_entry(name, &message)?,
+            }
         }
         map.end()
+    }
+}
+
+impl Serialize for Messages<'_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut seq = serializer.serialize_seq(Some(self.len()))?;
+        for message in self.iter() {
+            seq.serialize_element(&message)?;
+        }
+        seq.end()
     }
 }
 
@@ -75,7 +94,7 @@ impl Serialize for Value<'_> {
             Self::F64s(v) => seq(serializer, v),
             Self::Strings(v) => seq(serializer, v),
             Self::WStrings(v) => seq(serializer, v),
-            Self::Messages(v) => seq(serializer, v),
+            Self::Messages(v) => v.serialize(serializer),
         }
     }
 }

@@ -4,6 +4,7 @@ use std::borrow::Cow;
 use std::fmt;
 
 use super::model::{DynamicType, Element, StructDef};
+use super::plan::StructPlan;
 use crate::describe::Container;
 
 /// The value of one field. Strings, byte and number arrays borrow from the
@@ -25,7 +26,11 @@ pub enum Value<'a> {
     F64(f64),
     String(Cow<'a, str>),
     WString(String),
-    Message(Message<'a>),
+    /// A message nested by value, standalone: what
+    /// [`Field::to_value`] and [`FieldView::read`](super::FieldView::read)
+    /// give for one, and what [`Message::set`] takes. Inside a [`Message`]
+    /// its values lie in their parent's, read through [`Field::Message`].
+    Message(Box<Message<'a>>),
     Bools(Vec<bool>),
     /// Arrays and sequences of `byte`, `char` and `uint8`.
     U8s(Cow<'a, [u8]>),
@@ -40,7 +45,8 @@ pub enum Value<'a> {
     F64s(Cow<'a, [f64]>),
     Strings(Vec<Cow<'a, str>>),
     WStrings(Vec<String>),
-    Messages(Vec<Message<'a>>),
+    /// An array or sequence of messages, their values in one table.
+    Messages(Box<Messages<'a>>),
 }
 
 impl Value<'_> {
@@ -121,7 +127,7 @@ impl Value<'_> {
             Self::F64(v) => Value::F64(v),
             Self::String(v) => Value::String(Cow::Owned(v.into_owned())),
             Self::WString(v) => Value::WString(v),
-            Self::Message(v) => Value::Message(v.into_owned()),
+            Self::Message(v) => Value::Message(Box::new(v.into_owned())),
             Self::Bools(v) => Value::Bools(v),
             Self::U8s(v) => Value::U8s(Cow::Owned(v.into_owned())),
             Self::I8s(v) => Value::I8s(Cow::Owned(v.into_owned())),
@@ -137,7 +143,7 @@ impl Value<'_> {
                 Value::Strings(v.into_iter().map(|s| Cow::Owned(s.into_owned())).collect())
             }
             Self::WStrings(v) => Value::WStrings(v),
-            Self::Messages(v) => Value::Messages(v.into_iter().map(Message::into_owned).collect()),
+            Self::Messages(v) => Value::Messages(Box::new(v.into_owned())),
         }
     }
 }
@@ -147,26 +153,127 @@ impl Value<'_> {
 /// and changed with [`set`](Self::set), which keeps every value of its
 /// field's kind; it encodes with [`crate::to_vec`] and the rest of the
 /// encoding API, sized exactly.
+///
+/// The values of the messages it nests by value lie in its own table, each
+/// nested message's in its place, and an array or sequence of messages is
+/// one table of them all ([`Messages`]): decoding a message allocates once,
+/// and once per such array, not once per message.
+///
+/// ```
+/// use shm_cdr::dynamic::{DynamicType, Field, Value};
+/// use shm_cdr::msgs::std_msgs::Header;
+/// use shm_cdr::RosMessage;
+///
+/// let ty = DynamicType::from_description(&Header::full_description())?;
+/// let mut header = ty.default_message();
+/// header.set("frame_id", Value::String("map".into()))?;
+/// let Some(Field::Message(stamp)) = header.get("stamp") else { unreachable!() };
+/// assert_eq!(stamp.type_name(), "builtin_interfaces/msg/Time");
+/// assert_eq!(stamp.value("sec"), Some(&Value::I32(0)));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, PartialEq)]
 pub struct Message<'a> {
     pub(crate) ty: DynamicType,
     /// Which of the type's structs this is.
     pub(crate) index: usize,
-    pub(crate) values: Vec<Value<'a>>,
+    /// The values, one per field that is not a message nested by value,
+    /// in field order with each nested message's values in its place.
+    pub(crate) slots: Vec<Value<'a>>,
     /// The fields decoded cut short for printing
     /// ([`DynamicType::decode_truncated`]), with how many elements each
-    /// holds on the wire: `(field index, length)`.
+    /// holds on the wire: `(slot, length)`.
     pub(crate) cut: Vec<(usize, usize)>,
+}
+
+/// An array or sequence of messages of one type: the values of all of
+/// them in one table, each message's block after the one before.
+#[derive(Clone, PartialEq)]
+pub struct Messages<'a> {
+    pub(crate) ty: DynamicType,
+    /// Which of the type's structs the elements are.
+    pub(crate) index: usize,
+    pub(crate) len: usize,
+    pub(crate) slots: Vec<Value<'a>>,
+    /// As [`Message`]'s, `(slot, length)` in `slots`.
+    pub(crate) cut: Vec<(usize, usize)>,
+}
+
+/// A message inside a [`Message`] (itself, one it nests, or an element of
+/// a [`Messages`]), borrowed.
+#[derive(Clone, Copy)]
+pub struct MessageRef<'m, 'a> {
+    ty: &'m DynamicType,
+    index: usize,
+    /// The table the message lies in, and where its block starts.
+    slots: &'m [Value<'a>],
+    first: usize,
+    cut: &'m [(usize, usize)],
+}
+
+/// One field of a message, borrowed: a value, or a message nested by value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Field<'m, 'a> {
+    /// Any field that is not a message nested by value (an array or
+    /// sequence of messages is a [`Value::Messages`]).
+    Value(&'m Value<'a>),
+    /// A message nested by value.
+    Message(MessageRef<'m, 'a>),
+}
+
+impl<'a> Field<'_, 'a> {
+    /// The field's value, standalone: a nested message's values copied
+    /// into a [`Value::Message`] of its own.
+    pub fn to_value(&self) -> Value<'a> {
+        match self {
+            Self::Value(value) => (*value).clone(),
+            Self::Message(message) => Value::Message(Box::new(message.to_message())),
+        }
+    }
+
+    /// The value, if the field is not a message nested by value.
+    pub fn as_value(&self) -> Option<&Value<'a>> {
+        match self {
+            Self::Value(value) => Some(value),
+            Self::Message(_) => None,
+        }
+    }
+}
+
+impl PartialEq for MessageRef<'_, '_> {
+    fn eq(&self, other: &Self) -> bool {
+        self.ty == other.ty
+            && self.index == other.index
+            && self.block() == other.block()
+            && self
+                .fields()
+                .map(|(_, f)| f)
+                .eq(other.fields().map(|(_, f)| f))
+    }
 }
 
 impl fmt::Debug for Message<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let def = self.def();
-        let mut s = f.debug_struct(&def.name);
-        for (field, value) in def.fields.iter().zip(&self.values) {
-            s.field(&field.name, value);
+        self.as_message_ref().fmt(f)
+    }
+}
+
+impl fmt::Debug for MessageRef<'_, '_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut s = f.debug_struct(self.type_name());
+        for (name, field) in self.fields() {
+            match field {
+                Field::Value(value) => s.field(name, value),
+                Field::Message(message) => s.field(name, &message),
+            };
         }
         s.finish()
+    }
+}
+
+impl fmt::Debug for Messages<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
     }
 }
 
@@ -189,7 +296,127 @@ impl fmt::Display for ValueError {
 
 impl std::error::Error for ValueError {}
 
+impl<'m, 'a> MessageRef<'m, 'a> {
+    pub(crate) fn def(&self) -> &'m StructDef {
+        &self.ty.inner.structs[self.index]
+    }
+
+    fn plan(&self) -> &'m StructPlan {
+        &self.ty.inner.plans[self.index]
+    }
+
+    /// This message's own values.
+    fn block(&self) -> &'m [Value<'a>] {
+        let end = self.first.saturating_add(self.plan().block);
+        self.slots.get(self.first..end).unwrap_or_default()
+    }
+
+    /// The message's type (`pkg/msg/Name`).
+    pub fn type_name(&self) -> &'m str {
+        &self.def().name
+    }
+
+    /// The run-time type the message is of (or nested in).
+    pub fn ty(&self) -> &'m DynamicType {
+        self.ty
+    }
+
+    /// Field `i`, in the type's field order.
+    pub(crate) fn field(&self, i: usize) -> Option<Field<'m, 'a>> {
+        let field = self.def().fields.get(i)?;
+        let at = self.first + self.plan().offsets.get(i)?;
+        Some(match (field.element, field.container) {
+            (Element::Message(index), Container::Single) => Field::Message(MessageRef {
+                index,
+                first: at,
+                ..*self
+            }),
+            _ => Field::Value(self.slots.get(at)?),
+        })
+    }
+
+    /// The field names and values, in order.
+    pub fn fields(&self) -> impl Iterator<Item = (&'m str, Field<'m, 'a>)> + use<'m, 'a> {
+        let this = *self;
+        let def = this.def();
+        def.fields
+            .iter()
+            .enumerate()
+            .filter_map(move |(i, f)| Some((f.name.as_str(), this.field(i)?)))
+    }
+
+    /// The field `name`.
+    pub fn get(&self, name: &str) -> Option<Field<'m, 'a>> {
+        self.field(self.def().field_index(name)?)
+    }
+
+    /// The value of field `name`, if it is not a message nested by value
+    /// (that one is [`get`](Self::get)'s [`Field::Message`]).
+    pub fn value(&self, name: &str) -> Option<&'m Value<'a>> {
+        match self.get(name)? {
+            Field::Value(value) => Some(value),
+            Field::Message(_) => None,
+        }
+    }
+
+    /// The message nested by value in field `name`.
+    pub fn message(&self, name: &str) -> Option<MessageRef<'m, 'a>> {
+        match self.get(name)? {
+            Field::Message(message) => Some(message),
+            Field::Value(_) => None,
+        }
+    }
+
+    /// How many elements field `i` holds on the wire: its value's length, or
+    /// for a field decoded cut short, the length it was cut from.
+    pub(crate) fn wire_len(&self, i: usize) -> Option<usize> {
+        let at = self.first + self.plan().offsets.get(i)?;
+        match self.cut.iter().find(|(slot, _)| *slot == at) {
+            Some((_, len)) => Some(*len),
+            None => self.slots.get(at)?.len(),
+        }
+    }
+
+    /// The message, standalone: its values copied into a [`Message`] of
+    /// its own.
+    pub fn to_message(&self) -> Message<'a> {
+        let end = self.first.saturating_add(self.plan().block);
+        Message {
+            ty: self.ty.clone(),
+            index: self.index,
+            slots: self.block().to_vec(),
+            cut: self
+                .cut
+                .iter()
+                .filter(|(slot, _)| (self.first..end).contains(slot))
+                .map(|&(slot, len)| (slot - self.first, len))
+                .collect(),
+        }
+    }
+}
+
 impl<'a> Message<'a> {
+    /// A message of struct `index` of `ty` from its values in slot order.
+    pub(crate) fn from_slots(ty: DynamicType, index: usize, slots: Vec<Value<'a>>) -> Self {
+        Self {
+            ty,
+            index,
+            slots,
+            cut: Vec::new(),
+        }
+    }
+
+    /// The message, borrowed: what reads it.
+    pub fn as_message_ref(&self) -> MessageRef<'_, 'a> {
+        MessageRef {
+            ty: &self.ty,
+            index: self.index,
+            slots: &self.slots,
+            first: 0,
+            cut: &self.cut,
+        }
+    }
+
     /// The message's type (a nested message's own type, for a field's value).
     pub fn type_name(&self) -> &str {
         &self.def().name
@@ -206,26 +433,31 @@ impl<'a> Message<'a> {
     }
 
     /// The field names and values, in order.
-    pub fn fields(&self) -> impl Iterator<Item = (&str, &Value<'a>)> {
-        self.def()
-            .fields
-            .iter()
-            .map(|f| f.name.as_str())
-            .zip(&self.values)
+    pub fn fields(&self) -> impl Iterator<Item = (&str, Field<'_, 'a>)> {
+        self.as_message_ref().fields()
     }
 
-    /// The value of field `name`.
-    pub fn get(&self, name: &str) -> Option<&Value<'a>> {
-        self.def()
-            .field_index(name)
-            .and_then(|i| self.values.get(i))
+    /// The field `name`.
+    pub fn get(&self, name: &str) -> Option<Field<'_, 'a>> {
+        self.as_message_ref().get(name)
+    }
+
+    /// The value of field `name`, if it is not a message nested by value
+    /// (that one is [`get`](Self::get)'s [`Field::Message`]).
+    pub fn value(&self, name: &str) -> Option<&Value<'a>> {
+        self.as_message_ref().value(name)
+    }
+
+    /// The message nested by value in field `name`.
+    pub fn message(&self, name: &str) -> Option<MessageRef<'_, 'a>> {
+        self.as_message_ref().message(name)
     }
 
     /// Set field `name` to `value`, if it is of the field's kind and within its
     /// bounds (an array's length, a sequence's or string's bound); nested
     /// messages must be of the field's type.
     pub fn set(&mut self, name: &str, value: Value<'a>) -> Result<(), ValueError> {
-        let def = self.def();
+        let def = &self.ty.inner.structs[self.index];
         let error = |reason: String| ValueError {
             type_name: def.name.clone(),
             field: name.to_owned(),
@@ -236,17 +468,34 @@ impl<'a> Message<'a> {
             .ok_or_else(|| error("no such field".into()))?;
         let field = &def.fields[i];
         check(&self.ty, field.element, field.container, &value).map_err(error)?;
-        self.values[i] = value;
-        self.cut.retain(|(field, _)| *field != i);
+        self.store(i, value);
         Ok(())
     }
 
-    /// How many elements field `i` holds on the wire: its value's length, or
-    /// for a field decoded cut short, the length it was cut from.
-    pub(crate) fn wire_len(&self, i: usize) -> Option<usize> {
-        match self.cut.iter().find(|(field, _)| *field == i) {
-            Some((_, len)) => Some(*len),
-            None => self.values.get(i)?.len(),
+    /// Put `value`, of field `i`'s kind, in field `i`: a nested message's
+    /// values in its place.
+    pub(crate) fn store(&mut self, i: usize, value: Value<'a>) {
+        let Some(&at) = self.ty.inner.plans[self.index].offsets.get(i) else {
+            return;
+        };
+        match value {
+            Value::Message(nested) => {
+                let width = nested.slots.len();
+                let end = at + width;
+                self.cut.retain(|(slot, _)| !(at..end).contains(slot));
+                self.cut
+                    .extend(nested.cut.iter().map(|&(slot, len)| (slot + at, len)));
+                let places = self.slots.get_mut(at..end).unwrap_or_default();
+                for (place, value) in places.iter_mut().zip(nested.slots) {
+                    *place = value;
+                }
+            }
+            value => {
+                if let Some(place) = self.slots.get_mut(at) {
+                    *place = value;
+                }
+                self.cut.retain(|(slot, _)| *slot != at);
+            }
         }
     }
 
@@ -255,7 +504,129 @@ impl<'a> Message<'a> {
         Message {
             ty: self.ty,
             index: self.index,
-            values: self.values.into_iter().map(Value::into_owned).collect(),
+            slots: self.slots.into_iter().map(Value::into_owned).collect(),
+            cut: self.cut,
+        }
+    }
+}
+
+impl<'a> Messages<'a> {
+    /// Messages of struct `index` of `ty` from their values in slot order,
+    /// one block after another.
+    pub(crate) fn from_slots(
+        ty: DynamicType,
+        index: usize,
+        len: usize,
+        slots: Vec<Value<'a>>,
+    ) -> Self {
+        Self {
+            ty,
+            index,
+            len,
+            slots,
+            cut: Vec::new(),
+        }
+    }
+
+    fn block(&self) -> usize {
+        self.ty.inner.plans[self.index].block
+    }
+
+    /// The messages' type (`pkg/msg/Name`).
+    pub fn type_name(&self) -> &str {
+        &self.ty.inner.structs[self.index].name
+    }
+
+    /// How many messages there are.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The message at `i`.
+    pub fn get(&self, i: usize) -> Option<MessageRef<'_, 'a>> {
+        (i < self.len).then(|| MessageRef {
+            ty: &self.ty,
+            index: self.index,
+            slots: &self.slots,
+            first: i * self.block(),
+            cut: &self.cut,
+        })
+    }
+
+    /// The messages, in order.
+    pub fn iter(&self) -> impl Iterator<Item = MessageRef<'_, 'a>> {
+        (0..self.len).filter_map(move |i| self.get(i))
+    }
+
+    /// A message of the elements' type with every field at its default, to
+    /// fill and [`push`](Self::push).
+    pub fn default_element(&self) -> Message<'static> {
+        self.ty.default_struct(self.index)
+    }
+
+    /// Append `message`, if it is of the elements' type. (The field's
+    /// bounds are checked when the whole is [set](Message::set).)
+    ///
+    /// ```
+    /// use shm_cdr::dynamic::{DynamicType, Value};
+    /// use shm_cdr::msgs::sensor_msgs::{PointCloud2, PointField};
+    /// use shm_cdr::RosMessage;
+    ///
+    /// let ty = DynamicType::from_description(&PointCloud2::full_description())?;
+    /// let mut cloud = ty.default_message();
+    /// let Some(Value::Messages(fields)) = cloud.value("fields") else { unreachable!() };
+    /// let mut fields = fields.clone();
+    /// let mut x = fields.default_element();
+    /// x.set("name", Value::String("x".into()))?;
+    /// x.set("datatype", Value::U8(7))?;
+    /// fields.push(x)?;
+    /// cloud.set("fields", Value::Messages(fields))?;
+    ///
+    /// let expected = PointCloud2 {
+    ///     fields: vec![PointField { name: "x".into(), datatype: 7, ..Default::default() }],
+    ///     ..Default::default()
+    /// };
+    /// assert_eq!(shm_cdr::to_vec(&cloud)?, shm_cdr::to_vec(&expected)?);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn push(&mut self, message: Message<'a>) -> Result<(), ValueError> {
+        if message.ty != self.ty || message.index != self.index {
+            return Err(ValueError {
+                type_name: self.type_name().to_owned(),
+                field: String::new(),
+                reason: format!(
+                    "a {} is not an element of this sequence",
+                    message.type_name()
+                ),
+            });
+        }
+        let base = self.slots.len();
+        self.cut
+            .extend(message.cut.iter().map(|&(slot, len)| (slot + base, len)));
+        self.slots.extend(message.slots);
+        self.len += 1;
+        Ok(())
+    }
+
+    /// Remove every message.
+    pub fn clear(&mut self) {
+        self.slots.clear();
+        self.cut.clear();
+        self.len = 0;
+    }
+
+    /// The messages with everything they borrow copied.
+    pub fn into_owned(self) -> Messages<'static> {
+        Messages {
+            ty: self.ty,
+            index: self.index,
+            len: self.len,
+            slots: self.slots.into_iter().map(Value::into_owned).collect(),
             cut: self.cut,
         }
     }
@@ -269,6 +640,7 @@ fn check(
     value: &Value<'_>,
 ) -> Result<(), String> {
     let nested_ok = |m: &Message<'_>, index: usize| m.ty == *ty && m.index == index;
+    let elements_ok = |ms: &Messages<'_>, index: usize| ms.ty == *ty && ms.index == index;
     let kind_ok = match (container, element, value) {
         (Container::Single, Element::Bool, Value::Bool(_))
         | (Container::Single, Element::Byte | Element::Char | Element::U8, Value::U8(_))
@@ -298,7 +670,7 @@ fn check(
         | (_, Element::F64, Value::F64s(_))
         | (_, Element::String(_), Value::Strings(_))
         | (_, Element::WString(_), Value::WStrings(_)) => true,
-        (_, Element::Message(index), Value::Messages(ms)) => ms.iter().all(|m| nested_ok(m, index)),
+        (_, Element::Message(index), Value::Messages(ms)) => elements_ok(ms, index),
         _ => false,
     };
     if !kind_ok {
@@ -351,24 +723,29 @@ impl DynamicType {
     }
 
     pub(crate) fn default_struct(&self, index: usize) -> Message<'static> {
-        let def = &self.inner.structs[index];
-        let values = def
-            .fields
-            .iter()
-            .map(|f| {
-                let n = match f.container {
-                    Container::Array(n) => n,
-                    _ => 0,
-                };
-                let given = super::defaults::parse(f.element, f.container, &f.default_value);
-                given.unwrap_or_else(|| self.zero(f.element, f.container, n))
-            })
-            .collect();
-        Message {
-            ty: self.clone(),
-            index,
-            values,
-            cut: Vec::new(),
+        let block = self.inner.plans.get(index).map_or(0, |p| p.block);
+        let mut slots = Vec::with_capacity(block);
+        self.push_defaults(index, &mut slots);
+        Message::from_slots(self.clone(), index, slots)
+    }
+
+    /// Push the default values of a message of struct `index` onto `slots`,
+    /// in slot order.
+    fn push_defaults(&self, index: usize, slots: &mut Vec<Value<'static>>) {
+        let Some(def) = self.inner.structs.get(index) else {
+            return;
+        };
+        for f in &def.fields {
+            if let (Element::Message(nested), Container::Single) = (f.element, f.container) {
+                self.push_defaults(nested, slots);
+                continue;
+            }
+            let n = match f.container {
+                Container::Array(n) => n,
+                _ => 0,
+            };
+            let given = super::defaults::parse(f.element, f.container, &f.default_value);
+            slots.push(given.unwrap_or_else(|| self.zero(f.element, f.container, n)));
         }
     }
 
@@ -388,7 +765,7 @@ impl DynamicType {
                 Element::F64 => Value::F64(0.0),
                 Element::String(_) => Value::String(Cow::Borrowed("")),
                 Element::WString(_) => Value::WString(String::new()),
-                Element::Message(i) => Value::Message(self.default_struct(i)),
+                Element::Message(i) => Value::Message(Box::new(self.default_struct(i))),
             };
         }
         match element {
@@ -406,7 +783,12 @@ impl DynamicType {
             Element::String(_) => Value::Strings(vec![Cow::Borrowed(""); n]),
             Element::WString(_) => Value::WStrings(vec![String::new(); n]),
             Element::Message(i) => {
-                Value::Messages((0..n).map(|_| self.default_struct(i)).collect())
+                let block = self.inner.plans.get(i).map_or(0, |p| p.block);
+                let mut slots = Vec::with_capacity(n.saturating_mul(block));
+                for _ in 0..n {
+                    self.push_defaults(i, &mut slots);
+                }
+                Value::Messages(Box::new(Messages::from_slots(self.clone(), i, n, slots)))
             }
         }
     }

@@ -9,7 +9,8 @@ use std::fmt;
 
 use super::codec::{decode_string, read_len, EMPTY_MESSAGE_MEMBER};
 use super::model::{Check, DynamicType, Element, FieldDef, StructDef, Types};
-use super::value::{Message, Value};
+use super::plan::{bools_valid, Step};
+use super::value::{Message, Messages, Value};
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::Container;
 use crate::endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
@@ -27,264 +28,6 @@ struct Slot {
     /// type's). An array or sequence of messages: the slot of the first
     /// field of the first message; elements follow one another.
     aux: usize,
-}
-
-/// How a view checks one message of a struct: its fields, and those of the
-/// messages it nests by value, folded into steps; runs of fixed-size fields
-/// checked at once.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct StructPlan {
-    steps: Vec<Step>,
-    /// Slots one message takes before its arrays and sequences of messages:
-    /// one per field, then those of the messages nested by value.
-    block: usize,
-    /// For each field that is a message nested by value, where its slots
-    /// start, counted from the nesting message's first (else 0).
-    children: Vec<usize>,
-}
-
-/// One step of a [`StructPlan`]; `slot`s count from the message's first.
-#[derive(Debug, Clone, PartialEq, Eq)]
-enum Step {
-    /// Consecutive numbers, bools and arrays of numbers whose offsets from a
-    /// start aligned to `align` are fixed: one bounds check for all of them.
-    Run {
-        align: usize,
-        len: usize,
-        members: Box<[Member]>,
-        /// How each member is checked alone, to find the one at fault.
-        checks: Box<[Check]>,
-        /// Whether a member is a bool, whose byte must be 0 or 1.
-        bools: bool,
-    },
-    /// A string.
-    String { slot: usize, bound: Option<usize> },
-    /// A sequence of numbers of `size` bytes each: one bounds check for
-    /// them all (any bit pattern is a number). `check` finds the fault.
-    Numbers {
-        slot: usize,
-        container: Container,
-        size: usize,
-        check: Check,
-    },
-    /// A wide string, or an array or sequence of values: checked as
-    /// [`Check`] says.
-    Value { slot: usize, check: Check },
-    /// A message nested by value, checked by its own plan, its slots from
-    /// `first` on.
-    Nested { first: usize, index: usize },
-    /// An array or sequence of messages, whose slots are added when its
-    /// length is known.
-    Messages {
-        slot: usize,
-        index: usize,
-        container: Container,
-        min: usize,
-    },
-}
-
-/// One field of a [`Step::Run`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Member {
-    slot: usize,
-    offset: usize,
-    bool: bool,
-}
-
-/// A [`Step::Run`] being gathered.
-struct OpenRun {
-    align: usize,
-    len: usize,
-    members: Vec<Member>,
-    checks: Vec<Check>,
-}
-
-impl OpenRun {
-    fn close(self) -> Step {
-        Step::Run {
-            align: self.align,
-            len: self.len,
-            bools: self.members.iter().any(|m| m.bool),
-            members: self.members.into(),
-            checks: self.checks.into(),
-        }
-    }
-}
-
-/// A nested message whose plan has at most this many entries is copied
-/// into the plan of the message that nests it by value, so that runs of
-/// fixed-size fields continue across it (CDR gives a nested message no
-/// alignment of its own: a `Pose` is one run of seven numbers); a larger one
-/// is one step that follows its own plan, so that plans take memory linear
-/// in the description however its types nest.
-const INLINED_ENTRIES: usize = 32;
-
-/// One entry of a plan before it is folded into steps; slots count from the
-/// message's first.
-#[derive(Debug, Clone, Copy)]
-enum Flat {
-    /// A field that is not a message nested by value, and how it is checked.
-    Field(usize, Check),
-    /// A message nested by value, checked by its own plan; its slots start
-    /// at `first`.
-    Nested { first: usize, index: usize },
-}
-
-impl Flat {
-    fn shifted(self, by: usize) -> Self {
-        match self {
-            Self::Field(slot, check) => Self::Field(slot + by, check),
-            Self::Nested { first, index } => Self::Nested {
-                first: first + by,
-                index,
-            },
-        }
-    }
-}
-
-/// The plan of every struct, built innermost first (`order`); `blocks` are
-/// the slots a message of each takes (see [`StructPlan::block`]).
-pub(crate) fn plans(
-    structs: &[StructDef],
-    checks: &[Vec<Check>],
-    order: &[usize],
-    blocks: &[usize],
-) -> Vec<StructPlan> {
-    let mut plans = vec![
-        StructPlan {
-            steps: Vec::new(),
-            block: 0,
-            children: Vec::new(),
-        };
-        structs.len()
-    ];
-    let mut flats: Vec<Vec<Flat>> = vec![Vec::new(); structs.len()];
-    for &index in order {
-        let (Some(def), Some(fields)) = (structs.get(index), checks.get(index)) else {
-            continue;
-        };
-        let mut block = def.fields.len();
-        let mut children = vec![0; def.fields.len()];
-        let mut flat = Vec::with_capacity(def.fields.len());
-        for (slot, (&check, child)) in fields.iter().zip(children.iter_mut()).enumerate() {
-            match check {
-                // Its plan was made first: its block and entries are known.
-                Check::Message { index: nested, .. } => {
-                    *child = block;
-                    block = block.saturating_add(blocks.get(nested).copied().unwrap_or(0));
-                    let inner = flats.get(nested).map_or(&[][..], Vec::as_slice);
-                    if inner.len() <= INLINED_ENTRIES {
-                        flat.extend(inner.iter().map(|entry| entry.shifted(*child)));
-                    } else {
-                        flat.push(Flat::Nested {
-                            first: *child,
-                            index: nested,
-                        });
-                    }
-                }
-                check => flat.push(Flat::Field(slot, check)),
-            }
-        }
-        if let Some(plan) = plans.get_mut(index) {
-            plan.block = block;
-            plan.children = children;
-            plan.steps = steps(&flat);
-        }
-        if let Some(place) = flats.get_mut(index) {
-            *place = flat;
-        }
-    }
-    plans
-}
-
-/// Fold flattened fields into steps: fixed-size fields into runs, a run
-/// going on while each field's alignment is at most the first's (then every
-/// offset from the run's aligned start is fixed).
-fn steps(fields: &[Flat]) -> Vec<Step> {
-    let mut steps = Vec::new();
-    let mut run: Option<OpenRun> = None;
-    for &entry in fields {
-        let (slot, check) = match entry {
-            Flat::Field(slot, check) => (slot, check),
-            Flat::Nested { first, index } => {
-                steps.extend(run.take().map(OpenRun::close));
-                steps.push(Step::Nested { first, index });
-                continue;
-            }
-        };
-        // A fixed-size value: its size, alignment, and whether it is a bool.
-        let fixed = match check {
-            Check::Number(size) => Some((size, size, false)),
-            Check::Bool => Some((1, 1, true)),
-            Check::Many {
-                element,
-                container: Container::Array(n),
-                min,
-            } if n > 0
-                // An empty array is not aligned to: it stays out of runs.
-                && !matches!(
-                    element,
-                    Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
-                ) =>
-            {
-                n.checked_mul(min).map(|size| (size, min, false))
-            }
-            _ => None,
-        };
-        if let Some((size, align, bool)) = fixed {
-            let member = |offset| Member { slot, offset, bool };
-            if let Some(open) = run.as_mut().filter(|open| align <= open.align) {
-                let offset = crate::layout::align_up(open.len, align);
-                if let Some(end) = offset.checked_add(size) {
-                    open.members.push(member(offset));
-                    open.checks.push(check);
-                    open.len = end;
-                    continue;
-                }
-            }
-            steps.extend(run.take().map(OpenRun::close));
-            run = Some(OpenRun {
-                align,
-                len: size,
-                members: vec![member(0)],
-                checks: vec![check],
-            });
-            continue;
-        }
-        steps.extend(run.take().map(OpenRun::close));
-        steps.push(match check {
-            Check::String(bound) => Step::String { slot, bound },
-            Check::Many {
-                element: Element::Message(index),
-                container,
-                min,
-            } => Step::Messages {
-                slot,
-                index,
-                container,
-                min,
-            },
-            Check::Many {
-                element,
-                container: container @ (Container::Sequence | Container::BoundedSequence(_)),
-                min,
-            } if !matches!(
-                element,
-                Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
-            ) =>
-            {
-                Step::Numbers {
-                    slot,
-                    container,
-                    size: min,
-                    check,
-                }
-            }
-            check => Step::Value { slot, check },
-        });
-    }
-    steps.extend(run.take().map(OpenRun::close));
-    steps
 }
 
 /// A payload of a [`DynamicType`], checked once in full and read field by
@@ -473,15 +216,9 @@ impl Checker<'_> {
                     bools,
                 } => {
                     let at = r.position();
-                    let fits = match r.read_aligned_bytes(*align, *len) {
-                        Ok(bytes) => {
-                            !*bools
-                                || members.iter().all(|m| {
-                                    !m.bool || bytes.get(m.offset).is_some_and(|&b| b <= 1)
-                                })
-                        }
-                        Err(_) => false,
-                    };
+                    let fits = r
+                        .read_aligned_bytes(*align, *len)
+                        .is_ok_and(|bytes| !*bools || bools_valid(members, bytes));
                     if fits {
                         let start = r.position() - len;
                         // An array's length is its type's: only `at` is noted.
@@ -536,7 +273,7 @@ impl Checker<'_> {
                         *place = value;
                     }
                 }
-                &Step::Value { slot, check } => {
+                &Step::Value { slot, check, .. } => {
                     let value = check_value(r, check)?;
                     if let Some(place) = self.slots.get_mut(first + slot) {
                         *place = value;
@@ -723,13 +460,16 @@ impl<'v, 'de> StructView<'v, 'de> {
 
     fn field(&self, def: &'v StructDef, i: usize) -> Option<FieldView<'v, 'de>> {
         let field = def.fields.get(i)?;
-        let slot = *self.view.slots.get(self.first + i)?;
-        Some(match (field.element, field.container) {
-            (Element::Message(index), Container::Single) => FieldView::Message(StructView {
+        let at = self.first + self.view.types.plans.get(self.index)?.offsets.get(i)?;
+        if let (Element::Message(index), Container::Single) = (field.element, field.container) {
+            return Some(FieldView::Message(StructView {
                 view: self.view,
                 index,
-                first: self.first + self.view.types.plans.get(self.index)?.children.get(i)?,
-            }),
+                first: at,
+            }));
+        }
+        let slot = *self.view.slots.get(at)?;
+        Some(match (field.element, field.container) {
             (Element::Message(index), _) => FieldView::Messages(SequenceView {
                 view: self.view,
                 index,
@@ -746,16 +486,22 @@ impl<'v, 'de> StructView<'v, 'de> {
 
     /// This message, built: what [`DynamicType::decode`] gives for it.
     pub fn to_message(&self) -> Result<Message<'de>, DecodeError> {
-        let values = self
-            .fields()
-            .map(|(_, field)| field.read())
-            .collect::<Result<Vec<_>, _>>()?;
-        Ok(Message {
-            ty: self.view.ty.clone(),
-            index: self.index,
-            values,
-            cut: Vec::new(),
-        })
+        let mut slots =
+            Vec::with_capacity(self.view.types.plans.get(self.index).map_or(0, |p| p.block));
+        self.push_slots(&mut slots)?;
+        Ok(Message::from_slots(self.view.ty.clone(), self.index, slots))
+    }
+
+    /// Push this message's values onto `slots`, in slot order.
+    fn push_slots(&self, slots: &mut Vec<Value<'de>>) -> Result<(), DecodeError> {
+        for (_, field) in self.fields() {
+            match field {
+                FieldView::Message(nested) => nested.push_slots(slots)?,
+                FieldView::Messages(nested) => slots.push(nested.read()?),
+                FieldView::Value(value) => slots.push(value.read()?),
+            }
+        }
+        Ok(())
     }
 }
 
@@ -815,18 +561,31 @@ impl<'de> ValueView<'_, 'de> {
     }
 }
 
+impl<'de> SequenceView<'_, 'de> {
+    /// The messages, built: what [`DynamicType::decode`] gives for them.
+    pub fn read(&self) -> Result<Value<'de>, DecodeError> {
+        let block = self.view.types.plans.get(self.index).map_or(0, |p| p.block);
+        let mut slots = Vec::with_capacity(self.len.saturating_mul(block).min(1 << 12));
+        for message in self.iter() {
+            message.push_slots(&mut slots)?;
+        }
+        Ok(Value::Messages(Box::new(Messages::from_slots(
+            self.view.ty.clone(),
+            self.index,
+            self.len,
+            slots,
+        ))))
+    }
+}
+
 impl<'de> FieldView<'_, 'de> {
     /// The field's value, nested messages built: what
     /// [`DynamicType::decode`] gives for it.
     pub fn read(&self) -> Result<Value<'de>, DecodeError> {
         match self {
             Self::Value(value) => value.read(),
-            Self::Message(message) => message.to_message().map(Value::Message),
-            Self::Messages(messages) => messages
-                .iter()
-                .map(|m| m.to_message())
-                .collect::<Result<_, _>>()
-                .map(Value::Messages),
+            Self::Message(message) => message.to_message().map(|m| Value::Message(Box::new(m))),
+            Self::Messages(messages) => messages.read(),
         }
     }
 }

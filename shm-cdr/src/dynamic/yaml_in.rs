@@ -18,7 +18,7 @@ use std::cell::RefCell;
 use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
 
 use super::model::{DynamicType, Element};
-use super::value::{Message, Value};
+use super::value::{Field, Message, Messages, Value};
 use crate::describe::Container;
 
 /// Why text could not be read as a message: where (`header.stamp.sec`,
@@ -203,13 +203,11 @@ impl<'de> Visitor<'de> for MessageSeed<'_, '_> {
         let type_name = self.message.type_name();
         match (self.reader.now, type_name, s) {
             (Some(now), "std_msgs/msg/Header", "auto") => {
-                if let Some(Value::Message(stamp)) = self
-                    .message
-                    .def()
-                    .field_index("stamp")
-                    .and_then(|i| self.message.values.get_mut(i))
-                {
-                    set_time(stamp, now);
+                if let Some(i) = self.message.def().field_index("stamp") {
+                    if let Some(mut stamp) = self.message.message("stamp").map(|m| m.to_message()) {
+                        set_time(&mut stamp, now);
+                        self.message.store(i, Value::Message(Box::new(stamp)));
+                    }
                 }
                 Ok(())
             }
@@ -242,11 +240,15 @@ impl<'de> Visitor<'de> for MessageSeed<'_, '_> {
                 };
                 let (element, container) = (def.fields[index].element, def.fields[index].container);
                 if container == Container::Single {
-                    if let Value::Message(nested) = &mut self.message.values[index] {
-                        return map.next_value_seed(MessageSeed {
+                    if let Some(Field::Message(nested)) = self.message.as_message_ref().field(index)
+                    {
+                        let mut nested = nested.to_message();
+                        map.next_value_seed(MessageSeed {
                             reader,
-                            message: nested,
-                        });
+                            message: &mut nested,
+                        })?;
+                        self.message.store(index, Value::Message(Box::new(nested)));
+                        return Ok(());
                     }
                 }
                 let value = map.next_value_seed(FieldSeed {
@@ -255,7 +257,7 @@ impl<'de> Visitor<'de> for MessageSeed<'_, '_> {
                     element,
                     container,
                 })?;
-                self.message.values[index] = value;
+                self.message.store(index, value);
                 Ok(())
             })?;
         }
@@ -328,7 +330,7 @@ impl<'de> Visitor<'de> for ListVisitor<'_> {
         let mut i = 0usize;
         let value = match self.element {
             Element::Message(index) => {
-                let mut out = Vec::new();
+                let mut out = Messages::from_slots(self.ty.clone(), index, 0, Vec::new());
                 loop {
                     let mut nested = self.ty.default_struct(index);
                     let more = reader.within(format_args!("[{i}]"), || {
@@ -340,10 +342,10 @@ impl<'de> Visitor<'de> for ListVisitor<'_> {
                     if more.is_none() {
                         break;
                     }
-                    out.push(nested);
+                    out.push(nested).map_err(|e| reader.fail(e.reason))?;
                     i += 1;
                 }
-                Value::Messages(out)
+                Value::Messages(Box::new(out))
             }
             element => {
                 let mut out = Vec::new();
@@ -563,10 +565,10 @@ impl<'de> Visitor<'de> for ScalarSeed<'_> {
 
 fn set_time(time: &mut Message<'static>, (sec, nanosec): (i32, u32)) {
     if let Some(i) = time.def().field_index("sec") {
-        time.values[i] = Value::I32(sec);
+        time.store(i, Value::I32(sec));
     }
     if let Some(i) = time.def().field_index("nanosec") {
-        time.values[i] = Value::U32(nanosec);
+        time.store(i, Value::U32(nanosec));
     }
 }
 

@@ -11,7 +11,7 @@ use std::borrow::Cow;
 use std::fmt::{self, Write as _};
 
 use super::model::{Element, FieldDef};
-use super::value::{Message, Value};
+use super::value::{Field, Message, MessageRef, Value};
 use crate::describe::Container;
 
 /// How [`Message::to_yaml_with`] writes a message: the options of
@@ -114,7 +114,7 @@ impl Message<'_> {
 
     /// The message as YAML with `ros2 topic echo`'s options.
     pub fn to_yaml_with(&self, options: &YamlOptions) -> String {
-        let tree = message_node(self, options);
+        let tree = message_node(self.as_message_ref(), options);
         let mut emitter = Emitter::new(options.flow_style);
         emitter.document(&tree);
         emitter.out
@@ -229,23 +229,25 @@ impl<'m> List<'m> {
 /// rclpy leaves the placeholder field of an empty message out.
 const EMPTY_PLACEHOLDER: &str = "structure_needs_at_least_one_member";
 
-fn message_node<'m>(message: &'m Message<'_>, options: &YamlOptions) -> Node<'m> {
+fn message_node<'m>(message: MessageRef<'m, '_>, options: &YamlOptions) -> Node<'m> {
     let def = message.def();
     let placeholder = def.fields.len() == 1 && def.fields[0].name == EMPTY_PLACEHOLDER;
     let mut entries = Vec::with_capacity(def.fields.len());
     if !placeholder {
-        for (i, (field, value)) in def.fields.iter().zip(&message.values).enumerate() {
-            entries.push((
-                field.name.as_str(),
-                field_node(message, i, field, value, options),
-            ));
+        for (i, field) in def.fields.iter().enumerate() {
+            let node = match message.field(i) {
+                Some(Field::Message(nested)) => message_node(nested, options),
+                Some(Field::Value(value)) => field_node(message, i, field, value, options),
+                None => continue,
+            };
+            entries.push((field.name.as_str(), node));
         }
     }
     Node::Map(entries)
 }
 
 fn field_node<'m>(
-    message: &'m Message<'_>,
+    message: MessageRef<'m, '_>,
     i: usize,
     field: &FieldDef,
     value: &'m Value<'_>,
@@ -259,7 +261,7 @@ fn field_node<'m>(
 
 /// `--no-arr`'s text: rosidl_parser's name of the element type, with the
 /// array's size or the sequence's bound and length.
-fn abbreviate(message: &Message<'_>, field: &FieldDef, len: Option<usize>) -> String {
+fn abbreviate(message: MessageRef<'_, '_>, field: &FieldDef, len: Option<usize>) -> String {
     let element = match field.element {
         Element::Bool => "boolean",
         Element::Byte => "octet",
@@ -277,7 +279,7 @@ fn abbreviate(message: &Message<'_>, field: &FieldDef, len: Option<usize>) -> St
         Element::String(_) => "string",
         Element::WString(_) => "wstring",
         Element::Message(i) => message
-            .ty
+            .ty()
             .structs()
             .get(i)
             .map_or("unknown", |s| s.name.as_str()),
@@ -313,7 +315,7 @@ fn value_node<'m>(element: Element, value: &'m Value<'_>, options: &YamlOptions)
         Value::F64(v) => float_node(*v),
         Value::String(s) => string_node(s, options),
         Value::WString(s) => string_node(s, options),
-        Value::Message(m) => message_node(m, options),
+        Value::Message(m) => message_node(m.as_message_ref(), options),
         Value::Bools(v) => list(v, options, |b| bool_node(*b)),
         Value::U8s(v) if byte_text => list(v, options, move |b| byte_node(*b, &owned)),
         Value::U8s(v) => list(v, options, |n| Node::Plain(n.to_string())),
@@ -328,7 +330,10 @@ fn value_node<'m>(element: Element, value: &'m Value<'_>, options: &YamlOptions)
         Value::F64s(v) => list(v, options, |x| float_node(*x)),
         Value::Strings(v) => list(v, options, move |s| string_node(s, &owned)),
         Value::WStrings(v) => list(v, options, move |s| string_node(s, &owned)),
-        Value::Messages(v) => list(v, options, move |m| message_node(m, &owned)),
+        Value::Messages(v) => list_of(v.len(), options, move |i| {
+            v.get(i)
+                .map_or(Node::Seq(Vec::new()), |m| message_node(m, &owned))
+        }),
     }
 }
 
@@ -337,14 +342,25 @@ fn list<'m, T>(
     options: &YamlOptions,
     node: impl Fn(&'m T) -> Node<'m> + 'm,
 ) -> Node<'m> {
-    let len = match options.truncate_length {
-        Some(n) => items.len().min(n),
-        None => items.len(),
+    list_of(items.len(), options, move |i| {
+        items.get(i).map_or(Node::Seq(Vec::new()), &node)
+    })
+}
+
+/// A list of `len` items, item `i` made by `item(i)` as it is written.
+fn list_of<'m>(
+    len: usize,
+    options: &YamlOptions,
+    item: impl Fn(usize) -> Node<'m> + 'm,
+) -> Node<'m> {
+    let shown = match options.truncate_length {
+        Some(n) => len.min(n),
+        None => len,
     };
     Node::List(List {
-        len,
-        cut: len < items.len(),
-        item: Box::new(move |i| items.get(i).map_or(Node::Seq(Vec::new()), &node)),
+        len: shown,
+        cut: shown < len,
+        item: Box::new(item),
     })
 }
 

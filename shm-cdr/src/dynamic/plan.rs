@@ -1,0 +1,323 @@
+//! How a message of each struct of a [`DynamicType`](super::DynamicType) is
+//! laid out and walked: one slot per field that is not a message nested by
+//! value, in field order with each nested message's slots in its place
+//! (pre-order), and the steps a view checks it by. A decoded
+//! [`Message`](super::Message) keeps its values in these slots, and a
+//! [view](super::MessageView) notes where each lies in these slots: the two
+//! agree on one layout.
+
+use super::model::{Check, Element, StructDef};
+use crate::describe::Container;
+
+/// How one message of a struct is laid out and checked: its fields, and
+/// those of the messages it nests by value, folded into steps; runs of
+/// fixed-size fields checked at once.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct StructPlan {
+    pub(crate) steps: Vec<Step>,
+    /// Slots one message takes: one per field that is not a message nested
+    /// by value, with those of the messages it nests by value.
+    pub(crate) block: usize,
+    /// For each field, its slot, or, for a message nested by value, where
+    /// its slots start; counted from the message's first.
+    pub(crate) offsets: Vec<usize>,
+    /// The fields in slot order, small messages nested by value inlined
+    /// (as in `steps`): what decoding, sizing and encoding walk.
+    pub(crate) entries: Vec<Entry>,
+}
+
+/// One step of a [`StructPlan`]; `slot`s count from the message's first.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum Step {
+    /// Consecutive numbers, bools and arrays of numbers whose offsets from a
+    /// start aligned to `align` are fixed: one bounds check for all of them.
+    Run {
+        align: usize,
+        len: usize,
+        members: Box<[Member]>,
+        /// How each member is checked alone, to find the one at fault.
+        checks: Box<[Check]>,
+        /// Whether a member is a bool, whose byte must be 0 or 1.
+        bools: bool,
+    },
+    /// A string.
+    String { slot: usize, bound: Option<usize> },
+    /// A sequence of numbers of `size` bytes each: one bounds check for
+    /// them all (any bit pattern is a number). `check` finds the fault.
+    Numbers {
+        slot: usize,
+        container: Container,
+        size: usize,
+        check: Check,
+    },
+    /// A wide string, or an array or sequence of values: checked as
+    /// [`Check`] says.
+    Value {
+        slot: usize,
+        check: Check,
+        element: Element,
+    },
+    /// A message nested by value, checked by its own plan, its slots from
+    /// `first` on.
+    Nested { first: usize, index: usize },
+    /// An array or sequence of messages, whose slots are added when its
+    /// length is known.
+    Messages {
+        slot: usize,
+        index: usize,
+        container: Container,
+        min: usize,
+    },
+}
+
+/// One field of a [`Step::Run`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Member {
+    pub(crate) slot: usize,
+    pub(crate) offset: usize,
+    pub(crate) bool: bool,
+    /// What it is: a number or bool, or an array of numbers.
+    pub(crate) element: Element,
+    pub(crate) container: Container,
+    /// rosidl's placeholder member of an empty message, which reads as 0.
+    pub(crate) placeholder: bool,
+}
+
+/// Whether every bool among a run's `members` is 0 or 1 in the run's `bytes`.
+#[inline]
+pub(crate) fn bools_valid(members: &[Member], bytes: &[u8]) -> bool {
+    members
+        .iter()
+        .all(|m| !m.bool || bytes.get(m.offset).is_some_and(|&b| b <= 1))
+}
+
+/// A [`Step::Run`] being gathered.
+struct OpenRun {
+    align: usize,
+    len: usize,
+    members: Vec<Member>,
+    checks: Vec<Check>,
+}
+
+impl OpenRun {
+    fn close(self) -> Step {
+        Step::Run {
+            align: self.align,
+            len: self.len,
+            bools: self.members.iter().any(|m| m.bool),
+            members: self.members.into(),
+            checks: self.checks.into(),
+        }
+    }
+}
+
+/// A nested message whose plan has at most this many entries is copied
+/// into the plan of the message that nests it by value, so that runs of
+/// fixed-size fields continue across it (CDR gives a nested message no
+/// alignment of its own: a `Pose` is one run of seven numbers); a larger one
+/// is one step that follows its own plan, so that plans take memory linear
+/// in the description however its types nest.
+const INLINED_ENTRIES: usize = 32;
+
+/// One entry of a plan, in slot order; slots count from the message's
+/// first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Entry {
+    /// A field that is not a message nested by value.
+    Field(Leaf),
+    /// A message nested by value, walked by its own plan; its slots start
+    /// at `first`.
+    Nested { first: usize, index: usize },
+}
+
+/// A field that is not a message nested by value: its slot, kind and check.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Leaf {
+    pub(crate) slot: usize,
+    pub(crate) element: Element,
+    pub(crate) container: Container,
+    pub(crate) check: Check,
+    /// rosidl's placeholder member of an empty message, which reads as 0.
+    pub(crate) placeholder: bool,
+}
+
+impl Entry {
+    fn shifted(self, by: usize) -> Self {
+        match self {
+            Self::Field(leaf) => Self::Field(Leaf {
+                slot: leaf.slot + by,
+                ..leaf
+            }),
+            Self::Nested { first, index } => Self::Nested {
+                first: first + by,
+                index,
+            },
+        }
+    }
+}
+
+/// The plan of every struct, built innermost first (`order`); `blocks` are
+/// the slots a message of each takes (see [`StructPlan::block`]).
+pub(crate) fn plans(
+    structs: &[StructDef],
+    checks: &[Vec<Check>],
+    order: &[usize],
+    blocks: &[usize],
+) -> Vec<StructPlan> {
+    let mut plans = vec![
+        StructPlan {
+            steps: Vec::new(),
+            block: 0,
+            offsets: Vec::new(),
+            entries: Vec::new(),
+        };
+        structs.len()
+    ];
+    for &index in order {
+        let (Some(def), Some(fields)) = (structs.get(index), checks.get(index)) else {
+            continue;
+        };
+        let placeholder = matches!(def.fields.as_slice(),
+            [field] if field.name == super::codec::EMPTY_MESSAGE_MEMBER);
+        let mut block = 0usize;
+        let mut offsets = Vec::with_capacity(def.fields.len());
+        let mut entries = Vec::with_capacity(def.fields.len());
+        for (field, &check) in def.fields.iter().zip(fields) {
+            offsets.push(block);
+            match check {
+                // Its plan was made first: its block and entries are known.
+                Check::Message { index: nested, .. } => {
+                    let first = block;
+                    block = block.saturating_add(blocks.get(nested).copied().unwrap_or(0));
+                    let inner = plans.get(nested).map_or(&[][..], |p| p.entries.as_slice());
+                    if inner.len() <= INLINED_ENTRIES {
+                        entries.extend(inner.iter().map(|entry| entry.shifted(first)));
+                    } else {
+                        entries.push(Entry::Nested {
+                            first,
+                            index: nested,
+                        });
+                    }
+                }
+                check => {
+                    entries.push(Entry::Field(Leaf {
+                        slot: block,
+                        element: field.element,
+                        container: field.container,
+                        check,
+                        placeholder,
+                    }));
+                    block = block.saturating_add(1);
+                }
+            }
+        }
+        if let Some(plan) = plans.get_mut(index) {
+            plan.block = block;
+            plan.offsets = offsets;
+            plan.steps = steps(&entries);
+            plan.entries = entries;
+        }
+    }
+    plans
+}
+
+/// Fold flattened fields into steps: fixed-size fields into runs, a run
+/// going on while each field's alignment is at most the first's (then every
+/// offset from the run's aligned start is fixed).
+fn steps(fields: &[Entry]) -> Vec<Step> {
+    let mut steps = Vec::new();
+    let mut run: Option<OpenRun> = None;
+    for &entry in fields {
+        let (slot, check, leaf) = match entry {
+            Entry::Field(leaf) => (leaf.slot, leaf.check, leaf),
+            Entry::Nested { first, index } => {
+                steps.extend(run.take().map(OpenRun::close));
+                steps.push(Step::Nested { first, index });
+                continue;
+            }
+        };
+        // A fixed-size value: its size, alignment, and whether it is a bool.
+        let fixed = match check {
+            Check::Number(size) => Some((size, size, false)),
+            Check::Bool => Some((1, 1, true)),
+            Check::Many {
+                element,
+                container: Container::Array(n),
+                min,
+            } if n > 0
+                // An empty array is not aligned to: it stays out of runs.
+                && !matches!(
+                    element,
+                    Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
+                ) =>
+            {
+                n.checked_mul(min).map(|size| (size, min, false))
+            }
+            _ => None,
+        };
+        if let Some((size, align, bool)) = fixed {
+            let member = |offset| Member {
+                slot,
+                offset,
+                bool,
+                element: leaf.element,
+                container: leaf.container,
+                placeholder: leaf.placeholder,
+            };
+            if let Some(open) = run.as_mut().filter(|open| align <= open.align) {
+                let offset = crate::layout::align_up(open.len, align);
+                if let Some(end) = offset.checked_add(size) {
+                    open.members.push(member(offset));
+                    open.checks.push(check);
+                    open.len = end;
+                    continue;
+                }
+            }
+            steps.extend(run.take().map(OpenRun::close));
+            run = Some(OpenRun {
+                align,
+                len: size,
+                members: vec![member(0)],
+                checks: vec![check],
+            });
+            continue;
+        }
+        steps.extend(run.take().map(OpenRun::close));
+        steps.push(match check {
+            Check::String(bound) => Step::String { slot, bound },
+            Check::Many {
+                element: Element::Message(index),
+                container,
+                min,
+            } => Step::Messages {
+                slot,
+                index,
+                container,
+                min,
+            },
+            Check::Many {
+                element,
+                container: container @ (Container::Sequence | Container::BoundedSequence(_)),
+                min,
+            } if !matches!(
+                element,
+                Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
+            ) =>
+            {
+                Step::Numbers {
+                    slot,
+                    container,
+                    size: min,
+                    check,
+                }
+            }
+            check => Step::Value {
+                slot,
+                check,
+                element: leaf.element,
+            },
+        });
+    }
+    steps.extend(run.take().map(OpenRun::close));
+    steps
+}
