@@ -610,3 +610,39 @@ fn nested_messages_are_read_where_they_lie_and_set_in_place() {
         .set("pose", Value::Message(Box::new(header)))
         .is_err());
 }
+
+#[test]
+fn a_body_in_segments_decodes_as_the_whole_or_says_it_is_fragmented() {
+    use shm_cdr::{LittleEndian, Reader};
+
+    let imu = sensor_msgs::msg::Imu {
+        header: std_msgs::msg::Header {
+            frame_id: "imu_link".into(),
+            ..Default::default()
+        },
+        orientation_covariance: [0.5; 9],
+        ..Default::default()
+    };
+    let bytes = shm_cdr::to_vec(&imu).unwrap();
+    let ty = dynamic::<sensor_msgs::msg::Imu>();
+    let whole = ty.decode(&bytes).unwrap();
+    let body = &bytes[4..];
+    let mut whole_from_segments = 0;
+    for split in 1..body.len() {
+        let (a, b) = body.split_at(split);
+        let mut r = Reader::<LittleEndian>::from_segments(&[a, b]).unwrap();
+        match ty.decode_message(&mut r, 0) {
+            Ok(message) => {
+                assert_eq!(message, whole, "split at {split}");
+                whole_from_segments += 1;
+            }
+            Err(e) => assert!(
+                matches!(e.kind(), DecodeErrorKind::Fragmented { .. }),
+                "split at {split}: {e}"
+            ),
+        }
+    }
+    // Between two fields, or inside a run of them, the segments hold whole
+    // values: those splits decode.
+    assert!(whole_from_segments > 10, "{whole_from_segments}");
+}
