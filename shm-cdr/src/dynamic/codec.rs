@@ -6,7 +6,7 @@
 use std::borrow::Cow;
 
 use super::model::{Check, DynamicType, Element, FieldDef};
-use super::plan::{bools_valid, Entry, Member, Step};
+use super::plan::{bools_valid, Entry, Member, RunRead, Step};
 use super::value::{Message, Messages, Value};
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::Container;
@@ -203,13 +203,17 @@ impl DynamicType {
                     members,
                     checks,
                     bools,
+                    reads,
                 } => {
                     let at = r.position();
                     let filled = slots.len();
                     let read = r
                         .read_aligned_bytes(*align, *len)
                         .ok()
-                        .is_some_and(|bytes| run_values::<B>(bytes, members, *bools, slots));
+                        .is_some_and(|bytes| {
+                            (!*bools || bools_valid(members, bytes))
+                                && run_values::<B>(bytes, reads, slots)
+                        });
                     if !read {
                         r.rewind(at);
                         slots.truncate(filled);
@@ -489,54 +493,75 @@ pub(crate) fn read_len<B: ByteOrder>(
 }
 
 /// The values of a run of fixed-size fields from its bytes, pushed onto
-/// `slots`; `false` (some pushed) if a bool is neither 0 nor 1, or a value
-/// cannot be read from where the run says it lies: then the run is read
-/// again field by field, for the exact error.
+/// `slots`; `false` (some pushed) if a value cannot be read from where the
+/// run says it lies: then the run is read again field by field, for the
+/// exact error. Its bools were checked to be 0 or 1.
 #[inline]
 fn run_values<'de, B: ByteOrder>(
     bytes: &'de [u8],
-    members: &[Member],
-    bools: bool,
+    reads: &[RunRead],
     slots: &mut Vec<Value<'de>>,
 ) -> bool {
-    if bools && !bools_valid(members, bytes) {
-        return false;
-    }
-    for m in members {
-        let value = match m.container {
-            Container::Array(n) => array_at::<B>(bytes, m.offset, m.element, n),
-            _ => number_at::<B>(bytes, m.offset, m.element),
-        };
-        match value {
-            Some(_) if m.placeholder => slots.push(Value::U8(0)),
-            Some(value) => slots.push(value),
-            None => return false,
+    for read in reads {
+        match *read {
+            RunRead::Singles {
+                element,
+                offset,
+                count,
+            } => {
+                if !singles_at::<B>(bytes, offset, element, count, slots) {
+                    return false;
+                }
+            }
+            RunRead::Array { element, offset, n } => match array_at::<B>(bytes, offset, element, n)
+            {
+                Some(value) => slots.push(value),
+                None => return false,
+            },
+            RunRead::Placeholder => slots.push(Value::U8(0)),
         }
     }
     true
 }
 
-/// The number (or bool) of kind `element` at `bytes[offset..]`.
+/// The `count` numbers (or bools) of kind `element` back to back from
+/// `bytes[offset..]`, one value each pushed onto `slots`; `false` (none
+/// pushed) if they are not all there.
 #[inline(always)]
-fn number_at<'de, B: ByteOrder>(
+fn singles_at<B: ByteOrder>(
     bytes: &[u8],
     offset: usize,
     element: Element,
-) -> Option<Value<'de>> {
+    count: usize,
+    slots: &mut Vec<Value<'_>>,
+) -> bool {
+    let Some(size) = element.fixed_size() else {
+        return false;
+    };
+    let Some(raw) = count
+        .checked_mul(size)
+        .and_then(|len| bytes.get(offset..offset.checked_add(len)?))
+    else {
+        return false;
+    };
     macro_rules! read {
-        ($t:ty, $variant:ident) => {{
-            let raw = bytes.get(offset..offset + std::mem::size_of::<$t>())?;
-            let raw = raw.try_into().ok()?;
-            Value::$variant(if B::LITTLE {
-                <$t>::from_le_bytes(raw)
-            } else {
-                <$t>::from_be_bytes(raw)
-            })
-        }};
+        ($t:ty, $variant:ident) => {
+            slots.extend(raw.chunks_exact(std::mem::size_of::<$t>()).map(|chunk| {
+                let mut wire = [0u8; std::mem::size_of::<$t>()];
+                wire.copy_from_slice(chunk);
+                Value::$variant(if B::LITTLE {
+                    <$t>::from_le_bytes(wire)
+                } else {
+                    <$t>::from_be_bytes(wire)
+                })
+            }))
+        };
     }
-    Some(match element {
-        Element::Bool => Value::Bool(*bytes.get(offset)? != 0),
-        Element::Byte | Element::Char | Element::U8 => Value::U8(*bytes.get(offset)?),
+    match element {
+        Element::Bool => slots.extend(raw.iter().map(|&b| Value::Bool(b != 0))),
+        Element::Byte | Element::Char | Element::U8 => {
+            slots.extend(raw.iter().map(|&b| Value::U8(b)))
+        }
         Element::I8 => read!(i8, I8),
         Element::I16 => read!(i16, I16),
         Element::U16 => read!(u16, U16),
@@ -546,8 +571,9 @@ fn number_at<'de, B: ByteOrder>(
         Element::U64 => read!(u64, U64),
         Element::F32 => read!(f32, F32),
         Element::F64 => read!(f64, F64),
-        Element::String(_) | Element::WString(_) | Element::Message(_) => return None,
-    })
+        Element::String(_) | Element::WString(_) | Element::Message(_) => return false,
+    }
+    true
 }
 
 /// The array of `n` numbers of kind `element` at `bytes[offset..]`,
@@ -624,7 +650,8 @@ fn counted(container: Container) -> bool {
 }
 
 /// The position after the message of struct `index` whose values start at
-/// `slots[first]`, written at `start`.
+/// `slots[first]`, written at `start`: a run of fixed-size fields by its
+/// length alone.
 fn struct_end(
     ty: &DynamicType,
     index: usize,
@@ -635,17 +662,28 @@ fn struct_end(
     let Some(plan) = ty.inner.plans.get(index) else {
         return start;
     };
-    plan.entries.iter().fold(start, |pos, entry| match *entry {
-        Entry::Field(leaf) => match slots.get(first + leaf.slot) {
-            Some(value) => value_end(value, pos, counted(leaf.container)),
-            None => pos,
-        },
-        Entry::Nested { first: at, index } => struct_end(ty, index, slots, first + at, pos),
+    let at = |slot: usize| slots.get(first + slot);
+    plan.steps.iter().fold(start, |pos, step| match *step {
+        Step::Run { align, len, .. } => align_up(pos, align) + len,
+        Step::String { slot, .. } => at(slot).map_or(pos, |v| value_end(v, pos, false)),
+        Step::Numbers {
+            slot, container, ..
+        }
+        | Step::Messages {
+            slot, container, ..
+        } => at(slot).map_or(pos, |v| value_end(v, pos, counted(container))),
+        Step::Value { slot, check, .. } => {
+            at(slot).map_or(pos, |v| value_end(v, pos, counted(check_container(check))))
+        }
+        Step::Nested {
+            first: nested,
+            index,
+        } => struct_end(ty, index, slots, first + nested, pos),
     })
 }
 
 /// Write the message of struct `index` whose values start at
-/// `slots[first]`.
+/// `slots[first]`: a run of fixed-size fields into one slot of the output.
 fn encode_struct<B: ByteOrder>(
     w: &mut Writer<'_, B>,
     ty: &DynamicType,
@@ -656,14 +694,118 @@ fn encode_struct<B: ByteOrder>(
     let Some(plan) = ty.inner.plans.get(index) else {
         return Ok(());
     };
-    for entry in &plan.entries {
-        match *entry {
-            Entry::Field(leaf) => {
-                if let Some(value) = slots.get(first + leaf.slot) {
-                    encode_value(w, leaf.element, leaf.container, value)?;
+    let at = |slot: usize| slots.get(first + slot);
+    for step in &plan.steps {
+        match *step {
+            Step::Run {
+                align,
+                len,
+                ref members,
+                ..
+            } => {
+                let run = w.aligned_slot(align, len)?;
+                for m in members.iter() {
+                    if let Some(value) = at(m.slot) {
+                        write_member::<B>(run, m, value)?;
+                    }
                 }
             }
-            Entry::Nested { first: at, index } => encode_struct(w, ty, index, slots, first + at)?,
+            Step::String { slot, bound } => {
+                if let Some(value) = at(slot) {
+                    encode_value(w, Element::String(bound), Container::Single, value)?;
+                }
+            }
+            Step::Numbers {
+                slot,
+                container,
+                check,
+                ..
+            } => {
+                if let (Some(value), Check::Many { element, .. }) = (at(slot), check) {
+                    encode_value(w, element, container, value)?;
+                }
+            }
+            Step::Value {
+                slot,
+                check,
+                element,
+            } => {
+                if let Some(value) = at(slot) {
+                    encode_value(w, element, check_container(check), value)?;
+                }
+            }
+            Step::Messages {
+                slot,
+                index,
+                container,
+                ..
+            } => {
+                if let Some(value) = at(slot) {
+                    encode_value(w, Element::Message(index), container, value)?;
+                }
+            }
+            Step::Nested {
+                first: nested,
+                index,
+            } => encode_struct(w, ty, index, slots, first + nested)?,
+        }
+    }
+    Ok(())
+}
+
+/// The container of a field as its check states it (single unless many).
+fn check_container(check: Check) -> Container {
+    match check {
+        Check::Many { container, .. } => container,
+        _ => Container::Single,
+    }
+}
+
+/// Write a member of a run into the run's zeroed bytes `run`, where the
+/// plan lays it: a single number directly, an array as a message of its own
+/// would write it (from its aligned start, so with no padding).
+#[inline]
+fn write_member<B: ByteOrder>(
+    run: &mut [u8],
+    m: &Member,
+    value: &Value<'_>,
+) -> Result<(), EncodeError> {
+    // The plan sizes each run for its members: a value of its field's kind
+    // always fits (`Message::set` keeps only such values).
+    let available = run.len();
+    let too_small = || {
+        EncodeError::new(EncodeErrorKind::BufferTooSmall {
+            needed: m.offset + 1,
+            available,
+        })
+    };
+    macro_rules! put {
+        ($v:expr) => {{
+            let bytes = if B::LITTLE {
+                $v.to_le_bytes()
+            } else {
+                $v.to_be_bytes()
+            };
+            run.get_mut(m.offset..m.offset + bytes.len())
+                .ok_or_else(too_small)?
+                .copy_from_slice(&bytes);
+        }};
+    }
+    match value {
+        Value::Bool(v) => put!(u8::from(*v)),
+        Value::U8(v) => put!(v),
+        Value::I8(v) => put!(v),
+        Value::I16(v) => put!(v),
+        Value::U16(v) => put!(v),
+        Value::I32(v) => put!(v),
+        Value::U32(v) => put!(v),
+        Value::I64(v) => put!(v),
+        Value::U64(v) => put!(v),
+        Value::F32(v) => put!(v),
+        Value::F64(v) => put!(v),
+        value => {
+            let place = run.get_mut(m.offset..).ok_or_else(too_small)?;
+            encode_value(&mut Writer::<B>::new(place), m.element, m.container, value)?;
         }
     }
     Ok(())

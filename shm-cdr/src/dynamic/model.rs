@@ -47,6 +47,17 @@ pub enum Element {
 }
 
 impl Element {
+    /// The bytes one number or bool takes; `None` for strings and messages.
+    pub(crate) fn fixed_size(self) -> Option<usize> {
+        match self {
+            Self::Bool | Self::Byte | Self::Char | Self::I8 | Self::U8 => Some(1),
+            Self::I16 | Self::U16 => Some(2),
+            Self::I32 | Self::U32 | Self::F32 => Some(4),
+            Self::I64 | Self::U64 | Self::F64 => Some(8),
+            Self::String(_) | Self::WString(_) | Self::Message(_) => None,
+        }
+    }
+
     /// The fewest bytes one element takes on the wire (for length checks).
     pub(crate) fn min_wire_size(self, structs: &[StructDef]) -> usize {
         match self {

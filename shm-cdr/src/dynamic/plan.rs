@@ -39,6 +39,9 @@ pub(crate) enum Step {
         checks: Box<[Check]>,
         /// Whether a member is a bool, whose byte must be 0 or 1.
         bools: bool,
+        /// The members as `decode` reads them: consecutive single values of
+        /// one kind folded into one read.
+        reads: Box<[RunRead]>,
     },
     /// A string.
     String { slot: usize, bound: Option<usize> },
@@ -83,6 +86,69 @@ pub(crate) struct Member {
     pub(crate) placeholder: bool,
 }
 
+/// How `decode` reads the members of a [`Step::Run`], in slot order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum RunRead {
+    /// `count` single numbers or bools of kind `element`, back to back from
+    /// `offset`: one value each.
+    Singles {
+        element: Element,
+        offset: usize,
+        count: usize,
+    },
+    /// An array of `n` numbers of kind `element` at `offset`: one value.
+    Array {
+        element: Element,
+        offset: usize,
+        n: usize,
+    },
+    /// rosidl's placeholder member of an empty message: reads as 0.
+    Placeholder,
+}
+
+impl RunRead {
+    /// The members of a run as reads: a single value whose kind is the
+    /// previous one's and which starts where that one ends joins it.
+    fn of(members: &[Member]) -> Box<[RunRead]> {
+        let mut reads: Vec<RunRead> = Vec::with_capacity(members.len());
+        for m in members {
+            let read = match m.container {
+                _ if m.placeholder => RunRead::Placeholder,
+                Container::Array(n) => RunRead::Array {
+                    element: m.element,
+                    offset: m.offset,
+                    n,
+                },
+                _ => {
+                    if let Some(RunRead::Singles {
+                        element,
+                        offset,
+                        count,
+                    }) = reads.last_mut()
+                    {
+                        let end = m
+                            .element
+                            .fixed_size()
+                            .and_then(|size| size.checked_mul(*count))
+                            .and_then(|len| offset.checked_add(len));
+                        if *element == m.element && end == Some(m.offset) {
+                            *count += 1;
+                            continue;
+                        }
+                    }
+                    RunRead::Singles {
+                        element: m.element,
+                        offset: m.offset,
+                        count: 1,
+                    }
+                }
+            };
+            reads.push(read);
+        }
+        reads.into()
+    }
+}
+
 /// Whether every bool among a run's `members` is 0 or 1 in the run's `bytes`.
 #[inline]
 pub(crate) fn bools_valid(members: &[Member], bytes: &[u8]) -> bool {
@@ -105,6 +171,7 @@ impl OpenRun {
             align: self.align,
             len: self.len,
             bools: self.members.iter().any(|m| m.bool),
+            reads: RunRead::of(&self.members),
             members: self.members.into(),
             checks: self.checks.into(),
         }
@@ -320,4 +387,64 @@ fn steps(fields: &[Entry]) -> Vec<Step> {
     }
     steps.extend(run.take().map(OpenRun::close));
     steps
+}
+
+#[cfg(all(test, feature = "sensor_msgs"))]
+mod tests {
+    use super::{RunRead, Step};
+    use crate::dynamic::{DynamicType, Element};
+    use crate::msgs::sensor_msgs::msg::Imu;
+    use crate::RosMessage;
+
+    /// An Imu's orientation, velocities and their covariances are one run;
+    /// `decode` reads it as three runs of single numbers and three arrays,
+    /// not as fifteen values one by one.
+    #[test]
+    fn single_numbers_of_one_kind_back_to_back_are_read_at_once() {
+        let ty = DynamicType::from_description(&Imu::full_description()).unwrap();
+        let runs: Vec<&[RunRead]> = ty.inner.plans[0]
+            .steps
+            .iter()
+            .filter_map(|step| match step {
+                Step::Run { reads, .. } => Some(&reads[..]),
+                _ => None,
+            })
+            .collect();
+        let singles = |offset, count| RunRead::Singles {
+            element: Element::F64,
+            offset,
+            count,
+        };
+        let covariance = |offset| RunRead::Array {
+            element: Element::F64,
+            offset,
+            n: 9,
+        };
+        // The stamp's seconds and nanoseconds differ in kind: two reads.
+        assert_eq!(
+            runs,
+            [
+                &[
+                    RunRead::Singles {
+                        element: Element::I32,
+                        offset: 0,
+                        count: 1
+                    },
+                    RunRead::Singles {
+                        element: Element::U32,
+                        offset: 4,
+                        count: 1
+                    },
+                ][..],
+                &[
+                    singles(0, 4),
+                    covariance(32),
+                    singles(104, 3),
+                    covariance(128),
+                    singles(200, 3),
+                    covariance(224),
+                ][..],
+            ]
+        );
+    }
 }

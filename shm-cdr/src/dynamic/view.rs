@@ -214,6 +214,7 @@ impl Checker<'_> {
                     members,
                     checks,
                     bools,
+                    ..
                 } => {
                     let at = r.position();
                     let fits = r
