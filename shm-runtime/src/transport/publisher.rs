@@ -235,10 +235,18 @@ impl ShmSettings {
 
 /// The current time in nanoseconds since the Unix epoch, as rmw_zenoh_cpp puts
 /// it in attachments.
+#[inline]
 pub(crate) fn now_ns() -> i64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
+    // Seconds and nanoseconds in 64 bits: every message takes the time, and
+    // `as_nanos` is a 128-bit product.
+    match SystemTime::now().duration_since(UNIX_EPOCH) {
+        Ok(d) => i64::try_from(d.as_secs())
+            .ok()
+            .and_then(|s| s.checked_mul(1_000_000_000))
+            .and_then(|ns| ns.checked_add(i64::from(d.subsec_nanos())))
+            .unwrap_or(i64::MAX),
+        Err(_) => 0,
+    }
 }
 
 /// rmw_zenoh identity of a ROS-style publisher.
@@ -880,13 +888,19 @@ impl Prepared {
         self,
         publisher: &ZenohPublisher,
     ) -> Result<PublishOutcome, PublishError> {
-        match publisher {
-            ZenohPublisher::Plain(p) => p
-                .put(self.payload)
-                .source_info(self.source_info)
-                .attachment(self.attachment)
-                .wait(),
-            ZenohPublisher::Advanced(p) => p.put(self.payload).attachment(self.attachment).wait(),
+        // A builder is set only with what the message carries: each setter
+        // moves the whole builder, on every message.
+        match (publisher, self.attachment, self.source_info) {
+            (ZenohPublisher::Plain(p), Some(attachment), _) => {
+                p.put(self.payload).attachment(attachment).wait()
+            }
+            (ZenohPublisher::Plain(p), None, source_info) => {
+                p.put(self.payload).source_info(source_info).wait()
+            }
+            (ZenohPublisher::Advanced(p), Some(attachment), _) => {
+                p.put(self.payload).attachment(attachment).wait()
+            }
+            (ZenohPublisher::Advanced(p), None, _) => p.put(self.payload).wait(),
         }
         .map_err(PublishError::Zenoh)?;
         Ok(self.outcome)
