@@ -508,13 +508,15 @@ fn run_values<'de, B: ByteOrder>(
                 element,
                 offset,
                 count,
+                ..
             } => {
                 if !singles_at::<B>(bytes, offset, element, count, slots) {
                     return false;
                 }
             }
-            RunRead::Array { element, offset, n } => match array_at::<B>(bytes, offset, element, n)
-            {
+            RunRead::Array {
+                element, offset, n, ..
+            } => match array_at::<B>(bytes, offset, element, n) {
                 Some(value) => slots.push(value),
                 None => return false,
             },
@@ -701,12 +703,15 @@ fn encode_struct<B: ByteOrder>(
                 align,
                 len,
                 ref members,
+                ref reads,
                 ..
             } => {
                 let run = w.aligned_slot(align, len)?;
-                for m in members.iter() {
-                    if let Some(value) = at(m.slot) {
-                        write_member::<B>(run, m, value)?;
+                if !write_reads::<B>(run, reads, slots, first) {
+                    for m in members.iter() {
+                        if let Some(value) = at(m.slot) {
+                            write_member::<B>(run, m, value)?;
+                        }
                     }
                 }
             }
@@ -759,6 +764,105 @@ fn check_container(check: Check) -> Container {
         Check::Many { container, .. } => container,
         _ => Container::Single,
     }
+}
+
+/// Write a run's values into its zeroed bytes `run` as its `reads` lay
+/// them out: the single values of one kind in one loop, an array in bulk.
+/// `false` if a value is missing or not of its field's kind (which
+/// `Message::set` rules out): then the run is written member by member.
+#[inline]
+fn write_reads<B: ByteOrder>(
+    run: &mut [u8],
+    reads: &[RunRead],
+    slots: &[Value<'_>],
+    first: usize,
+) -> bool {
+    for read in reads {
+        let (slot, element, offset, count) = match *read {
+            RunRead::Singles {
+                slot,
+                element,
+                offset,
+                count,
+            } => (slot, element, offset, count),
+            RunRead::Array { slot, offset, .. } => {
+                let (Some(value), Some(place)) = (slots.get(first + slot), run.get_mut(offset..))
+                else {
+                    return false;
+                };
+                // From the array's own aligned start: no padding.
+                let mut w = Writer::<B>::new(place);
+                let written = match value {
+                    Value::U8s(v) => u8::encode_slice(v, &mut w),
+                    Value::I8s(v) => i8::encode_slice(v, &mut w),
+                    Value::I16s(v) => i16::encode_slice(v, &mut w),
+                    Value::U16s(v) => u16::encode_slice(v, &mut w),
+                    Value::I32s(v) => i32::encode_slice(v, &mut w),
+                    Value::U32s(v) => u32::encode_slice(v, &mut w),
+                    Value::I64s(v) => i64::encode_slice(v, &mut w),
+                    Value::U64s(v) => u64::encode_slice(v, &mut w),
+                    Value::F32s(v) => f32::encode_slice(v, &mut w),
+                    Value::F64s(v) => f64::encode_slice(v, &mut w),
+                    _ => return false,
+                };
+                if written.is_err() {
+                    return false;
+                }
+                continue;
+            }
+            // Its byte is the run's zero.
+            RunRead::Placeholder => continue,
+        };
+        let Some(size) = element.fixed_size() else {
+            return false;
+        };
+        let values = slots
+            .get(first + slot..)
+            .and_then(|values| values.get(..count));
+        let out = count
+            .checked_mul(size)
+            .and_then(|len| run.get_mut(offset..offset.checked_add(len)?));
+        let (Some(values), Some(out)) = (values, out) else {
+            return false;
+        };
+        macro_rules! put {
+            ($t:ty, $variant:ident) => {
+                // The element's size as a constant: each copy is a store.
+                for (place, value) in out.chunks_exact_mut(std::mem::size_of::<$t>()).zip(values) {
+                    let Value::$variant(v) = value else {
+                        return false;
+                    };
+                    place.copy_from_slice(&if B::LITTLE {
+                        v.to_le_bytes()
+                    } else {
+                        v.to_be_bytes()
+                    });
+                }
+            };
+        }
+        match element {
+            Element::Bool => {
+                for (place, value) in out.iter_mut().zip(values) {
+                    let Value::Bool(v) = value else {
+                        return false;
+                    };
+                    *place = u8::from(*v);
+                }
+            }
+            Element::Byte | Element::Char | Element::U8 => put!(u8, U8),
+            Element::I8 => put!(i8, I8),
+            Element::I16 => put!(i16, I16),
+            Element::U16 => put!(u16, U16),
+            Element::I32 => put!(i32, I32),
+            Element::U32 => put!(u32, U32),
+            Element::I64 => put!(i64, I64),
+            Element::U64 => put!(u64, U64),
+            Element::F32 => put!(f32, F32),
+            Element::F64 => put!(f64, F64),
+            Element::String(_) | Element::WString(_) | Element::Message(_) => return false,
+        }
+    }
+    true
 }
 
 /// Write a member of a run into the run's zeroed bytes `run`, where the

@@ -90,19 +90,23 @@ pub(crate) struct Member {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum RunRead {
     /// `count` single numbers or bools of kind `element`, back to back from
-    /// `offset`: one value each.
+    /// `offset`: one value each, in the slots from `slot` on.
     Singles {
+        slot: usize,
         element: Element,
         offset: usize,
         count: usize,
     },
-    /// An array of `n` numbers of kind `element` at `offset`: one value.
+    /// An array of `n` numbers of kind `element` at `offset`: one value, in
+    /// `slot`.
     Array {
+        slot: usize,
         element: Element,
         offset: usize,
         n: usize,
     },
-    /// rosidl's placeholder member of an empty message: reads as 0.
+    /// rosidl's placeholder member of an empty message: reads as 0, and is
+    /// written as 0.
     Placeholder,
 }
 
@@ -115,12 +119,14 @@ impl RunRead {
             let read = match m.container {
                 _ if m.placeholder => RunRead::Placeholder,
                 Container::Array(n) => RunRead::Array {
+                    slot: m.slot,
                     element: m.element,
                     offset: m.offset,
                     n,
                 },
                 _ => {
                     if let Some(RunRead::Singles {
+                        slot,
                         element,
                         offset,
                         count,
@@ -131,12 +137,17 @@ impl RunRead {
                             .fixed_size()
                             .and_then(|size| size.checked_mul(*count))
                             .and_then(|len| offset.checked_add(len));
-                        if *element == m.element && end == Some(m.offset) {
+                        // A run's members take consecutive slots.
+                        if *element == m.element
+                            && end == Some(m.offset)
+                            && slot.checked_add(*count) == Some(m.slot)
+                        {
                             *count += 1;
                             continue;
                         }
                     }
                     RunRead::Singles {
+                        slot: m.slot,
                         element: m.element,
                         offset: m.offset,
                         count: 1,
@@ -410,12 +421,14 @@ mod tests {
                 _ => None,
             })
             .collect();
-        let singles = |offset, count| RunRead::Singles {
+        let singles = |slot, offset, count| RunRead::Singles {
+            slot,
             element: Element::F64,
             offset,
             count,
         };
-        let covariance = |offset| RunRead::Array {
+        let covariance = |slot, offset| RunRead::Array {
+            slot,
             element: Element::F64,
             offset,
             n: 9,
@@ -426,23 +439,26 @@ mod tests {
             [
                 &[
                     RunRead::Singles {
+                        slot: 0,
                         element: Element::I32,
                         offset: 0,
                         count: 1
                     },
                     RunRead::Singles {
+                        slot: 1,
                         element: Element::U32,
                         offset: 4,
                         count: 1
                     },
                 ][..],
+                // Slot 2 is the frame_id.
                 &[
-                    singles(0, 4),
-                    covariance(32),
-                    singles(104, 3),
-                    covariance(128),
-                    singles(200, 3),
-                    covariance(224),
+                    singles(3, 0, 4),
+                    covariance(7, 32),
+                    singles(8, 104, 3),
+                    covariance(11, 128),
+                    singles(12, 200, 3),
+                    covariance(15, 224),
                 ][..],
             ]
         );
