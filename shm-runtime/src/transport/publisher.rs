@@ -910,14 +910,18 @@ impl Prepared {
         self,
         publisher: &ZenohPublisher,
     ) -> Result<PublishOutcome, PublishError> {
-        match publisher {
-            ZenohPublisher::Plain(p) => {
-                p.put(self.payload)
-                    .source_info(self.source_info)
-                    .attachment(self.attachment)
-                    .await
+        // As in `put_wait`: only the setters the message needs.
+        match (publisher, self.attachment, self.source_info) {
+            (ZenohPublisher::Plain(p), Some(attachment), _) => {
+                p.put(self.payload).attachment(attachment).await
             }
-            ZenohPublisher::Advanced(p) => p.put(self.payload).attachment(self.attachment).await,
+            (ZenohPublisher::Plain(p), None, source_info) => {
+                p.put(self.payload).source_info(source_info).await
+            }
+            (ZenohPublisher::Advanced(p), Some(attachment), _) => {
+                p.put(self.payload).attachment(attachment).await
+            }
+            (ZenohPublisher::Advanced(p), None, _) => p.put(self.payload).await,
         }
         .map_err(PublishError::Zenoh)?;
         Ok(self.outcome)
