@@ -94,6 +94,7 @@ pub const ATTACHMENT_LEN: usize = 33;
 
 impl Attachment {
     /// `seq` (i64 LE), `timestamp` (i64 LE), `0x10` (the GID length as LEB128), GID.
+    #[inline]
     pub fn to_bytes(&self) -> [u8; ATTACHMENT_LEN] {
         let mut out = [0u8; ATTACHMENT_LEN];
         out[..8].copy_from_slice(&self.sequence_number.to_le_bytes());

@@ -79,6 +79,7 @@ impl InlineLimit {
     }
 
     /// `Ok` if `inline` bytes fit in one frame.
+    #[inline]
     pub(crate) fn check(self, inline: usize) -> Result<(), Unfragmentable> {
         if inline <= self.limit {
             Ok(())
@@ -92,6 +93,7 @@ impl InlineLimit {
 }
 
 /// [`InlineLimit::check`] where there may be no limit.
+#[inline]
 pub(crate) fn check(limit: Option<InlineLimit>, inline: usize) -> Result<(), Unfragmentable> {
     limit.map_or(Ok(()), |limit| limit.check(inline))
 }

@@ -152,10 +152,8 @@ impl<'p, T: RosMessage + InPlace> Loan<'p, T> {
         LoanPublish { loan: self }
     }
 
-    /// Check, count and attach: everything the put needs.
-    fn prepare(
-        self,
-    ) -> Result<(crate::transport::publisher::Prepared, &'p RosPublisher<T>), PublishError> {
+    /// Check and count: the payload the put carries.
+    fn encoded(self) -> Result<(EncodedPayload, &'p RosPublisher<T>), PublishError> {
         self.written.check().map_err(PublishError::Loan)?;
         let publisher = self.publisher;
         let mut encoded = EncodedPayload {
@@ -172,7 +170,7 @@ impl<'p, T: RosMessage + InPlace> Loan<'p, T> {
             encoded = routed(encoded, policy);
             policy.context.count(encoded.kind, encoded.size);
         }
-        Ok((publisher.prepare_encoded(encoded)?, publisher))
+        Ok((encoded, publisher))
     }
 }
 
@@ -196,8 +194,8 @@ impl<T: RosMessage + InPlace> Resolvable for LoanPublish<'_, T> {
 
 impl<T: RosMessage + InPlace> Wait for LoanPublish<'_, T> {
     fn wait(self) -> Self::To {
-        let (prepared, publisher) = self.loan.prepare()?;
-        prepared.put_wait(publisher.zenoh())
+        let (encoded, publisher) = self.loan.encoded()?;
+        publisher.put_encoded_wait(encoded)
     }
 }
 
@@ -206,7 +204,10 @@ impl<'p, T: RosMessage + InPlace> IntoFuture for LoanPublish<'p, T> {
     type IntoFuture = Pin<Box<dyn Future<Output = Self::Output> + Send + 'p>>;
 
     fn into_future(self) -> Self::IntoFuture {
-        let prepared = self.loan.prepare();
+        let prepared = self
+            .loan
+            .encoded()
+            .and_then(|(encoded, publisher)| Ok((publisher.prepare_encoded(encoded)?, publisher)));
         Box::pin(async move {
             let (prepared, publisher) = prepared?;
             prepared.put_async(publisher.zenoh()).await

@@ -4,9 +4,11 @@
 
 use std::sync::{Arc, OnceLock};
 
-use shm_cdr::{CdrDecode, CdrEncode, DecodeError, DecodeErrorKind, EncodeError};
+use shm_cdr::{CdrDecode, CdrEncode, DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
 use zenoh::bytes::ZBytes;
+use zenoh_buffers::{ZBuf, ZSlice, ZSliceBuffer};
 
+use crate::rmw::ATTACHMENT_LEN;
 use crate::transport::pool::ShmContext;
 use crate::transport::reach::Receivers;
 use crate::transport::shm_bytes::{self, Splice};
@@ -125,19 +127,118 @@ pub(crate) fn encode_payload<T: CdrEncode + ?Sized>(
     msg: &T,
     policy: Option<&ShmPolicy>,
 ) -> Result<EncodedPayload, EncodeError> {
-    let size = match shm_bytes::encode_spliced(msg)? {
-        Splice::Done(spliced) => {
-            let Some(policy) = policy else {
-                return Ok(spliced);
-            };
-            let spliced = routed(spliced, policy);
-            policy.context.count(spliced.kind, spliced.size);
-            return Ok(spliced);
-        }
-        Splice::NotNeeded(size) => size,
+    match splice_or_size(msg, policy)? {
+        Splice::Done(spliced) => Ok(spliced),
+        Splice::NotNeeded(size) => encode_sized(msg, size, policy),
+    }
+}
+
+/// A message that holds shared-memory fields, assembled around them and
+/// counted; else its exact encoded size.
+#[inline]
+pub(crate) fn splice_or_size<T: CdrEncode + ?Sized>(
+    msg: &T,
+    policy: Option<&ShmPolicy>,
+) -> Result<Splice, EncodeError> {
+    let spliced = match shm_bytes::encode_spliced(msg)? {
+        Splice::Done(spliced) => spliced,
+        sized @ Splice::NotNeeded(_) => return Ok(sized),
     };
+    let Some(policy) = policy else {
+        return Ok(Splice::Done(spliced));
+    };
+    let spliced = routed(spliced, policy);
+    policy.context.count(spliced.kind, spliced.size);
+    Ok(Splice::Done(spliced))
+}
+
+/// Encode `msg`, whose exact size is `size`, for publishing under `policy`.
+#[inline]
+pub(crate) fn encode_sized<T: CdrEncode + ?Sized>(
+    msg: &T,
+    size: usize,
+    policy: Option<&ShmPolicy>,
+) -> Result<EncodedPayload, EncodeError> {
     write_payload(size, policy, |buffer| {
         shm_cdr::encode_into(msg, buffer).map(|_| ())
+    })
+}
+
+/// Whether a message of `size` bytes goes on the heap under `policy`.
+#[inline]
+pub(crate) fn on_heap(size: usize, policy: Option<&ShmPolicy>) -> bool {
+    policy.is_none_or(|p| size < p.threshold)
+}
+
+/// The largest message [`packed`] takes, with its attachment behind it.
+const PACKED_MAX: usize = 576;
+
+/// A small heap message with its attachment behind it. Zenoh takes each
+/// payload and attachment as a reference-counted buffer: two of their own are
+/// four allocations and four frees per message, a cost as large as a small
+/// message's encoding; packed they are one of each.
+#[derive(Debug)]
+struct Packed<const N: usize>([u8; N]);
+
+impl<const N: usize> ZSliceBuffer for Packed<N> {
+    fn as_slice(&self) -> &[u8] {
+        &self.0
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
+}
+
+/// A heap message of `len` bytes and the attachment behind it, in one
+/// allocation: `write` fills both (the message first, as it may fail), and
+/// gets back the message and attachment as Zenoh takes them, with what
+/// `write` returned. `None`, with nothing written, if the two are larger than
+/// [`PACKED_MAX`].
+#[inline]
+pub(crate) fn packed<R, E: From<EncodeError>>(
+    len: usize,
+    write: impl FnOnce(&mut [u8], &mut [u8; ATTACHMENT_LEN]) -> Result<R, E>,
+) -> Option<Result<(ZBytes, ZBytes, R), E>> {
+    match len.checked_add(ATTACHMENT_LEN)? {
+        0..=128 => packed_in::<128, _, _>(len, write),
+        129..=256 => packed_in::<256, _, _>(len, write),
+        257..=PACKED_MAX => packed_in::<PACKED_MAX, _, _>(len, write),
+        _ => None,
+    }
+}
+
+/// [`packed`] in a buffer of `N` bytes, which holds `len + ATTACHMENT_LEN`.
+#[inline]
+fn packed_in<const N: usize, R, E: From<EncodeError>>(
+    len: usize,
+    write: impl FnOnce(&mut [u8], &mut [u8; ATTACHMENT_LEN]) -> Result<R, E>,
+) -> Option<Result<(ZBytes, ZBytes, R), E>> {
+    let mut buffer = Arc::new(Packed([0u8; N]));
+    let (body, rest) = Arc::get_mut(&mut buffer)?.0.split_at_mut_checked(len)?;
+    let tail = rest.first_chunk_mut::<ATTACHMENT_LEN>()?;
+    let written = match write(body, tail) {
+        Ok(written) => written,
+        Err(e) => return Some(Err(e)),
+    };
+    let buffer: Arc<dyn ZSliceBuffer> = buffer;
+    let slices = ZSlice::new(buffer.clone(), 0, len)
+        .and_then(|body| Ok((body, ZSlice::new(buffer, len, len + ATTACHMENT_LEN)?)));
+    Some(match slices {
+        Ok((body, tail)) => Ok((
+            ZBytes::from(ZBuf::from(body)),
+            ZBytes::from(ZBuf::from(tail)),
+            written,
+        )),
+        // Not reached: the buffer was split at these bounds above.
+        Err(_) => Err(E::from(EncodeError::new(EncodeErrorKind::BufferTooSmall {
+            needed: len + ATTACHMENT_LEN,
+            available: N,
+        }))),
     })
 }
 
@@ -235,11 +336,11 @@ pub(crate) fn shm_len(payload: &ZBytes) -> usize {
     // Several slices: Zenoh tells shared memory apart only for a one-slice
     // ZBytes, so ask about each slice on its own (clones of reference-counted
     // handles, no copy of the bytes).
-    let buffer: zenoh_buffers::ZBuf = payload.clone().into();
+    let buffer: ZBuf = payload.clone().into();
     buffer
         .zslices()
         .filter(|slice| {
-            ZBytes::from(zenoh_buffers::ZBuf::from((*slice).clone()))
+            ZBytes::from(ZBuf::from((*slice).clone()))
                 .as_shm()
                 .is_some()
         })
@@ -313,4 +414,56 @@ enum Body<'a, 's> {
     Shared(&'a [u8]),
     /// Fragments; `true` if any lies in shared memory.
     Fragments(&'s [&'a [u8]], bool),
+}
+
+#[cfg(test)]
+mod tests {
+    use shm_cdr::{EncodeError, EncodeErrorKind};
+
+    use super::{packed, ATTACHMENT_LEN, PACKED_MAX};
+
+    /// Every length that packs gets back exactly what was written, message
+    /// and attachment, each at its own length, in each size class; longer
+    /// messages are not packed and nothing is written.
+    #[test]
+    fn a_packed_message_and_attachment_are_what_was_written() {
+        let largest = PACKED_MAX - ATTACHMENT_LEN;
+        for len in [0, 1, 95, 96, 97, 223, 224, 225, largest] {
+            let (body, tail, written) = packed(len, |body, tail| {
+                for (i, b) in body.iter_mut().enumerate() {
+                    *b = i as u8 ^ 0x5a;
+                }
+                *tail = [len as u8; ATTACHMENT_LEN];
+                Ok::<_, EncodeError>(body.len())
+            })
+            .expect("small enough to pack")
+            .expect("written");
+            assert_eq!(written, len);
+            let expected: Vec<u8> = (0..len).map(|i| i as u8 ^ 0x5a).collect();
+            assert_eq!(body.to_bytes().as_ref(), expected.as_slice(), "len {len}");
+            assert_eq!(tail.to_bytes().as_ref(), &[len as u8; ATTACHMENT_LEN]);
+        }
+        let mut called = false;
+        let too_long = packed(largest + 1, |_, _| {
+            called = true;
+            Ok::<_, EncodeError>(())
+        });
+        assert!(too_long.is_none());
+        assert!(!called);
+    }
+
+    /// A write that fails gives its error back.
+    #[test]
+    fn a_failed_write_is_returned() {
+        let failed = packed(10, |_, _| {
+            Err::<(), _>(EncodeError::new(EncodeErrorKind::LengthOverflow { len: 7 }))
+        });
+        match failed {
+            Some(Err(e)) => assert!(matches!(
+                e.kind(),
+                EncodeErrorKind::LengthOverflow { len: 7 }
+            )),
+            _ => panic!("expected the write's error"),
+        }
+    }
 }

@@ -7,7 +7,6 @@ use std::marker::PhantomData;
 use std::pin::Pin;
 use std::sync::atomic::{AtomicI64, AtomicU32, Ordering};
 use std::sync::Arc;
-use std::time::{SystemTime, UNIX_EPOCH};
 
 use shm_cdr::dynamic::{DynamicType, Message};
 use shm_cdr::{EncodeError, RosMessage};
@@ -20,17 +19,19 @@ use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, Mis
 
 use crate::rmw::{
     counterpart_tokens_key_expr, Attachment, Durability, EntityKind, Gid, History, Qos,
-    Reliability, TopicEndpoint,
+    Reliability, TopicEndpoint, ATTACHMENT_LEN,
 };
 use crate::ros::type_description::TypeUse;
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{
-    encode_payload, serialized_payload, EncodedPayload, PayloadKind, ShmPolicy,
+    encode_payload, encode_sized, on_heap, packed, serialized_payload, splice_or_size,
+    EncodedPayload, PayloadKind, ShmPolicy,
 };
 use crate::transport::pool::ShmContext;
 use crate::transport::queue::TopicType;
 use crate::transport::reach::{Receiver, Receivers, PROBE_TIMEOUT};
+use crate::transport::shm_bytes::Splice;
 
 /// Why a publish failed. A full pool is not a failure: the message then goes on
 /// the heap ([`PayloadKind::HeapFallback`]).
@@ -234,18 +235,18 @@ impl ShmSettings {
 }
 
 /// The current time in nanoseconds since the Unix epoch, as rmw_zenoh_cpp puts
-/// it in attachments.
+/// it in attachments; 0 if the clock cannot be read or is before 1970.
 #[inline]
 pub(crate) fn now_ns() -> i64 {
-    // Seconds and nanoseconds in 64 bits: every message takes the time, and
-    // `as_nanos` is a 128-bit product.
-    match SystemTime::now().duration_since(UNIX_EPOCH) {
-        Ok(d) => i64::try_from(d.as_secs())
-            .ok()
-            .and_then(|s| s.checked_mul(1_000_000_000))
-            .and_then(|ns| ns.checked_add(i64::from(d.subsec_nanos())))
+    // Read straight, in 64-bit arithmetic: every message takes the time, and
+    // `SystemTime`'s `duration_since` and `as_nanos` cost as much again.
+    match nix::time::clock_gettime(nix::time::ClockId::CLOCK_REALTIME) {
+        Ok(t) if t.tv_sec() >= 0 => t
+            .tv_sec()
+            .checked_mul(1_000_000_000)
+            .and_then(|ns| ns.checked_add(t.tv_nsec()))
             .unwrap_or(i64::MAX),
-        Err(_) => 0,
+        _ => 0,
     }
 }
 
@@ -583,13 +584,6 @@ impl ZenohPublisher {
         }
     }
 
-    fn id(&self) -> zenoh::session::EntityGlobalId {
-        match self {
-            Self::Plain(p) => p.id(),
-            Self::Advanced(p) => p.id(),
-        }
-    }
-
     fn matching_status(&self) -> zenoh::Result<zenoh::matching::MatchingStatus> {
         match self {
             Self::Plain(p) => p.matching_status().wait(),
@@ -702,7 +696,7 @@ impl<T> RosPublisher<T> {
     pub fn publish_serialized(&self, cdr: &[u8]) -> Result<PublishOutcome, PublishError> {
         let encoded = serialized_payload(cdr, self.policy.as_ref())
             .map_err(|_| PublishError::NotCdr { len: cdr.len() })?;
-        self.prepare_encoded(encoded)?.put_wait(&self.publisher)
+        self.put_encoded_wait(encoded)
     }
 
     /// Wait until at least one subscriber matches this publisher, or `timeout`
@@ -803,7 +797,7 @@ impl<T> RosPublisher<T> {
         self.policy.as_ref().map(|p| &p.context)
     }
 
-    /// Encode `msg` and build its attachment: everything a put needs.
+    /// Encode `msg` and stamp it: everything a put needs.
     fn prepare<M: sealed::Publishable<T> + ?Sized>(
         &self,
         msg: &M,
@@ -812,53 +806,116 @@ impl<T> RosPublisher<T> {
         self.prepare_encoded(encode_payload(msg, self.policy.as_ref())?)
     }
 
-    /// The attachment and source info for an encoded message; refused if the
-    /// session cannot carry it (see [`Unfragmentable`]). Numbers are taken only
-    /// for messages that go out.
+    /// Encode `msg`, stamp it and put it, waiting. A small message on the heap
+    /// is packed with its attachment ([`packed`]); the synchronous path
+    /// gathers no [`Prepared`], as moving one costs a small message
+    /// measurably.
     #[inline]
+    fn publish_wait<M: sealed::Publishable<T> + ?Sized>(
+        &self,
+        msg: &M,
+    ) -> Result<PublishOutcome, PublishError> {
+        msg.check_type(self.dynamic.as_ref())?;
+        let policy = self.policy.as_ref();
+        let size = match splice_or_size(msg, policy)? {
+            Splice::Done(spliced) => return self.put_encoded_wait(spliced),
+            Splice::NotNeeded(size) => size,
+        };
+        if on_heap(size, policy) {
+            let packed = packed(size, |body, tail| {
+                shm_cdr::encode_into(msg, body)?;
+                if let Some(policy) = policy {
+                    policy.context.count(PayloadKind::Heap, size);
+                }
+                let (outcome, stamp) = self.stamp(PayloadKind::Heap, size, size)?;
+                if let Stamp::Attachment(attachment) = &stamp {
+                    *tail = *attachment;
+                }
+                Ok::<_, PublishError>((outcome, stamp))
+            });
+            if let Some(packed) = packed {
+                let (payload, tail, (outcome, stamp)) = packed?;
+                match stamp {
+                    Stamp::Attachment(_) => put_attached_wait(&self.publisher, payload, tail),
+                    other => other.put_wait(&self.publisher, payload),
+                }?;
+                return Ok(outcome);
+            }
+        }
+        self.put_encoded_wait(encode_sized(msg, size, policy)?)
+    }
+
+    /// Stamp an encoded message and put it, waiting.
+    #[inline]
+    pub(crate) fn put_encoded_wait(
+        &self,
+        encoded: EncodedPayload,
+    ) -> Result<PublishOutcome, PublishError> {
+        let (outcome, stamp) = self.stamp(encoded.kind, encoded.size, encoded.inline)?;
+        stamp.put_wait(&self.publisher, encoded.bytes)?;
+        Ok(outcome)
+    }
+
+    /// An encoded message with its stamp, to put later (the awaited paths).
     pub(crate) fn prepare_encoded(
         &self,
         encoded: EncodedPayload,
     ) -> Result<Prepared, PublishError> {
-        inline_limit::check(self.inline_limit, encoded.inline)?;
-        let copied_to = match encoded.kind.is_shm() {
+        let (outcome, stamp) = self.stamp(encoded.kind, encoded.size, encoded.inline)?;
+        Ok(Prepared {
+            outcome,
+            payload: encoded.bytes,
+            stamp,
+        })
+    }
+
+    /// What goes out with an encoded message of `kind` and `size`, `inline`
+    /// bytes of it in Zenoh's frames: its outcome and its stamp; refused if
+    /// the session cannot carry it (see [`Unfragmentable`]). Numbers are taken
+    /// only for messages that go out.
+    #[inline]
+    fn stamp(
+        &self,
+        kind: PayloadKind,
+        size: usize,
+        inline: usize,
+    ) -> Result<(PublishOutcome, Stamp), PublishError> {
+        inline_limit::check(self.inline_limit, inline)?;
+        let copied_to = match kind.is_shm() {
             true => self.policy.as_ref().map_or(0, ShmPolicy::copied_to),
             false => 0,
         };
         let mut outcome = PublishOutcome {
-            kind: encoded.kind,
-            size: encoded.size,
+            kind,
+            size,
             sequence_number: None,
             copied_to,
         };
-        let attachment = self.rmw.as_ref().map(|rmw| {
-            let sequence_number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;
-            outcome.sequence_number = Some(sequence_number);
-            ZBytes::from(
-                Attachment {
-                    sequence_number,
-                    source_timestamp: now_ns(),
-                    gid: rmw.gid,
-                }
-                .to_bytes(),
-            )
-        });
         // A node's attachment already numbers its messages per publisher (its
         // GID), which is what subscribers count gaps by; a second numbering
-        // would cost every message its bytes and its decoding.
-        let source_info = match attachment {
-            Some(_) => None,
-            None => Some(SourceInfo::new(
-                self.publisher.id(),
+        // would cost every message its bytes and its decoding. zenoh-ext
+        // numbers an advanced publisher's samples itself (its `SourceInfo`,
+        // from 0 like ours).
+        let stamp = match (&self.rmw, &self.publisher) {
+            (Some(rmw), _) => {
+                let sequence_number = self.sequence.fetch_add(1, Ordering::Relaxed) + 1;
+                outcome.sequence_number = Some(sequence_number);
+                Stamp::Attachment(
+                    Attachment {
+                        sequence_number,
+                        source_timestamp: now_ns(),
+                        gid: rmw.gid,
+                    }
+                    .to_bytes(),
+                )
+            }
+            (None, ZenohPublisher::Plain(p)) => Stamp::SourceInfo(SourceInfo::new(
+                p.id(),
                 self.source_sn.fetch_add(1, Ordering::Relaxed),
             )),
+            (None, ZenohPublisher::Advanced(_)) => Stamp::Numbered,
         };
-        Ok(Prepared {
-            outcome,
-            payload: encoded.bytes,
-            attachment,
-            source_info,
-        })
+        Ok((outcome, stamp))
     }
 
     /// The pool and threshold, if any.
@@ -872,58 +929,89 @@ impl<T> RosPublisher<T> {
     }
 }
 
-/// An encoded message with its attachment, ready to put.
+/// What a put carries beside its payload.
+pub(crate) enum Stamp {
+    /// A node publisher's: rmw_zenoh_cpp's attachment.
+    Attachment([u8; ATTACHMENT_LEN]),
+    /// A plain Zenoh publisher's: its number, in Zenoh's source info.
+    SourceInfo(SourceInfo),
+    /// An advanced publisher without a node: zenoh-ext numbers the samples.
+    Numbered,
+}
+
+impl Stamp {
+    /// Put `payload` with this stamp, waiting. The builder is set only with
+    /// what the message carries: each setter moves the whole builder.
+    #[inline]
+    fn put_wait(self, publisher: &ZenohPublisher, payload: ZBytes) -> Result<(), PublishError> {
+        match (publisher, self) {
+            (_, Self::Attachment(a)) => {
+                return put_attached_wait(publisher, payload, ZBytes::from(a))
+            }
+            (ZenohPublisher::Plain(p), Self::SourceInfo(info)) => {
+                p.put(payload).source_info(Some(info)).wait()
+            }
+            (ZenohPublisher::Plain(p), Self::Numbered) => p.put(payload).wait(),
+            (ZenohPublisher::Advanced(p), Self::SourceInfo(_) | Self::Numbered) => {
+                p.put(payload).wait()
+            }
+        }
+        .map_err(PublishError::Zenoh)
+    }
+
+    /// As [`put_wait`](Self::put_wait), awaited.
+    async fn put_async(
+        self,
+        publisher: &ZenohPublisher,
+        payload: ZBytes,
+    ) -> Result<(), PublishError> {
+        match (publisher, self) {
+            (ZenohPublisher::Plain(p), Self::Attachment(a)) => {
+                p.put(payload).attachment(ZBytes::from(a)).await
+            }
+            (ZenohPublisher::Plain(p), Self::SourceInfo(info)) => {
+                p.put(payload).source_info(Some(info)).await
+            }
+            (ZenohPublisher::Advanced(p), Self::Attachment(a)) => {
+                p.put(payload).attachment(ZBytes::from(a)).await
+            }
+            (ZenohPublisher::Plain(p), Self::Numbered) => p.put(payload).await,
+            (ZenohPublisher::Advanced(p), Self::SourceInfo(_) | Self::Numbered) => {
+                p.put(payload).await
+            }
+        }
+        .map_err(PublishError::Zenoh)
+    }
+}
+
+/// Put `payload` with rmw_zenoh_cpp's `attachment`, waiting.
+#[inline]
+fn put_attached_wait(
+    publisher: &ZenohPublisher,
+    payload: ZBytes,
+    attachment: ZBytes,
+) -> Result<(), PublishError> {
+    match publisher {
+        ZenohPublisher::Plain(p) => p.put(payload).attachment(attachment).wait(),
+        ZenohPublisher::Advanced(p) => p.put(payload).attachment(attachment).wait(),
+    }
+    .map_err(PublishError::Zenoh)
+}
+
+/// An encoded message with its stamp, ready to put.
 pub(crate) struct Prepared {
     outcome: PublishOutcome,
     payload: ZBytes,
-    attachment: Option<ZBytes>,
-    source_info: Option<SourceInfo>,
+    stamp: Stamp,
 }
 
 impl Prepared {
-    /// Put, then say what went out. zenoh-ext numbers an advanced publisher's
-    /// samples itself (its `SourceInfo`, from 0 like ours).
-    #[inline]
-    pub(crate) fn put_wait(
-        self,
-        publisher: &ZenohPublisher,
-    ) -> Result<PublishOutcome, PublishError> {
-        // A builder is set only with what the message carries: each setter
-        // moves the whole builder, on every message.
-        match (publisher, self.attachment, self.source_info) {
-            (ZenohPublisher::Plain(p), Some(attachment), _) => {
-                p.put(self.payload).attachment(attachment).wait()
-            }
-            (ZenohPublisher::Plain(p), None, source_info) => {
-                p.put(self.payload).source_info(source_info).wait()
-            }
-            (ZenohPublisher::Advanced(p), Some(attachment), _) => {
-                p.put(self.payload).attachment(attachment).wait()
-            }
-            (ZenohPublisher::Advanced(p), None, _) => p.put(self.payload).wait(),
-        }
-        .map_err(PublishError::Zenoh)?;
-        Ok(self.outcome)
-    }
-
+    /// Put, awaited, then say what went out.
     pub(crate) async fn put_async(
         self,
         publisher: &ZenohPublisher,
     ) -> Result<PublishOutcome, PublishError> {
-        // As in `put_wait`: only the setters the message needs.
-        match (publisher, self.attachment, self.source_info) {
-            (ZenohPublisher::Plain(p), Some(attachment), _) => {
-                p.put(self.payload).attachment(attachment).await
-            }
-            (ZenohPublisher::Plain(p), None, source_info) => {
-                p.put(self.payload).source_info(source_info).await
-            }
-            (ZenohPublisher::Advanced(p), Some(attachment), _) => {
-                p.put(self.payload).attachment(attachment).await
-            }
-            (ZenohPublisher::Advanced(p), None, _) => p.put(self.payload).await,
-        }
-        .map_err(PublishError::Zenoh)?;
+        self.stamp.put_async(publisher, self.payload).await?;
         Ok(self.outcome)
     }
 }
@@ -976,9 +1064,7 @@ impl<T, M: sealed::Publishable<T> + ?Sized> Resolvable for PublishBuilder<'_, T,
 
 impl<T, M: sealed::Publishable<T> + ?Sized> Wait for PublishBuilder<'_, T, M> {
     fn wait(self) -> Self::To {
-        self.publisher
-            .prepare(self.msg)?
-            .put_wait(&self.publisher.publisher)
+        self.publisher.publish_wait(self.msg)
     }
 }
 

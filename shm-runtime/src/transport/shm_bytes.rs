@@ -170,12 +170,14 @@ fn sized<T: CdrEncode + ?Sized>(msg: &T) -> (usize, Sizing) {
 struct SizingScope(Option<Sizing>);
 
 impl SizingScope {
+    #[inline]
     fn enter() -> Self {
         Self(SIZING.replace(Some(Sizing::default())))
     }
 }
 
 impl Drop for SizingScope {
+    #[inline]
     fn drop(&mut self) {
         SIZING.set(self.0);
     }
