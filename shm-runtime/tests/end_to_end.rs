@@ -968,6 +968,14 @@ fn a_node_s_samples_carry_the_rmw_attachment_alone_and_gaps_still_count() {
         .history(shm_runtime::History::KeepAll)
         .wait()
         .unwrap();
+    let (inline_tx, inline_rx) = std::sync::mpsc::channel();
+    let inline = listener
+        .declare_subscriber::<Time>("stamps")
+        .callback_inline(move |s| {
+            let _ = inline_tx.send(s.decode::<Time>().map(|t| t.sec));
+        })
+        .wait()
+        .unwrap();
     assert!(publisher.wait_for_subscribers(TIMEOUT));
     std::thread::sleep(Duration::from_millis(200));
     for sec in 1..=3 {
@@ -1003,4 +1011,11 @@ fn a_node_s_samples_carry_the_rmw_attachment_alone_and_gaps_still_count() {
     assert_eq!(fifth.decode::<Time>().unwrap().sec, 5);
     assert_eq!(subscriber.missed(), 1);
     assert_eq!(subscriber.lost(), 0);
+    // An inline callback counts the same gap.
+    let inline_secs: Vec<i32> = (0..4)
+        .map(|_| inline_rx.recv_timeout(TIMEOUT).unwrap().unwrap())
+        .collect();
+    assert_eq!(inline_secs, [1, 2, 3, 5]);
+    assert_eq!(inline.missed(), 1);
+    assert_eq!(inline.lost(), 0);
 }

@@ -5,6 +5,7 @@
 pub(crate) mod changes;
 pub(crate) mod config;
 pub(crate) mod executor;
+pub(crate) mod gaps;
 pub(crate) mod inline_limit;
 pub(crate) mod limits;
 pub(crate) mod links;

@@ -2,14 +2,14 @@
 //! for its message type and its publisher's sequence number, then queued under
 //! the subscriber's [`History`], on Zenoh's thread, without ever blocking it.
 
-use std::collections::HashMap;
 use std::num::NonZeroUsize;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use shm_cdr::RosMessage;
 use zenoh::sample::Sample;
 
+use crate::transport::gaps::Gaps;
 use crate::transport::subscriber::RosSample;
 
 /// What a [`History::KeepAll`] queue may hold unless told otherwise
@@ -55,9 +55,8 @@ pub(crate) struct Queue {
     max_bytes: Option<usize>,
     held: Arc<AtomicUsize>,
     pub(crate) lost: Arc<AtomicU64>,
-    pub(crate) missed: Arc<AtomicU64>,
-    /// The highest sequence number seen from each publisher.
-    last_seen: Mutex<HashMap<Source, u64>>,
+    /// Messages that never arrived.
+    pub(crate) gaps: Gaps,
     key_expr: String,
     pub(crate) type_check: TypeCheck,
 }
@@ -181,15 +180,6 @@ pub(crate) fn type_encoding(name: &str, hash: &str) -> zenoh::bytes::Encoding {
     zenoh::bytes::Encoding::APPLICATION_CDR.with_schema(schema)
 }
 
-/// A publisher, as its samples identify it.
-#[derive(Clone, Copy, PartialEq, Eq, Hash)]
-enum Source {
-    /// Zenoh `SourceInfo` (ours, zenoh-ext's advanced publishers).
-    Zenoh(zenoh::session::EntityGlobalId),
-    /// The GID in an rmw_zenoh attachment (rmw_zenoh_cpp publishers).
-    Rmw(crate::rmw::Gid),
-}
-
 impl Queue {
     pub(crate) fn new(
         history: History,
@@ -207,52 +197,11 @@ impl Queue {
             max_bytes: (history == History::KeepAll).then_some(max_bytes),
             held: Arc::new(AtomicUsize::new(0)),
             lost: Arc::new(AtomicU64::new(0)),
-            missed: Arc::new(AtomicU64::new(0)),
-            last_seen: Mutex::new(HashMap::new()),
+            gaps: Gaps::new(key_expr),
             key_expr: key_expr.to_owned(),
             type_check,
         };
         (queue, receiver)
-    }
-
-    /// Count the messages a gap in the sample's publisher's sequence numbers
-    /// says never arrived (Zenoh `SourceInfo`, else the rmw_zenoh attachment).
-    fn check_sequence(&self, sample: &Sample) {
-        let (source, sn) = if let Some(info) = sample.source_info() {
-            (
-                Source::Zenoh(*info.source_id()),
-                u64::from(info.source_sn()),
-            )
-        } else if let Some(Ok(attachment)) = sample
-            .attachment()
-            .map(|a| crate::rmw::Attachment::parse(&a.to_bytes()))
-        {
-            let Ok(sn) = u64::try_from(attachment.sequence_number) else {
-                return;
-            };
-            (Source::Rmw(attachment.gid), sn)
-        } else {
-            return;
-        };
-        let mut last_seen = self.last_seen.lock().unwrap_or_else(|e| e.into_inner());
-        let previous = last_seen.insert(source, sn);
-        let gap = match previous {
-            Some(previous) if sn > previous => sn - previous - 1,
-            // Late, duplicated or reordered: keep the highest.
-            Some(previous) => {
-                last_seen.insert(source, previous);
-                0
-            }
-            None => 0,
-        };
-        drop(last_seen);
-        if gap > 0 && self.missed.fetch_add(gap, Ordering::Relaxed) == 0 {
-            tracing::warn!(
-                key_expr = %self.key_expr,
-                count = gap,
-                "messages never arrived (a gap in the publisher's sequence numbers); RosSubscriber::missed() counts them"
-            );
-        }
     }
 
     /// Called on Zenoh's thread for every sample; never blocks. Whether the
@@ -261,7 +210,7 @@ impl Queue {
         if !self.type_check.accepts(&sample) {
             return false;
         }
-        self.check_sequence(&sample);
+        self.gaps.check(&sample);
         let cost = sample.payload().len() + SAMPLE_OVERHEAD;
         if let Some(max) = self.max_bytes {
             let held = self.held.fetch_add(cost, Ordering::Relaxed) + cost;

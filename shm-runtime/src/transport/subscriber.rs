@@ -289,7 +289,7 @@ impl<'a, T> SubscriberBuilder<'a, T> {
             TypeCheck::new(&self.key_expr, &self.topic_type),
         );
         let lost = queue.lost.clone();
-        let missed = queue.missed.clone();
+        let missed = queue.gaps.missed.clone();
         let wrong_type = queue.type_check.rejected.clone();
         let subscriber = self.declare(move |sample| {
             queue.push(sample);
@@ -405,7 +405,7 @@ impl<T> CallbackSubscriberBuilder<'_, T> {
         );
         let counters = Counters {
             lost: queue.lost.clone(),
-            missed: queue.missed.clone(),
+            missed: queue.gaps.missed.clone(),
             wrong_type: queue.type_check.rejected.clone(),
         };
         let (subscriber, dispatch) = match self.callback {
@@ -424,9 +424,10 @@ impl<T> CallbackSubscriberBuilder<'_, T> {
                 (subscriber, Some(dispatch))
             }
             Callback::Inline(callback) => {
-                let type_check = queue.type_check;
+                let (type_check, gaps) = (queue.type_check, queue.gaps);
                 let subscriber = self.inner.declare(move |sample| {
                     if type_check.accepts(&sample) {
+                        gaps.check(&sample);
                         callback(RosSample::new(sample))
                     }
                 })?;
@@ -477,8 +478,8 @@ impl<T> CallbackSubscriber<T> {
         self.counters.lost.load(Ordering::Relaxed)
     }
 
-    /// Messages that never arrived (see [`RosSubscriber::missed`]); counted
-    /// for dispatched callbacks.
+    /// Messages that never arrived (see [`RosSubscriber::missed`]), counted
+    /// for inline and dispatched callbacks alike.
     pub fn missed(&self) -> u64 {
         self.counters.missed.load(Ordering::Relaxed)
     }
