@@ -5,9 +5,10 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
+use zenoh::bytes::ZBytes;
 use zenoh::sample::Sample;
 
-use crate::rmw::{Attachment, Gid};
+use crate::rmw::{Attachment, AttachmentError, Gid};
 
 /// A publisher, as its samples identify it.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
@@ -18,12 +19,53 @@ enum Source {
     Rmw(Gid),
 }
 
-/// The highest sequence number seen from each publisher, and how many
-/// messages the gaps between them say never arrived.
+/// How many publishers [`LastSeen`] looks up by comparing, before hashing.
+const FEW: usize = 8;
+
+/// The highest sequence number seen from each publisher. Most topics have a
+/// few publishers: they are found by comparing, without hashing; the rest by
+/// a seeded fast hash, as their keys come from the network.
+#[derive(Default)]
+struct LastSeen {
+    few: Vec<(Source, u64)>,
+    many: HashMap<Source, u64, foldhash::fast::RandomState>,
+}
+
+impl LastSeen {
+    /// Record message `sn` of `source`: how many of its messages before it
+    /// never arrived.
+    #[inline]
+    fn record(&mut self, source: Source, sn: u64) -> u64 {
+        let last = self.of(source, sn);
+        match sn.checked_sub(*last) {
+            Some(ahead) => {
+                *last = sn;
+                ahead.saturating_sub(1)
+            }
+            // Late, duplicated or reordered: keep the highest.
+            None => 0,
+        }
+    }
+
+    /// The highest sequence number seen from `source`; `sn` if it is new.
+    #[inline]
+    fn of(&mut self, source: Source, sn: u64) -> &mut u64 {
+        match self.few.iter().position(|(s, _)| *s == source) {
+            Some(i) => &mut self.few[i].1,
+            None if self.few.len() < FEW => {
+                let i = self.few.len();
+                self.few.push((source, sn));
+                &mut self.few[i].1
+            }
+            None => self.many.entry(source).or_insert(sn),
+        }
+    }
+}
+
+/// The publishers seen and how many messages the gaps in their sequence
+/// numbers say never arrived.
 pub(crate) struct Gaps {
-    /// A seeded fast hash: every sample looks its publisher up, and the keys
-    /// come from the network.
-    last_seen: Mutex<HashMap<Source, u64, foldhash::fast::RandomState>>,
+    last_seen: Mutex<LastSeen>,
     pub(crate) missed: Arc<AtomicU64>,
     key_expr: Arc<str>,
 }
@@ -31,7 +73,7 @@ pub(crate) struct Gaps {
 impl Gaps {
     pub(crate) fn new(key_expr: &str) -> Self {
         Self {
-            last_seen: Mutex::new(HashMap::default()),
+            last_seen: Mutex::new(LastSeen::default()),
             missed: Arc::new(AtomicU64::new(0)),
             key_expr: key_expr.into(),
         }
@@ -47,10 +89,7 @@ impl Gaps {
                 Source::Zenoh(*info.source_id()),
                 u64::from(info.source_sn()),
             )
-        } else if let Some(Ok(attachment)) = sample
-            .attachment()
-            .map(|a| Attachment::parse(&a.to_bytes()))
-        {
+        } else if let Some(Ok(attachment)) = sample.attachment().map(parse_attachment) {
             let Ok(sn) = u64::try_from(attachment.sequence_number) else {
                 return;
             };
@@ -58,18 +97,11 @@ impl Gaps {
         } else {
             return;
         };
-        let gap = {
-            let mut last_seen = self.last_seen.lock().unwrap_or_else(|e| e.into_inner());
-            let last = last_seen.entry(source).or_insert(sn);
-            match sn.checked_sub(*last) {
-                Some(ahead) => {
-                    *last = sn;
-                    ahead.saturating_sub(1)
-                }
-                // Late, duplicated or reordered: keep the highest.
-                None => 0,
-            }
-        };
+        let gap = self
+            .last_seen
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .record(source, sn);
         if gap > 0 && self.missed.fetch_add(gap, Ordering::Relaxed) == 0 {
             tracing::warn!(
                 key_expr = %self.key_expr,
@@ -77,5 +109,52 @@ impl Gaps {
                 "messages never arrived (a gap in the publisher's sequence numbers); RosSubscriber::missed() counts them"
             );
         }
+    }
+}
+
+/// An attachment read in place when it is one slice, as Zenoh delivers it.
+#[inline]
+fn parse_attachment(attachment: &ZBytes) -> Result<Attachment, AttachmentError> {
+    let mut slices = attachment.slices();
+    match (slices.next(), slices.next()) {
+        (Some(only), None) => Attachment::parse(only),
+        _ => Attachment::parse(&attachment.to_bytes()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{LastSeen, Source, FEW};
+    use crate::rmw::Gid;
+
+    fn source(i: usize) -> Source {
+        let mut gid = [0u8; 16];
+        gid[15] = i as u8;
+        Source::Rmw(Gid(gid))
+    }
+
+    /// Publishers beyond the few compared ones are followed as well: each
+    /// counts its own gaps, whatever the others send between its messages.
+    #[test]
+    fn each_publisher_counts_its_own_gaps_few_or_many() {
+        let publishers = FEW + 4;
+        let mut seen = LastSeen::default();
+        let mut missed = vec![0u64; publishers];
+        // Publisher i skips its message 3 when i is even, and sends 2 late.
+        for sn in 1..=6u64 {
+            for (i, m) in missed.iter_mut().enumerate() {
+                if i % 2 == 0 && sn == 3 {
+                    continue;
+                }
+                *m += seen.record(source(i), sn);
+                if sn == 5 {
+                    *m += seen.record(source(i), 2);
+                }
+            }
+        }
+        let expected: Vec<u64> = (0..publishers).map(|i| u64::from(i % 2 == 0)).collect();
+        assert_eq!(missed, expected);
+        assert_eq!(seen.few.len(), FEW);
+        assert_eq!(seen.many.len(), publishers - FEW);
     }
 }
