@@ -3,7 +3,7 @@
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use zenoh::bytes::ZBytes;
 use zenoh::sample::Sample;
@@ -11,7 +11,7 @@ use zenoh::sample::Sample;
 use crate::rmw::{Attachment, AttachmentError, Gid};
 
 /// A publisher, as its samples identify it.
-#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 enum Source {
     /// Zenoh `SourceInfo` (ours on a plain key, zenoh-ext's advanced publishers).
     Zenoh(zenoh::session::EntityGlobalId),
@@ -65,6 +65,12 @@ impl LastSeen {
 /// The publishers seen and how many messages the gaps in their sequence
 /// numbers say never arrived.
 pub(crate) struct Gaps {
+    /// The first publisher heard from, followed without a lock (most topics
+    /// have one publisher): one more than its highest sequence number, 0
+    /// before its first message.
+    first: OnceLock<Source>,
+    first_next: AtomicU64,
+    /// The others.
     last_seen: Mutex<LastSeen>,
     pub(crate) missed: Arc<AtomicU64>,
     key_expr: Arc<str>,
@@ -73,9 +79,29 @@ pub(crate) struct Gaps {
 impl Gaps {
     pub(crate) fn new(key_expr: &str) -> Self {
         Self {
+            first: OnceLock::new(),
+            first_next: AtomicU64::new(0),
             last_seen: Mutex::new(LastSeen::default()),
             missed: Arc::new(AtomicU64::new(0)),
             key_expr: key_expr.into(),
+        }
+    }
+
+    /// Record message `sn` of `source`: how many of its messages before it
+    /// never arrived.
+    #[inline]
+    fn record(&self, source: Source, sn: u64) -> u64 {
+        if *self.first.get_or_init(|| source) != source {
+            return self
+                .last_seen
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .record(source, sn);
+        }
+        let next = sn.saturating_add(1);
+        match self.first_next.fetch_max(next, Ordering::Relaxed) {
+            0 => 0,
+            previous => next.saturating_sub(previous).saturating_sub(1),
         }
     }
 
@@ -97,11 +123,7 @@ impl Gaps {
         } else {
             return;
         };
-        let gap = self
-            .last_seen
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .record(source, sn);
+        let gap = self.record(source, sn);
         if gap > 0 && self.missed.fetch_add(gap, Ordering::Relaxed) == 0 {
             tracing::warn!(
                 key_expr = %self.key_expr,
@@ -124,7 +146,7 @@ fn parse_attachment(attachment: &ZBytes) -> Result<Attachment, AttachmentError> 
 
 #[cfg(test)]
 mod tests {
-    use super::{LastSeen, Source, FEW};
+    use super::{Gaps, Source, FEW};
     use crate::rmw::Gid;
 
     fn source(i: usize) -> Source {
@@ -133,12 +155,13 @@ mod tests {
         Source::Rmw(Gid(gid))
     }
 
-    /// Publishers beyond the few compared ones are followed as well: each
-    /// counts its own gaps, whatever the others send between its messages.
+    /// The first publisher (followed without a lock), the few compared ones
+    /// and those beyond are followed alike: each counts its own gaps,
+    /// whatever the others send between its messages.
     #[test]
-    fn each_publisher_counts_its_own_gaps_few_or_many() {
-        let publishers = FEW + 4;
-        let mut seen = LastSeen::default();
+    fn each_publisher_counts_its_own_gaps_first_few_or_many() {
+        let publishers = 1 + FEW + 4;
+        let seen = Gaps::new("test");
         let mut missed = vec![0u64; publishers];
         // Publisher i skips its message 3 when i is even, and sends 2 late.
         for sn in 1..=6u64 {
@@ -154,7 +177,9 @@ mod tests {
         }
         let expected: Vec<u64> = (0..publishers).map(|i| u64::from(i % 2 == 0)).collect();
         assert_eq!(missed, expected);
-        assert_eq!(seen.few.len(), FEW);
-        assert_eq!(seen.many.len(), publishers - FEW);
+        assert_eq!(seen.first.get(), Some(&source(0)));
+        let others = seen.last_seen.lock().unwrap();
+        assert_eq!(others.few.len(), FEW);
+        assert_eq!(others.many.len(), publishers - 1 - FEW);
     }
 }
