@@ -25,6 +25,9 @@
 //! counted from the byte after the header. Every padding byte is written as zero.
 #![warn(missing_docs)]
 #![deny(unsafe_code)]
+// docs.rs builds with `--cfg docsrs`: every item behind a cargo feature is
+// marked with the feature it needs.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 use std::marker::PhantomData;
 

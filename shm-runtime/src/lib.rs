@@ -28,6 +28,9 @@
 //! # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
 //! ```
 #![warn(missing_docs)]
+// docs.rs builds with `--cfg docsrs`: every item behind a cargo feature is
+// marked with the feature it needs.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 mod logging;
 pub mod msgs;
