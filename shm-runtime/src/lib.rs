@@ -63,17 +63,18 @@ pub use transport::receive_failures::{
     receive_failure_layer, shm_receive_failures, ReceiveFailureCause, ReceiveFailureLayer,
     ShmReceiveFailures,
 };
+pub use transport::sample::RosSample;
 pub use transport::shm_bytes::ShmBytes;
 pub use transport::subscriber::{
-    CallbackSubscriber, CallbackSubscriberBuilder, History, MessageStream, RecvError, RosSample,
+    CallbackSubscriber, CallbackSubscriberBuilder, History, MessageStream, RecvError,
     RosSubscriber, SampleStream, SubscriberBuilder,
 };
 
 pub use shm_cdr;
 pub use transport::zenoh_line::ZenohLine;
 
+use rmw::TopicType;
 use shm_cdr::RosMessage;
-use transport::queue::TopicType;
 use zenoh::Session;
 
 /// Typed publishers and subscribers on a plain key expression of your choice,

@@ -9,7 +9,9 @@ use shm_cdr::RosMessage;
 
 pub mod config;
 mod distro;
+mod topic_type;
 pub use distro::{Distribution, Distro, UnknownDistro, DISTRIBUTIONS, TYPE_HASH_NOT_SUPPORTED};
+pub(crate) use topic_type::TopicType;
 
 /// The data key expression of a topic, as `distro`'s rmw_zenoh_cpp writes it:
 /// `<domain>/<topic without leading/trailing '/'>/<pkg>::msg::dds_::<Name>_/<RIHS01 hash>`
@@ -23,7 +25,7 @@ pub(crate) fn topic_key_expr_of(
     distro: Distro,
     domain_id: u32,
     topic: &str,
-    ty: &crate::transport::queue::TopicType,
+    ty: &TopicType,
 ) -> String {
     data_key_expr(distro, domain_id, topic, &ty.dds_name(), &ty.hash)
 }
@@ -533,7 +535,7 @@ impl NodeInfo {
         entity_id: u64,
         kind: EntityKind,
         topic: &str,
-        ty: &crate::transport::queue::TopicType,
+        ty: &TopicType,
         qos: &Qos,
     ) -> String {
         self.entity_token(entity_id, kind, topic, &ty.dds_name(), &ty.hash, qos)
@@ -601,7 +603,7 @@ pub(crate) struct TopicEndpoint {
 
 impl TopicEndpoint {
     /// The liveliness token, for `ty` with `qos`.
-    pub(crate) fn token(&self, ty: &crate::transport::queue::TopicType, qos: &Qos) -> String {
+    pub(crate) fn token(&self, ty: &TopicType, qos: &Qos) -> String {
         self.info
             .topic_token_of(self.entity_id, self.kind, &self.topic, ty, qos)
     }

@@ -14,6 +14,7 @@ use shm_cdr::RosMessage;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::{Resolvable, Session, Wait};
 
+use crate::rmw::TopicType;
 use crate::rmw::{
     service_key_expr, topic_key_expr_of, Distro, EntityKind, Gid, NodeInfo, Qos, TopicEndpoint,
     UnknownDistro,
@@ -33,7 +34,6 @@ use crate::ros::type_description::{TypeCache, TypeUse};
 use crate::transport::limits::check_key_expr;
 use crate::transport::pool::ShmContext;
 use crate::transport::publisher::PublisherBuilder;
-use crate::transport::queue::TopicType;
 use crate::transport::subscriber::SubscriberBuilder;
 
 /// The parameter every ROS node has, switching its clock to `/clock`.

@@ -18,6 +18,8 @@ pub(crate) mod publisher;
 pub(crate) mod queue;
 pub(crate) mod reach;
 pub(crate) mod receive_failures;
+pub(crate) mod sample;
 pub(crate) mod shm_bytes;
 pub(crate) mod subscriber;
+pub(crate) mod type_check;
 pub(crate) mod zenoh_line;

@@ -17,6 +17,7 @@ use zenoh::sample::SourceInfo;
 use zenoh::{Resolvable, Session, Wait};
 use zenoh_ext::{AdvancedPublisher, AdvancedPublisherBuilderExt, CacheConfig, MissDetectionConfig};
 
+use crate::rmw::TopicType;
 use crate::rmw::{
     counterpart_tokens_key_expr, Attachment, Durability, EntityKind, Gid, History, Qos,
     Reliability, TopicEndpoint, ATTACHMENT_LEN,
@@ -29,7 +30,6 @@ use crate::transport::payload::{
     EncodedPayload, PayloadKind, ShmPolicy,
 };
 use crate::transport::pool::ShmContext;
-use crate::transport::queue::TopicType;
 use crate::transport::reach::{Receiver, Receivers, PROBE_TIMEOUT};
 use crate::transport::shm_bytes::Splice;
 
@@ -405,9 +405,10 @@ impl<'a, T> PublisherBuilder<'a, T> {
         // on a plain key the encoding names it for the subscriber's check.
         let encoding = match &rmw {
             Some(_) => Encoding::default(),
-            None => {
-                crate::transport::queue::type_encoding(&self.topic_type.name, &self.topic_type.hash)
-            }
+            None => crate::transport::type_check::type_encoding(
+                &self.topic_type.name,
+                &self.topic_type.hash,
+            ),
         };
         let inline_limit =
             InlineLimit::of(self.session, &self.key_expr, encoding.to_string().len());

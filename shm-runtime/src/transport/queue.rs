@@ -6,11 +6,11 @@ use std::num::NonZeroUsize;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 
-use shm_cdr::RosMessage;
 use zenoh::sample::Sample;
 
 use crate::transport::gaps::Gaps;
-use crate::transport::subscriber::RosSample;
+use crate::transport::sample::RosSample;
+use crate::transport::type_check::TypeCheck;
 
 /// What a [`History::KeepAll`] queue may hold unless told otherwise
 /// ([`SubscriberBuilder::max_queued_bytes`](crate::SubscriberBuilder::max_queued_bytes)).
@@ -59,125 +59,6 @@ pub(crate) struct Queue {
     pub(crate) gaps: Gaps,
     key_expr: String,
     pub(crate) type_check: TypeCheck,
-}
-
-/// The check that a sample is of the subscriber's type: our publishers on a
-/// plain key name the type and its RIHS01 hash in the sample's encoding
-/// (`application/cdr;<type name>;<hash>`, see [`type_encoding`]). Samples
-/// without that (a node's, whose key names the type; rmw_zenoh_cpp, plain
-/// Zenoh, other tools) are taken as they are.
-pub(crate) struct TypeCheck {
-    /// `type_encoding(..)` of the type: the common case is one comparison.
-    expected: zenoh::bytes::Encoding,
-    ty: TopicType,
-    key_expr: String,
-    pub(crate) rejected: Arc<AtomicU64>,
-}
-
-impl TypeCheck {
-    pub(crate) fn new(key_expr: &str, ty: &TopicType) -> Self {
-        Self {
-            expected: type_encoding(&ty.name, &ty.hash),
-            ty: ty.clone(),
-            key_expr: key_expr.to_owned(),
-            rejected: Arc::new(AtomicU64::new(0)),
-        }
-    }
-
-    /// Whether `sample` may be of this type; if it names another, count it and
-    /// say (once) which type arrived.
-    pub(crate) fn accepts(&self, sample: &Sample) -> bool {
-        let encoding = sample.encoding();
-        // Only a schema can name a type: rmw_zenoh_cpp's samples and a node's
-        // (whose key names the type) carry none.
-        if encoding.schema().is_none() || *encoding == self.expected {
-            return true;
-        }
-        let Some((name, hash)) = sample_type(sample) else {
-            return true;
-        };
-        if *name == *self.ty.name && *hash == *self.ty.hash {
-            return true;
-        }
-        if self.rejected.fetch_add(1, Ordering::Relaxed) == 0 {
-            tracing::warn!(
-                key_expr = %self.key_expr,
-                expected = %format!("{} {}", self.ty.name, self.ty.hash),
-                received = %format!("{name} {hash}"),
-                "samples of another message type on this key are dropped (RosSubscriber::wrong_type() counts them)"
-            );
-        }
-        false
-    }
-}
-
-/// The message type (name, RIHS01 hash) a sample's encoding names, if it names
-/// one: `application/cdr;<name>;<hash>`.
-pub(crate) fn sample_type(sample: &Sample) -> Option<(String, String)> {
-    let encoding = sample.encoding().to_string();
-    let (name, hash) = encoding.strip_prefix("application/cdr;")?.split_once(';')?;
-    Some((name.to_owned(), hash.to_owned()))
-}
-
-/// The message type of a publisher or subscriber: its name (`pkg/msg/Name`)
-/// and RIHS01 hash, from a compiled type or from a
-/// [`DynamicType`](shm_cdr::dynamic::DynamicType) given at run time.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct TopicType {
-    pub(crate) name: std::sync::Arc<str>,
-    pub(crate) hash: std::sync::Arc<str>,
-    /// Whether the type has a `uint8[]` field of its own, which C++ code
-    /// generated on Lyrical and later holds as a `rosidl::Buffer` (see
-    /// [`crate::rmw::buffer_key_expr`]).
-    pub(crate) has_buffer_fields: bool,
-}
-
-impl TopicType {
-    pub(crate) fn of<T: RosMessage>() -> Self {
-        let description = T::type_description();
-        Self {
-            name: T::TYPE_NAME.into(),
-            hash: T::type_hash().into(),
-            has_buffer_fields: description.fields.iter().any(|f| {
-                f.field_type.element == shm_cdr::describe::TypeId::Uint8
-                    && f.field_type.container == shm_cdr::describe::Container::Sequence
-            }),
-        }
-    }
-
-    pub(crate) fn of_dynamic(ty: &shm_cdr::dynamic::DynamicType) -> Self {
-        use shm_cdr::dynamic::Element;
-        Self {
-            name: ty.name().into(),
-            hash: ty.type_hash().into(),
-            has_buffer_fields: ty.root().fields.iter().any(|f| {
-                f.element == Element::U8 && f.container == shm_cdr::describe::Container::Sequence
-            }),
-        }
-    }
-
-    /// rmw_zenoh's (DDS's) name of the type: `pkg::msg::dds_::Name_`.
-    pub(crate) fn dds_name(&self) -> String {
-        let mut parts = self.name.splitn(3, '/');
-        match (parts.next(), parts.next(), parts.next()) {
-            (Some(pkg), Some(kind), Some(name)) => format!("{pkg}::{kind}::dds_::{name}_"),
-            _ => self.name.to_string(),
-        }
-    }
-}
-
-/// The encoding our publishers on a plain key give every sample of a type:
-/// `application/cdr;<type name>;<RIHS01 hash>`, or plain `application/cdr`
-/// for a type whose name is too long for that: Zenoh writes an encoding's
-/// schema with a one-byte length, and panics on anything longer than 255
-/// bytes (a type name of more than 183 characters with its hash).
-pub(crate) fn type_encoding(name: &str, hash: &str) -> zenoh::bytes::Encoding {
-    const ZENOH_SCHEMA_MAX: usize = 255;
-    let schema = format!("{name};{hash}");
-    if schema.len() > ZENOH_SCHEMA_MAX {
-        return zenoh::bytes::Encoding::APPLICATION_CDR;
-    }
-    zenoh::bytes::Encoding::APPLICATION_CDR.with_schema(schema)
 }
 
 impl Queue {

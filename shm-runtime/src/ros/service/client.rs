@@ -26,7 +26,7 @@ use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, ShmPolicy};
 use crate::transport::pool::ShmContext;
 use crate::transport::publisher::{now_ns, ShmSettings};
-use crate::transport::queue::type_encoding;
+use crate::transport::type_check::type_encoding;
 
 /// Zenoh's default query timeout, which rmw_zenoh_cpp's clients use too.
 const DEFAULT_TIMEOUT: Duration = Duration::from_secs(10);

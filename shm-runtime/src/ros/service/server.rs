@@ -28,7 +28,8 @@ use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, PayloadKind, ShmPolicy};
 use crate::transport::pool::ShmContext;
 use crate::transport::publisher::{now_ns, PublishError, ShmSettings};
-use crate::transport::queue::{type_encoding, History};
+use crate::transport::queue::History;
+use crate::transport::type_check::type_encoding;
 
 /// Builder of a service server; resolve with `.wait()` or `.await` into a
 /// [`ServiceServer`] that queues requests, or first turn it into a callback
