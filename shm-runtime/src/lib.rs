@@ -47,18 +47,19 @@ pub use ros::node::{RosNode, RosNodeBuilder};
 pub use ros::rosout::RosoutLayer;
 pub use ros::topic_types::TypeConflict;
 pub use transport::config::{ConfigError, PoolSize, ShmConfig};
+pub use transport::encoded::{EncodedPayload, PayloadKind};
 pub use transport::executor::Executor;
 pub use transport::inline_limit::Unfragmentable;
 pub use transport::limits::{KeyExprTooLong, MAX_KEY_EXPR_LEN};
 pub use transport::loan::{Loan, LoanPublish};
 pub use transport::memlock::{MemlockBudget, ZENOH_METADATA_SEGMENT};
-pub use transport::payload::{EncodedPayload, PayloadKind};
 pub use transport::pool::{CdrBackend, ShmContext, ShmStats};
 pub use transport::publisher::{
     PublishBuilder, PublishError, PublishOutcome, PublisherBuilder, RosPublisher, Serialized,
 };
 pub use transport::queue::DEFAULT_MAX_QUEUED_BYTES;
-pub use transport::reach::{Reach, Receiver, PROBE_TIMEOUT};
+pub use transport::reach::PROBE_TIMEOUT;
+pub use transport::reach_table::{Reach, Receiver};
 pub use transport::receive_failures::{
     receive_failure_layer, shm_receive_failures, ReceiveFailureCause, ReceiveFailureLayer,
     ShmReceiveFailures,

@@ -19,7 +19,8 @@ use zenoh::bytes::ZBytes;
 use zenoh::shm::ZShmMut;
 use zenoh::{Resolvable, Wait};
 
-use crate::transport::payload::{routed, EncodedPayload, PayloadKind, ShmPolicy};
+use crate::transport::encoded::{EncodedPayload, PayloadKind};
+use crate::transport::payload::{routed, ShmPolicy};
 use crate::transport::publisher::{PublishError, PublishOutcome, RosPublisher};
 
 /// Where a loan's bytes lie.

@@ -4,6 +4,7 @@
 
 pub(crate) mod changes;
 pub(crate) mod config;
+pub(crate) mod encoded;
 pub(crate) mod executor;
 pub(crate) mod gaps;
 pub(crate) mod inline_limit;
@@ -17,6 +18,7 @@ pub(crate) mod pool;
 pub(crate) mod publisher;
 pub(crate) mod queue;
 pub(crate) mod reach;
+pub(crate) mod reach_table;
 pub(crate) mod receive_failures;
 pub(crate) mod sample;
 pub(crate) mod shm_bytes;

@@ -23,14 +23,15 @@ use crate::rmw::{
     Reliability, TopicEndpoint, ATTACHMENT_LEN,
 };
 use crate::ros::type_description::TypeUse;
+use crate::transport::encoded::{EncodedPayload, PayloadKind};
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{
-    encode_payload, encode_sized, on_heap, packed, serialized_payload, splice_or_size,
-    EncodedPayload, PayloadKind, ShmPolicy,
+    encode_payload, encode_sized, on_heap, packed, serialized_payload, splice_or_size, ShmPolicy,
 };
 use crate::transport::pool::ShmContext;
-use crate::transport::reach::{Receiver, Receivers, PROBE_TIMEOUT};
+use crate::transport::reach::{Receivers, PROBE_TIMEOUT};
+use crate::transport::reach_table::Receiver;
 use crate::transport::shm_bytes::Splice;
 
 /// Why a publish failed. A full pool is not a failure: the message then goes on

@@ -19,7 +19,7 @@ use shm_cdr::{ByteOrder, CdrDecode, CdrEncode, DecodeError, EncodeError, Reader,
 use zenoh::bytes::ZBytes;
 use zenoh::shm::{zshm, ZShm, ZShmMut};
 
-use crate::transport::payload::{EncodedPayload, PayloadKind};
+use crate::transport::encoded::{EncodedPayload, PayloadKind};
 
 /// Bytes of a `uint8[]` field, in shared memory (published without a copy) or on
 /// the heap (e.g. after decoding). Build it with `From`: a [`ZShmMut`] or [`ZShm`]

@@ -383,7 +383,7 @@ impl<S> ServiceClient<S> {
     /// Check an encoded request against the link and number the call.
     fn number(
         &self,
-        encoded: crate::transport::payload::EncodedPayload,
+        encoded: crate::transport::encoded::EncodedPayload,
     ) -> Result<Prepared, CallError> {
         inline_limit::check(self.inline_limit, encoded.inline)
             .map_err(CallError::Unfragmentable)?;

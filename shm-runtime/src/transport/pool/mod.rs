@@ -12,9 +12,9 @@ use zenoh::shm::{
 use zenoh::Wait;
 
 use crate::transport::config::{ConfigError, PoolSize, ShmConfig};
+use crate::transport::encoded::PayloadKind;
 use crate::transport::memlock::{Bytes, MemlockBudget, RAISE_THE_LIMIT, ZENOH_METADATA_SEGMENT};
-use crate::transport::payload::PayloadKind;
-use crate::transport::reach::ReachTable;
+use crate::transport::reach_table::ReachTable;
 
 mod backend;
 
