@@ -1,6 +1,8 @@
 //! Values as Python prints them, for the verbs whose output is Python's
 //! `repr` (`ros2 param get`, `ros2 service call`).
 
+use std::borrow::Cow;
+
 use shm_cdr::describe::Container;
 use shm_cdr::dynamic::{python_float, DynamicType, Element, Field, FieldDef, MessageRef, Value};
 use shm_codegen::python::string_repr;
@@ -45,7 +47,7 @@ fn value_repr(field: &FieldDef, value: &Value<'_>, ty: &DynamicType) -> String {
     // prints it. A sequence of them is an `array.array`, which rclpy's
     // `__repr__` prints as the list it holds.
     if let (Container::Array(_), Some(numbers)) = (field.container, numbers(field, value)) {
-        return numpy_repr(numbers);
+        return numpy_repr(&numbers);
     }
     let list = |items: Vec<String>| format!("[{}]", items.join(", "));
     match value {
@@ -70,14 +72,14 @@ fn value_repr(field: &FieldDef, value: &Value<'_>, ty: &DynamicType) -> String {
         }
         Value::U8s(v) => list(v.iter().map(u8::to_string).collect()),
         Value::I8s(v) => list(v.iter().map(i8::to_string).collect()),
-        Value::I16s(v) => list(v.iter().map(i16::to_string).collect()),
-        Value::U16s(v) => list(v.iter().map(u16::to_string).collect()),
-        Value::I32s(v) => list(v.iter().map(i32::to_string).collect()),
-        Value::U32s(v) => list(v.iter().map(u32::to_string).collect()),
-        Value::I64s(v) => list(v.iter().map(i64::to_string).collect()),
-        Value::U64s(v) => list(v.iter().map(u64::to_string).collect()),
-        Value::F32s(v) => list(v.iter().map(|x| python_float(f64::from(*x))).collect()),
-        Value::F64s(v) => list(v.iter().map(|x| python_float(*x)).collect()),
+        Value::I16s(v) => list(v.iter().map(|x| x.to_string()).collect()),
+        Value::U16s(v) => list(v.iter().map(|x| x.to_string()).collect()),
+        Value::I32s(v) => list(v.iter().map(|x| x.to_string()).collect()),
+        Value::U32s(v) => list(v.iter().map(|x| x.to_string()).collect()),
+        Value::I64s(v) => list(v.iter().map(|x| x.to_string()).collect()),
+        Value::U64s(v) => list(v.iter().map(|x| x.to_string()).collect()),
+        Value::F32s(v) => list(v.iter().map(|x| python_float(f64::from(x))).collect()),
+        Value::F64s(v) => list(v.iter().map(python_float).collect()),
         Value::Strings(v) => list(v.iter().map(|s| string_repr(s)).collect()),
         Value::WStrings(v) => list(v.iter().map(|s| string_repr(s)).collect()),
         Value::Messages(v) => list(v.iter().map(|m| message_repr(m, ty)).collect()),
@@ -91,7 +93,7 @@ pub(crate) fn value_str(field: &FieldDef, value: &Value<'_>, ty: &DynamicType) -
         (Value::String(s), _) => s.to_string(),
         (Value::WString(s), _) => s.clone(),
         (_, Container::Array(_)) => match numbers(field, value) {
-            Some(numbers) => numpy_str(numbers),
+            Some(numbers) => numpy_str(&numbers),
             None => value_repr(field, value, ty),
         },
         (_, Container::Sequence | Container::BoundedSequence(_)) => {
@@ -136,16 +138,16 @@ fn typecode(element: Element) -> Option<char> {
 fn numbers<'a>(field: &FieldDef, value: &'a Value<'_>) -> Option<Numbers<'a>> {
     Some(match value {
         Value::U8s(_) if field.element == Element::Byte => return None,
-        Value::U8s(v) => Numbers::U8(v),
-        Value::I8s(v) => Numbers::I8(v),
-        Value::I16s(v) => Numbers::I16(v),
-        Value::U16s(v) => Numbers::U16(v),
-        Value::I32s(v) => Numbers::I32(v),
-        Value::U32s(v) => Numbers::U32(v),
-        Value::I64s(v) => Numbers::I64(v),
-        Value::U64s(v) => Numbers::U64(v),
-        Value::F32s(v) => Numbers::F32(v),
-        Value::F64s(v) => Numbers::F64(v),
+        Value::U8s(v) => Numbers::U8(Cow::Borrowed(v)),
+        Value::I8s(v) => Numbers::I8(Cow::Borrowed(v)),
+        Value::I16s(v) => Numbers::I16(v.to_cow()),
+        Value::U16s(v) => Numbers::U16(v.to_cow()),
+        Value::I32s(v) => Numbers::I32(v.to_cow()),
+        Value::U32s(v) => Numbers::U32(v.to_cow()),
+        Value::I64s(v) => Numbers::I64(v.to_cow()),
+        Value::U64s(v) => Numbers::U64(v.to_cow()),
+        Value::F32s(v) => Numbers::F32(v.to_cow()),
+        Value::F64s(v) => Numbers::F64(v.to_cow()),
         _ => return None,
     })
 }
@@ -159,18 +161,17 @@ fn bool_repr(b: bool) -> &'static str {
 }
 
 /// The numbers of a fixed-size array, which rclpy holds as a numpy array.
-#[derive(Clone, Copy)]
 enum Numbers<'a> {
-    U8(&'a [u8]),
-    I8(&'a [i8]),
-    I16(&'a [i16]),
-    U16(&'a [u16]),
-    I32(&'a [i32]),
-    U32(&'a [u32]),
-    I64(&'a [i64]),
-    U64(&'a [u64]),
-    F32(&'a [f32]),
-    F64(&'a [f64]),
+    U8(Cow<'a, [u8]>),
+    I8(Cow<'a, [i8]>),
+    I16(Cow<'a, [i16]>),
+    U16(Cow<'a, [u16]>),
+    I32(Cow<'a, [i32]>),
+    U32(Cow<'a, [u32]>),
+    I64(Cow<'a, [i64]>),
+    U64(Cow<'a, [u64]>),
+    F32(Cow<'a, [f32]>),
+    F64(Cow<'a, [f64]>),
 }
 
 /// Arrays longer than this print their first and last [`EDGE_ITEMS`] only
@@ -181,7 +182,7 @@ const EDGE_ITEMS: usize = 3;
 const LINE_WIDTH: usize = 75;
 
 impl Numbers<'_> {
-    fn len(self) -> usize {
+    fn len(&self) -> usize {
         match self {
             Self::U8(v) => v.len(),
             Self::I8(v) => v.len(),
@@ -197,7 +198,7 @@ impl Numbers<'_> {
     }
 
     /// The dtype numpy names after the values, unless the values imply it.
-    fn dtype(self) -> Option<&'static str> {
+    fn dtype(&self) -> Option<&'static str> {
         match self {
             Self::U8(_) => Some("uint8"),
             Self::I8(_) => Some("int8"),
@@ -213,7 +214,7 @@ impl Numbers<'_> {
 
     /// Each value printed, as wide as the widest: of the first and last
     /// [`EDGE_ITEMS`] only when the array is summarized.
-    fn words(self, summarized: bool) -> Vec<String> {
+    fn words(&self, summarized: bool) -> Vec<String> {
         fn shown<T: Copy>(v: &[T], summarized: bool) -> Vec<T> {
             if summarized {
                 let tail = v.len().saturating_sub(EDGE_ITEMS);
@@ -255,7 +256,7 @@ impl Numbers<'_> {
 
 /// numpy's `repr` of a one-dimensional array (`array([…], dtype=…)`), its
 /// lines wrapped at 75 columns as numpy wraps them.
-fn numpy_repr(numbers: Numbers<'_>) -> String {
+fn numpy_repr(numbers: &Numbers<'_>) -> String {
     const PREFIX: &str = "array(";
     let len = numbers.len();
     // One column less for the closing parenthesis.
@@ -283,14 +284,14 @@ fn numpy_repr(numbers: Numbers<'_>) -> String {
 
 /// numpy's `str` of a one-dimensional array (`[1. 2. 3.]`), as `print`
 /// shows it.
-fn numpy_str(numbers: Numbers<'_>) -> String {
+fn numpy_str(numbers: &Numbers<'_>) -> String {
     numpy_list(numbers, " ", 0, LINE_WIDTH)
 }
 
 /// numpy's `[…]` of an array after `prefix_len` columns of prefix: words
 /// between `separator`s, lines wrapped before `width` columns and indented
 /// under the first word.
-fn numpy_list(numbers: Numbers<'_>, separator: &str, prefix_len: usize, width: usize) -> String {
+fn numpy_list(numbers: &Numbers<'_>, separator: &str, prefix_len: usize, width: usize) -> String {
     let summarized = numbers.len() > THRESHOLD;
     let words = numbers.words(summarized);
     let Some(last) = words.len().checked_sub(1) else {
@@ -512,6 +513,8 @@ fn floats<T: NumpyFloat>(values: &[T]) -> Vec<String> {
 
 #[cfg(test)]
 mod tests {
+    use std::borrow::Cow;
+
     use super::{numpy_repr, Numbers};
 
     /// What numpy 2.4's `repr` prints for these arrays (`tests/ros2/cli.py`
@@ -520,31 +523,43 @@ mod tests {
     fn fixed_arrays_print_as_numpy_prints_them() {
         let wrapped: Vec<f64> = (0..30).map(|i| f64::from(i) * 1.1).collect();
         let cases: [(Numbers<'_>, &str); 8] = [
-            (Numbers::F64(&[1.0, 2.5, -3.0]), "array([ 1. ,  2.5, -3. ])"),
-            (Numbers::F64(&[1e-5, 1.5e10]), "array([1.0e-05, 1.5e+10])"),
             (
-                Numbers::F64(&[0.1, f64::NAN, f64::NEG_INFINITY]),
+                Numbers::F64(Cow::Borrowed(&[1.0, 2.5, -3.0])),
+                "array([ 1. ,  2.5, -3. ])",
+            ),
+            (
+                Numbers::F64(Cow::Borrowed(&[1e-5, 1.5e10])),
+                "array([1.0e-05, 1.5e+10])",
+            ),
+            (
+                Numbers::F64(Cow::Borrowed(&[0.1, f64::NAN, f64::NEG_INFINITY])),
                 "array([ 0.1,  nan, -inf])",
             ),
             (
-                Numbers::I32(&[1, -20, 3]),
+                Numbers::I32(Cow::Borrowed(&[1, -20, 3])),
                 "array([  1, -20,   3], dtype=int32)",
             ),
-            (Numbers::F64(&[0.001953125]), "array([0.00195312])"),
-            (Numbers::F32(&[1.5]), "array([1.5], dtype=float32)"),
             (
-                Numbers::F64(&wrapped),
+                Numbers::F64(Cow::Borrowed(&[0.001953125])),
+                "array([0.00195312])",
+            ),
+            (
+                Numbers::F32(Cow::Borrowed(&[1.5])),
+                "array([1.5], dtype=float32)",
+            ),
+            (
+                Numbers::F64(Cow::Borrowed(&wrapped)),
                 "array([ 0. ,  1.1,  2.2,  3.3,  4.4,  5.5,  6.6,  7.7,  8.8,  9.9, 11. ,\n       \
                  12.1, 13.2, 14.3, 15.4, 16.5, 17.6, 18.7, 19.8, 20.9, 22. , 23.1,\n       \
                  24.2, 25.3, 26.4, 27.5, 28.6, 29.7, 30.8, 31.9])",
             ),
             (
-                Numbers::F64(&[0.0; 1001]),
+                Numbers::F64(Cow::Borrowed(&[0.0; 1001])),
                 "array([0., 0., 0., ..., 0., 0., 0.], shape=(1001,))",
             ),
         ];
         for (numbers, numpy) in cases {
-            assert_eq!(numpy_repr(numbers), numpy);
+            assert_eq!(numpy_repr(&numbers), numpy);
         }
     }
 }

@@ -6,8 +6,9 @@
 use std::borrow::Cow;
 
 use super::model::{Check, DynamicType, Element, FieldDef};
+use super::numbers::Numbers;
 use super::plan::{bools_valid, Entry, Member, RunRead, Step};
-use super::value::{Message, Messages, Value};
+use super::value::{Message, Messages, Slots, Value};
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::Container;
 use crate::encode::{CdrEncode, Writer};
@@ -170,8 +171,9 @@ impl DynamicType {
         let block = self.inner.plans.get(index).map_or(0, |p| p.block);
         let mut slots = Vec::with_capacity(block);
         let mut cut = Vec::new();
-        self.decode_struct(r, index, &mut slots, &mut cut, keep)?;
-        let mut message = Message::from_slots(self.clone(), index, slots);
+        let mut holds = false;
+        self.decode_struct(r, index, &mut slots, &mut cut, keep, &mut holds)?;
+        let mut message = Message::from_slots(self.clone(), index, Slots::decoded(slots, !holds));
         message.cut = cut;
         Ok(message)
     }
@@ -180,7 +182,9 @@ impl DynamicType {
     /// in slot order and noting each field decoded cut short in `cut`. Its
     /// plan's runs of fixed-size fields are read with one bounds check each;
     /// where one fails (or the input is in segments), field by field, for
-    /// the exact error.
+    /// the exact error. `holds` is set unless every value pushed is known
+    /// to hold nothing to free ([`Value::holds_nothing`]): numbers, and
+    /// strings and arrays borrowed from the input.
     fn decode_struct<'de, B: ByteOrder>(
         &self,
         r: &mut Reader<'de, B>,
@@ -188,11 +192,13 @@ impl DynamicType {
         slots: &mut Vec<Value<'de>>,
         cut: &mut Vec<(usize, usize)>,
         keep: usize,
+        holds: &mut bool,
     ) -> Result<(), DecodeError> {
         let Some(plan) = self.inner.plans.get(index) else {
             return Ok(());
         };
         if !r.is_contiguous() {
+            *holds = true;
             return self.decode_entries(r, &plan.entries, slots, cut, keep);
         }
         for step in &plan.steps {
@@ -215,6 +221,7 @@ impl DynamicType {
                                 && run_values::<B>(bytes, reads, slots)
                         });
                     if !read {
+                        *holds = true;
                         r.rewind(at);
                         slots.truncate(filled);
                         for (m, &check) in members.iter().zip(checks.iter()) {
@@ -227,31 +234,42 @@ impl DynamicType {
                         }
                     }
                 }
-                &Step::String { bound, .. } => slots.push(Value::String(decode_string(r, bound)?)),
+                &Step::String { bound, .. } => {
+                    let s = decode_string(r, bound)?;
+                    *holds |= matches!(s, Cow::Owned(_));
+                    slots.push(Value::String(s))
+                }
                 &Step::Numbers { check, .. } => {
+                    *holds = true;
                     self.decode_check(r, check, None, slots, cut, keep)?
                 }
                 &Step::Value { check, element, .. } => {
+                    *holds = true;
                     self.decode_check(r, check, Some(element), slots, cut, keep)?
                 }
-                &Step::Nested { index, .. } => self.decode_struct(r, index, slots, cut, keep)?,
+                &Step::Nested { index, .. } => {
+                    self.decode_struct(r, index, slots, cut, keep, holds)?
+                }
                 &Step::Messages {
                     index,
                     container,
                     min,
                     ..
-                } => self.decode_check(
-                    r,
-                    Check::Many {
-                        element: Element::Message(index),
-                        container,
-                        min,
-                    },
-                    None,
-                    slots,
-                    cut,
-                    keep,
-                )?,
+                } => {
+                    *holds = true;
+                    self.decode_check(
+                        r,
+                        Check::Many {
+                            element: Element::Message(index),
+                            container,
+                            min,
+                        },
+                        None,
+                        slots,
+                        cut,
+                        keep,
+                    )?
+                }
             }
         }
         Ok(())
@@ -279,7 +297,9 @@ impl DynamicType {
                 Entry::Field(leaf) => {
                     self.decode_check(r, leaf.check, Some(leaf.element), slots, cut, keep)?
                 }
-                &Entry::Nested { index, .. } => self.decode_struct(r, index, slots, cut, keep)?,
+                &Entry::Nested { index, .. } => {
+                    self.decode_struct(r, index, slots, cut, keep, &mut true)?
+                }
             }
         }
         Ok(())
@@ -380,14 +400,14 @@ impl DynamicType {
             Element::Bool => Value::Bools(bool::decode_vec(r, n)?),
             Element::Byte | Element::Char | Element::U8 => Value::U8s(u8::decode_cow_slice(r, n)?),
             Element::I8 => Value::I8s(i8::decode_cow_slice(r, n)?),
-            Element::I16 => Value::I16s(i16::decode_cow_slice(r, n)?),
-            Element::U16 => Value::U16s(u16::decode_cow_slice(r, n)?),
-            Element::I32 => Value::I32s(i32::decode_cow_slice(r, n)?),
-            Element::U32 => Value::U32s(u32::decode_cow_slice(r, n)?),
-            Element::I64 => Value::I64s(i64::decode_cow_slice(r, n)?),
-            Element::U64 => Value::U64s(u64::decode_cow_slice(r, n)?),
-            Element::F32 => Value::F32s(f32::decode_cow_slice(r, n)?),
-            Element::F64 => Value::F64s(f64::decode_cow_slice(r, n)?),
+            Element::I16 => Value::I16s(Numbers::decode(r, n)?),
+            Element::U16 => Value::U16s(Numbers::decode(r, n)?),
+            Element::I32 => Value::I32s(Numbers::decode(r, n)?),
+            Element::U32 => Value::U32s(Numbers::decode(r, n)?),
+            Element::I64 => Value::I64s(Numbers::decode(r, n)?),
+            Element::U64 => Value::U64s(Numbers::decode(r, n)?),
+            Element::F32 => Value::F32s(Numbers::decode(r, n)?),
+            Element::F64 => Value::F64s(Numbers::decode(r, n)?),
             Element::String(bound) => {
                 let mut out = Vec::with_capacity(kept);
                 for _ in 0..kept {
@@ -415,14 +435,16 @@ impl DynamicType {
                 // read, from a start that a bad count cannot inflate.
                 let mut slots = Vec::with_capacity(kept.saturating_mul(block).min(1 << 12));
                 let mut cut = Vec::new();
+                let mut holds = false;
                 for _ in 0..kept {
-                    self.decode_struct(r, index, &mut slots, &mut cut, keep)?;
+                    self.decode_struct(r, index, &mut slots, &mut cut, keep, &mut holds)?;
                 }
                 let mut skipped = Vec::new();
                 for _ in kept..n {
-                    self.decode_struct(r, index, &mut skipped, &mut Vec::new(), keep)?;
+                    self.decode_struct(r, index, &mut skipped, &mut Vec::new(), keep, &mut true)?;
                     skipped.clear();
                 }
+                let slots = Slots::decoded(slots, !holds);
                 let mut messages = Messages::from_slots(self.clone(), index, kept, slots);
                 messages.cut = cut;
                 Value::Messages(Box::new(messages))
@@ -516,10 +538,11 @@ fn run_values<'de, B: ByteOrder>(
             }
             RunRead::Array {
                 element, offset, n, ..
-            } => match array_at::<B>(bytes, offset, element, n) {
-                Some(value) => slots.push(value),
-                None => return false,
-            },
+            } => {
+                if !array_at::<B>(bytes, offset, element, n, slots) {
+                    return false;
+                }
+            }
             RunRead::Placeholder => slots.push(Value::U8(0)),
         }
     }
@@ -579,40 +602,44 @@ fn singles_at<B: ByteOrder>(
 }
 
 /// The array of `n` numbers of kind `element` at `bytes[offset..]`,
-/// borrowed where the generated types borrow.
+/// borrowed, pushed onto `slots`; `false` (nothing pushed) if it is not all
+/// there or not of numbers. Each value is built where it is pushed: one
+/// built apart and moved in was copied through the stack in pieces the
+/// processor could not forward, half the time of a small message's decode.
 #[inline]
 fn array_at<'de, B: ByteOrder>(
     bytes: &'de [u8],
     offset: usize,
     element: Element,
     n: usize,
-) -> Option<Value<'de>> {
-    fn slice<'de, T: CdrDecode<'de> + Clone, B: ByteOrder>(
-        bytes: &'de [u8],
-        offset: usize,
-        n: usize,
-    ) -> Option<std::borrow::Cow<'de, [T]>> {
-        let len = n.checked_mul(std::mem::size_of::<T>())?;
-        let raw = bytes.get(offset..offset.checked_add(len)?)?;
-        T::decode_cow_slice(&mut Reader::<B>::new(raw), n).ok()
-    }
-    Some(match element {
-        Element::Byte | Element::Char | Element::U8 => {
-            Value::U8s(slice::<u8, B>(bytes, offset, n)?)
-        }
-        Element::I8 => Value::I8s(slice::<i8, B>(bytes, offset, n)?),
-        Element::I16 => Value::I16s(slice::<i16, B>(bytes, offset, n)?),
-        Element::U16 => Value::U16s(slice::<u16, B>(bytes, offset, n)?),
-        Element::I32 => Value::I32s(slice::<i32, B>(bytes, offset, n)?),
-        Element::U32 => Value::U32s(slice::<u32, B>(bytes, offset, n)?),
-        Element::I64 => Value::I64s(slice::<i64, B>(bytes, offset, n)?),
-        Element::U64 => Value::U64s(slice::<u64, B>(bytes, offset, n)?),
-        Element::F32 => Value::F32s(slice::<f32, B>(bytes, offset, n)?),
-        Element::F64 => Value::F64s(slice::<f64, B>(bytes, offset, n)?),
+    slots: &mut Vec<Value<'de>>,
+) -> bool {
+    let Some(size) = element.fixed_size() else {
+        return false;
+    };
+    let Some(raw) = n
+        .checked_mul(size)
+        .and_then(|len| bytes.get(offset..offset.checked_add(len)?))
+    else {
+        return false;
+    };
+    let order = B::ENDIANNESS;
+    match element {
+        Element::Byte | Element::Char | Element::U8 => slots.push(Value::U8s(Cow::Borrowed(raw))),
+        Element::I8 => slots.push(Value::I8s(Cow::Borrowed(bytemuck::cast_slice(raw)))),
+        Element::I16 => slots.push(Value::I16s(Numbers::on_wire(raw, order))),
+        Element::U16 => slots.push(Value::U16s(Numbers::on_wire(raw, order))),
+        Element::I32 => slots.push(Value::I32s(Numbers::on_wire(raw, order))),
+        Element::U32 => slots.push(Value::U32s(Numbers::on_wire(raw, order))),
+        Element::I64 => slots.push(Value::I64s(Numbers::on_wire(raw, order))),
+        Element::U64 => slots.push(Value::U64s(Numbers::on_wire(raw, order))),
+        Element::F32 => slots.push(Value::F32s(Numbers::on_wire(raw, order))),
+        Element::F64 => slots.push(Value::F64s(Numbers::on_wire(raw, order))),
         Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_) => {
-            return None
+            return false
         }
-    })
+    }
+    true
 }
 
 pub(crate) fn decode_string<'de, B: ByteOrder>(
@@ -795,14 +822,14 @@ fn write_reads<B: ByteOrder>(
                 let written = match value {
                     Value::U8s(v) => u8::encode_slice(v, &mut w),
                     Value::I8s(v) => i8::encode_slice(v, &mut w),
-                    Value::I16s(v) => i16::encode_slice(v, &mut w),
-                    Value::U16s(v) => u16::encode_slice(v, &mut w),
-                    Value::I32s(v) => i32::encode_slice(v, &mut w),
-                    Value::U32s(v) => u32::encode_slice(v, &mut w),
-                    Value::I64s(v) => i64::encode_slice(v, &mut w),
-                    Value::U64s(v) => u64::encode_slice(v, &mut w),
-                    Value::F32s(v) => f32::encode_slice(v, &mut w),
-                    Value::F64s(v) => f64::encode_slice(v, &mut w),
+                    Value::I16s(v) => v.encode(&mut w),
+                    Value::U16s(v) => v.encode(&mut w),
+                    Value::I32s(v) => v.encode(&mut w),
+                    Value::U32s(v) => v.encode(&mut w),
+                    Value::I64s(v) => v.encode(&mut w),
+                    Value::U64s(v) => v.encode(&mut w),
+                    Value::F32s(v) => v.encode(&mut w),
+                    Value::F64s(v) => v.encode(&mut w),
                     _ => return false,
                 };
                 if written.is_err() {
@@ -952,14 +979,14 @@ fn value_end(value: &Value<'_>, start: usize, counted: bool) -> usize {
         Value::Bools(v) => elements(v, first),
         Value::U8s(v) => elements(v, first),
         Value::I8s(v) => elements(v, first),
-        Value::I16s(v) => elements(v, first),
-        Value::U16s(v) => elements(v, first),
-        Value::I32s(v) => elements(v, first),
-        Value::U32s(v) => elements(v, first),
-        Value::I64s(v) => elements(v, first),
-        Value::U64s(v) => elements(v, first),
-        Value::F32s(v) => elements(v, first),
-        Value::F64s(v) => elements(v, first),
+        Value::I16s(v) => v.encoded_end(first),
+        Value::U16s(v) => v.encoded_end(first),
+        Value::I32s(v) => v.encoded_end(first),
+        Value::U32s(v) => v.encoded_end(first),
+        Value::I64s(v) => v.encoded_end(first),
+        Value::U64s(v) => v.encoded_end(first),
+        Value::F32s(v) => v.encoded_end(first),
+        Value::F64s(v) => v.encoded_end(first),
         Value::Strings(v) => v.iter().fold(first, |pos, s| string_end(pos, s.len())),
         Value::WStrings(v) => v.iter().fold(first, |pos, s| wstring_end(pos, s)),
         Value::Messages(v) => v.firsts().fold(first, |pos, at| {
@@ -1026,14 +1053,14 @@ fn encode_value<B: ByteOrder>(
         Value::Bools(v) => bool::encode_slice(v, w),
         Value::U8s(v) => u8::encode_slice(v, w),
         Value::I8s(v) => i8::encode_slice(v, w),
-        Value::I16s(v) => i16::encode_slice(v, w),
-        Value::U16s(v) => u16::encode_slice(v, w),
-        Value::I32s(v) => i32::encode_slice(v, w),
-        Value::U32s(v) => u32::encode_slice(v, w),
-        Value::I64s(v) => i64::encode_slice(v, w),
-        Value::U64s(v) => u64::encode_slice(v, w),
-        Value::F32s(v) => f32::encode_slice(v, w),
-        Value::F64s(v) => f64::encode_slice(v, w),
+        Value::I16s(v) => v.encode(w),
+        Value::U16s(v) => v.encode(w),
+        Value::I32s(v) => v.encode(w),
+        Value::U32s(v) => v.encode(w),
+        Value::I64s(v) => v.encode(w),
+        Value::U64s(v) => v.encode(w),
+        Value::F32s(v) => v.encode(w),
+        Value::F64s(v) => v.encode(w),
         Value::Strings(v) => v.iter().try_for_each(|s| {
             check_str(s.len())?;
             write_string(w, s)

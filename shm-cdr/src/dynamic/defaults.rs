@@ -97,7 +97,7 @@ fn scalar(element: Element, text: &str) -> Option<Value<'static>> {
 pub(crate) fn collect(element: Element, values: Vec<Value<'static>>) -> Option<Value<'static>> {
     macro_rules! gather {
         ($variant:ident, $many:ident) => {
-            Value::$many(Cow::Owned(
+            Value::$many(From::from(
                 values
                     .into_iter()
                     .map(|v| match v {

@@ -4,8 +4,8 @@
 //! payload of that type into a [`Message`] of [`Value`]s and encodes one back,
 //! sized exactly, with the guarantees of the generated code: bad input is an
 //! error, never a panic, nothing is allocated on the word of a length prefix,
-//! strings and number arrays borrow from the input where the generated types
-//! borrow, padding is zeroed. Its RIHS01 hash, computed from the model, is
+//! strings and arrays borrow from the input (number arrays in any alignment,
+//! as [`Numbers`]), padding is zeroed. Its RIHS01 hash, computed from the model, is
 //! rosidl's.
 //!
 //! ```
@@ -29,6 +29,7 @@ mod codec;
 mod defaults;
 mod limits;
 mod model;
+mod numbers;
 mod plan;
 #[cfg(feature = "serde")]
 mod serde_impl;
@@ -40,6 +41,7 @@ mod yaml_out;
 
 pub use limits::TypeLimits;
 pub use model::{DynamicType, Element, FieldDef, StructDef, TypeError};
+pub use numbers::{Iter as NumbersIter, Number, Numbers};
 #[cfg(feature = "serde")]
 pub use serde_impl::SerializeCdr;
 pub use value::{Field, Message, MessageRef, Messages, Value, ValueError};

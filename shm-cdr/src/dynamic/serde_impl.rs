@@ -53,10 +53,13 @@ impl Serialize for Messages<'_> {
 
 impl Serialize for Value<'_> {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        fn seq<S: Serializer, T: Serialize>(serializer: S, items: &[T]) -> Result<S::Ok, S::Error> {
+        fn seq<S: Serializer, T: Serialize>(
+            serializer: S,
+            items: impl ExactSizeIterator<Item = T>,
+        ) -> Result<S::Ok, S::Error> {
             let mut seq = serializer.serialize_seq(Some(items.len()))?;
             for item in items {
-                seq.serialize_element(item)?;
+                seq.serialize_element(&item)?;
             }
             seq.end()
         }
@@ -75,25 +78,19 @@ impl Serialize for Value<'_> {
             Self::String(v) => serializer.serialize_str(v),
             Self::WString(v) => serializer.serialize_str(v),
             Self::Message(m) => m.serialize(serializer),
-            Self::Bools(v) => seq(serializer, v),
-            Self::U8s(v) => seq(serializer, v),
-            Self::I8s(v) => seq(serializer, v),
-            Self::I16s(v) => seq(serializer, v),
-            Self::U16s(v) => seq(serializer, v),
-            Self::I32s(v) => seq(serializer, v),
-            Self::U32s(v) => seq(serializer, v),
-            Self::I64s(v) => seq(serializer, v),
-            Self::U64s(v) => seq(serializer, v),
-            Self::F32s(v) => {
-                let mut seq = serializer.serialize_seq(Some(v.len()))?;
-                for x in v.iter() {
-                    seq.serialize_element(&f64::from(*x))?;
-                }
-                seq.end()
-            }
-            Self::F64s(v) => seq(serializer, v),
-            Self::Strings(v) => seq(serializer, v),
-            Self::WStrings(v) => seq(serializer, v),
+            Self::Bools(v) => seq(serializer, v.iter()),
+            Self::U8s(v) => seq(serializer, v.iter()),
+            Self::I8s(v) => seq(serializer, v.iter()),
+            Self::I16s(v) => seq(serializer, v.iter()),
+            Self::U16s(v) => seq(serializer, v.iter()),
+            Self::I32s(v) => seq(serializer, v.iter()),
+            Self::U32s(v) => seq(serializer, v.iter()),
+            Self::I64s(v) => seq(serializer, v.iter()),
+            Self::U64s(v) => seq(serializer, v.iter()),
+            Self::F32s(v) => seq(serializer, v.iter().map(f64::from)),
+            Self::F64s(v) => seq(serializer, v.iter()),
+            Self::Strings(v) => seq(serializer, v.iter()),
+            Self::WStrings(v) => seq(serializer, v.iter()),
             Self::Messages(v) => v.serialize(serializer),
         }
     }

@@ -4,6 +4,7 @@ use std::borrow::Cow;
 use std::fmt;
 
 use super::model::{DynamicType, Element, StructDef};
+use super::numbers::Numbers;
 use super::plan::StructPlan;
 use crate::describe::Container;
 
@@ -35,14 +36,16 @@ pub enum Value<'a> {
     /// Arrays and sequences of `byte`, `char` and `uint8`.
     U8s(Cow<'a, [u8]>),
     I8s(Cow<'a, [i8]>),
-    I16s(Cow<'a, [i16]>),
-    U16s(Cow<'a, [u16]>),
-    I32s(Cow<'a, [i32]>),
-    U32s(Cow<'a, [u32]>),
-    I64s(Cow<'a, [i64]>),
-    U64s(Cow<'a, [u64]>),
-    F32s(Cow<'a, [f32]>),
-    F64s(Cow<'a, [f64]>),
+    /// Arrays and sequences of wider numbers: borrowed from the payload in
+    /// its alignment and byte order, or owned.
+    I16s(Numbers<'a, i16>),
+    U16s(Numbers<'a, u16>),
+    I32s(Numbers<'a, i32>),
+    U32s(Numbers<'a, u32>),
+    I64s(Numbers<'a, i64>),
+    U64s(Numbers<'a, u64>),
+    F32s(Numbers<'a, f32>),
+    F64s(Numbers<'a, f64>),
     Strings(Vec<Cow<'a, str>>),
     WStrings(Vec<String>),
     /// An array or sequence of messages, their values in one table.
@@ -106,6 +109,42 @@ impl Value<'_> {
         }
     }
 
+    /// Whether dropping the value frees nothing: a number, or a string or
+    /// array borrowed from the payload.
+    #[inline(always)]
+    pub(crate) fn holds_nothing(&self) -> bool {
+        match self {
+            Self::Bool(_)
+            | Self::U8(_)
+            | Self::I8(_)
+            | Self::I16(_)
+            | Self::U16(_)
+            | Self::I32(_)
+            | Self::U32(_)
+            | Self::I64(_)
+            | Self::U64(_)
+            | Self::F32(_)
+            | Self::F64(_) => true,
+            Self::String(s) => matches!(s, Cow::Borrowed(_)),
+            Self::U8s(v) => matches!(v, Cow::Borrowed(_)),
+            Self::I8s(v) => matches!(v, Cow::Borrowed(_)),
+            Self::I16s(v) => v.wire().is_some(),
+            Self::U16s(v) => v.wire().is_some(),
+            Self::I32s(v) => v.wire().is_some(),
+            Self::U32s(v) => v.wire().is_some(),
+            Self::I64s(v) => v.wire().is_some(),
+            Self::U64s(v) => v.wire().is_some(),
+            Self::F32s(v) => v.wire().is_some(),
+            Self::F64s(v) => v.wire().is_some(),
+            Self::WString(_)
+            | Self::Message(_)
+            | Self::Bools(_)
+            | Self::Strings(_)
+            | Self::WStrings(_)
+            | Self::Messages(_) => false,
+        }
+    }
+
     /// Whether an array or sequence value is empty (`false` for a single one).
     pub fn is_empty(&self) -> bool {
         self.len() == Some(0)
@@ -131,19 +170,96 @@ impl Value<'_> {
             Self::Bools(v) => Value::Bools(v),
             Self::U8s(v) => Value::U8s(Cow::Owned(v.into_owned())),
             Self::I8s(v) => Value::I8s(Cow::Owned(v.into_owned())),
-            Self::I16s(v) => Value::I16s(Cow::Owned(v.into_owned())),
-            Self::U16s(v) => Value::U16s(Cow::Owned(v.into_owned())),
-            Self::I32s(v) => Value::I32s(Cow::Owned(v.into_owned())),
-            Self::U32s(v) => Value::U32s(Cow::Owned(v.into_owned())),
-            Self::I64s(v) => Value::I64s(Cow::Owned(v.into_owned())),
-            Self::U64s(v) => Value::U64s(Cow::Owned(v.into_owned())),
-            Self::F32s(v) => Value::F32s(Cow::Owned(v.into_owned())),
-            Self::F64s(v) => Value::F64s(Cow::Owned(v.into_owned())),
+            Self::I16s(v) => Value::I16s(v.into_owned()),
+            Self::U16s(v) => Value::U16s(v.into_owned()),
+            Self::I32s(v) => Value::I32s(v.into_owned()),
+            Self::U32s(v) => Value::U32s(v.into_owned()),
+            Self::I64s(v) => Value::I64s(v.into_owned()),
+            Self::U64s(v) => Value::U64s(v.into_owned()),
+            Self::F32s(v) => Value::F32s(v.into_owned()),
+            Self::F64s(v) => Value::F64s(v.into_owned()),
             Self::Strings(v) => {
                 Value::Strings(v.into_iter().map(|s| Cow::Owned(s.into_owned())).collect())
             }
             Self::WStrings(v) => Value::WStrings(v),
             Self::Messages(v) => Value::Messages(Box::new(v.into_owned())),
+        }
+    }
+}
+
+/// The values of a [`Message`] or [`Messages`], in slot order.
+///
+/// Dropping a `Vec<Value>` calls a drop per value; a decoded message's
+/// values mostly borrow from the payload and hold nothing to free, and those
+/// calls were a third of the cost of decoding a small message. So a table
+/// that decoding found to hold nothing says so (`plain`, cleared by any
+/// change), and any other looks first, a compare per value, before it drops
+/// them one by one.
+#[derive(Clone, Default)]
+pub(crate) struct Slots<'a> {
+    values: Vec<Value<'a>>,
+    /// Every value holds nothing to free (see [`Value::holds_nothing`]).
+    plain: bool,
+}
+
+impl<'a> Slots<'a> {
+    /// Values decoded from a payload; `plain` if decoding saw that none
+    /// holds anything to free.
+    pub(crate) fn decoded(values: Vec<Value<'a>>, plain: bool) -> Self {
+        debug_assert!(!plain || values.iter().all(Value::holds_nothing));
+        Self { values, plain }
+    }
+
+    /// The values, leaving the table empty.
+    pub(crate) fn take(&mut self) -> Vec<Value<'a>> {
+        std::mem::take(&mut self.values)
+    }
+}
+
+impl<'a> From<Vec<Value<'a>>> for Slots<'a> {
+    fn from(values: Vec<Value<'a>>) -> Self {
+        Self {
+            values,
+            plain: false,
+        }
+    }
+}
+
+impl<'a> std::ops::Deref for Slots<'a> {
+    type Target = Vec<Value<'a>>;
+
+    fn deref(&self) -> &Vec<Value<'a>> {
+        &self.values
+    }
+}
+
+/// A change may put in a value that holds memory: the table is no longer
+/// known to be plain.
+impl std::ops::DerefMut for Slots<'_> {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        self.plain = false;
+        &mut self.values
+    }
+}
+
+/// Equal when they hold equal values.
+impl PartialEq for Slots<'_> {
+    fn eq(&self, other: &Self) -> bool {
+        self.values == other.values
+    }
+}
+
+impl Drop for Slots<'_> {
+    #[allow(unsafe_code)]
+    fn drop(&mut self) {
+        if self.plain || self.values.iter().all(Value::holds_nothing) {
+            // SAFETY: 0 is within the capacity. The values in 0..len hold
+            // nothing (no heap memory, nothing with a drop of its own): the
+            // check above says so for each, or decoding did when it set
+            // `plain`, which every change clears. Not running their drops
+            // therefore loses nothing, and the `Vec`'s own drop, after this,
+            // frees the buffer.
+            unsafe { self.values.set_len(0) }
         }
     }
 }
@@ -179,7 +295,7 @@ pub struct Message<'a> {
     pub(crate) index: usize,
     /// The values, one per field that is not a message nested by value,
     /// in field order with each nested message's values in its place.
-    pub(crate) slots: Vec<Value<'a>>,
+    pub(crate) slots: Slots<'a>,
     /// The fields decoded cut short for printing
     /// ([`DynamicType::decode_truncated`]), with how many elements each
     /// holds on the wire: `(slot, length)`.
@@ -194,7 +310,7 @@ pub struct Messages<'a> {
     /// Which of the type's structs the elements are.
     pub(crate) index: usize,
     pub(crate) len: usize,
-    pub(crate) slots: Vec<Value<'a>>,
+    pub(crate) slots: Slots<'a>,
     /// As [`Message`]'s, `(slot, length)` in `slots`.
     pub(crate) cut: Vec<(usize, usize)>,
 }
@@ -380,7 +496,7 @@ impl<'m, 'a> MessageRef<'m, 'a> {
         Message {
             ty: self.ty.clone(),
             index: self.index,
-            slots: self.block().to_vec(),
+            slots: Slots::from(self.block().to_vec()),
             cut: self
                 .cut
                 .iter()
@@ -393,11 +509,11 @@ impl<'m, 'a> MessageRef<'m, 'a> {
 
 impl<'a> Message<'a> {
     /// A message of struct `index` of `ty` from its values in slot order.
-    pub(crate) fn from_slots(ty: DynamicType, index: usize, slots: Vec<Value<'a>>) -> Self {
+    pub(crate) fn from_slots(ty: DynamicType, index: usize, slots: impl Into<Slots<'a>>) -> Self {
         Self {
             ty,
             index,
-            slots,
+            slots: slots.into(),
             cut: Vec::new(),
         }
     }
@@ -475,14 +591,14 @@ impl<'a> Message<'a> {
             return;
         };
         match value {
-            Value::Message(nested) => {
+            Value::Message(mut nested) => {
                 let width = nested.slots.len();
                 let end = at + width;
                 self.cut.retain(|(slot, _)| !(at..end).contains(slot));
                 self.cut
                     .extend(nested.cut.iter().map(|&(slot, len)| (slot + at, len)));
                 let places = self.slots.get_mut(at..end).unwrap_or_default();
-                for (place, value) in places.iter_mut().zip(nested.slots) {
+                for (place, value) in places.iter_mut().zip(nested.slots.take()) {
                     *place = value;
                 }
             }
@@ -496,11 +612,17 @@ impl<'a> Message<'a> {
     }
 
     /// The message with everything it borrows copied.
-    pub fn into_owned(self) -> Message<'static> {
+    pub fn into_owned(mut self) -> Message<'static> {
         Message {
             ty: self.ty,
             index: self.index,
-            slots: self.slots.into_iter().map(Value::into_owned).collect(),
+            slots: Slots::from(
+                self.slots
+                    .take()
+                    .into_iter()
+                    .map(Value::into_owned)
+                    .collect::<Vec<_>>(),
+            ),
             cut: self.cut,
         }
     }
@@ -513,13 +635,13 @@ impl<'a> Messages<'a> {
         ty: DynamicType,
         index: usize,
         len: usize,
-        slots: Vec<Value<'a>>,
+        slots: impl Into<Slots<'a>>,
     ) -> Self {
         Self {
             ty,
             index,
             len,
-            slots,
+            slots: slots.into(),
             cut: Vec::new(),
         }
     }
@@ -590,7 +712,7 @@ impl<'a> Messages<'a> {
     /// assert_eq!(shm_cdr::to_vec(&cloud)?, shm_cdr::to_vec(&expected)?);
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
-    pub fn push(&mut self, message: Message<'a>) -> Result<(), ValueError> {
+    pub fn push(&mut self, mut message: Message<'a>) -> Result<(), ValueError> {
         if message.ty != self.ty || message.index != self.index {
             return Err(ValueError {
                 type_name: self.type_name().to_owned(),
@@ -604,7 +726,7 @@ impl<'a> Messages<'a> {
         let base = self.slots.len();
         self.cut
             .extend(message.cut.iter().map(|&(slot, len)| (slot + base, len)));
-        self.slots.extend(message.slots);
+        self.slots.extend(message.slots.take());
         self.len += 1;
         Ok(())
     }
@@ -617,12 +739,18 @@ impl<'a> Messages<'a> {
     }
 
     /// The messages with everything they borrow copied.
-    pub fn into_owned(self) -> Messages<'static> {
+    pub fn into_owned(mut self) -> Messages<'static> {
         Messages {
             ty: self.ty,
             index: self.index,
             len: self.len,
-            slots: self.slots.into_iter().map(Value::into_owned).collect(),
+            slots: Slots::from(
+                self.slots
+                    .take()
+                    .into_iter()
+                    .map(Value::into_owned)
+                    .collect::<Vec<_>>(),
+            ),
             cut: self.cut,
         }
     }
@@ -768,14 +896,14 @@ impl DynamicType {
             Element::Bool => Value::Bools(vec![false; n]),
             Element::Byte | Element::Char | Element::U8 => Value::U8s(Cow::Owned(vec![0; n])),
             Element::I8 => Value::I8s(Cow::Owned(vec![0; n])),
-            Element::I16 => Value::I16s(Cow::Owned(vec![0; n])),
-            Element::U16 => Value::U16s(Cow::Owned(vec![0; n])),
-            Element::I32 => Value::I32s(Cow::Owned(vec![0; n])),
-            Element::U32 => Value::U32s(Cow::Owned(vec![0; n])),
-            Element::I64 => Value::I64s(Cow::Owned(vec![0; n])),
-            Element::U64 => Value::U64s(Cow::Owned(vec![0; n])),
-            Element::F32 => Value::F32s(Cow::Owned(vec![0.0; n])),
-            Element::F64 => Value::F64s(Cow::Owned(vec![0.0; n])),
+            Element::I16 => Value::I16s(vec![0; n].into()),
+            Element::U16 => Value::U16s(vec![0; n].into()),
+            Element::I32 => Value::I32s(vec![0; n].into()),
+            Element::U32 => Value::U32s(vec![0; n].into()),
+            Element::I64 => Value::I64s(vec![0; n].into()),
+            Element::U64 => Value::U64s(vec![0; n].into()),
+            Element::F32 => Value::F32s(vec![0.0; n].into()),
+            Element::F64 => Value::F64s(vec![0.0; n].into()),
             Element::String(_) => Value::Strings(vec![Cow::Borrowed(""); n]),
             Element::WString(_) => Value::WStrings(vec![String::new(); n]),
             Element::Message(i) => {

@@ -11,6 +11,7 @@ use std::borrow::Cow;
 use std::fmt::{self, Write as _};
 
 use super::model::{Element, FieldDef};
+use super::numbers::{Number, Numbers};
 use super::value::{Field, Message, MessageRef, Value};
 use crate::describe::Container;
 
@@ -320,14 +321,14 @@ fn value_node<'m>(element: Element, value: &'m Value<'_>, options: &YamlOptions)
         Value::U8s(v) if byte_text => list(v, options, move |b| byte_node(*b, &owned)),
         Value::U8s(v) => list(v, options, |n| Node::Plain(n.to_string())),
         Value::I8s(v) => list(v, options, |n| Node::Plain(n.to_string())),
-        Value::I16s(v) => list(v, options, |n| Node::Plain(n.to_string())),
-        Value::U16s(v) => list(v, options, |n| Node::Plain(n.to_string())),
-        Value::I32s(v) => list(v, options, |n| Node::Plain(n.to_string())),
-        Value::U32s(v) => list(v, options, |n| Node::Plain(n.to_string())),
-        Value::I64s(v) => list(v, options, |n| Node::Plain(n.to_string())),
-        Value::U64s(v) => list(v, options, |n| Node::Plain(n.to_string())),
-        Value::F32s(v) => list(v, options, |x| float_node(f64::from(*x))),
-        Value::F64s(v) => list(v, options, |x| float_node(*x)),
+        Value::I16s(v) => numbers(v, options, |n| Node::Plain(n.to_string())),
+        Value::U16s(v) => numbers(v, options, |n| Node::Plain(n.to_string())),
+        Value::I32s(v) => numbers(v, options, |n| Node::Plain(n.to_string())),
+        Value::U32s(v) => numbers(v, options, |n| Node::Plain(n.to_string())),
+        Value::I64s(v) => numbers(v, options, |n| Node::Plain(n.to_string())),
+        Value::U64s(v) => numbers(v, options, |n| Node::Plain(n.to_string())),
+        Value::F32s(v) => numbers(v, options, |x| float_node(f64::from(x))),
+        Value::F64s(v) => numbers(v, options, float_node),
         Value::Strings(v) => list(v, options, move |s| string_node(s, &owned)),
         Value::WStrings(v) => list(v, options, move |s| string_node(s, &owned)),
         Value::Messages(v) => list_of(v.len(), options, move |i| {
@@ -341,6 +342,17 @@ fn list<'m, T>(
     items: &'m [T],
     options: &YamlOptions,
     node: impl Fn(&'m T) -> Node<'m> + 'm,
+) -> Node<'m> {
+    list_of(items.len(), options, move |i| {
+        items.get(i).map_or(Node::Seq(Vec::new()), &node)
+    })
+}
+
+/// [`list`] of numbers, each read from where it lies as it is written.
+fn numbers<'m, T: Number>(
+    items: &'m Numbers<'_, T>,
+    options: &YamlOptions,
+    node: impl Fn(T) -> Node<'m> + 'm,
 ) -> Node<'m> {
     list_of(items.len(), options, move |i| {
         items.get(i).map_or(Node::Seq(Vec::new()), &node)
