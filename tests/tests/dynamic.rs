@@ -9,7 +9,7 @@ use shm_cdr::describe::FullDescription;
 use shm_cdr::describe::{Field, FieldType, TypeDescription, TypeSource};
 use shm_cdr::dynamic::{DynamicType, FieldView, Value};
 use shm_cdr::msgs::{sensor_msgs, std_msgs, test_msgs};
-use shm_cdr::{DecodeErrorKind, RosMessage};
+use shm_cdr::{DecodeErrorKind, Endianness, RosMessage};
 
 fn dynamic<T: RosMessage>() -> DynamicType {
     DynamicType::from_description(&T::full_description()).unwrap()
@@ -63,6 +63,55 @@ fn byte_and_number_arrays_borrow_from_the_input() {
         shared.value("encoding"),
         Some(Value::String(Cow::Owned(_)))
     ));
+}
+
+/// CDR puts an `f64` 4 bytes off the alignment of the buffer it is in: the
+/// numbers are read where they lie, in either byte order, never copied, and
+/// they encode back to the same bytes.
+#[test]
+fn number_arrays_borrow_the_wire_at_any_alignment_in_either_byte_order() {
+    let mut imu = sensor_msgs::msg::Imu::default();
+    imu.header.frame_id = "imu".into();
+    imu.orientation_covariance = std::array::from_fn(|i| i as f64 * 0.5 - 1.0);
+    imu.linear_acceleration_covariance[8] = f64::MAX;
+    let ty = dynamic::<sensor_msgs::msg::Imu>();
+    for order in [Endianness::Little, Endianness::Big] {
+        let bytes = shm_cdr::to_vec_with(&imu, order).unwrap();
+        // Every start within a word: the covariances at every alignment.
+        let mut storage = vec![0u8; bytes.len() + 8];
+        for shift in 0..8 {
+            let input = &mut storage[shift..shift + bytes.len()];
+            input.copy_from_slice(&bytes);
+            let message = ty.decode(input).unwrap();
+            let Some(Value::F64s(covariance)) = message.value("orientation_covariance") else {
+                panic!("not an array of float64");
+            };
+            let (wire, wire_order) = covariance.wire().expect("borrowed, not copied");
+            assert_eq!(wire_order, order);
+            assert_eq!(wire.len(), 9 * 8);
+            assert_eq!(covariance.to_vec(), imu.orientation_covariance);
+            assert_eq!(covariance.get(8), Some(3.0));
+            let Some(Value::F64s(acceleration)) = message.value("linear_acceleration_covariance")
+            else {
+                panic!("not an array of float64");
+            };
+            assert_eq!(acceleration.iter().last(), Some(f64::MAX));
+            assert_eq!(shm_cdr::to_vec_with(&message, order).unwrap(), bytes);
+            // The other order: each number swapped as it is written.
+            let other = match order {
+                Endianness::Little => Endianness::Big,
+                Endianness::Big => Endianness::Little,
+            };
+            assert_eq!(
+                shm_cdr::to_vec_with(&message, other).unwrap(),
+                shm_cdr::to_vec_with(&imu, other).unwrap()
+            );
+            // Owned, the message compares equal and encodes the same.
+            let owned = message.clone().into_owned();
+            assert_eq!(owned, message);
+            assert_eq!(shm_cdr::to_vec_with(&owned, order).unwrap(), bytes);
+        }
+    }
 }
 
 #[test]
@@ -214,7 +263,7 @@ where
                 match (shared, ty.decode_shared(&damaged)) {
                     (Ok(a), Ok(b)) => assert_eq!(shm_cdr::to_vec(&a), shm_cdr::to_vec(&b)),
                     (a, b) => assert_eq!(a.err(), b.err(), "{}", T::TYPE_NAME),
-                }
+                };
             }
         }
     }

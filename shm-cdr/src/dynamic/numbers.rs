@@ -234,8 +234,10 @@ impl<'a, T: Number> Numbers<'a, T> {
         }
     }
 
-    /// Read `n` numbers at the reader, borrowing their bytes where they lie
-    /// in one piece; element by element (copied) where they do not.
+    /// Read `n` numbers at the reader, borrowing their bytes, as the
+    /// generated code reads an array of numbers in the host's order; in
+    /// the other order from input in segments, element by element (copied),
+    /// as the generated code does.
     #[inline]
     pub(crate) fn decode<B: ByteOrder>(r: &mut Reader<'a, B>, n: usize) -> Result<Self, DecodeError>
     where
@@ -245,22 +247,11 @@ impl<'a, T: Number> Numbers<'a, T> {
             // As the generated code: an empty array is not aligned.
             return Ok(Self::default());
         }
-        let at = r.position();
-        let len = n.saturating_mul(size_of::<T>());
-        match r.read_aligned_bytes(size_of::<T>(), len) {
-            Ok(bytes) => Ok(Self {
-                repr: Repr::Wire {
-                    bytes,
-                    order: B::ENDIANNESS,
-                },
-            }),
-            Err(_) => {
-                // Split across segments, or short: element by element, which
-                // crosses segments and reports the exact error.
-                r.rewind(at);
-                T::decode_vec(r, n).map(Self::from)
-            }
+        if !B::NATIVE && !r.is_contiguous() {
+            return T::decode_vec(r, n).map(Self::from);
         }
+        let bytes = r.read_aligned_bytes(size_of::<T>(), n.saturating_mul(size_of::<T>()))?;
+        Ok(Self::on_wire(bytes, B::ENDIANNESS))
     }
 
     /// The bytes of [`encode`](Self::encode) from `start`: none when empty,
