@@ -95,7 +95,7 @@ fn number_arrays_borrow_the_wire_at_any_alignment_in_either_byte_order() {
             else {
                 panic!("not an array of float64");
             };
-            assert_eq!(acceleration.iter().last(), Some(f64::MAX));
+            assert_eq!(acceleration.iter().next_back(), Some(f64::MAX));
             assert_eq!(shm_cdr::to_vec_with(&message, order).unwrap(), bytes);
             // The other order: each number swapped as it is written.
             let other = match order {
