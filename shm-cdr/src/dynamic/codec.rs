@@ -603,9 +603,7 @@ fn singles_at<B: ByteOrder>(
 
 /// The array of `n` numbers of kind `element` at `bytes[offset..]`,
 /// borrowed, pushed onto `slots`; `false` (nothing pushed) if it is not all
-/// there or not of numbers. Each value is built where it is pushed: one
-/// built apart and moved in was copied through the stack in pieces the
-/// processor could not forward, half the time of a small message's decode.
+/// there or not of numbers.
 #[inline]
 fn array_at<'de, B: ByteOrder>(
     bytes: &'de [u8],
