@@ -549,6 +549,14 @@ fn run_values<'de, B: ByteOrder>(
     true
 }
 
+/// The bytes of `count` numbers (or bools) of kind `element` at
+/// `bytes[offset..]`, if they are all there.
+#[inline(always)]
+fn numbers_at(bytes: &[u8], offset: usize, element: Element, count: usize) -> Option<&[u8]> {
+    let len = count.checked_mul(element.fixed_size()?)?;
+    bytes.get(offset..offset.checked_add(len)?)
+}
+
 /// The `count` numbers (or bools) of kind `element` back to back from
 /// `bytes[offset..]`, one value each pushed onto `slots`; `false` (none
 /// pushed) if they are not all there.
@@ -560,13 +568,7 @@ fn singles_at<B: ByteOrder>(
     count: usize,
     slots: &mut Vec<Value<'_>>,
 ) -> bool {
-    let Some(size) = element.fixed_size() else {
-        return false;
-    };
-    let Some(raw) = count
-        .checked_mul(size)
-        .and_then(|len| bytes.get(offset..offset.checked_add(len)?))
-    else {
+    let Some(raw) = numbers_at(bytes, offset, element, count) else {
         return false;
     };
     macro_rules! read {
@@ -612,13 +614,7 @@ fn array_at<'de, B: ByteOrder>(
     n: usize,
     slots: &mut Vec<Value<'de>>,
 ) -> bool {
-    let Some(size) = element.fixed_size() else {
-        return false;
-    };
-    let Some(raw) = n
-        .checked_mul(size)
-        .and_then(|len| bytes.get(offset..offset.checked_add(len)?))
-    else {
+    let Some(raw) = numbers_at(bytes, offset, element, n) else {
         return false;
     };
     let order = B::ENDIANNESS;

@@ -40,30 +40,27 @@ pub trait Number:
 }
 
 macro_rules! number {
-    ($($t:ty),*) => {$(
+    ($($t:ty: |$x:ident| $swapped:expr),* $(,)?) => {$(
         impl sealed::Sealed for $t {}
         impl Number for $t {
             #[inline(always)]
             fn swapped(self) -> Self {
-                self.swap_bytes()
+                let $x = self;
+                $swapped
             }
         }
     )*};
 }
-number!(i16, u16, i32, u32, i64, u64);
-
-macro_rules! float {
-    ($($t:ty),*) => {$(
-        impl sealed::Sealed for $t {}
-        impl Number for $t {
-            #[inline(always)]
-            fn swapped(self) -> Self {
-                <$t>::from_bits(self.to_bits().swap_bytes())
-            }
-        }
-    )*};
-}
-float!(f32, f64);
+number!(
+    i16: |x| x.swap_bytes(),
+    u16: |x| x.swap_bytes(),
+    i32: |x| x.swap_bytes(),
+    u32: |x| x.swap_bytes(),
+    i64: |x| x.swap_bytes(),
+    u64: |x| x.swap_bytes(),
+    f32: |x| f32::from_bits(x.to_bits().swap_bytes()),
+    f64: |x| f64::from_bits(x.to_bits().swap_bytes()),
+);
 
 /// The host's byte order.
 const HOST: Endianness = if cfg!(target_endian = "little") {

@@ -214,6 +214,16 @@ impl<'a> Slots<'a> {
     pub(crate) fn take(&mut self) -> Vec<Value<'a>> {
         std::mem::take(&mut self.values)
     }
+
+    /// The values with everything they borrow copied.
+    fn into_owned(mut self) -> Slots<'static> {
+        Slots::from(
+            self.take()
+                .into_iter()
+                .map(Value::into_owned)
+                .collect::<Vec<_>>(),
+        )
+    }
 }
 
 impl<'a> From<Vec<Value<'a>>> for Slots<'a> {
@@ -612,17 +622,11 @@ impl<'a> Message<'a> {
     }
 
     /// The message with everything it borrows copied.
-    pub fn into_owned(mut self) -> Message<'static> {
+    pub fn into_owned(self) -> Message<'static> {
         Message {
             ty: self.ty,
             index: self.index,
-            slots: Slots::from(
-                self.slots
-                    .take()
-                    .into_iter()
-                    .map(Value::into_owned)
-                    .collect::<Vec<_>>(),
-            ),
+            slots: self.slots.into_owned(),
             cut: self.cut,
         }
     }
@@ -739,18 +743,12 @@ impl<'a> Messages<'a> {
     }
 
     /// The messages with everything they borrow copied.
-    pub fn into_owned(mut self) -> Messages<'static> {
+    pub fn into_owned(self) -> Messages<'static> {
         Messages {
             ty: self.ty,
             index: self.index,
             len: self.len,
-            slots: Slots::from(
-                self.slots
-                    .take()
-                    .into_iter()
-                    .map(Value::into_owned)
-                    .collect::<Vec<_>>(),
-            ),
+            slots: self.slots.into_owned(),
             cut: self.cut,
         }
     }
