@@ -240,12 +240,12 @@ impl DynamicType {
                     slots.push(Value::String(s))
                 }
                 &Step::Numbers { check, .. } => {
-                    *holds = true;
-                    self.decode_check(r, check, None, slots, cut, keep)?
+                    self.decode_check(r, check, None, slots, cut, keep)?;
+                    *holds |= slots.last().is_some_and(|v| !v.holds_nothing());
                 }
                 &Step::Value { check, element, .. } => {
-                    *holds = true;
-                    self.decode_check(r, check, Some(element), slots, cut, keep)?
+                    self.decode_check(r, check, Some(element), slots, cut, keep)?;
+                    *holds |= slots.last().is_some_and(|v| !v.holds_nothing());
                 }
                 &Step::Nested { index, .. } => {
                     self.decode_struct(r, index, slots, cut, keep, holds)?
