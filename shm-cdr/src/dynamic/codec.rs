@@ -571,9 +571,11 @@ fn singles_at<B: ByteOrder>(
     let Some(raw) = numbers_at(bytes, offset, element, count) else {
         return false;
     };
+    // Most runs read their singles one at a time (a field, then one of
+    // another kind): a lone value is pushed without the loop's set-up.
     macro_rules! read {
-        ($t:ty, $variant:ident) => {
-            slots.extend(raw.chunks_exact(std::mem::size_of::<$t>()).map(|chunk| {
+        ($t:ty, $variant:ident) => {{
+            let value = |chunk: &[u8]| {
                 let mut wire = [0u8; std::mem::size_of::<$t>()];
                 wire.copy_from_slice(chunk);
                 Value::$variant(if B::LITTLE {
@@ -581,14 +583,23 @@ fn singles_at<B: ByteOrder>(
                 } else {
                     <$t>::from_be_bytes(wire)
                 })
-            }))
-        };
+            };
+            if count == 1 {
+                slots.push(value(raw))
+            } else {
+                slots.extend(raw.chunks_exact(std::mem::size_of::<$t>()).map(value))
+            }
+        }};
     }
     match element {
-        Element::Bool => slots.extend(raw.iter().map(|&b| Value::Bool(b != 0))),
-        Element::Byte | Element::Char | Element::U8 => {
-            slots.extend(raw.iter().map(|&b| Value::U8(b)))
-        }
+        Element::Bool => match raw {
+            &[b] => slots.push(Value::Bool(b != 0)),
+            _ => slots.extend(raw.iter().map(|&b| Value::Bool(b != 0))),
+        },
+        Element::Byte | Element::Char | Element::U8 => match raw {
+            &[b] => slots.push(Value::U8(b)),
+            _ => slots.extend(raw.iter().map(|&b| Value::U8(b))),
+        },
         Element::I8 => read!(i8, I8),
         Element::I16 => read!(i16, I16),
         Element::U16 => read!(u16, U16),

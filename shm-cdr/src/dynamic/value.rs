@@ -262,14 +262,30 @@ impl PartialEq for Slots<'_> {
 impl Drop for Slots<'_> {
     #[allow(unsafe_code)]
     fn drop(&mut self) {
-        if self.plain || self.values.iter().all(Value::holds_nothing) {
-            // SAFETY: 0 is within the capacity. The values in 0..len hold
-            // nothing (no heap memory, nothing with a drop of its own): the
-            // check above says so for each, or decoding did when it set
-            // `plain`, which every change clears. Not running their drops
-            // therefore loses nothing, and the `Vec`'s own drop, after this,
-            // frees the buffer.
-            unsafe { self.values.set_len(0) }
+        let len = self.values.len();
+        let values = self.values.as_mut_ptr();
+        // SAFETY: 0 is within the capacity. From here the `Vec` owns no
+        // value, so if a value's drop below panics, the `Vec`'s own drop
+        // (which frees the buffer after this) cannot drop one twice: the
+        // values not yet dropped leak instead.
+        unsafe { self.values.set_len(0) }
+        if self.plain {
+            // Decoding saw every value hold nothing (no heap memory, nothing
+            // with a drop of its own) and every change clears `plain`: there
+            // is nothing to drop.
+            return;
+        }
+        for i in 0..len {
+            // SAFETY: `i < len`, the number of initialized values the `Vec`
+            // held; each is visited once and dropped at most once. A value
+            // that holds nothing has a drop that does nothing: skipping it
+            // only saves the call.
+            let value = unsafe { &mut *values.add(i) };
+            if !value.holds_nothing() {
+                // SAFETY: `value` is initialized, dropped here once and never
+                // used again (the `Vec`'s length is 0).
+                unsafe { std::ptr::drop_in_place(value) }
+            }
         }
     }
 }
