@@ -349,7 +349,7 @@ fn a_type_source_of_megabytes_is_not_kept() {
             .handler(move |_| GetTypeDescription_Response {
                 successful: true,
                 failure_reason: String::new(),
-                type_description: Battery::full_description().to_msg(),
+                type_description: (&Battery::full_description()).into(),
                 type_sources: vec![TypeSource {
                     type_name: Battery::TYPE_NAME.into(),
                     encoding: "msg".into(),

@@ -65,7 +65,7 @@ pub trait RosMessage: CdrEncode + RosElement {
     where
         Self: Sized,
     {
-        FullDescription::of_message::<Self>()
+        FullDescription::collect(Self::type_description(), Self::register_types)
     }
 }
 

@@ -4,7 +4,7 @@ use std::io::Write;
 
 use clap::Subcommand;
 use shm_cdr::dynamic::{python_float, YamlValue};
-use shm_codegen::python::string_repr;
+use shm_interface::python::string_repr;
 use shm_runtime::parameters::{ParameterClient, ParameterOverrides, ParameterValue};
 
 use crate::context::Context;

@@ -5,7 +5,7 @@ use std::borrow::Cow;
 
 use shm_cdr::describe::Container;
 use shm_cdr::dynamic::{python_float, DynamicType, Element, Field, FieldDef, MessageRef, Value};
-use shm_codegen::python::string_repr;
+use shm_interface::python::string_repr;
 
 /// Python's `repr` of a one-byte `bytes`.
 pub(crate) fn bytes_repr(b: u8) -> String {

@@ -186,7 +186,12 @@ fn run_time_typed_endpoints_are_described_by_their_node() {
         BoundedSequences::full_description(),
     ] {
         let ty = DynamicType::from_description(&full).unwrap();
-        assert_eq!(ty.to_type_description_msg(), full.to_msg(), "{}", ty.name());
+        assert_eq!(
+            ty.to_type_description_msg(),
+            (&full).into(),
+            "{}",
+            ty.name()
+        );
     }
 
     let (a, b, _) = loopback_sessions();
@@ -222,7 +227,7 @@ fn run_time_typed_endpoints_are_described_by_their_node() {
     };
     let reply = ask(&imu);
     assert!(reply.successful, "{}", reply.failure_reason);
-    assert_eq!(reply.type_description, Imu::full_description().to_msg());
+    assert_eq!(reply.type_description, (&Imu::full_description()).into());
     let source = |name: &str| {
         reply
             .type_sources
@@ -237,7 +242,7 @@ fn run_time_typed_endpoints_are_described_by_their_node() {
 
     let reply = ask(&header);
     assert!(reply.successful, "{}", reply.failure_reason);
-    assert_eq!(reply.type_description, Header::full_description().to_msg());
+    assert_eq!(reply.type_description, (&Header::full_description()).into());
 
     drop(publisher);
     drop(subscriber);

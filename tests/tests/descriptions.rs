@@ -2,7 +2,7 @@
 //! type-description service reports them (compared with rosidl's `.json` files
 //! and interface files in `tests/ros2/check.py`).
 
-use shm_cdr::describe::{FullDescription, TypeSource};
+use shm_cdr::describe::TypeSource;
 use shm_cdr::msgs::{geometry_msgs, std_msgs, std_srvs, test_msgs};
 use shm_cdr::{BoundedString, BoundedVec, RosMessage, RosService};
 
@@ -51,8 +51,8 @@ fn generated_types_carry_their_file_and_every_form_the_same() {
 
     // The borrowing form names the owned form's source: same full description.
     assert_eq!(
-        FullDescription::of_message::<std_msgs::msg::HeaderRef<'static>>(),
-        FullDescription::of_message::<std_msgs::msg::Header>()
+        std_msgs::msg::HeaderRef::<'static>::full_description(),
+        std_msgs::msg::Header::full_description()
     );
     assert_eq!(
         test_msgs::msg::StringsRef::full_description(),

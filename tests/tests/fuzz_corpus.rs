@@ -104,7 +104,10 @@ fn write_seed_corpora() {
         };
         let file = name.replace('/', "-");
         let payload = shm_cdr::to_vec(&ty.default_message()).unwrap();
-        let described = shm_cdr::to_vec(&description.to_msg()).unwrap();
+        let described = shm_cdr::to_vec(
+            &shm_cdr::msgs::type_description_interfaces::msg::TypeDescription::from(&description),
+        )
+        .unwrap();
         write("type_description", &file, &join(&described, &payload));
         if let Ok(pick) = u8::try_from(i) {
             let mut text = vec![pick];

@@ -44,8 +44,9 @@ pub use model::{DynamicType, Element, FieldDef, StructDef, TypeError};
 pub use numbers::{Iter as NumbersIter, Number, Numbers};
 #[cfg(feature = "serde")]
 pub use serde_impl::SerializeCdr;
+pub use shm_interface::python::python_float;
 pub use value::{Field, Message, MessageRef, Messages, Value, ValueError};
 pub use view::{FieldView, MessageView, SequenceView, StructView, ValueView};
 #[cfg(feature = "yaml")]
 pub use yaml_in::TextError;
-pub use yaml_out::{python_float, YamlOptions, YamlValue};
+pub use yaml_out::{YamlOptions, YamlValue};

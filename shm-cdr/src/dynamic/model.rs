@@ -6,7 +6,7 @@ use std::fmt;
 use std::sync::Arc;
 
 use super::limits::{TypeLimits, MAX_FIELDS_PER_BYTE};
-use crate::describe::{self, Container, DescribedField, FullDescription, TypeId};
+use crate::describe::{self, Container, ContainerKind, DescribedField, FullDescription, TypeId};
 use crate::text_limits::quoted;
 
 /// What one element of a field is.
@@ -874,17 +874,21 @@ fn field_kind(
     f: &DescribedField<'_>,
     index: &HashMap<&str, usize>,
 ) -> Result<(Element, Container), String> {
-    let (base, container) = match f.type_id {
-        0 => return Err("type_id 0 (not set)".into()),
-        id @ 1..=48 => (id, Container::Single),
-        id @ 49..=96 => (id - 48, Container::Array(array_len(f.capacity)?)),
-        id @ 97..=144 => (id - 96, Container::BoundedSequence(count(f.capacity)?)),
-        id @ 145..=192 => (id - 144, Container::Sequence),
-        id => return Err(format!("unknown type_id {id}")),
+    let Some((id, kind)) = describe::split_type_id(f.type_id) else {
+        return Err(match f.type_id {
+            0 => "type_id 0 (not set)".into(),
+            id => format!("unknown type_id {id}"),
+        });
+    };
+    let container = match kind {
+        ContainerKind::Single => Container::Single,
+        ContainerKind::Array => Container::Array(array_len(f.capacity)?),
+        ContainerKind::BoundedSequence => Container::BoundedSequence(count(f.capacity)?),
+        ContainerKind::Sequence => Container::Sequence,
     };
     let bound = || count(f.string_capacity);
-    let element = match base {
-        x if x == TypeId::Nested as u8 => match index.get(f.nested_type_name) {
+    let element = match TypeId::from_element_id(id)? {
+        TypeId::Nested => match index.get(f.nested_type_name) {
             Some(&i) => Element::Message(i),
             None => {
                 return Err(format!(
@@ -893,27 +897,24 @@ fn field_kind(
                 ))
             }
         },
-        x if x == TypeId::Int8 as u8 => Element::I8,
-        x if x == TypeId::Uint8 as u8 => Element::U8,
-        x if x == TypeId::Int16 as u8 => Element::I16,
-        x if x == TypeId::Uint16 as u8 => Element::U16,
-        x if x == TypeId::Int32 as u8 => Element::I32,
-        x if x == TypeId::Uint32 as u8 => Element::U32,
-        x if x == TypeId::Int64 as u8 => Element::I64,
-        x if x == TypeId::Uint64 as u8 => Element::U64,
-        x if x == TypeId::Float32 as u8 => Element::F32,
-        x if x == TypeId::Float64 as u8 => Element::F64,
-        x if x == TypeId::Char as u8 => Element::Char,
-        x if x == TypeId::Boolean as u8 => Element::Bool,
-        x if x == TypeId::Byte as u8 => Element::Byte,
-        x if x == TypeId::String as u8 => Element::String(None),
-        x if x == TypeId::WString as u8 => Element::WString(None),
-        x if x == TypeId::BoundedString as u8 => Element::String(Some(bound()?)),
-        x if x == TypeId::BoundedWString as u8 => Element::WString(Some(bound()?)),
-        12 => return Err("long double (type_id 12) has no CDR mapping in ROS 2".into()),
-        14 => return Err("wchar (type_id 14) is not supported".into()),
-        19 | 20 => return Err("fixed-size strings (IDL) are not supported".into()),
-        x => return Err(format!("unknown element type_id {x}")),
+        TypeId::Int8 => Element::I8,
+        TypeId::Uint8 => Element::U8,
+        TypeId::Int16 => Element::I16,
+        TypeId::Uint16 => Element::U16,
+        TypeId::Int32 => Element::I32,
+        TypeId::Uint32 => Element::U32,
+        TypeId::Int64 => Element::I64,
+        TypeId::Uint64 => Element::U64,
+        TypeId::Float32 => Element::F32,
+        TypeId::Float64 => Element::F64,
+        TypeId::Char => Element::Char,
+        TypeId::Boolean => Element::Bool,
+        TypeId::Byte => Element::Byte,
+        TypeId::String => Element::String(None),
+        TypeId::WString => Element::WString(None),
+        TypeId::BoundedString => Element::String(Some(bound()?)),
+        TypeId::BoundedWString => Element::WString(Some(bound()?)),
+        TypeId::WChar => return Err("wchar (type_id 14) is not supported".into()),
     };
     Ok((element, container))
 }

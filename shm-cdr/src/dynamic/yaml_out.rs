@@ -14,6 +14,7 @@ use super::model::{Element, FieldDef};
 use super::numbers::{Number, Numbers};
 use super::value::{Field, Message, MessageRef, Value};
 use crate::describe::Container;
+use shm_interface::python::python_float;
 
 /// How [`Message::to_yaml_with`] writes a message: the options of
 /// `ros2 topic echo` (and rosidl_runtime_py's `message_to_yaml`).
@@ -417,73 +418,14 @@ pub(crate) fn yaml_float(x: f64) -> String {
     if x.is_infinite() {
         return if x > 0.0 { ".inf" } else { "-.inf" }.into();
     }
-    let mut out = python_repr(x);
+    // Finite here: Python's repr of it.
+    let mut out = python_float(x);
     if !out.contains('.') {
         if let Some(e) = out.find('e') {
             out.insert_str(e, ".0");
         }
     }
     out
-}
-
-/// A float as Python's `repr` (and `str`, and so ROS 2's Python tools) writes
-/// it: the shortest digits that read back to it, in positional notation when
-/// the decimal exponent is from -4 to 15, else in scientific notation with a
-/// signed exponent of at least two digits; `inf`, `-inf`, `nan`.
-///
-/// ```
-/// use shm_cdr::dynamic::python_float;
-///
-/// assert_eq!(python_float(1.0), "1.0");
-/// assert_eq!(python_float(1e-5), "1e-05");
-/// assert_eq!(python_float(f64::from(0.1f32)), "0.10000000149011612");
-/// ```
-pub fn python_float(x: f64) -> String {
-    if x.is_nan() {
-        return "nan".into();
-    }
-    if x.is_infinite() {
-        return if x > 0.0 { "inf" } else { "-inf" }.into();
-    }
-    python_repr(x)
-}
-
-/// [`python_float`] of a finite float.
-fn python_repr(x: f64) -> String {
-    // Rust's `{:e}` finds how many digits read back to `x`; of the strings
-    // of that many digits, Python takes the one nearest to `x`, a tie to the
-    // even digit, which is Rust's exact formatting at that precision.
-    let shortest = format!("{:e}", x.abs());
-    let count = shortest
-        .split('e')
-        .next()
-        .map_or(1, |m| m.chars().filter(char::is_ascii_digit).count());
-    let sci = format!("{:.*e}", count.saturating_sub(1), x.abs());
-    let (mantissa, exponent) = sci.split_once('e').unwrap_or((sci.as_str(), "0"));
-    let exponent: i32 = exponent.parse().unwrap_or(0);
-    let digits: String = mantissa.chars().filter(|c| *c != '.').collect();
-    let sign = if x.is_sign_negative() { "-" } else { "" };
-    // The position of the decimal point after the first digit.
-    let point = exponent + 1;
-    if !(-3..=16).contains(&point) {
-        let (first, rest) = digits.split_at(1);
-        let fraction = if rest.is_empty() {
-            String::new()
-        } else {
-            format!(".{rest}")
-        };
-        let exp_sign = if exponent < 0 { '-' } else { '+' };
-        return format!("{sign}{first}{fraction}e{exp_sign}{:02}", exponent.abs());
-    }
-    let len = digits.len() as i32;
-    if point <= 0 {
-        format!("{sign}0.{}{digits}", "0".repeat((-point) as usize))
-    } else if point >= len {
-        format!("{sign}{digits}{}.0", "0".repeat((point - len) as usize))
-    } else {
-        let (int, frac) = digits.split_at(point as usize);
-        format!("{sign}{int}.{frac}")
-    }
 }
 
 /// Whether PyYAML's resolver would read `s`, written plain, as something

@@ -53,7 +53,7 @@ pub(crate) struct Described {
 impl Described {
     fn of_full(description: &FullDescription) -> Self {
         Self {
-            description: description.to_msg(),
+            description: description.into(),
             sources: description
                 .sources()
                 .map(|(type_name, encoding, text)| td::TypeSource {

@@ -12,6 +12,7 @@ pub use client::ParameterClient;
 pub use overrides::{OverrideError, ParameterOverrides};
 use std::fmt;
 
+use shm_cdr::dynamic::python_float;
 use shm_cdr::msgs::rcl_interfaces::msg as rcl;
 
 pub(crate) use services::ParameterServer;
@@ -146,7 +147,7 @@ impl fmt::Display for ParameterValue {
             Self::NotSet => f.write_str("not set"),
             Self::Bool(v) => write!(f, "{v}"),
             Self::Integer(v) => write!(f, "{v}"),
-            Self::Double(v) => f.write_str(&py_float(*v)),
+            Self::Double(v) => f.write_str(&python_float(*v)),
             Self::String(v) => f.write_str(v),
             Self::ByteArray(v) => write!(f, "{v:?}"),
             Self::BoolArray(v) => write!(f, "{v:?}"),
@@ -326,53 +327,9 @@ impl fmt::Display for ParameterError {
 
 impl std::error::Error for ParameterError {}
 
-/// A double as Python's `repr` prints it, for reasons in rclpy's words:
-/// `1.0`, `0.1`, `1e-05`, `1e+16`.
-pub(crate) fn py_float(v: f64) -> String {
-    if v.is_nan() {
-        return "nan".into();
-    }
-    if v.is_infinite() {
-        return if v > 0.0 { "inf" } else { "-inf" }.into();
-    }
-    // Rust's `{:e}` gives the shortest round-trip digits, as Python's repr.
-    let scientific = format!("{v:e}");
-    let Some((mantissa, exponent)) = scientific.split_once('e') else {
-        return scientific;
-    };
-    let exponent: i32 = exponent.parse().unwrap_or(0);
-    if (-4..16).contains(&exponent) {
-        let fixed = format!("{v}");
-        if fixed.contains('.') {
-            fixed
-        } else {
-            format!("{fixed}.0")
-        }
-    } else {
-        let sign = if exponent < 0 { '-' } else { '+' };
-        format!("{mantissa}e{sign}{:02}", exponent.abs())
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn doubles_print_as_python_repr_prints_them() {
-        for (v, text) in [
-            (1.0, "1.0"),
-            (0.1, "0.1"),
-            (-2.5, "-2.5"),
-            (1e-5, "1e-05"),
-            (0.0001, "0.0001"),
-            (1e16, "1e+16"),
-            (123456789012345.0, "123456789012345.0"),
-            (1.5e300, "1.5e+300"),
-        ] {
-            assert_eq!(py_float(v), text);
-        }
-    }
 
     #[test]
     fn values_go_to_messages_and_back() {

@@ -1,8 +1,9 @@
 //! The parameters of one node and rclpy's rules for changing them.
 
+use shm_cdr::dynamic::python_float;
 use shm_cdr::msgs::rcl_interfaces::msg as rcl;
 
-use super::{py_float, type_name, ParameterDescriptor, ParameterError, ParameterValue};
+use super::{type_name, ParameterDescriptor, ParameterError, ParameterValue};
 
 /// The outcome of a set, as `rcl_interfaces/msg/SetParametersResult` says it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -372,9 +373,9 @@ fn check_range(name: &str, value: &ParameterValue, descriptor: &ParameterDescrip
             if !(min < v && v < max) {
                 return SetResult::refused(format!(
                     "Parameter {name} out of range Min: {}, Max: {}, value: {}",
-                    py_float(min),
-                    py_float(max),
-                    py_float(v)
+                    python_float(min),
+                    python_float(max),
+                    python_float(v)
                 ));
             }
             if range.step != 0.0 {
@@ -382,10 +383,10 @@ fn check_range(name: &str, value: &ParameterValue, descriptor: &ParameterDescrip
                 if !is_close(min + steps * range.step, v) {
                     return SetResult::refused(format!(
                         "The parameter value for {name} is not close enough to a valid step. Min: {}, max: {}, value: {}, step: {}",
-                        py_float(min),
-                        py_float(max),
-                        py_float(v),
-                        py_float(range.step)
+                        python_float(min),
+                        python_float(max),
+                        python_float(v),
+                        python_float(range.step)
                     ));
                 }
             }
