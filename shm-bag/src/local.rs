@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value as Json};
 use shm_cdr::dynamic::DynamicType;
-use shm_codegen::ast::{BaseType, Container, Message, Primitive};
+use shm_interface::ast::{BaseType, Container, Message, Primitive};
 
 use crate::definition;
 use crate::types::{standard, Kind, ResolvedType};
@@ -48,7 +48,7 @@ impl LocalInterfaces {
                 found
             };
             for package in packages {
-                let package = shm_codegen::load_package(&package)
+                let package = shm_interface::load_package(&package)
                     .map_err(|e| format!("interface files: {e}"))?;
                 for message in package.all_messages() {
                     out.messages.insert(message.ty.full_name(), message.clone());
@@ -75,7 +75,7 @@ impl LocalInterfaces {
                 }
             };
             let file = PathBuf::from(format!("{package}/msg/{short}.msg"));
-            let message = shm_codegen::parse::parse_message(text, &file, package, short)
+            let message = shm_interface::parse::parse_message(text, &file, package, short)
                 .map_err(|e| format!("the definition of {type_name}: {e}"))?;
             out.messages.insert(full, message);
         }
@@ -196,7 +196,7 @@ fn individual(message: &Message) -> Json {
                     "string_capacity": string_capacity,
                     "nested_type_name": nested,
                 },
-                "default_value": f.default.as_ref().map(shm_codegen::python::description_default).unwrap_or_default(),
+                "default_value": f.default.as_ref().map(shm_interface::python::description_default).unwrap_or_default(),
             })
         })
         .collect();

@@ -30,10 +30,11 @@
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
-pub mod ast;
-pub mod parse;
-pub mod python;
 pub mod rust;
+
+/// The interface files' model and reader live in `shm-interface`, below every
+/// crate that reads an interface; re-exported where this crate kept them.
+pub use shm_interface::{ast, parse, python};
 
 use std::path::{Path, PathBuf};
 

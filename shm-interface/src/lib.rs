@@ -8,7 +8,9 @@
 //! it ([`type_id`], [`split_type_id`]). From a description come the text
 //! rosidl hashes and its `RIHS01` hash ([`FullDescription::type_hash`]),
 //! the `.msg` text it could be read from ([`msg_text`]), and default values
-//! as rosidl writes them ([`python`]).
+//! as rosidl writes them ([`python`]). Interface files are read as
+//! rosidl_adapter reads them ([`parse`], into the tree of [`ast`]), with an
+//! error that names the file, the line and what to write.
 //!
 //! ```
 //! use shm_interface::{Field, FieldType, FullDescription, TypeDescription, TypeId, TypeSource};
@@ -34,9 +36,11 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod ast;
 mod description;
 mod json;
 mod msg_text;
+pub mod parse;
 pub mod python;
 mod type_id;
 
