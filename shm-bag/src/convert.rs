@@ -9,7 +9,7 @@ use regex::Regex;
 use shm_runtime::rmw::Distro;
 
 use crate::metadata::TopicMetadata;
-use crate::player::RecordedTopic;
+use crate::storage::RecordedTopic;
 use crate::{qos, types, Bag, BagMetadata, BagWriter, Error, WriteOptions};
 
 /// What to convert and how to write it.

@@ -18,6 +18,7 @@
 //! - [`convert`]: bags of any storage into one MCAP bag.
 //! - [`BagWriter`] and [`BagMetadata`]: the files themselves.
 
+mod bag;
 mod chunk;
 mod control;
 mod convert;
@@ -25,6 +26,7 @@ mod player;
 mod recorder;
 mod reindex;
 mod split_events;
+mod standard;
 mod storage;
 mod writer;
 
@@ -44,13 +46,14 @@ pub mod interfaces {
 pub use control::PlayerControl;
 pub use convert::{convert, ConvertOptions, Converted};
 pub use metadata::BagMetadata;
-pub use player::{Bag, ClockTrigger, PlayOptions, PlayStats, Player, RecordedTopic};
+pub use bag::Bag;
+pub use player::{ClockTrigger, PlayOptions, PlayStats, Player};
 pub use recorder::{
     service_of_event_topic, ChannelStats, RecordOptions, RecordStats, Recorder, RecorderControl,
     Selection, TypeDefinition, MAX_DEFINITION, MAX_NODE_DEFINITIONS,
 };
 pub use reindex::{reindex, FileReport, Reindexed};
-pub use storage::{BagMessage, Storage};
+pub use storage::{BagMessage, RecordedTopic, Storage};
 pub use writer::{BagWriter, Compression, FileSplit, TopicId, WriteOptions};
 
 /// A failure to report: the message says what happened and what to do.

@@ -11,7 +11,7 @@ use shm_cdr::dynamic::DynamicType;
 use shm_interface::ast::{BaseType, Container, Message, Primitive};
 
 use crate::definition;
-use crate::types::{standard, Kind, ResolvedType};
+use crate::standard::{full_name, standard, Kind, ResolvedType};
 use crate::Error;
 
 /// The message types of interface packages on disk, by `pkg/msg/Name` (and
@@ -64,7 +64,7 @@ impl LocalInterfaces {
     pub fn from_definition(type_name: &str, text: &str) -> Result<Self, Error> {
         let mut out = Self::default();
         for (name, text) in definition::split(type_name, text) {
-            let full = crate::types::full_name(name);
+            let full = full_name(name);
             let (package, short) = match full.split('/').collect::<Vec<_>>()[..] {
                 [package, "msg", short] => (package, short),
                 _ => {

@@ -15,7 +15,7 @@ use mcap::records::{MessageHeader, Record};
 use crate::metadata::{
     BagMetadata, FileInformation, Nanoseconds, NanosecondsSinceEpoch, FILE_NAME,
 };
-use crate::player::Bag;
+use crate::bag::Bag;
 use crate::writer::ChannelCopy;
 use crate::Error;
 

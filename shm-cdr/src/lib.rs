@@ -34,6 +34,8 @@ use std::marker::PhantomData;
 mod bounded;
 mod decode;
 pub mod describe;
+#[cfg(feature = "type_description_interfaces")]
+mod description_msg;
 #[cfg(feature = "derive")]
 pub mod distro_msgs;
 #[cfg(feature = "derive")]

@@ -6,6 +6,7 @@
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 
+use crate::described::DescribedField;
 pub use crate::type_id::{Container, TypeId};
 
 /// The type of one field, as it enters the type hash.
@@ -258,27 +259,6 @@ impl TypeRegistry {
     }
 }
 
-/// One field as a type description states it, whoever holds the description
-/// (a compiled type's [`Field`], a `type_description_interfaces/Field`
-/// message, a type built at run time): what the JSON, the hash and the `.msg`
-/// text are written from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct DescribedField<'a> {
-    /// The field's name.
-    pub name: &'a str,
-    /// Its numeric type ([`crate::type_id`]).
-    pub type_id: u8,
-    /// The array size or sequence bound, else 0.
-    pub capacity: u64,
-    /// The bound of a bounded (w)string element, else 0.
-    pub string_capacity: u64,
-    /// The `pkg/msg/Name` of a nested message element, else empty.
-    pub nested_type_name: &'a str,
-    /// The default value as rosidl writes it ([`Field::default_value`]), or
-    /// empty.
-    pub default_value: &'a str,
-}
-
 impl<'a> DescribedField<'a> {
     /// A compiled type's field as its description states it.
     pub fn of(field: &'a Field) -> Self {
@@ -312,13 +292,22 @@ impl FullDescription {
 
     /// The text rosidl hashes (no default values).
     pub fn hashed_json(&self) -> String {
-        crate::json::description_json(&self.own, &self.referenced, false)
+        self.json_with(false)
     }
 
     /// The JSON rosidl installs as `type_description_msg` in its `.json` files,
     /// default values included.
     pub fn json(&self) -> String {
-        crate::json::description_json(&self.own, &self.referenced, true)
+        self.json_with(true)
+    }
+
+    fn json_with(&self, defaults: bool) -> String {
+        crate::json::description_json(
+            std::iter::once(&self.own)
+                .chain(&self.referenced)
+                .map(|d| (d.type_name, d.fields.iter().map(DescribedField::of))),
+            defaults,
+        )
     }
 
     /// The `RIHS01` hash.
@@ -337,4 +326,18 @@ impl FullDescription {
             (d.type_name, encoding, text)
         })
     }
+}
+
+/// The exact text rosidl hashes for a type: its description and the
+/// descriptions of the types it references (sorted by name).
+pub fn type_description_json<'a>(
+    description: &'a TypeDescription,
+    referenced: impl IntoIterator<Item = &'a TypeDescription>,
+) -> String {
+    crate::json::description_json(
+        std::iter::once(description)
+            .chain(referenced)
+            .map(|d| (d.type_name, d.fields.iter().map(DescribedField::of))),
+        false,
+    )
 }

@@ -6,15 +6,34 @@ use std::fmt::Write as _;
 
 use sha2::{Digest, Sha256};
 
-use crate::description::{DescribedField, TypeDescription};
+use crate::described::DescribedField;
 
-fn write_type_description(out: &mut String, description: &TypeDescription, defaults: bool) {
-    write_individual_json(
-        out,
-        description.type_name,
-        description.fields.iter().map(DescribedField::of),
-        defaults,
-    );
+/// A full type description's JSON as rosidl writes it: the first of `types`
+/// is the type, the others the types it references, each as its name and
+/// fields (for the hash, the referenced types sorted by name and no
+/// `defaults`; with `defaults`, as rosidl installs it in its `.json` files).
+pub fn description_json<'a, F>(
+    types: impl IntoIterator<Item = (&'a str, F)>,
+    defaults: bool,
+) -> String
+where
+    F: IntoIterator<Item = DescribedField<'a>>,
+{
+    let mut types = types.into_iter();
+    let mut out = String::with_capacity(1024);
+    out.push_str("{\"type_description\": ");
+    if let Some((type_name, fields)) = types.next() {
+        write_individual_json(&mut out, type_name, fields.into_iter(), defaults);
+    }
+    out.push_str(", \"referenced_type_descriptions\": [");
+    for (i, (type_name, fields)) in types.enumerate() {
+        if i > 0 {
+            out.push_str(", ");
+        }
+        write_individual_json(&mut out, type_name, fields.into_iter(), defaults);
+    }
+    out.push_str("]}");
+    out
 }
 
 /// One `IndividualTypeDescription` as rosidl writes it for the hash (or, with
@@ -66,34 +85,6 @@ fn write_json_string(out: &mut String, text: &str) {
         }
     }
     out.push('"');
-}
-
-/// The exact text rosidl hashes for a type: its description and the descriptions of
-/// the types it references.
-pub fn type_description_json<'a>(
-    description: &TypeDescription,
-    referenced: impl IntoIterator<Item = &'a TypeDescription>,
-) -> String {
-    description_json(description, referenced, false)
-}
-
-pub(crate) fn description_json<'a>(
-    description: &TypeDescription,
-    referenced: impl IntoIterator<Item = &'a TypeDescription>,
-    defaults: bool,
-) -> String {
-    let mut out = String::with_capacity(1024);
-    out.push_str("{\"type_description\": ");
-    write_type_description(&mut out, description, defaults);
-    out.push_str(", \"referenced_type_descriptions\": [");
-    for (i, referenced) in referenced.into_iter().enumerate() {
-        if i > 0 {
-            out.push_str(", ");
-        }
-        write_type_description(&mut out, referenced, defaults);
-    }
-    out.push_str("]}");
-    out
 }
 
 /// `RIHS01_` followed by the lowercase hex SHA-256 of `json`.

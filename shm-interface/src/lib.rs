@@ -37,6 +37,7 @@
 #![warn(missing_docs)]
 
 pub mod ast;
+mod described;
 mod description;
 mod json;
 mod msg_text;
@@ -47,6 +48,7 @@ mod type_id;
 pub use description::{
     DescribedField, Field, FieldType, FullDescription, TypeDescription, TypeRegistry, TypeSource,
 };
-pub use json::{rihs01_of_json, type_description_json, write_individual_json};
+pub use description::type_description_json;
+pub use json::{description_json, rihs01_of_json, write_individual_json};
 pub use msg_text::msg_text;
 pub use type_id::{split_type_id, type_id, Container, ContainerKind, TypeId};

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use crate::description::DescribedField;
+use crate::described::DescribedField;
 use crate::type_id::{split_type_id, ContainerKind, TypeId};
 
 /// `.msg` text declaring `fields`, one per line: a description written back

@@ -12,8 +12,7 @@ use std::sync::Arc;
 
 use mcap::records::{op, ChunkHeader, ChunkIndex, Record};
 
-use super::{BagMessage, FileStats, MessageCursor, StorageFile};
-use crate::player::RecordedTopic;
+use super::{BagMessage, FileStats, MessageCursor, RecordedTopic, StorageFile};
 use crate::{qos, Error};
 
 /// One MCAP file, mapped, with its summary.

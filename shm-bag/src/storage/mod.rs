@@ -8,8 +8,26 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::player::RecordedTopic;
+use shm_runtime::rmw::Qos;
+
 use crate::Error;
+
+/// One topic of a recording, as its files describe it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedTopic {
+    /// The topic name.
+    pub name: String,
+    /// `pkg/msg/Name`.
+    pub type_name: String,
+    /// The RIHS01 hash recorded (`topic_type_hash`), or empty.
+    pub type_hash: String,
+    /// The recorded publishers' QoS.
+    pub offered_qos: Vec<Qos>,
+    /// The message encoding (`cdr`).
+    pub message_encoding: String,
+    /// Its messages in all files.
+    pub message_count: u64,
+}
 
 mod mcap_file;
 pub(crate) use mcap_file::map as map_file;

@@ -10,8 +10,7 @@ use std::rc::Rc;
 
 use rusqlite::{Connection, OpenFlags, OptionalExtension};
 
-use super::{BagMessage, FileStats, MessageCursor, StorageFile};
-use crate::player::RecordedTopic;
+use super::{BagMessage, FileStats, MessageCursor, RecordedTopic, StorageFile};
 use crate::{qos, Error};
 
 /// The most messages, and about the most bytes, read from the database at

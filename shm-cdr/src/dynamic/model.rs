@@ -548,24 +548,20 @@ impl DynamicType {
     /// The REP 2011 hash of the type, computed from this model as rosidl
     /// computes it.
     pub fn type_hash(&self) -> String {
-        let mut out = String::with_capacity(1024);
-        out.push_str("{\"type_description\": ");
-        self.write_json(&mut out, 0);
-        out.push_str(", \"referenced_type_descriptions\": [");
-        let mut rest: Vec<usize> = (1..self.inner.structs.len()).collect();
-        rest.sort_by(|&a, &b| self.inner.structs[a].name.cmp(&self.inner.structs[b].name));
+        let structs = &self.inner.structs;
+        let mut rest: Vec<usize> = (1..structs.len()).collect();
+        rest.sort_by(|&a, &b| structs[a].name.cmp(&structs[b].name));
         // Only what the root reaches enters the hash.
         let reached = self.reached_from_root();
-        let mut first = true;
-        for i in rest.into_iter().filter(|i| reached[*i]) {
-            if !first {
-                out.push_str(", ");
-            }
-            first = false;
-            self.write_json(&mut out, i);
-        }
-        out.push_str("]}");
-        describe::rihs01_of_json(&out)
+        let order = std::iter::once(0).chain(rest.into_iter().filter(|i| reached[*i]));
+        let json = describe::description_json(
+            order.map(|i| {
+                let def = &structs[i];
+                (def.name.as_str(), def.fields.iter().map(FieldDef::described))
+            }),
+            false,
+        );
+        describe::rihs01_of_json(&json)
     }
 
     /// One of the types this type uses, as a type of its own: the request
@@ -676,16 +672,6 @@ impl DynamicType {
             type_description: individual(self.root()),
             referenced_type_descriptions: referenced.into_iter().map(individual).collect(),
         }
-    }
-
-    fn write_json(&self, out: &mut String, i: usize) {
-        let def = &self.inner.structs[i];
-        describe::write_individual_json(
-            out,
-            &def.name,
-            def.fields.iter().map(FieldDef::described),
-            false,
-        );
     }
 
     fn reached_from_root(&self) -> Vec<bool> {

@@ -626,14 +626,6 @@ impl RosNode {
         Timer::start(Clock::new(), period, callback)
     }
 
-    /// A `tracing` layer that publishes the application's log on `/rosout`
-    /// under this node's logger name, as rclcpp nodes do (see
-    /// [`RosoutLayer`](crate::RosoutLayer)); install it next to your
-    /// console layer.
-    pub fn rosout_layer(&self) -> zenoh::Result<crate::RosoutLayer> {
-        crate::RosoutLayer::new(self)
-    }
-
     /// The live ROS graph of this node's domain, shared by every node of the
     /// session: made on first use, kept up to date by one liveliness
     /// subscriber, queried from memory (see [`GraphCache`]).

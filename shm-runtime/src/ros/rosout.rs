@@ -181,6 +181,18 @@ impl<S: Subscriber> Layer<S> for RosoutLayer {
     }
 }
 
+// The node's constructor of its layer lives beside the layer: the node
+// knows nothing of `/rosout`.
+impl RosNode {
+    /// A `tracing` layer that publishes the application's log on `/rosout`
+    /// under this node's logger name, as rclcpp nodes do (see
+    /// [`RosoutLayer`]); install it next to your
+    /// console layer.
+    pub fn rosout_layer(&self) -> zenoh::Result<RosoutLayer> {
+        RosoutLayer::new(self)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,0 +1,173 @@
+//! The standard interfaces this crate is built with, by name, as each
+//! distribution defines them: the first place a type is looked for, before
+//! interface files and the nodes that announce it.
+
+use std::collections::BTreeMap;
+use std::sync::OnceLock;
+
+use shm_cdr::describe::FullDescription;
+use shm_cdr::dynamic::DynamicType;
+use shm_cdr::{RosAction, RosMessage, RosService};
+use shm_runtime::rmw::Distro;
+
+use crate::definition;
+
+/// Which kind of interface.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    Message,
+    Service,
+    Action,
+}
+
+/// What the binary knows of a standard interface.
+pub struct Known {
+    pub kind: Kind,
+    pub hash: &'static str,
+    pub describe: fn() -> FullDescription,
+}
+
+/// Every standard message, service and action type, by name, and
+/// rosbag2's own interfaces, which the player serves and the recorder
+/// publishes.
+pub fn standard() -> &'static BTreeMap<&'static str, Known> {
+    static TABLE: OnceLock<BTreeMap<&'static str, Known>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        macro_rules! table {
+            (
+                messages: [$($m:ty),* $(,)?],
+                borrowed: [$(($o:ty, $r:ty)),* $(,)?],
+                services: [$($s:ty),* $(,)?],
+                actions: [$($a:ty),* $(,)?],
+            ) => {{
+                let mut out = BTreeMap::new();
+                $( out.insert(<$m as RosMessage>::TYPE_NAME, Known {
+                    kind: Kind::Message,
+                    hash: <$m as RosMessage>::type_hash(),
+                    describe: <$m as RosMessage>::full_description,
+                }); )*
+                // A service's events (introspection) are messages on a topic.
+                $( out.insert(<<$s as RosService>::Event as RosMessage>::TYPE_NAME, Known {
+                    kind: Kind::Message,
+                    hash: <<$s as RosService>::Event as RosMessage>::type_hash(),
+                    describe: <<$s as RosService>::Event as RosMessage>::full_description,
+                }); )*
+                $( out.insert(<$s as RosService>::TYPE_NAME, Known {
+                    kind: Kind::Service,
+                    hash: <$s as RosService>::type_hash(),
+                    describe: <$s as RosService>::full_description,
+                }); )*
+                $( out.insert(<$a as RosAction>::TYPE_NAME, Known {
+                    kind: Kind::Action,
+                    hash: <$a as RosAction>::type_hash(),
+                    describe: <$a as RosAction>::full_description,
+                }); )*
+                out
+            }};
+        }
+        let mut out = shm_cdr::for_each_interface!(table);
+        {
+            use crate::interfaces::rosbag2_interfaces::{msg, srv};
+            out.extend(table! {
+                messages: [msg::ReadSplitEvent, msg::WriteSplitEvent],
+                borrowed: [],
+                services: [
+                    srv::Burst, srv::GetRate, srv::IsPaused, srv::Pause, srv::PlayNext,
+                    srv::Resume, srv::Seek, srv::SetRate, srv::Snapshot, srv::SplitBagfile,
+                    srv::Stop, srv::TogglePaused,
+                ],
+                actions: [],
+            });
+        }
+        out
+    })
+}
+
+/// The standard messages a distribution defines differently from the
+/// [`standard`] set ([`shm_cdr::distro_msgs`]), with the distributions that
+/// use each.
+fn distro_messages() -> &'static [(Vec<Distro>, Known, &'static str)] {
+    static TABLE: OnceLock<Vec<(Vec<Distro>, Known, &'static str)>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        shm_cdr::distro_msgs::variants()
+            .into_iter()
+            .map(|v| {
+                let distros = v.distros.iter().filter_map(|d| d.parse().ok()).collect();
+                let known = Known {
+                    kind: Kind::Message,
+                    hash: v.type_hash,
+                    describe: v.describe,
+                };
+                (distros, known, v.type_name)
+            })
+            .collect()
+    })
+}
+
+/// The standard message `name` (`pkg/msg/Name`) as `distro` defines it.
+pub(crate) fn standard_message_in(name: &str, distro: Distro) -> Option<&'static Known> {
+    distro_messages()
+        .iter()
+        .find(|(distros, _, n)| *n == name && distros.contains(&distro))
+        .map(|(_, known, _)| known)
+        .or_else(|| standard().get(name).filter(|k| k.kind == Kind::Message))
+}
+
+/// The standard message `name` whose definition an endpoint announcing
+/// `hash` uses: by its hash in any distribution, or on Humble (which has no
+/// hashes) by name as Humble defines it.
+pub(crate) fn standard_message_announced(name: &str, hash: &str) -> Option<&'static Known> {
+    if hash == TYPE_HASH_NOT_SUPPORTED {
+        return standard_message_in(name, Distro::Humble);
+    }
+    distro_messages()
+        .iter()
+        .find(|(_, known, n)| *n == name && known.hash == hash)
+        .map(|(_, known, _)| known)
+        .or_else(|| {
+            standard()
+                .get(name)
+                .filter(|k| k.kind == Kind::Message && k.hash == hash)
+        })
+}
+
+/// `pkg/msg/Name` from what users write: `pkg/msg/Name` or `pkg/Name`.
+pub fn full_name(name: &str) -> String {
+    let parts: Vec<&str> = name.split('/').collect();
+    match parts[..] {
+        [pkg, ty] => format!("{pkg}/msg/{ty}"),
+        _ => name.to_owned(),
+    }
+}
+
+/// A message type resolved for a topic: the run-time type and its complete
+/// definition in rosbag2's `ros2msg` form.
+#[derive(Debug, Clone)]
+pub struct ResolvedType {
+    /// The run-time type (its name and RIHS01 hash are the announced ones).
+    pub ty: DynamicType,
+    /// The `.msg` text of the type and, after rosbag2's delimiters, of every
+    /// type it uses (see [`definition`]).
+    pub definition: String,
+}
+
+/// A standard interface by name (`pkg/msg/Name`, `pkg/srv/Name`,
+/// `pkg/action/Name`), as `distro` defines it and words its files.
+pub fn standard_description(name: &str, distro: Distro) -> Option<(Kind, FullDescription)> {
+    let known = standard_message_in(name, distro).or_else(|| standard().get(name))?;
+    let description = shm_cdr::distro_msgs::with_sources_of(distro.name(), (known.describe)());
+    Some((known.kind, description))
+}
+
+/// A standard message type by name (`pkg/msg/Name` or `pkg/Name`), as
+/// `distro` defines it.
+pub fn standard_message(name: &str, distro: Distro) -> Option<ResolvedType> {
+    let (_, description) = standard_description(&full_name(name), distro)
+        .filter(|(kind, _)| *kind == Kind::Message)?;
+    let ty = DynamicType::from_description(&description).ok()?;
+    Some(ResolvedType {
+        ty,
+        definition: definition::of_description(&description),
+    })
+}
+
