@@ -4,10 +4,10 @@
 use std::collections::{BTreeMap, BinaryHeap, HashMap};
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use crate::metadata::BagMetadata;
 use crate::qos;
-use crate::split_events::SplitEvents;
 use crate::storage::{BagMessage, Compressed, MessageCursor, RecordedTopic, Storage, StorageFile};
 use crate::Error;
 
@@ -30,7 +30,7 @@ use crate::Error;
 /// ```
 #[derive(Debug)]
 pub struct Bag {
-    files: Vec<PathBuf>,
+    pub(crate) files: Vec<PathBuf>,
     /// Each file's storage.
     storages: Vec<Storage>,
     /// Each file's compression by rosbag2 (whole file, or each message).
@@ -159,7 +159,9 @@ impl Bag {
         self.metadata.as_ref()
     }
 
-    fn open_files(&self) -> impl Iterator<Item = Result<Box<dyn StorageFile>, Error>> + '_ {
+    pub(crate) fn open_files(
+        &self,
+    ) -> impl Iterator<Item = Result<Box<dyn StorageFile>, Error>> + '_ {
         (0..self.files.len()).map(|index| self.open_file(index))
     }
 

@@ -43,10 +43,10 @@ pub mod interfaces {
     include!(concat!(env!("OUT_DIR"), "/rosbag2_interfaces.rs"));
 }
 
+pub use bag::Bag;
 pub use control::PlayerControl;
 pub use convert::{convert, ConvertOptions, Converted};
 pub use metadata::BagMetadata;
-pub use bag::Bag;
 pub use player::{ClockTrigger, PlayOptions, PlayStats, Player};
 pub use recorder::{
     service_of_event_topic, ChannelStats, RecordOptions, RecordStats, Recorder, RecorderControl,

@@ -48,7 +48,7 @@ impl LocalInterfaces {
                 found
             };
             for package in packages {
-                let package = shm_interface::load_package(&package)
+                let package = shm_interface::parse::load_package(&package)
                     .map_err(|e| format!("interface files: {e}"))?;
                 for message in package.all_messages() {
                     out.messages.insert(message.ty.full_name(), message.clone());

@@ -2,11 +2,10 @@
 //! recorded type and QoS, each message at its recorded time (scaled by a
 //! rate), from an exact-size shared-memory buffer when it is large.
 
-use std::collections::{BTreeMap, BinaryHeap, HashMap};
+use std::collections::{BTreeMap, HashMap};
 use std::ops::ControlFlow;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use shm_cdr::dynamic::DynamicType;
@@ -19,15 +18,13 @@ use shm_runtime::{
 };
 use zenoh::Wait;
 
+use crate::bag::Bag;
 use crate::control::{Due, PlayerControl};
 use crate::definition;
 use crate::interfaces::rosbag2_interfaces::msg::ReadSplitEvent;
 use crate::local::LocalInterfaces;
-use crate::metadata::BagMetadata;
-use crate::qos;
 use crate::split_events::SplitEvents;
-use crate::bag::Bag;
-use crate::storage::{BagMessage, Compressed, MessageCursor, RecordedTopic, Storage, StorageFile};
+use crate::storage::RecordedTopic;
 use crate::types;
 use crate::writer::FileSplit;
 use crate::Error;

@@ -12,10 +12,10 @@ use std::path::{Path, PathBuf};
 
 use mcap::records::{MessageHeader, Record};
 
+use crate::bag::Bag;
 use crate::metadata::{
     BagMetadata, FileInformation, Nanoseconds, NanosecondsSinceEpoch, FILE_NAME,
 };
-use crate::bag::Bag;
 use crate::writer::ChannelCopy;
 use crate::Error;
 

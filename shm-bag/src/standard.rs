@@ -8,7 +8,7 @@ use std::sync::OnceLock;
 use shm_cdr::describe::FullDescription;
 use shm_cdr::dynamic::DynamicType;
 use shm_cdr::{RosAction, RosMessage, RosService};
-use shm_runtime::rmw::Distro;
+use shm_runtime::rmw::{Distro, TYPE_HASH_NOT_SUPPORTED};
 
 use crate::definition;
 
@@ -171,3 +171,57 @@ pub fn standard_message(name: &str, distro: Distro) -> Option<ResolvedType> {
     })
 }
 
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fields(known: &Known) -> Vec<String> {
+        let ty = DynamicType::from_description(&(known.describe)()).unwrap();
+        ty.root().fields.iter().map(|f| f.name.clone()).collect()
+    }
+
+    #[test]
+    fn every_variant_names_distributions_this_crate_speaks() {
+        for variant in shm_cdr::distro_msgs::variants() {
+            for name in variant.distros {
+                assert!(name.parse::<Distro>().is_ok(), "{name}");
+            }
+        }
+        assert_eq!(
+            distro_messages().len(),
+            shm_cdr::distro_msgs::variants().len()
+        );
+    }
+
+    #[test]
+    fn each_distribution_gets_its_definition() {
+        let range = "sensor_msgs/msg/Range";
+        let humble = standard_message_in(range, Distro::Humble).unwrap();
+        assert!(!fields(humble).contains(&"variance".to_owned()));
+        for distro in [
+            Distro::Jazzy,
+            Distro::Kilted,
+            Distro::Lyrical,
+            Distro::Rolling,
+        ] {
+            let known = standard_message_in(range, distro).unwrap();
+            assert!(fields(known).contains(&"variance".to_owned()), "{distro}");
+        }
+        // Humble has no hashes: its topics resolve by name.
+        let announced = standard_message_announced(range, TYPE_HASH_NOT_SUPPORTED).unwrap();
+        assert_eq!(announced.hash, humble.hash);
+
+        // Elsewhere the hash picks the definition, whichever distribution.
+        let event = "lifecycle_msgs/msg/TransitionEvent";
+        let lyrical = standard_message_in(event, Distro::Lyrical).unwrap();
+        let kilted = standard_message_in(event, Distro::Kilted).unwrap();
+        assert_ne!(lyrical.hash, kilted.hash);
+        assert_eq!(fields(lyrical)[0], "stamp");
+        assert_eq!(fields(kilted)[0], "timestamp");
+        for known in [lyrical, kilted] {
+            let found = standard_message_announced(event, known.hash).unwrap();
+            assert_eq!(found.hash, known.hash);
+        }
+        assert!(standard_message_announced(event, "RIHS01_00").is_none());
+    }
+}

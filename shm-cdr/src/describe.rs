@@ -7,12 +7,11 @@
 //! the type and of every referenced type (sorted by name), separators `", "`
 //! and `": "`, SHA-256.
 
-pub use shm_interface::{
-    description_json, msg_text, rihs01_of_json, split_type_id, type_description_json, type_id,
-    write_individual_json,
-    Container, ContainerKind, DescribedField, Field, FieldType, FullDescription, TypeDescription,
-    TypeId, TypeRegistry, TypeSource,
-};
 pub use crate::message::{
     compute_type_hash, message_description_json, OctetType, RosElement, RosType,
+};
+pub use shm_interface::{
+    description_json, msg_text, rihs01_of_json, split_type_id, type_description_json, type_id,
+    write_individual_json, Container, ContainerKind, DescribedField, Field, FieldType,
+    FullDescription, TypeDescription, TypeId, TypeRegistry, TypeSource,
 };

@@ -1,10 +1,10 @@
 //! The [`RosMessage`] trait: a ROS 2 message type with its names and type hash.
 
 use crate::decode::HEADER_LEN;
+use crate::encode::CdrEncode;
 use shm_interface::{
     rihs01_of_json, Field, FieldType, FullDescription, TypeDescription, TypeRegistry, TypeSource,
 };
-use crate::encode::CdrEncode;
 
 /// A ROS 2 message type. Implement it with `#[derive(RosMessage)]`, which also
 /// implements [`CdrEncode`], [`CdrDecode`](crate::CdrDecode) and

@@ -45,10 +45,11 @@ pub mod parse;
 pub mod python;
 mod type_id;
 
+pub use described::DescribedField;
 pub use description::{
-    DescribedField, Field, FieldType, FullDescription, TypeDescription, TypeRegistry, TypeSource,
+    type_description_json, Field, FieldType, FullDescription, TypeDescription, TypeRegistry,
+    TypeSource,
 };
-pub use description::type_description_json;
 pub use json::{description_json, rihs01_of_json, write_individual_json};
 pub use msg_text::msg_text;
 pub use type_id::{split_type_id, type_id, Container, ContainerKind, TypeId};

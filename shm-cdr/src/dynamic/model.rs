@@ -557,7 +557,10 @@ impl DynamicType {
         let json = describe::description_json(
             order.map(|i| {
                 let def = &structs[i];
-                (def.name.as_str(), def.fields.iter().map(FieldDef::described))
+                (
+                    def.name.as_str(),
+                    def.fields.iter().map(FieldDef::described),
+                )
             }),
             false,
         );
