@@ -1,14 +1,14 @@
 //! Interface files on disk (`<pkg>/msg/*.msg`, `srv/*.srv`, `action/*.action`),
-//! read with shm-codegen's parser into run-time types: for a system whose
+//! read with shm-interface's parser into run-time types: for a system whose
 //! nodes do not describe their types, or to record with the files' own text,
 //! as rosbag2 does with the interfaces it finds installed.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use serde_json::{json, Value as Json};
-use shm_cdr::dynamic::DynamicType;
-use shm_interface::ast::{BaseType, Container, Message, Primitive};
+use shm_cdr::dynamic::{DynamicType, TypeLimits};
+use shm_interface::ast::{BaseType, Message};
+use shm_interface::{DescribedField, DescribedFieldBuf};
 
 use crate::definition;
 use crate::standard::{full_name, standard, Kind, ResolvedType};
@@ -101,7 +101,7 @@ impl LocalInterfaces {
     }
 
     fn build(&self, name: &str) -> Result<ResolvedType, Error> {
-        let mut described: BTreeMap<String, Json> = BTreeMap::new();
+        let mut described: BTreeMap<String, Vec<DescribedFieldBuf>> = BTreeMap::new();
         let mut sources: BTreeMap<String, String> = BTreeMap::new();
         let mut todo = vec![name.to_owned()];
         while let Some(next) = todo.pop() {
@@ -114,7 +114,7 @@ impl LocalInterfaces {
                         todo.push(r.full_name());
                     }
                 }
-                described.insert(next.clone(), individual(message));
+                described.insert(next.clone(), message.described_fields());
                 if let Some(text) = &message.source {
                     sources.insert(next, text.clone());
                 }
@@ -134,30 +134,23 @@ impl LocalInterfaces {
             }
             for d in std::iter::once(&description.own).chain(&description.referenced) {
                 described.entry(d.type_name.to_owned()).or_insert_with(|| {
-                    json!({
-                        "type_name": d.type_name,
-                        "fields": d.fields.iter().map(|f| json!({
-                            "name": f.name,
-                            "type": {
-                                "type_id": f.field_type.type_id(),
-                                "capacity": f.field_type.capacity(),
-                                "string_capacity": f.field_type.string_capacity,
-                                "nested_type_name": f.field_type.nested_type_name,
-                            },
-                            "default_value": f.default_value,
-                        })).collect::<Vec<_>>(),
-                    })
+                    d.fields
+                        .iter()
+                        .map(|f| DescribedField::of(f).into())
+                        .collect()
                 });
             }
         }
         let own = described
-            .remove(name)
+            .get(name)
             .ok_or_else(|| format!("{name}: not described"))?;
-        let document = json!({
-            "type_description": own,
-            "referenced_type_descriptions": described.into_values().collect::<Vec<_>>(),
-        });
-        let ty = DynamicType::from_rosidl_json(&document.to_string())?;
+        let referenced = described.iter().filter(|(n, _)| n.as_str() != name);
+        let ty = DynamicType::from_described(
+            std::iter::once((name, own))
+                .chain(referenced.map(|(n, fields)| (n.as_str(), fields)))
+                .map(|(n, fields)| (n, fields.iter().map(DescribedFieldBuf::as_described))),
+            &TypeLimits::DEFAULT,
+        )?;
         let definition = definition::of_dynamic(&ty, |n| sources.get(n).cloned());
         Ok(ResolvedType { ty, definition })
     }
@@ -167,73 +160,6 @@ fn is_package(dir: &Path) -> bool {
     ["msg", "srv", "action"]
         .iter()
         .any(|s| dir.join(s).is_dir())
-}
-
-/// One message as rosidl's type description states it.
-fn individual(message: &Message) -> Json {
-    let fields: Vec<Json> = message
-        .fields
-        .iter()
-        .map(|f| {
-            let (element, string_capacity, nested) = match &f.ty.base {
-                BaseType::Message(r) => (1u8, 0usize, r.full_name()),
-                BaseType::Primitive(p) => {
-                    let (id, bound) = primitive_id(*p);
-                    (id, bound, String::new())
-                }
-            };
-            let (offset, capacity) = match f.ty.container {
-                Container::Single => (0u8, 0usize),
-                Container::Array(n) => (48, n),
-                Container::BoundedSequence(n) => (96, n),
-                Container::Sequence => (144, 0),
-            };
-            json!({
-                "name": f.name,
-                "type": {
-                    "type_id": element + offset,
-                    "capacity": capacity,
-                    "string_capacity": string_capacity,
-                    "nested_type_name": nested,
-                },
-                "default_value": f.default.as_ref().map(shm_interface::python::description_default).unwrap_or_default(),
-            })
-        })
-        .collect();
-    // rosidl gives an empty message its placeholder field.
-    let fields = if fields.is_empty() {
-        vec![json!({
-            "name": "structure_needs_at_least_one_member",
-            "type": {"type_id": 3, "capacity": 0, "string_capacity": 0, "nested_type_name": ""},
-            "default_value": "",
-        })]
-    } else {
-        fields
-    };
-    json!({ "type_name": message.ty.full_name(), "fields": fields })
-}
-
-/// type_description_interfaces/msg/FieldType's id of a primitive, and its
-/// string bound. A `.msg` `char` is `uint8`, as rosidl maps it.
-fn primitive_id(p: Primitive) -> (u8, usize) {
-    match p {
-        Primitive::Bool => (15, 0),
-        Primitive::Byte => (16, 0),
-        Primitive::Char | Primitive::UInt8 => (3, 0),
-        Primitive::Int8 => (2, 0),
-        Primitive::Int16 => (4, 0),
-        Primitive::UInt16 => (5, 0),
-        Primitive::Int32 => (6, 0),
-        Primitive::UInt32 => (7, 0),
-        Primitive::Int64 => (8, 0),
-        Primitive::UInt64 => (9, 0),
-        Primitive::Float32 => (10, 0),
-        Primitive::Float64 => (11, 0),
-        Primitive::String(None) => (17, 0),
-        Primitive::WString(None) => (18, 0),
-        Primitive::String(Some(n)) => (21, n),
-        Primitive::WString(Some(n)) => (22, n),
-    }
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@ pub use crate::message::{
 };
 pub use shm_interface::{
     description_json, msg_text, rihs01_of_json, split_type_id, type_description_json, type_id,
-    write_individual_json, Container, ContainerKind, DescribedField, Field, FieldType,
-    FullDescription, TypeDescription, TypeId, TypeRegistry, TypeSource,
+    write_individual_json, Container, ContainerKind, DescribedField, DescribedFieldBuf, Field,
+    FieldType, FullDescription, TypeDescription, TypeId, TypeRegistry, TypeSource,
+    PLACEHOLDER_MEMBER,
 };

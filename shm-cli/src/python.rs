@@ -30,7 +30,7 @@ pub(crate) fn message_repr(message: MessageRef<'_, '_>, ty: &DynamicType) -> Str
     let fields: Vec<String> = def
         .fields
         .iter()
-        .filter(|f| f.name != "structure_needs_at_least_one_member")
+        .filter(|f| f.name != shm_interface::PLACEHOLDER_MEMBER)
         .filter_map(|f| {
             let text = match message.get(&f.name)? {
                 Field::Value(value) => value_repr(f, value, ty),

@@ -568,7 +568,7 @@ fn write_struct(index: &Index, m: &Message, file: &str, form: Form, out: &mut St
                 let _ = writeln!(
                     out,
                     "    #[ros(default_value = {:?})]",
-                    crate::python::description_default(default)
+                    default.description_default()
                 );
             }
             let _ = writeln!(

@@ -1,6 +1,10 @@
 //! The interface definitions read from `.msg`, `.srv` and `.action` files, and the
 //! message types rosidl derives from services and actions.
 
+use crate::described::DescribedFieldBuf;
+use crate::python::{python_float, string_repr};
+use crate::type_id::{type_id, TypeId};
+
 /// A primitive (non-message) element type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Primitive {
@@ -83,6 +87,37 @@ impl Primitive {
     pub fn is_string(self) -> bool {
         matches!(self, Self::String(_) | Self::WString(_))
     }
+
+    /// The element kind a type description gives it: a `.msg` `char` is
+    /// `uint8`, as rosidl maps it.
+    pub fn element(self) -> TypeId {
+        match self {
+            Self::Bool => TypeId::Boolean,
+            Self::Byte => TypeId::Byte,
+            Self::Char | Self::UInt8 => TypeId::Uint8,
+            Self::Int8 => TypeId::Int8,
+            Self::Int16 => TypeId::Int16,
+            Self::UInt16 => TypeId::Uint16,
+            Self::Int32 => TypeId::Int32,
+            Self::UInt32 => TypeId::Uint32,
+            Self::Int64 => TypeId::Int64,
+            Self::UInt64 => TypeId::Uint64,
+            Self::Float32 => TypeId::Float32,
+            Self::Float64 => TypeId::Float64,
+            Self::String(None) => TypeId::String,
+            Self::WString(None) => TypeId::WString,
+            Self::String(Some(_)) => TypeId::BoundedString,
+            Self::WString(Some(_)) => TypeId::BoundedWString,
+        }
+    }
+
+    /// The bound of a bounded string or wstring, else 0.
+    pub fn string_capacity(self) -> usize {
+        match self {
+            Self::String(Some(n)) | Self::WString(Some(n)) => n,
+            _ => 0,
+        }
+    }
 }
 
 /// A reference to a message type: `pkg/msg/Name` (or `pkg/srv/…`, `pkg/action/…`
@@ -113,18 +148,9 @@ pub enum BaseType {
     Message(TypeRef),
 }
 
-/// How a field holds its elements.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Container {
-    /// One element.
-    Single,
-    /// `T[N]`
-    Array(usize),
-    /// `T[<=N]`
-    BoundedSequence(usize),
-    /// `T[]`
-    Sequence,
-}
+/// How a field holds its elements: the one definition, the type
+/// description's.
+pub use crate::type_id::Container;
 
 /// A field's full type.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -205,6 +231,69 @@ pub struct Field {
     pub doc: Vec<String>,
 }
 
+impl Value {
+    /// `str()` of the Python value rosidl parses from a default: a scalar as Python
+    /// prints it, a list as a tuple.
+    pub fn description_default(&self) -> String {
+        match self {
+            Value::Str(text) => text.clone(),
+            Value::List(items) => {
+                let mut out = String::from("(");
+                for (i, item) in items.iter().enumerate() {
+                    if i > 0 {
+                        out.push_str(", ");
+                    }
+                    out.push_str(&item.repr());
+                }
+                if items.len() == 1 {
+                    out.push(',');
+                }
+                out.push(')');
+                out
+            }
+            scalar => scalar.repr(),
+        }
+    }
+
+    /// Python's `repr()` of a scalar (inside a tuple, strings are quoted).
+    fn repr(&self) -> String {
+        match self {
+            Value::Bool(true) => "True".into(),
+            Value::Bool(false) => "False".into(),
+            Value::Int(n) => n.to_string(),
+            // The text is Rust's shortest form of the same `f64`: it reads back
+            // exactly.
+            Value::Float(text) => text.parse().map_or_else(|_| text.clone(), python_float),
+            Value::Str(text) => string_repr(text),
+            Value::List(_) => self.description_default(),
+        }
+    }
+}
+
+impl Field {
+    /// The field as its message's type description states it: its
+    /// `type_id`, capacity, string bound and nested type, and its default
+    /// value as rosidl writes it.
+    pub fn described(&self) -> DescribedFieldBuf {
+        let (element, string_capacity, nested_type_name) = match &self.ty.base {
+            BaseType::Message(r) => (TypeId::Nested, 0, r.full_name()),
+            BaseType::Primitive(p) => (p.element(), p.string_capacity(), String::new()),
+        };
+        DescribedFieldBuf {
+            name: self.name.clone(),
+            type_id: type_id(element, self.ty.container.kind()),
+            capacity: self.ty.container.capacity() as u64,
+            string_capacity: string_capacity as u64,
+            nested_type_name,
+            default_value: self
+                .default
+                .as_ref()
+                .map(Value::description_default)
+                .unwrap_or_default(),
+        }
+    }
+}
+
 /// A constant of a message (`TYPE NAME=value`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Constant {
@@ -233,6 +322,22 @@ pub struct Message {
     /// (as rosidl reports it in `TypeSource`); `None` for a type rosidl derives
     /// from another file (`…_Request`, `…_Goal`, `…_SendGoal`, …).
     pub source: Option<String>,
+}
+
+impl Message {
+    /// The fields as the type description states them: rosidl gives a
+    /// message without fields its one placeholder member
+    /// ([`PLACEHOLDER_MEMBER`](crate::PLACEHOLDER_MEMBER)).
+    pub fn described_fields(&self) -> Vec<DescribedFieldBuf> {
+        if self.fields.is_empty() {
+            return vec![DescribedFieldBuf {
+                name: crate::PLACEHOLDER_MEMBER.to_owned(),
+                type_id: type_id(TypeId::Uint8, crate::ContainerKind::Single),
+                ..DescribedFieldBuf::default()
+            }];
+        }
+        self.fields.iter().map(Field::described).collect()
+    }
 }
 
 /// A service: its request and response, and the event message rosidl adds.
@@ -417,4 +522,46 @@ pub fn reworded_sources(ours: &Package, theirs: &Package) -> Result<Vec<Reworded
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn default_text(value: &Value) -> String {
+        value.description_default()
+    }
+
+    #[test]
+    fn scalars_print_as_python_str() {
+        assert_eq!(default_text(&Value::Bool(true)), "True");
+        assert_eq!(default_text(&Value::Int(-128)), "-128");
+        assert_eq!(default_text(&Value::Float("1.0".into())), "1.0");
+        assert_eq!(default_text(&Value::Float("1e16".into())), "1e+16");
+        assert_eq!(default_text(&Value::Float("1.5e-7".into())), "1.5e-07");
+        assert_eq!(
+            default_text(&Value::Str("Hello'world!".into())),
+            "Hello'world!"
+        );
+    }
+
+    #[test]
+    fn lists_print_as_python_tuples() {
+        let strings = Value::List(vec![
+            Value::Str(String::new()),
+            Value::Str("max value".into()),
+            Value::Str("it's".into()),
+            Value::Str("a\\b\"c'".into()),
+        ]);
+        assert_eq!(
+            default_text(&strings),
+            r#"('', 'max value', "it's", 'a\\b"c\'')"#
+        );
+        assert_eq!(default_text(&Value::List(vec![Value::Int(3)])), "(3,)");
+        assert_eq!(default_text(&Value::List(Vec::new())), "()");
+        assert_eq!(
+            default_text(&Value::List(vec![Value::Bool(false), Value::Bool(true)])),
+            "(False, True)"
+        );
+    }
 }

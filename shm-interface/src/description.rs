@@ -7,6 +7,10 @@ use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 use crate::described::DescribedField;
+
+/// The member rosidl gives a message without fields, so that every type
+/// has one: `uint8 structure_needs_at_least_one_member`.
+pub const PLACEHOLDER_MEMBER: &str = "structure_needs_at_least_one_member";
 pub use crate::type_id::{Container, TypeId};
 
 /// The type of one field, as it enters the type hash.

@@ -45,10 +45,10 @@ pub mod parse;
 pub mod python;
 mod type_id;
 
-pub use described::DescribedField;
+pub use described::{DescribedField, DescribedFieldBuf};
 pub use description::{
     type_description_json, Field, FieldType, FullDescription, TypeDescription, TypeRegistry,
-    TypeSource,
+    TypeSource, PLACEHOLDER_MEMBER,
 };
 pub use json::{description_json, rihs01_of_json, write_individual_json};
 pub use msg_text::msg_text;

@@ -18,9 +18,6 @@ use crate::layout::align_up;
 use crate::wire::string::{string_end, write_string};
 use crate::wire::wstring::{read_wstring, write_wstring, wstring_end};
 
-/// The member rosidl gives a message with no fields.
-pub(crate) const EMPTY_MESSAGE_MEMBER: &str = "structure_needs_at_least_one_member";
-
 impl DynamicType {
     /// Decode a CDR payload (encapsulation header included) as this type,
     /// borrowing strings, byte and number arrays from `bytes` where the

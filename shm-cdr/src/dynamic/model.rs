@@ -247,6 +247,45 @@ impl DynamicType {
         )
     }
 
+    /// The type described field by field: each type's name and fields, the
+    /// type itself first, then every type it references (in any order),
+    /// within `limits`. What every other constructor reads its description
+    /// into; a description held at run time (from interface files, say)
+    /// gives its fields with [`DescribedFieldBuf::as_described`].
+    ///
+    /// [`DescribedFieldBuf::as_described`]: crate::describe::DescribedFieldBuf::as_described
+    ///
+    /// ```
+    /// use shm_cdr::describe::{type_id, ContainerKind, DescribedFieldBuf, TypeId};
+    /// use shm_cdr::dynamic::{DynamicType, TypeLimits};
+    ///
+    /// let cells = DescribedFieldBuf {
+    ///     name: "cells".into(),
+    ///     type_id: type_id(TypeId::Float32, ContainerKind::Sequence),
+    ///     ..Default::default()
+    /// };
+    /// let ty = DynamicType::from_described(
+    ///     [("demo_msgs/msg/Battery", vec![cells.as_described()])],
+    ///     &TypeLimits::DEFAULT,
+    /// )?;
+    /// assert_eq!(ty.default_message().to_yaml(), "cells: []\n");
+    /// # Ok::<(), shm_cdr::dynamic::TypeError>(())
+    /// ```
+    pub fn from_described<'a, F>(
+        types: impl IntoIterator<Item = (&'a str, F)>,
+        limits: &TypeLimits,
+    ) -> Result<Self, TypeError>
+    where
+        F: IntoIterator<Item = DescribedField<'a>>,
+    {
+        Self::build(
+            types
+                .into_iter()
+                .map(|(name, fields)| (name, fields.into_iter().collect())),
+            limits,
+        )
+    }
+
     /// The type a `type_description_interfaces/msg/TypeDescription` describes:
     /// what a node's `~/get_type_description` returns. Any node can answer
     /// with any description: it is built within the default [`TypeLimits`].

@@ -256,7 +256,7 @@ pub(crate) fn plans(
             continue;
         };
         let placeholder = matches!(def.fields.as_slice(),
-            [field] if field.name == super::codec::EMPTY_MESSAGE_MEMBER);
+            [field] if field.name == crate::describe::PLACEHOLDER_MEMBER);
         let mut block = 0usize;
         let mut offsets = Vec::with_capacity(def.fields.len());
         let mut entries = Vec::with_capacity(def.fields.len());

@@ -28,7 +28,7 @@ impl Serialize for MessageRef<'_, '_> {
         let def = self.def();
         // rclpy leaves the placeholder of an empty message out.
         let placeholder =
-            def.fields.len() == 1 && def.fields[0].name == "structure_needs_at_least_one_member";
+            def.fields.len() == 1 && def.fields[0].name == crate::describe::PLACEHOLDER_MEMBER;
         let fields = if placeholder { 0 } else { def.fields.len() };
         let mut map = serializer.serialize_map(Some(fields))?;
         for (name, field) in self.fields().take(fields) {
@@ -207,7 +207,7 @@ impl<B: ByteOrder> Serialize for Streamed<'_, '_, '_, B> {
             .get(self.index)
             .map_or(&[][..], Vec::as_slice);
         let placeholder =
-            def.fields.len() == 1 && def.fields[0].name == "structure_needs_at_least_one_member";
+            def.fields.len() == 1 && def.fields[0].name == crate::describe::PLACEHOLDER_MEMBER;
         let mut map =
             serializer.serialize_map(Some(if placeholder { 0 } else { def.fields.len() }))?;
         for (field, check) in def.fields.iter().zip(checks) {

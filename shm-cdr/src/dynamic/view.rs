@@ -7,12 +7,13 @@
 use std::cell::Cell;
 use std::fmt;
 
-use super::codec::{decode_string, read_len, EMPTY_MESSAGE_MEMBER};
+use super::codec::{decode_string, read_len};
 use super::model::{Check, DynamicType, Element, FieldDef, StructDef, Types};
 use super::plan::{bools_valid, Step};
 use super::value::{Message, Messages, Value};
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::Container;
+use crate::describe::PLACEHOLDER_MEMBER;
 use crate::endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
 use crate::error::DecodeError;
 use crate::wire::wstring::read_wstring;
@@ -547,7 +548,7 @@ impl<'de> ValueView<'_, 'de> {
 
     fn read_as<B: ByteOrder>(&self) -> Result<Value<'de>, DecodeError> {
         let view = self.view;
-        if self.field.name == EMPTY_MESSAGE_MEMBER {
+        if self.field.name == PLACEHOLDER_MEMBER {
             // rosidl's placeholder member reads as 0, as `decode` reads it.
             return Ok(Value::U8(0));
         }

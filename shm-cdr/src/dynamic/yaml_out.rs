@@ -13,7 +13,7 @@ use std::fmt::{self, Write as _};
 use super::model::{Element, FieldDef};
 use super::numbers::{Number, Numbers};
 use super::value::{Field, Message, MessageRef, Value};
-use crate::describe::Container;
+use crate::describe::{Container, PLACEHOLDER_MEMBER};
 use shm_interface::python::python_float;
 
 /// How [`Message::to_yaml_with`] writes a message: the options of
@@ -228,12 +228,9 @@ impl<'m> List<'m> {
     }
 }
 
-/// rclpy leaves the placeholder field of an empty message out.
-const EMPTY_PLACEHOLDER: &str = "structure_needs_at_least_one_member";
-
 fn message_node<'m>(message: MessageRef<'m, '_>, options: &YamlOptions) -> Node<'m> {
     let def = message.def();
-    let placeholder = def.fields.len() == 1 && def.fields[0].name == EMPTY_PLACEHOLDER;
+    let placeholder = def.fields.len() == 1 && def.fields[0].name == PLACEHOLDER_MEMBER; // rclpy leaves it out
     let mut entries = Vec::with_capacity(def.fields.len());
     if !placeholder {
         for (i, field) in def.fields.iter().enumerate() {
