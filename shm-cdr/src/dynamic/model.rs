@@ -226,7 +226,7 @@ impl DynamicType {
         limits: &TypeLimits,
     ) -> Result<Self, TypeError> {
         let all = std::iter::once(&description.own).chain(&description.referenced);
-        Self::build(
+        Self::from_described(
             all.map(|d| {
                 (
                     d.type_name,
@@ -305,7 +305,7 @@ impl DynamicType {
     ) -> Result<Self, TypeError> {
         let all = std::iter::once(&description.type_description)
             .chain(&description.referenced_type_descriptions);
-        Self::build(
+        Self::from_described(
             all.map(|d| {
                 (
                     d.type_name.as_str(),
@@ -409,7 +409,7 @@ impl DynamicType {
             }
             types.push((name, out));
         }
-        let ty = Self::build(
+        let ty = Self::from_described(
             types.iter().map(|(name, fields)| {
                 (
                     name.as_str(),
@@ -631,11 +631,11 @@ impl DynamicType {
         let structs = &self.inner.structs;
         let at = structs.iter().position(|s| s.name == name)?;
         let order = std::iter::once(at).chain((0..structs.len()).filter(|&i| i != at));
-        Self::build(
+        Self::from_described(
             order.map(|i| {
                 (
                     structs[i].name.as_str(),
-                    structs[i].fields.iter().map(FieldDef::described).collect(),
+                    structs[i].fields.iter().map(FieldDef::described),
                 )
             }),
             &TypeLimits::UNLIMITED,
