@@ -647,7 +647,11 @@ fn parse_default(text: &str, primitive: Primitive, container: Container) -> Resu
             "`{text}`: the default of an array or sequence is written `[a, b, c]`"
         ));
     };
-    let items = split_list(inner)?;
+    let items = crate::python::split_list(inner)
+        .ok_or_else(|| "a string in the list is not closed".to_owned())?;
+    if items.iter().any(|i| i.is_empty()) {
+        return Err("empty item in the list".into());
+    }
     let len = items.len();
     match container {
         Container::Array(n) if len != n => return Err(format!("{len} values for an array of {n}")),
@@ -661,46 +665,6 @@ fn parse_default(text: &str, primitive: Primitive, container: Container) -> Resu
         .map(|item| parse_scalar(item, primitive))
         .collect::<Result<Vec<_>, _>>()
         .map(Value::List)
-}
-
-/// Split the inside of `[…]` at commas outside quotes.
-fn split_list(inner: &str) -> Result<Vec<&str>, String> {
-    let mut items = Vec::new();
-    let mut quote: Option<char> = None;
-    let mut escaped = false;
-    let mut start = 0;
-    for (i, c) in inner.char_indices() {
-        match quote {
-            Some(q) => {
-                if escaped {
-                    escaped = false;
-                } else if c == '\\' {
-                    escaped = true;
-                } else if c == q {
-                    quote = None;
-                }
-            }
-            None => match c {
-                '"' | '\'' => quote = Some(c),
-                ',' => {
-                    items.push(inner[start..i].trim());
-                    start = i + 1;
-                }
-                _ => {}
-            },
-        }
-    }
-    if quote.is_some() {
-        return Err("a string in the list is not closed".into());
-    }
-    let last = inner[start..].trim();
-    if !last.is_empty() || !items.is_empty() {
-        items.push(last);
-    }
-    if items.iter().any(|i| i.is_empty()) {
-        return Err("empty item in the list".into());
-    }
-    Ok(items)
 }
 
 fn parse_scalar(text: &str, primitive: Primitive) -> Result<Value, String> {

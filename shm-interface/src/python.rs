@@ -102,6 +102,58 @@ pub fn string_repr(text: &str) -> String {
     out
 }
 
+/// The items of a list's or tuple's inside (`1, 'a,b', "it's"`), split at
+/// the commas outside single- or double-quoted strings (which may escape
+/// their quote with a backslash) and trimmed: how a `.msg` file writes an
+/// array's default and how rosidl's `str()` of a tuple writes one back. An
+/// inside of only blanks has no items; otherwise a trailing comma leaves an
+/// empty last item, which the caller judges. `None` if a string is not
+/// closed.
+///
+/// ```
+/// use shm_interface::python::split_list;
+///
+/// assert_eq!(split_list("1, 'a,b', \"it's\""), Some(vec!["1", "'a,b'", "\"it's\""]));
+/// assert_eq!(split_list("3,"), Some(vec!["3", ""]));
+/// assert_eq!(split_list(" "), Some(vec![]));
+/// assert_eq!(split_list("'open"), None);
+/// ```
+pub fn split_list(inner: &str) -> Option<Vec<&str>> {
+    let mut items = Vec::new();
+    let mut quote: Option<char> = None;
+    let mut escaped = false;
+    let mut start = 0;
+    for (i, c) in inner.char_indices() {
+        match quote {
+            Some(q) => {
+                if escaped {
+                    escaped = false;
+                } else if c == '\\' {
+                    escaped = true;
+                } else if c == q {
+                    quote = None;
+                }
+            }
+            None => match c {
+                '"' | '\'' => quote = Some(c),
+                ',' => {
+                    items.push(inner[start..i].trim());
+                    start = i + 1;
+                }
+                _ => {}
+            },
+        }
+    }
+    if quote.is_some() {
+        return None;
+    }
+    let last = inner[start..].trim();
+    if !last.is_empty() || !items.is_empty() {
+        items.push(last);
+    }
+    Some(items)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

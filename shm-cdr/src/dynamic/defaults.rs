@@ -27,7 +27,11 @@ pub(crate) fn parse(element: Element, container: Container, text: &str) -> Optio
         };
     }
     let inner = text.strip_prefix('(')?.strip_suffix(')')?;
-    let items = split_tuple(inner)?;
+    let mut items = shm_interface::python::split_list(inner)?;
+    // Python writes a one-item tuple `(a,)`.
+    if items.last() == Some(&"") {
+        items.pop();
+    }
     let value = match element {
         Element::String(bound) => Value::Strings(
             items
@@ -130,43 +134,6 @@ pub(crate) fn collect(element: Element, values: Vec<Value<'static>>) -> Option<V
         Element::F64 => gather!(F64, F64s),
         _ => return None,
     })
-}
-
-/// The items of a Python tuple's inside, split at commas outside quotes.
-fn split_tuple(inner: &str) -> Option<Vec<&str>> {
-    let mut items = Vec::new();
-    let mut quote = None;
-    let mut escaped = false;
-    let mut start = 0;
-    for (i, c) in inner.char_indices() {
-        match quote {
-            Some(q) => {
-                if escaped {
-                    escaped = false;
-                } else if c == '\\' {
-                    escaped = true;
-                } else if c == q {
-                    quote = None;
-                }
-            }
-            None => match c {
-                '\'' | '"' => quote = Some(c),
-                ',' => {
-                    items.push(inner[start..i].trim());
-                    start = i + 1;
-                }
-                _ => {}
-            },
-        }
-    }
-    if quote.is_some() {
-        return None;
-    }
-    let last = inner[start..].trim();
-    if !last.is_empty() {
-        items.push(last);
-    }
-    Some(items)
 }
 
 /// A Python string literal (`'a'`, `"it's"`, with backslash escapes) read.
