@@ -526,28 +526,11 @@ fn parse_definition(code: &str, doc: Vec<String>, message: &mut Message) -> Resu
 /// Split a line into its code and its comment (the text after a `#` outside
 /// quotes, with one leading space removed).
 fn split_comment(line: &str) -> (&str, Option<String>) {
-    let mut quote: Option<char> = None;
-    let mut escaped = false;
-    for (i, c) in line.char_indices() {
-        match quote {
-            Some(q) => {
-                if escaped {
-                    escaped = false;
-                } else if c == '\\' {
-                    escaped = true;
-                } else if c == q {
-                    quote = None;
-                }
-            }
-            None => match c {
-                '"' | '\'' => quote = Some(c),
-                '#' => {
-                    let text = &line[i + 1..];
-                    let text = text.strip_prefix(' ').unwrap_or(text).trim_end();
-                    return (&line[..i], Some(text.to_owned()));
-                }
-                _ => {}
-            },
+    for (i, c) in crate::python::Unquoted::new(line) {
+        if c == '#' {
+            let text = &line[i + 1..];
+            let text = text.strip_prefix(' ').unwrap_or(text).trim_end();
+            return (&line[..i], Some(text.to_owned()));
         }
     }
     (line, None)

@@ -120,31 +120,15 @@ pub fn string_repr(text: &str) -> String {
 /// ```
 pub fn split_list(inner: &str) -> Option<Vec<&str>> {
     let mut items = Vec::new();
-    let mut quote: Option<char> = None;
-    let mut escaped = false;
     let mut start = 0;
-    for (i, c) in inner.char_indices() {
-        match quote {
-            Some(q) => {
-                if escaped {
-                    escaped = false;
-                } else if c == '\\' {
-                    escaped = true;
-                } else if c == q {
-                    quote = None;
-                }
-            }
-            None => match c {
-                '"' | '\'' => quote = Some(c),
-                ',' => {
-                    items.push(inner[start..i].trim());
-                    start = i + 1;
-                }
-                _ => {}
-            },
+    let mut chars = Unquoted::new(inner);
+    for (i, c) in chars.by_ref() {
+        if c == ',' {
+            items.push(inner[start..i].trim());
+            start = i + 1;
         }
     }
-    if quote.is_some() {
+    if chars.in_string() {
         return None;
     }
     let last = inner[start..].trim();
@@ -152,6 +136,53 @@ pub fn split_list(inner: &str) -> Option<Vec<&str>> {
         items.push(last);
     }
     Some(items)
+}
+
+/// The characters of a text outside its single- or double-quoted strings
+/// (which may escape their quote with a backslash), with their byte
+/// offsets; the quotes themselves are not among them.
+pub(crate) struct Unquoted<'a> {
+    chars: std::str::CharIndices<'a>,
+    quote: Option<char>,
+    escaped: bool,
+}
+
+impl<'a> Unquoted<'a> {
+    pub(crate) fn new(text: &'a str) -> Self {
+        Self {
+            chars: text.char_indices(),
+            quote: None,
+            escaped: false,
+        }
+    }
+
+    /// Whether the text read so far ends inside a string.
+    pub(crate) fn in_string(&self) -> bool {
+        self.quote.is_some()
+    }
+}
+
+impl Iterator for Unquoted<'_> {
+    type Item = (usize, char);
+
+    fn next(&mut self) -> Option<(usize, char)> {
+        loop {
+            let (i, c) = self.chars.next()?;
+            match self.quote {
+                Some(q) => {
+                    if self.escaped {
+                        self.escaped = false;
+                    } else if c == '\\' {
+                        self.escaped = true;
+                    } else if c == q {
+                        self.quote = None;
+                    }
+                }
+                None if c == '"' || c == '\'' => self.quote = Some(c),
+                None => return Some((i, c)),
+            }
+        }
+    }
 }
 
 #[cfg(test)]
