@@ -2,7 +2,7 @@
 //! what the JSON, the hash and the `.msg` text are written from.
 
 /// One field as a type description states it, whoever holds the description
-/// (a compiled type's [`Field`], a `type_description_interfaces/Field`
+/// (a compiled type's [`Field`](crate::Field), a `type_description_interfaces/Field`
 /// message, a type built at run time): what the JSON, the hash and the `.msg`
 /// text are written from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -17,7 +17,7 @@ pub struct DescribedField<'a> {
     pub string_capacity: u64,
     /// The `pkg/msg/Name` of a nested message element, else empty.
     pub nested_type_name: &'a str,
-    /// The default value as rosidl writes it ([`Field::default_value`]), or
+    /// The default value as rosidl writes it ([`Field::default_value`](crate::Field::default_value)), or
     /// empty.
     pub default_value: &'a str,
 }
