@@ -1,8 +1,24 @@
 //! A compiled type's description as the message a type-description service
 //! answers with (`type_description_interfaces/msg/TypeDescription`).
 
-use crate::describe::{FullDescription, TypeDescription};
+use crate::describe::{DescribedField, FullDescription, TypeDescription};
 use crate::msgs::type_description_interfaces::msg as td;
+
+/// One field as the message states it.
+impl From<DescribedField<'_>> for td::Field {
+    fn from(field: DescribedField<'_>) -> Self {
+        td::Field {
+            name: field.name.to_owned(),
+            r#type: td::FieldType {
+                type_id: field.type_id,
+                capacity: field.capacity,
+                string_capacity: field.string_capacity,
+                nested_type_name: field.nested_type_name.into(),
+            },
+            default_value: field.default_value.to_owned(),
+        }
+    }
+}
 
 /// The description as `type_description_interfaces/msg/TypeDescription`: what
 /// a node's `~/get_type_description` answers with.
@@ -13,19 +29,7 @@ impl From<&FullDescription> for td::TypeDescription {
             fields: description
                 .fields
                 .iter()
-                .map(|field| {
-                    let t = &field.field_type;
-                    td::Field {
-                        name: field.name.to_owned(),
-                        r#type: td::FieldType {
-                            type_id: t.type_id(),
-                            capacity: t.capacity() as u64,
-                            string_capacity: t.string_capacity as u64,
-                            nested_type_name: t.nested_type_name.into(),
-                        },
-                        default_value: field.default_value.to_owned(),
-                    }
-                })
+                .map(|field| DescribedField::of(field).into())
                 .collect(),
         };
         td::TypeDescription {

@@ -105,23 +105,6 @@ impl FieldType {
     pub const fn capacity(&self) -> usize {
         self.container.capacity()
     }
-
-    /// This field type as a description states it, with `name` and
-    /// `default_value`.
-    pub(crate) fn described<'a>(
-        &'a self,
-        name: &'a str,
-        default_value: &'a str,
-    ) -> DescribedField<'a> {
-        DescribedField {
-            name,
-            type_id: self.type_id(),
-            capacity: self.capacity() as u64,
-            string_capacity: self.string_capacity as u64,
-            nested_type_name: self.nested_type_name,
-            default_value,
-        }
-    }
 }
 
 /// One named field of a message.
@@ -266,7 +249,15 @@ impl TypeRegistry {
 impl<'a> DescribedField<'a> {
     /// A compiled type's field as its description states it.
     pub fn of(field: &'a Field) -> Self {
-        field.field_type.described(field.name, field.default_value)
+        let t = &field.field_type;
+        Self {
+            name: field.name,
+            type_id: t.type_id(),
+            capacity: t.capacity() as u64,
+            string_capacity: t.string_capacity as u64,
+            nested_type_name: t.nested_type_name,
+            default_value: field.default_value,
+        }
     }
 }
 

@@ -684,23 +684,7 @@ impl DynamicType {
         use crate::msgs::type_description_interfaces::msg as td;
         let individual = |def: &StructDef| td::IndividualTypeDescription {
             type_name: def.name.as_str().into(),
-            fields: def
-                .fields
-                .iter()
-                .map(|f| {
-                    let d = f.described();
-                    td::Field {
-                        name: d.name.to_owned(),
-                        r#type: td::FieldType {
-                            type_id: d.type_id,
-                            capacity: d.capacity,
-                            string_capacity: d.string_capacity,
-                            nested_type_name: d.nested_type_name.into(),
-                        },
-                        default_value: d.default_value.to_owned(),
-                    }
-                })
-                .collect(),
+            fields: def.fields.iter().map(|f| f.described().into()).collect(),
         };
         let structs = &self.inner.structs;
         let mut referenced: Vec<&StructDef> = structs
