@@ -3,11 +3,37 @@
 
 use std::time::{Duration, Instant};
 
-use zenoh::handlers::FifoChannelHandler;
-use zenoh::matching::{MatchingListener, MatchingStatus};
+use zenoh::handlers::DefaultHandler;
+use zenoh::matching::{MatchingListener, MatchingListenerBuilder, MatchingStatus};
+use zenoh::Wait;
 
-/// A matching listener as Zenoh's publishers and queriers hand it out.
-pub(crate) type Listener = MatchingListener<FifoChannelHandler<MatchingStatus>>;
+/// Statuses that may wait to be read: a wait reads them as they come, and
+/// looks at the match itself when it ends.
+const STATUS_QUEUE: usize = 16;
+
+/// A matching listener whose statuses arrive in a channel of its own. A
+/// status Zenoh delivers while the listener is being dropped is dropped
+/// without a word: Zenoh's own channel would log an ERROR for it.
+pub(crate) struct Listener {
+    statuses: flume::Receiver<MatchingStatus>,
+    _listener: MatchingListener<()>,
+}
+
+/// Declare the listener `builder` (a publisher's or a querier's) makes.
+pub(crate) fn listen(
+    builder: MatchingListenerBuilder<'_, DefaultHandler>,
+) -> zenoh::Result<Listener> {
+    let (sender, statuses) = flume::bounded(STATUS_QUEUE);
+    let listener = builder
+        .callback(move |status| {
+            let _ = sender.try_send(status);
+        })
+        .wait()?;
+    Ok(Listener {
+        statuses,
+        _listener: listener,
+    })
+}
 
 /// Wait until `matched()` or `timeout` passes; returns whether it matched.
 /// `listener` is declared before the first look, so a match between the two is
@@ -26,10 +52,10 @@ pub(crate) fn wait(
     }
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
-        match listener.recv_timeout(left) {
-            Ok(Some(status)) if status.matching() => return true,
-            Ok(Some(_)) => {}
-            Ok(None) | Err(_) => return matched(),
+        match listener.statuses.recv_timeout(left) {
+            Ok(status) if status.matching() => return true,
+            Ok(_) => {}
+            Err(_) => return matched(),
         }
     }
 }
@@ -44,7 +70,7 @@ pub(crate) async fn matched(
         return Ok(());
     }
     loop {
-        if listener.recv_async().await?.matching() {
+        if listener.statuses.recv_async().await?.matching() {
             return Ok(());
         }
     }

@@ -595,8 +595,8 @@ impl ZenohPublisher {
 
     fn matching_listener(&self) -> zenoh::Result<crate::transport::matching::Listener> {
         match self {
-            Self::Plain(p) => p.matching_listener().wait(),
-            Self::Advanced(p) => p.matching_listener().wait(),
+            Self::Plain(p) => crate::transport::matching::listen(p.matching_listener()),
+            Self::Advanced(p) => crate::transport::matching::listen(p.matching_listener()),
         }
     }
 }

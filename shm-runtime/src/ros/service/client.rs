@@ -342,7 +342,7 @@ impl<S> ServiceClient<S> {
     /// Built on Zenoh's matching listener: it wakes when the server appears.
     pub fn wait_for_service(&self, timeout: Duration) -> bool {
         crate::transport::matching::wait(
-            self.querier.matching_listener().wait(),
+            crate::transport::matching::listen(self.querier.matching_listener()),
             || self.is_service_available(),
             timeout,
         )
@@ -351,9 +351,10 @@ impl<S> ServiceClient<S> {
     /// Resolves once a server is there (at once if one is). Cancellation-safe;
     /// bound it with your runtime's timeout.
     pub async fn service_available(&self) -> zenoh::Result<()> {
-        crate::transport::matching::matched(self.querier.matching_listener().wait(), || {
-            self.is_service_available()
-        })
+        crate::transport::matching::matched(
+            crate::transport::matching::listen(self.querier.matching_listener()),
+            || self.is_service_available(),
+        )
         .await
     }
 
