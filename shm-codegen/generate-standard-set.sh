@@ -3,9 +3,9 @@
 # (their shared-memory forms) and the per-package
 # features in both Cargo.tomls from the interface definitions in the ROS 2
 # Kilted wheels on PyPI (for tf2_msgs, which has no wheel, rosbags' type
-# store; for example_interfaces, which has neither, the files this project
-# writes in shm-codegen/interfaces, whose hashes tests/ros2/check.py has
-# rosidl's own tools compute). CI runs it and fails if the result differs from
+# store; for example_interfaces and rosbag2_interfaces, which have neither,
+# the files this project writes in shm-codegen/interfaces, whose hashes
+# tests/ros2/check.py has rosidl's own tools compute). CI runs it and fails if the result differs from
 # what is committed.
 #
 #   shm-codegen/generate-standard-set.sh
@@ -78,7 +78,7 @@ dirs=()
 for w in "${wheels[@]}"; do dirs+=("$src/${w%%==*}"); done
 "$venv/bin/python" shm-codegen/rosbags_to_msg.py "$src" "${from_rosbags[@]}"
 for pkg in "${from_rosbags[@]}"; do dirs+=("$src/$pkg"); done
-dirs+=(shm-codegen/interfaces/example_interfaces)
+dirs+=(shm-codegen/interfaces/example_interfaces shm-codegen/interfaces/rosbag2_interfaces)
 
 cargo run --quiet -p shm-codegen -- --crate-path crate --extern-root crate::msgs --arbitrary \
     --features shm-cdr/Cargo.toml --registry shm-cdr/src/registry.rs \

@@ -10,7 +10,9 @@ use shm_runtime::rmw::Distro;
 
 use crate::metadata::TopicMetadata;
 use crate::storage::RecordedTopic;
-use crate::{qos, types, Bag, BagMetadata, BagWriter, Error, WriteOptions};
+use shm_runtime::types;
+
+use crate::{qos, Bag, BagMetadata, BagWriter, Error, WriteOptions};
 
 /// What to convert and how to write it.
 #[derive(Debug, Clone, Default)]

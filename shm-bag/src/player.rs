@@ -20,14 +20,13 @@ use zenoh::Wait;
 
 use crate::bag::Bag;
 use crate::control::{Due, PlayerControl};
-use crate::definition;
 use crate::interfaces::rosbag2_interfaces::msg::ReadSplitEvent;
-use crate::local::LocalInterfaces;
 use crate::split_events::SplitEvents;
 use crate::storage::RecordedTopic;
-use crate::types;
 use crate::writer::FileSplit;
 use crate::Error;
+use shm_runtime::types;
+use shm_runtime::types::definition;
 
 /// How to play.
 #[derive(Debug, Clone)]
@@ -563,27 +562,14 @@ impl PlayedPublisher {
     }
 }
 
-/// The type of a recorded topic, from the definition the recording keeps,
-/// else the standard type of that name.
+/// The type of a recorded topic, as type resolution reads a recording.
 fn recorded_type(
     topic: &RecordedTopic,
     definitions: &BTreeMap<String, String>,
     distro: Distro,
 ) -> Option<types::ResolvedType> {
-    let from_definition = definitions
-        .get(&topic.type_name)
-        .filter(|text| !text.is_empty())
-        .and_then(|text| LocalInterfaces::from_definition(&topic.type_name, text).ok())
-        .and_then(|local| local.resolve(&topic.type_name))
-        .and_then(Result::ok);
-    match from_definition {
-        Some(resolved)
-            if topic.type_hash.is_empty() || resolved.ty.type_hash() == topic.type_hash =>
-        {
-            Some(resolved)
-        }
-        _ => types::standard_message(&topic.type_name, distro),
-    }
+    let definition = definitions.get(&topic.type_name).map(String::as_str);
+    types::of_recording(&topic.type_name, &topic.type_hash, definition, distro)
 }
 
 /// Publish `time` (ns since the Unix epoch) on `/clock`.

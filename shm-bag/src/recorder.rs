@@ -29,13 +29,13 @@ use shm_runtime::{CallbackSubscriber, RosNode, RosSample, Serialized};
 use zenoh::Wait;
 
 use crate::interfaces::rosbag2_interfaces::msg::WriteSplitEvent;
-use crate::local::LocalInterfaces;
 use crate::metadata::{BagMetadata, TopicMetadata};
 use crate::qos::QosProfile;
 use crate::split_events::SplitEvents;
-use crate::types;
 use crate::writer::{BagWriter, FileSplit, TopicId, WriteOptions};
 use crate::Error;
+use shm_runtime::types;
+use shm_runtime::types::local::LocalInterfaces;
 
 /// Which topics to record.
 #[derive(Debug, Clone, Default)]

@@ -17,13 +17,13 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use crate::definition;
 use crate::metadata::{
     BagMetadata, FileInformation, Nanoseconds, NanosecondsSinceEpoch, TopicMetadata,
     TopicWithMessageCount, VERSION,
 };
 use crate::qos;
 use crate::Error;
+use shm_runtime::types::definition;
 
 /// How chunks are compressed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -157,7 +157,7 @@ fn send_goal(
         })?;
     let node = context.node()?;
     let resolved =
-        shm_bag::types::of_action(node, context.timeout, &graph, &action, Some(action_type))?;
+        shm_runtime::types::of_action(node, context.timeout, &graph, &action, Some(action_type))?;
     let goal_type = resolved
         .send_goal
         .request
@@ -228,7 +228,7 @@ fn send_goal(
         None
     };
 
-    let client = |service: &shm_bag::types::ResolvedService, part: &str| {
+    let client = |service: &shm_runtime::types::ResolvedService, part: &str| {
         node.declare_serialized_client(
             &format!("{action}/_action/{part}"),
             &service.name,

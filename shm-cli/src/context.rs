@@ -4,9 +4,9 @@
 use std::sync::OnceLock;
 use std::time::Duration;
 
-use shm_bag::local::LocalInterfaces;
 use shm_runtime::graph::{Graph, GraphCache};
 use shm_runtime::rmw::{self, Distro};
+use shm_runtime::types::local::LocalInterfaces;
 use shm_runtime::RosNode;
 use zenoh::{Session, Wait};
 

@@ -64,7 +64,7 @@ pub(crate) fn run(command: InterfaceCommand, distro: Distro) -> Result<(), Error
 /// The interface file of a standard type, as released for `distro`.
 fn source(distro: Distro, type_name: &str) -> Result<String, Error> {
     let (_, description) =
-        shm_bag::types::standard_description(type_name, distro).ok_or_else(|| {
+        shm_runtime::types::standard_description(type_name, distro).ok_or_else(|| {
             format!("Unknown interface '{type_name}': not a standard interface this binary knows")
         })?;
     let text = description

@@ -127,8 +127,13 @@ fn call(
             })?;
     }
     let node = context.node()?;
-    let resolved =
-        shm_bag::types::of_service(node, context.timeout, &graph, &service, Some(service_type))?;
+    let resolved = shm_runtime::types::of_service(
+        node,
+        context.timeout,
+        &graph,
+        &service,
+        Some(service_type),
+    )?;
     let now = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .unwrap_or_default();

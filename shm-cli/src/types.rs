@@ -1,11 +1,12 @@
-//! Message types: the standard ones this binary was built with, and any other
-//! asked of the node that uses it (`~/get_type_description`), as shm-bag
-//! resolves them.
+//! Message types as the commands need them, resolved by the runtime's type
+//! resolution ([`shm_runtime::types`]): the standard ones this binary was
+//! built with, the `--interfaces` files, and any other asked of the node that
+//! uses it (`~/get_type_description`).
 
 use shm_cdr::dynamic::DynamicType;
 use shm_runtime::graph::Graph;
 
-pub(crate) use shm_bag::types::{full_name, standard, Kind};
+pub(crate) use shm_runtime::types::{full_name, standard, Kind};
 
 use crate::context::Context;
 use crate::Error;
@@ -28,10 +29,7 @@ pub(crate) fn did_you_mean(name: &str) -> String {
 /// A message type by name, as a run-time type: a standard one, else one of
 /// the `--interfaces` files.
 pub(crate) fn message_by_name(context: &Context, name: &str) -> Result<Option<DynamicType>, Error> {
-    if let Some(resolved) = shm_bag::types::standard_message(name, context.distro) {
-        return Ok(Some(resolved.ty));
-    }
-    match context.local.resolve(&full_name(name)) {
+    match shm_runtime::types::message_by_name(context.distro, name, &context.local) {
         Some(resolved) => Ok(Some(resolved?.ty)),
         None => Ok(None),
     }
@@ -51,7 +49,7 @@ pub(crate) fn of_topic(
         )
         .into());
     }
-    shm_bag::types::of_topic(
+    shm_runtime::types::of_topic(
         context.node()?,
         context.timeout,
         graph,

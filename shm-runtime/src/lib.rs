@@ -40,6 +40,8 @@ mod ros;
 pub mod testing;
 mod transport;
 
+#[cfg(feature = "type_resolution")]
+pub use ros::types;
 pub use ros::{action, graph, lifecycle, log_levels, names, parameters, service, time};
 
 pub use logging::{init_logging, DEFAULT_LOG_FILTER, QUIET_BY_DEFAULT};

@@ -329,9 +329,9 @@ EMPTY_REQUEST = CDR_HEADER + b"\0"  # an empty request's placeholder byte
 
 
 def rosbag2_interfaces_hashes():
-    """rosidl's hashes of shm-bag's copy of rosbag2_interfaces, from rosidl's own tools."""
+    """rosidl's hashes of this project's copy of rosbag2_interfaces, from rosidl's own tools."""
     from rmw_zenoh import package_hashes
-    source = Path(__file__).resolve().parents[2] / "shm-bag" / "interfaces" / "rosbag2_interfaces"
+    source = Path(__file__).resolve().parents[2] / "shm-codegen" / "interfaces" / "rosbag2_interfaces"
     return package_hashes(source, "rosbag2_interfaces", ["builtin_interfaces", "service_msgs"])
 
 

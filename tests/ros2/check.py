@@ -186,11 +186,14 @@ def check_hashes():
     from rosbags.typesys import Stores, get_typestore
     from rmw_zenoh import package_hashes
     store = get_typestore(Stores.ROS2_JAZZY)
-    # No wheel carries example_interfaces: its files are this project's
-    # (shm-codegen/interfaces), hashed here by rosidl's own tools.
-    written = package_hashes(
-        Path(__file__).resolve().parents[2] / "shm-codegen" / "interfaces" / "example_interfaces",
-        "example_interfaces", ["builtin_interfaces", "service_msgs", "unique_identifier_msgs"])
+    # No wheel carries example_interfaces or rosbag2_interfaces: their files
+    # are this project's (shm-codegen/interfaces), hashed here by rosidl's own
+    # tools.
+    own = Path(__file__).resolve().parents[2] / "shm-codegen" / "interfaces"
+    written = package_hashes(own / "example_interfaces", "example_interfaces",
+                             ["builtin_interfaces", "service_msgs", "unique_identifier_msgs"])
+    written.update(package_hashes(own / "rosbag2_interfaces", "rosbag2_interfaces",
+                                  ["builtin_interfaces", "service_msgs"]))
     per_package = defaultdict(lambda: [0, 0])
     failures = []
     for kind, name, ours_hash in ours:
@@ -209,7 +212,7 @@ def check_hashes():
     total = sum(v[1] for v in per_package.values())
     good = sum(v[0] for v in per_package.values())
     print(f"hashes: {good}/{total} equal to rosidl's .json (tf2_msgs: rosbags; "
-          "example_interfaces: rosidl's tools on shm-codegen/interfaces): "
+          "example_interfaces, rosbag2_interfaces: rosidl's tools on shm-codegen/interfaces): "
           + ", ".join(f"{p} {g}/{n}" for p, (g, n) in sorted(per_package.items())))
     for f in failures[:20]:
         print("  MISMATCH", f)

@@ -27,6 +27,7 @@
 //! | `visualization_msgs` | `visualization_msgs` | 12 messages, 1 service, 0 actions |
 //! | `tf2_msgs` | `tf2_msgs` | 2 messages, 0 services, 0 actions |
 //! | `example_interfaces` | `example_interfaces` | 29 messages, 3 services, 1 action |
+//! | `rosbag2_interfaces` | `rosbag2_interfaces` | 2 messages, 12 services, 0 actions |
 
 #[cfg(feature = "action_msgs")]
 pub mod action_msgs;
@@ -46,6 +47,8 @@ pub mod lifecycle_msgs;
 pub mod nav_msgs;
 #[cfg(feature = "rcl_interfaces")]
 pub mod rcl_interfaces;
+#[cfg(feature = "rosbag2_interfaces")]
+pub mod rosbag2_interfaces;
 #[cfg(feature = "rosgraph_msgs")]
 pub mod rosgraph_msgs;
 #[cfg(feature = "sensor_msgs")]

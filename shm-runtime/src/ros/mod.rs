@@ -13,3 +13,5 @@ pub mod service;
 pub mod time;
 pub(crate) mod topic_types;
 pub(crate) mod type_description;
+#[cfg(feature = "type_resolution")]
+pub mod types;

@@ -10,9 +10,9 @@ use shm_cdr::dynamic::{DynamicType, TypeLimits};
 use shm_interface::ast::{BaseType, Message};
 use shm_interface::{DescribedField, DescribedFieldBuf};
 
-use crate::definition;
-use crate::standard::{full_name, standard, Kind, ResolvedType};
-use crate::Error;
+use super::definition;
+use super::standard::{full_name, standard, Kind, ResolvedType};
+use zenoh::Error;
 
 /// The message types of interface packages on disk, by `pkg/msg/Name` (and
 /// the request, response, goal, … types rosidl derives from services and
@@ -171,7 +171,7 @@ mod tests {
     /// message type, service part and action part its compiled hash.
     #[test]
     fn every_standard_interface_read_from_its_file_has_its_hash() {
-        let root = std::env::temp_dir().join(format!("shm_bag_local_{}", std::process::id()));
+        let root = std::env::temp_dir().join(format!("shm_types_local_{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&root);
         for (name, known) in standard() {
             let description = (known.describe)();
@@ -219,7 +219,7 @@ mod tests {
 
     #[test]
     fn a_type_using_one_found_nowhere_says_which() {
-        let root = std::env::temp_dir().join(format!("shm_bag_local_bad_{}", std::process::id()));
+        let root = std::env::temp_dir().join(format!("shm_types_local_bad_{}", std::process::id()));
         let dir = root.join("robot_msgs").join("msg");
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(

@@ -1,35 +1,39 @@
-//! The standard interfaces this crate is built with, by name, as each
+//! The standard interfaces (`shm_cdr::msgs`), by name, as each
 //! distribution defines them: the first place a type is looked for, before
 //! interface files and the nodes that announce it.
 
 use std::collections::BTreeMap;
 use std::sync::OnceLock;
 
+use crate::rmw::{Distro, TYPE_HASH_NOT_SUPPORTED};
 use shm_cdr::describe::FullDescription;
 use shm_cdr::dynamic::DynamicType;
 use shm_cdr::{RosAction, RosMessage, RosService};
-use shm_runtime::rmw::{Distro, TYPE_HASH_NOT_SUPPORTED};
 
-use crate::definition;
+use super::definition;
 
 /// Which kind of interface.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
+    /// `pkg/msg/Name`.
     Message,
+    /// `pkg/srv/Name`.
     Service,
+    /// `pkg/action/Name`.
     Action,
 }
 
 /// What the binary knows of a standard interface.
 pub struct Known {
+    /// Message, service or action.
     pub kind: Kind,
+    /// Its RIHS01 hash.
     pub hash: &'static str,
+    /// Its full description (the type and every type it uses).
     pub describe: fn() -> FullDescription,
 }
 
-/// Every standard message, service and action type, by name, and
-/// rosbag2's own interfaces, which the player serves and the recorder
-/// publishes.
+/// Every standard message, service and action type, by name.
 pub fn standard() -> &'static BTreeMap<&'static str, Known> {
     static TABLE: OnceLock<BTreeMap<&'static str, Known>> = OnceLock::new();
     TABLE.get_or_init(|| {
@@ -65,21 +69,7 @@ pub fn standard() -> &'static BTreeMap<&'static str, Known> {
                 out
             }};
         }
-        let mut out = shm_cdr::for_each_interface!(table);
-        {
-            use crate::interfaces::rosbag2_interfaces::{msg, srv};
-            out.extend(table! {
-                messages: [msg::ReadSplitEvent, msg::WriteSplitEvent],
-                borrowed: [],
-                services: [
-                    srv::Burst, srv::GetRate, srv::IsPaused, srv::Pause, srv::PlayNext,
-                    srv::Resume, srv::Seek, srv::SetRate, srv::Snapshot, srv::SplitBagfile,
-                    srv::Stop, srv::TogglePaused,
-                ],
-                actions: [],
-            });
-        }
-        out
+        shm_cdr::for_each_interface!(table)
     })
 }
 

@@ -1,26 +1,40 @@
-//! Message types of live topics: the standard ones this crate is built with,
-//! and any other asked of the node that announces it
-//! (`~/get_type_description`), each checked against the hash the graph
-//! announces, with the definition text a recording keeps.
+//! Type resolution: the one place a name and hash seen in the graph, in a
+//! recording or on the command line become a run-time type
+//! ([`DynamicType`]) with the definition text a recording keeps.
+//!
+//! A type is looked for, in this order, in
+//! - the standard set this crate is built with ([`standard`]), as the
+//!   distribution of the system defines it;
+//! - interface files ([`LocalInterfaces`]): `.msg`/`.srv`/`.action`
+//!   directories, or the definition a recording keeps
+//!   ([`LocalInterfaces::from_definition`]);
+//! - the node that announces it, through its `~/get_type_description`
+//!   ([`ask_node`]), checked against the hash the graph announces.
+//!
+//! The recorder, the player and `shm-ros2`'s commands all resolve types
+//! here.
+
+pub mod definition;
+pub mod local;
+mod standard;
 
 use std::time::Duration;
 
+use crate::graph::Graph;
+use crate::rmw::{Distro, TYPE_HASH_NOT_SUPPORTED};
+use crate::RosNode;
 use shm_cdr::dynamic::DynamicType;
 use shm_cdr::msgs::type_description_interfaces::srv::{
     GetTypeDescription, GetTypeDescription_Request, GetTypeDescription_Response,
 };
-use shm_runtime::graph::Graph;
-use shm_runtime::rmw::{Distro, TYPE_HASH_NOT_SUPPORTED};
-use shm_runtime::RosNode;
 use zenoh::Wait;
 
-use crate::definition;
-use crate::local::LocalInterfaces;
-use crate::standard::standard_message_announced;
-pub use crate::standard::{
+use local::LocalInterfaces;
+use standard::standard_message_announced;
+pub use standard::{
     full_name, standard, standard_description, standard_message, Kind, Known, ResolvedType,
 };
-use crate::Error;
+use zenoh::Error;
 
 /// The type of the messages on `topic`, as its publishers (else its
 /// subscribers) announce it: the standard type if its hash is the one
@@ -93,6 +107,43 @@ pub fn of_topic(
         &endpoint.type_name,
         &endpoint.type_hash,
     )
+}
+
+/// A message type by name alone (`pkg/msg/Name` or `pkg/Name`), as a
+/// program is told it rather than reads it from the graph: the standard
+/// type as `distro` defines it, else the type of the interface files
+/// `local`. `None` when neither has it.
+pub fn message_by_name(
+    distro: Distro,
+    name: &str,
+    local: &LocalInterfaces,
+) -> Option<Result<ResolvedType, Error>> {
+    if let Some(resolved) = standard_message(name, distro) {
+        return Some(Ok(resolved));
+    }
+    local.resolve(&full_name(name))
+}
+
+/// The message type `name` of a recorded topic (`hash` empty when the
+/// recording keeps none): from the `definition` the recording keeps
+/// (rosbag2's `ros2msg` text), when it gives a type of that hash, else the
+/// standard type of that name as `distro` defines it. `None` when neither
+/// gives one.
+pub fn of_recording(
+    name: &str,
+    hash: &str,
+    definition: Option<&str>,
+    distro: Distro,
+) -> Option<ResolvedType> {
+    let from_definition = definition
+        .filter(|text| !text.is_empty())
+        .and_then(|text| LocalInterfaces::from_definition(name, text).ok())
+        .and_then(|local| local.resolve(name))
+        .and_then(Result::ok);
+    match from_definition {
+        Some(resolved) if hash.is_empty() || resolved.ty.type_hash() == hash => Some(resolved),
+        _ => standard_message(name, distro),
+    }
 }
 
 /// The message type `name` announced with `hash`, from what is known without
