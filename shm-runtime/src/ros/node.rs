@@ -221,7 +221,7 @@ impl RosNode {
         let key_expr =
             topic_key_expr_of(self.info.distro, self.info.domain_id, &topic, &topic_type);
         let mut builder = PublisherBuilder::new(&self.session, key_expr, topic_type);
-        builder.invalid = invalid;
+        builder.invalid = invalid.map(Into::into);
         builder.qos = qos;
         builder.shm.inherited = self.shm.clone();
         builder.node = Some(TopicEndpoint {
@@ -230,7 +230,7 @@ impl RosNode {
             kind: EntityKind::Publisher,
             topic,
         });
-        builder.type_use = type_use;
+        builder.type_use = type_use.map(TypeUse::registered);
         builder
     }
 
@@ -801,7 +801,7 @@ fn node_subscriber<'s, T>(
     let (topic, invalid) = resolve(info, remaps, topic, NameKind::Topic);
     let key_expr = topic_key_expr_of(info.distro, info.domain_id, &topic, &topic_type);
     let mut builder = SubscriberBuilder::new(session, key_expr, topic_type);
-    builder.invalid = invalid;
+    builder.invalid = invalid.map(Into::into);
     builder.qos = qos;
     builder.node = Some(TopicEndpoint {
         info: info.clone(),
@@ -809,7 +809,7 @@ fn node_subscriber<'s, T>(
         kind: EntityKind::Subscriber,
         topic,
     });
-    builder.type_use = type_use;
+    builder.type_use = type_use.map(TypeUse::registered);
     builder
 }
 

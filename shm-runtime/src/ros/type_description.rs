@@ -17,6 +17,7 @@ use shm_cdr::describe::FullDescription;
 use shm_cdr::dynamic::DynamicType;
 
 use crate::ros::topic_types::TopicUse;
+use crate::transport::type_registration::{Registered, TypeRegistration};
 use shm_cdr::msgs::type_description_interfaces::msg as td;
 use shm_cdr::msgs::type_description_interfaces::srv::{
     GetTypeDescription_Request, GetTypeDescription_Response,
@@ -207,22 +208,23 @@ pub(crate) struct TypeUse {
     _topic: Option<Arc<TopicUse>>,
 }
 
-impl TypeUse {
-    /// Offer the interface files' own text (`(pkg/msg/Name, text)`) for a
-    /// type known at run time, in place of the text written back from its
-    /// description; a compiled type keeps the text it was built with.
-    pub(crate) fn offer_sources<N: Into<String>, S: Into<String>>(
-        &self,
-        sources: impl IntoIterator<Item = (N, S)>,
-    ) {
+/// A compiled type keeps the text it was built with; a type known at run
+/// time takes the offered text in place of the text written back from its
+/// description.
+impl TypeRegistration for TypeUse {
+    fn offer_sources(&self, sources: &[(String, String)]) {
         if let Some(cache) = self._registration.cache.upgrade() {
-            let sources: Vec<(String, String)> = sources
-                .into_iter()
-                .map(|(name, text)| (name.into(), text.into()))
-                .collect();
-            cache.offer_sources(&self._registration.hash, &sources);
+            cache.offer_sources(&self._registration.hash, sources);
         }
     }
+}
+
+impl TypeUse {
+    /// This use, for an endpoint of the transport to hold.
+    pub(crate) fn registered(self) -> Registered {
+        Arc::new(self)
+    }
+
 
     /// The same use, holding `topic` too.
     pub(crate) fn with_topic(self, topic: TopicUse) -> Self {

@@ -2,6 +2,11 @@
 //! met as a panic inside Zenoh.
 
 use std::fmt;
+use std::time::Duration;
+
+/// The longest timeout Zenoh carries (`u64::MAX` ms): what "no timeout" means,
+/// as rmw_zenoh_cpp uses for an action's `get_result`.
+pub(crate) const NO_TIMEOUT: Duration = Duration::from_millis(u64::MAX);
 
 /// The longest key expression (or liveliness token) Zenoh can carry: its wire
 /// format gives a key expression a 16-bit length, and Zenoh 1.9 panics,

@@ -24,4 +24,5 @@ pub(crate) mod sample;
 pub(crate) mod shm_bytes;
 pub(crate) mod subscriber;
 pub(crate) mod type_check;
+pub(crate) mod type_registration;
 pub(crate) mod zenoh_line;

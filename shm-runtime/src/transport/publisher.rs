@@ -22,10 +22,10 @@ use crate::rmw::{
     counterpart_tokens_key_expr, Attachment, Durability, EntityKind, Gid, History, Qos,
     Reliability, TopicEndpoint, ATTACHMENT_LEN,
 };
-use crate::ros::type_description::TypeUse;
 use crate::transport::encoded::{EncodedPayload, PayloadKind};
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
+use crate::transport::type_registration::{owned_sources, Registered};
 use crate::transport::payload::{
     encode_payload, encode_sized, on_heap, packed, serialized_payload, splice_or_size, ShmPolicy,
 };
@@ -257,7 +257,7 @@ pub(crate) struct RmwPublisher {
     pub(crate) token: String,
     pub(crate) liveliness: Option<LivelinessToken>,
     /// Keeps the message type in the node's type-description cache.
-    pub(crate) _type_use: Option<TypeUse>,
+    pub(crate) _type_use: Option<Registered>,
 }
 
 /// Builder of a [`RosPublisher`]; resolve with `.wait()` or `.await`.
@@ -270,13 +270,14 @@ pub struct PublisherBuilder<'a, T> {
     pub(crate) node: Option<TopicEndpoint>,
     /// The message type, in the node's type-description cache while the
     /// publisher lives (not a serialized publisher's, whose fields are unknown).
-    pub(crate) type_use: Option<TypeUse>,
+    pub(crate) type_use: Option<Registered>,
     pub(crate) congestion_control: Option<CongestionControl>,
     pub(crate) qos: Qos,
     /// How many published messages to keep for subscribers that missed them.
     pub(crate) recovery: Option<usize>,
-    /// A name that failed to resolve (node publishers): reported by `build`.
-    pub(crate) invalid: Option<crate::ros::names::NameError>,
+    /// An error found before the builder was made (a node publisher's name
+    /// that failed to resolve): reported by `build`.
+    pub(crate) invalid: Option<zenoh::Error>,
     pub(crate) topic_type: TopicType,
     /// The run-time type of a publisher of [`DynamicType`] messages.
     pub(crate) dynamic: Option<DynamicType>,
@@ -375,7 +376,7 @@ impl<'a, T> PublisherBuilder<'a, T> {
 
     fn build(self) -> zenoh::Result<RosPublisher<T>> {
         if let Some(invalid) = self.invalid {
-            return Err(invalid.into());
+            return Err(invalid);
         }
         check_key_expr("key expression", &self.key_expr)?;
         // The token (and the GID made from it) says the QoS the declaration
@@ -528,7 +529,7 @@ impl PublisherBuilder<'_, DynamicType> {
         sources: impl IntoIterator<Item = (N, S)>,
     ) -> Self {
         if let Some(type_use) = &self.type_use {
-            type_use.offer_sources(sources);
+            type_use.offer_sources(&owned_sources(sources));
         }
         self
     }

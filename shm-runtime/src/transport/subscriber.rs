@@ -22,12 +22,12 @@ use crate::rmw::{
     counterpart_tokens_key_expr, Durability, EntityKind, History as RmwHistory, Qos, Reliability,
     TopicEndpoint, TopicType,
 };
-use crate::ros::type_description::TypeUse;
 use crate::transport::executor::{Callback, Dispatch, Executor};
-use crate::transport::limits::check_key_expr;
+use crate::transport::limits::{check_key_expr, NO_TIMEOUT};
 use crate::transport::queue::{Queue, DEFAULT_MAX_QUEUED_BYTES};
 use crate::transport::reach::ReceiverMark;
 use crate::transport::sample::RosSample;
+use crate::transport::type_registration::{owned_sources, Registered};
 use crate::transport::type_check::TypeCheck;
 
 pub use crate::transport::queue::History;
@@ -50,7 +50,7 @@ pub struct SubscriberBuilder<'a, T> {
     pub(crate) node: Option<TopicEndpoint>,
     /// The message type in the node's type-description cache, for node
     /// subscribers.
-    pub(crate) type_use: Option<TypeUse>,
+    pub(crate) type_use: Option<Registered>,
     /// As given to [`history`](Self::history); else what a node subscriber's
     /// QoS announces, and every sample for a plain subscriber.
     pub(crate) history: Option<History>,
@@ -58,8 +58,9 @@ pub struct SubscriberBuilder<'a, T> {
     pub(crate) qos: Qos,
     /// Ask publishers declared with recovery for what never arrived.
     pub(crate) recovery: bool,
-    /// A name that failed to resolve (node subscribers): reported by `build`.
-    pub(crate) invalid: Option<crate::ros::names::NameError>,
+    /// An error found before the builder was made (a node subscriber's name
+    /// that failed to resolve): reported by `build`.
+    pub(crate) invalid: Option<zenoh::Error>,
     pub(crate) topic_type: TopicType,
     pub(crate) message: PhantomData<fn() -> T>,
 }
@@ -207,7 +208,7 @@ impl<'a, T> SubscriberBuilder<'a, T> {
                         .max_samples(depth),
                 )
                 .subscriber_detection()
-                .query_timeout(crate::ros::service::NO_TIMEOUT)
+                .query_timeout(NO_TIMEOUT)
         } else {
             builder.query_timeout(RECOVERY_QUERY_TIMEOUT)
         };
@@ -226,9 +227,9 @@ impl<'a, T> SubscriberBuilder<'a, T> {
     /// its Zenoh subscriber so that publishers learn of them first: the
     /// rmw_zenoh liveliness token of a node subscriber, and the session's
     /// receiver mark (see [`ReceiverMark`]).
-    fn declare_token(&self) -> zenoh::Result<Announced> {
-        if let Some(invalid) = &self.invalid {
-            return Err(invalid.clone().into());
+    fn declare_token(&mut self) -> zenoh::Result<Announced> {
+        if let Some(invalid) = self.invalid.take() {
+            return Err(invalid);
         }
         check_key_expr("key expression", &self.key_expr)?;
         let token = self.token();
@@ -280,7 +281,7 @@ impl<'a, T> SubscriberBuilder<'a, T> {
         }
     }
 
-    fn build(self) -> zenoh::Result<RosSubscriber<T>> {
+    fn build(mut self) -> zenoh::Result<RosSubscriber<T>> {
         let token = self.declare_token()?;
         let (queue, receiver) = Queue::new(
             self.queue_history(),
@@ -321,7 +322,7 @@ impl SubscriberBuilder<'_, shm_cdr::dynamic::DynamicType> {
         sources: impl IntoIterator<Item = (N, S)>,
     ) -> Self {
         if let Some(type_use) = &self.type_use {
-            type_use.offer_sources(sources);
+            type_use.offer_sources(&owned_sources(sources));
         }
         self
     }
@@ -349,7 +350,7 @@ impl<T> IntoFuture for SubscriberBuilder<'_, T> {
 struct Announced {
     _rmw: Option<LivelinessToken>,
     _receiver: ReceiverMark,
-    _type_use: Option<TypeUse>,
+    _type_use: Option<Registered>,
 }
 
 /// How long a recovering subscriber waits for a publisher's cache to answer
@@ -394,7 +395,7 @@ impl<T> CallbackSubscriberBuilder<'_, T> {
         self
     }
 
-    fn build(self) -> zenoh::Result<CallbackSubscriber<T>> {
+    fn build(mut self) -> zenoh::Result<CallbackSubscriber<T>> {
         let token = self.inner.declare_token()?;
         let key_expr = self.inner.key_expr.clone();
         let (queue, receiver) = Queue::new(

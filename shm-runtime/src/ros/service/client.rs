@@ -35,9 +35,7 @@ const DEFAULT_TIMEOUT: Duration = Duration::from_secs(10);
 /// as many).
 const REPLY_QUEUE: usize = 256;
 
-/// The longest timeout Zenoh carries (`u64::MAX` ms): what "no timeout" means,
-/// as rmw_zenoh_cpp uses for an action's `get_result`.
-pub(crate) const NO_TIMEOUT: Duration = Duration::from_millis(u64::MAX);
+pub(crate) use crate::transport::limits::NO_TIMEOUT;
 
 /// Why a call failed.
 #[derive(Debug)]
