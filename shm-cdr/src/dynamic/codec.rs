@@ -5,9 +5,10 @@
 
 use std::borrow::Cow;
 
-use super::model::{Check, DynamicType, Element, FieldDef};
+use super::model::DynamicType;
 use super::numbers::Numbers;
 use super::plan::{bools_valid, Entry, Member, RunRead, Step};
+use super::structs::{Check, Element, FieldDef};
 use super::value::{Message, Messages, Slots, Value};
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::Container;

@@ -84,3 +84,12 @@ impl Default for TypeLimits {
 /// message nested `max_depth` deep holds one field per level): what bounds
 /// the table a [view](super::MessageView) keeps by the payload's length.
 pub(crate) const MAX_FIELDS_PER_BYTE: usize = 64;
+
+/// The bytes one decoded value takes beside what it holds (the size of a
+/// [`Value`](super::Value)), and one message beside its values (of a
+/// [`Message`](super::Message)): what a type's default message is counted in
+/// against [`TypeLimits::max_default_size`]. `value.rs` checks both at
+/// compile time.
+pub(crate) const VALUE_BYTES: usize = 32;
+/// See [`VALUE_BYTES`].
+pub(crate) const MESSAGE_BYTES: usize = 72;

@@ -33,6 +33,7 @@ mod numbers;
 mod plan;
 #[cfg(feature = "serde")]
 mod serde_impl;
+mod structs;
 mod value;
 mod view;
 #[cfg(feature = "yaml")]
@@ -40,11 +41,12 @@ mod yaml_in;
 mod yaml_out;
 
 pub use limits::TypeLimits;
-pub use model::{DynamicType, Element, FieldDef, StructDef, TypeError};
+pub use model::{DynamicType, TypeError};
 pub use numbers::{Iter as NumbersIter, Number, Numbers};
 #[cfg(feature = "serde")]
 pub use serde_impl::SerializeCdr;
 pub use shm_interface::python::python_float;
+pub use structs::{Element, FieldDef, StructDef};
 pub use value::{Field, Message, MessageRef, Messages, Value, ValueError};
 pub use view::{FieldView, MessageView, SequenceView, StructView, ValueView};
 #[cfg(feature = "yaml")]

@@ -6,7 +6,7 @@
 //! [view](super::MessageView) notes where each lies in these slots: the two
 //! agree on one layout.
 
-use super::model::{Check, Element, StructDef};
+use super::structs::{Check, Element, StructDef};
 use crate::describe::Container;
 
 /// How one message of a struct is laid out and checked: its fields, and

@@ -11,7 +11,8 @@ use serde::ser::{Error as _, SerializeMap, SerializeSeq};
 use serde::{Serialize, Serializer};
 
 use super::codec::read_len;
-use super::model::{Check, DynamicType, Element};
+use super::model::DynamicType;
+use super::structs::{Check, Element};
 use super::value::{Field, Message, MessageRef, Messages, Value};
 use crate::decode::Reader;
 use crate::endian::{BigEndian, ByteOrder, Endianness, LittleEndian};

@@ -3,9 +3,11 @@
 use std::borrow::Cow;
 use std::fmt;
 
-use super::model::{DynamicType, Element, StructDef};
+use super::limits::{MESSAGE_BYTES, VALUE_BYTES};
+use super::model::DynamicType;
 use super::numbers::Numbers;
 use super::plan::StructPlan;
+use super::structs::{Element, StructDef};
 use crate::describe::Container;
 
 /// The value of one field. Strings, byte and number arrays borrow from the
@@ -852,82 +854,11 @@ fn check(
     }
 }
 
-impl DynamicType {
-    /// A message of this type with every field at its default: the default
-    /// value its description gives, else zero, empty, or an array of zeros
-    /// (every element of a fixed array is made).
-    pub fn default_message(&self) -> Message<'static> {
-        self.default_struct(0)
-    }
-
-    pub(crate) fn default_struct(&self, index: usize) -> Message<'static> {
-        let block = self.inner.plans.get(index).map_or(0, |p| p.block);
-        let mut slots = Vec::with_capacity(block);
-        self.push_defaults(index, &mut slots);
-        Message::from_slots(self.clone(), index, slots)
-    }
-
-    /// Push the default values of a message of struct `index` onto `slots`,
-    /// in slot order.
-    fn push_defaults(&self, index: usize, slots: &mut Vec<Value<'static>>) {
-        let Some(def) = self.inner.structs.get(index) else {
-            return;
-        };
-        for f in &def.fields {
-            if let (Element::Message(nested), Container::Single) = (f.element, f.container) {
-                self.push_defaults(nested, slots);
-                continue;
-            }
-            let n = match f.container {
-                Container::Array(n) => n,
-                _ => 0,
-            };
-            let given = super::defaults::parse(f.element, f.container, &f.default_value);
-            slots.push(given.unwrap_or_else(|| self.zero(f.element, f.container, n)));
-        }
-    }
-
-    fn zero(&self, element: Element, container: Container, n: usize) -> Value<'static> {
-        if container == Container::Single {
-            return match element {
-                Element::Bool => Value::Bool(false),
-                Element::Byte | Element::Char | Element::U8 => Value::U8(0),
-                Element::I8 => Value::I8(0),
-                Element::I16 => Value::I16(0),
-                Element::U16 => Value::U16(0),
-                Element::I32 => Value::I32(0),
-                Element::U32 => Value::U32(0),
-                Element::I64 => Value::I64(0),
-                Element::U64 => Value::U64(0),
-                Element::F32 => Value::F32(0.0),
-                Element::F64 => Value::F64(0.0),
-                Element::String(_) => Value::String(Cow::Borrowed("")),
-                Element::WString(_) => Value::WString(String::new()),
-                Element::Message(i) => Value::Message(Box::new(self.default_struct(i))),
-            };
-        }
-        match element {
-            Element::Bool => Value::Bools(vec![false; n]),
-            Element::Byte | Element::Char | Element::U8 => Value::U8s(Cow::Owned(vec![0; n])),
-            Element::I8 => Value::I8s(Cow::Owned(vec![0; n])),
-            Element::I16 => Value::I16s(vec![0; n].into()),
-            Element::U16 => Value::U16s(vec![0; n].into()),
-            Element::I32 => Value::I32s(vec![0; n].into()),
-            Element::U32 => Value::U32s(vec![0; n].into()),
-            Element::I64 => Value::I64s(vec![0; n].into()),
-            Element::U64 => Value::U64s(vec![0; n].into()),
-            Element::F32 => Value::F32s(vec![0.0; n].into()),
-            Element::F64 => Value::F64s(vec![0.0; n].into()),
-            Element::String(_) => Value::Strings(vec![Cow::Borrowed(""); n]),
-            Element::WString(_) => Value::WStrings(vec![String::new(); n]),
-            Element::Message(i) => {
-                let block = self.inner.plans.get(i).map_or(0, |p| p.block);
-                let mut slots = Vec::with_capacity(n.saturating_mul(block));
-                for _ in 0..n {
-                    self.push_defaults(i, &mut slots);
-                }
-                Value::Messages(Box::new(Messages::from_slots(self.clone(), i, n, slots)))
-            }
-        }
-    }
-}
+// The memory a type's messages are counted in when it is built: never less
+// than they take, and on 64-bit targets exactly.
+const _: () = {
+    let (value, message) = (size_of::<Value<'static>>(), size_of::<Message<'static>>());
+    assert!(value <= VALUE_BYTES && message <= MESSAGE_BYTES);
+    #[cfg(target_pointer_width = "64")]
+    assert!(value == VALUE_BYTES && message == MESSAGE_BYTES);
+};

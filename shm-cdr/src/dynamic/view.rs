@@ -8,8 +8,9 @@ use std::cell::Cell;
 use std::fmt;
 
 use super::codec::{decode_string, read_len};
-use super::model::{Check, DynamicType, Element, FieldDef, StructDef, Types};
+use super::model::{DynamicType, Types};
 use super::plan::{bools_valid, Step};
+use super::structs::{Check, Element, FieldDef, StructDef};
 use super::value::{Message, Messages, Value};
 use crate::decode::{CdrDecode, Reader};
 use crate::describe::Container;

@@ -17,7 +17,8 @@ use std::cell::RefCell;
 
 use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
 
-use super::model::{DynamicType, Element};
+use super::model::DynamicType;
+use super::structs::Element;
 use super::value::{Field, Message, Messages, Value};
 use crate::describe::Container;
 

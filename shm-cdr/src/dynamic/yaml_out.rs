@@ -10,8 +10,8 @@
 use std::borrow::Cow;
 use std::fmt::{self, Write as _};
 
-use super::model::{Element, FieldDef};
 use super::numbers::{Number, Numbers};
+use super::structs::{Element, FieldDef};
 use super::value::{Field, Message, MessageRef, Value};
 use crate::describe::{Container, PLACEHOLDER_MEMBER};
 use shm_interface::python::python_float;

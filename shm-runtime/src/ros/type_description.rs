@@ -225,7 +225,6 @@ impl TypeUse {
         Arc::new(self)
     }
 
-
     /// The same use, holding `topic` too.
     pub(crate) fn with_topic(self, topic: TopicUse) -> Self {
         Self {

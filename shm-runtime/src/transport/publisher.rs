@@ -25,7 +25,6 @@ use crate::rmw::{
 use crate::transport::encoded::{EncodedPayload, PayloadKind};
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
-use crate::transport::type_registration::{owned_sources, Registered};
 use crate::transport::payload::{
     encode_payload, encode_sized, on_heap, packed, serialized_payload, splice_or_size, ShmPolicy,
 };
@@ -33,6 +32,7 @@ use crate::transport::pool::ShmContext;
 use crate::transport::reach::{Receivers, PROBE_TIMEOUT};
 use crate::transport::reach_table::Receiver;
 use crate::transport::shm_bytes::Splice;
+use crate::transport::type_registration::{owned_sources, Registered};
 
 /// Why a publish failed. A full pool is not a failure: the message then goes on
 /// the heap ([`PayloadKind::HeapFallback`]).

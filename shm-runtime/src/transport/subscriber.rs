@@ -27,8 +27,8 @@ use crate::transport::limits::{check_key_expr, NO_TIMEOUT};
 use crate::transport::queue::{Queue, DEFAULT_MAX_QUEUED_BYTES};
 use crate::transport::reach::ReceiverMark;
 use crate::transport::sample::RosSample;
-use crate::transport::type_registration::{owned_sources, Registered};
 use crate::transport::type_check::TypeCheck;
+use crate::transport::type_registration::{owned_sources, Registered};
 
 pub use crate::transport::queue::History;
 
