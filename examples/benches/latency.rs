@@ -27,6 +27,7 @@ use std::time::{Duration, Instant};
 use shm_cdr::msgs::sensor_msgs::{PointCloud2, PointCloud2Ref, PointField};
 use shm_cdr::msgs::std_msgs::Header;
 use shm_runtime::msgs::sensor_msgs::PointCloud2Shm;
+use shm_runtime::ShmOptions;
 use shm_runtime::{SessionExt, ShmBytes, ShmConfig, ShmContext};
 use zenoh::{Config, Session, Wait};
 

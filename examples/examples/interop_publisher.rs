@@ -10,6 +10,7 @@ use std::time::Duration;
 use serde_json::json;
 use shm_cdr::RosMessage;
 use shm_cdr_examples::interop::*;
+use shm_runtime::ShmOptions;
 use shm_runtime::{PublishOutcome, RosNode, RosPublisher, ShmConfig, ShmContext};
 use zenoh::{Config, Wait};
 

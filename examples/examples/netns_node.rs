@@ -18,6 +18,7 @@ use sha2::{Digest, Sha256};
 use shm_cdr::msgs::sensor_msgs::PointCloud2;
 use shm_cdr::msgs::std_msgs::Header;
 use shm_cdr_examples::{peer_session, xyzi_fields};
+use shm_runtime::ShmOptions;
 use shm_runtime::{SessionExt, ShmConfig, ShmContext};
 use zenoh::Wait;
 

@@ -16,6 +16,7 @@ use shm_cdr::msgs::sensor_msgs::{PointCloud2, PointCloud2Ref};
 use shm_cdr::msgs::std_msgs::Header;
 use shm_cdr_examples::loopback_pair;
 use shm_runtime::msgs::sensor_msgs::PointCloud2Shm;
+use shm_runtime::ShmOptions;
 use shm_runtime::{RosSample, RosSubscriber, SessionExt, ShmBytes, ShmConfig, ShmContext};
 use zenoh::Wait;
 

@@ -20,6 +20,7 @@ use std::time::{Duration, Instant};
 
 use shm_cdr::msgs::std_msgs::UInt8MultiArray;
 use shm_cdr_examples::peer_session;
+use shm_runtime::ShmOptions;
 use shm_runtime::{PayloadKind, SessionExt, ShmConfig, ShmContext};
 use zenoh::Wait;
 

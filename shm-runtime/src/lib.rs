@@ -68,6 +68,7 @@ pub use transport::receive_failures::{
 };
 pub use transport::sample::RosSample;
 pub use transport::shm_bytes::ShmBytes;
+pub use transport::shm_options::ShmOptions;
 pub use transport::subscriber::{
     CallbackSubscriber, CallbackSubscriberBuilder, History, MessageStream, RecvError,
     RosSubscriber, SampleStream, SubscriberBuilder,

@@ -17,5 +17,5 @@ pub use zenoh::Wait;
 
 pub use crate::{
     init_logging, History, PayloadKind, PoolSize, RosNode, RosSample, SessionExt, ShmBytes,
-    ShmConfig, ShmContext,
+    ShmConfig, ShmContext, ShmOptions,
 };

@@ -15,6 +15,7 @@ use std::time::{Duration, Instant};
 
 use shm_cdr::msgs::sensor_msgs::Image;
 use shm_cdr::msgs::std_msgs::Header;
+use shm_runtime::ShmOptions;
 use shm_runtime::{History, PayloadKind, SessionExt, ShmConfig, ShmContext};
 use zenoh::Wait;
 

@@ -9,6 +9,7 @@ use shm_cdr::msgs::sensor_msgs::{Image, ImageRef, PointCloud2, PointCloud2Ref, P
 use shm_cdr::msgs::std_msgs::{self, Header};
 use shm_cdr::RosMessage;
 use shm_runtime::rmw::{topic_key_expr, Gid};
+use shm_runtime::ShmOptions;
 use shm_runtime::{PayloadKind, RosNode, SessionExt, ShmBytes, ShmConfig, ShmContext};
 use zenoh::shm::ShmBufUnsafeMut;
 use zenoh::{Session, Wait};

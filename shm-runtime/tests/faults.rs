@@ -7,6 +7,7 @@ use std::time::Duration;
 use shm_cdr::msgs::sensor_msgs::Image;
 use shm_cdr::msgs::std_msgs::Header;
 use shm_cdr::DecodeErrorKind;
+use shm_runtime::ShmOptions;
 use shm_runtime::{PayloadKind, SessionExt, ShmConfig, ShmContext};
 use zenoh::{Config, Session, Wait};
 

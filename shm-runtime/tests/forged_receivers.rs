@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 
 use common::{connect_to, loopback_sessions, shm_serial};
 use shm_cdr::msgs::std_msgs::UInt8MultiArray;
+use shm_runtime::ShmOptions;
 use shm_runtime::{
     PayloadKind, Reach, RosPublisher, RosSubscriber, SessionExt, ShmConfig, ShmContext,
     PROBE_TIMEOUT,

@@ -12,6 +12,7 @@ use shm_cdr::loan::InPlace;
 use shm_cdr::msgs::builtin_interfaces::Time;
 use shm_cdr::msgs::sensor_msgs::{LaserScan, LaserScanLens, LaserScanRef};
 use shm_cdr::msgs::std_msgs::{Header, HeaderLens};
+use shm_runtime::ShmOptions;
 use shm_runtime::{PayloadKind, PublishError, SessionExt, ShmConfig, ShmContext};
 use zenoh::Wait;
 

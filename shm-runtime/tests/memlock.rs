@@ -10,6 +10,7 @@ use std::time::Duration;
 
 use common::{loopback_sessions, shm_serial};
 use shm_cdr::msgs::sensor_msgs::Image;
+use shm_runtime::ShmOptions;
 use shm_runtime::{
     MemlockBudget, PayloadKind, SessionExt, ShmConfig, ShmContext, ZENOH_METADATA_SEGMENT,
 };

@@ -12,6 +12,7 @@ use std::time::Duration;
 use common::blobs::{publish_all, receive_all, PUBLISHED};
 use common::loopback_sessions;
 use shm_cdr::msgs::std_msgs::UInt8MultiArray;
+use shm_runtime::ShmOptions;
 use shm_runtime::{
     shm_receive_failures, PayloadKind, Reach, ReceiveFailureCause, SessionExt, ShmConfig,
     ShmContext,

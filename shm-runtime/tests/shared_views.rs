@@ -18,6 +18,7 @@ use common::{loopback_sessions, shm_serial};
 use shm_cdr::msgs::std_msgs::{String as RosString, UInt8MultiArray};
 use shm_cdr::msgs::std_msgs::{StringRef, UInt8MultiArrayRef};
 use shm_cdr::{DecodeErrorKind, RosMessage};
+use shm_runtime::ShmOptions;
 use shm_runtime::{SessionExt, ShmConfig, ShmContext};
 use zenoh::Wait;
 

@@ -13,6 +13,7 @@ use std::time::Duration;
 use common::blobs::{limited, publish_all, receive_all, LimitGuard, PUBLISHED};
 use common::loopback_sessions;
 use shm_cdr::msgs::std_msgs::UInt8MultiArray;
+use shm_runtime::ShmOptions;
 use shm_runtime::{
     MemlockBudget, Reach, SessionExt, ShmConfig, ShmContext, ZENOH_METADATA_SEGMENT,
 };

@@ -9,6 +9,7 @@ use shm_cdr::msgs::builtin_interfaces::Time;
 use shm_cdr::msgs::sensor_msgs::{PointCloud2, PointCloud2Lens, PointCloud2Ref};
 use shm_cdr::msgs::std_msgs::Header;
 use shm_runtime::msgs::sensor_msgs::PointCloud2Shm;
+use shm_runtime::ShmOptions;
 use shm_runtime::{Loan, RosPublisher, RosSample, SessionExt, ShmBytes, ShmContext};
 use zenoh::bytes::ZBytes;
 use zenoh::pubsub::Publisher;

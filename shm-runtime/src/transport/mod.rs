@@ -22,6 +22,7 @@ pub(crate) mod reach_table;
 pub(crate) mod receive_failures;
 pub(crate) mod sample;
 pub(crate) mod shm_bytes;
+pub(crate) mod shm_options;
 pub(crate) mod subscriber;
 pub(crate) mod type_check;
 pub(crate) mod type_registration;

@@ -32,6 +32,7 @@ use crate::transport::pool::ShmContext;
 use crate::transport::reach::{Receivers, PROBE_TIMEOUT};
 use crate::transport::reach_table::Receiver;
 use crate::transport::shm_bytes::Splice;
+use crate::transport::shm_options;
 use crate::transport::type_registration::{owned_sources, Registered};
 
 /// Why a publish failed. A full pool is not a failure: the message then goes on
@@ -143,9 +144,9 @@ pub struct PublishOutcome {
 }
 
 /// The shared-memory settings of one publisher, server or client, as its
-/// builder collects them.
+/// builder collects them ([`ShmOptions`](crate::ShmOptions)).
 #[derive(Debug, Clone, Default)]
-pub(crate) struct ShmSettings {
+pub struct ShmSettings {
     /// The default of where the entity is declared (its node's pool; none on a
     /// bare session).
     pub(crate) inherited: Option<ShmContext>,
@@ -284,6 +285,12 @@ pub struct PublisherBuilder<'a, T> {
     pub(crate) message: PhantomData<fn(&T)>,
 }
 
+impl<T> shm_options::sealed::Settings for PublisherBuilder<'_, T> {
+    fn shm_settings(&mut self) -> &mut ShmSettings {
+        &mut self.shm
+    }
+}
+
 impl<'a, T> PublisherBuilder<'a, T> {
     pub(crate) fn new(session: &'a Session, key_expr: String, topic_type: TopicType) -> Self {
         Self {
@@ -352,25 +359,6 @@ impl<'a, T> PublisherBuilder<'a, T> {
     /// of 0 is refused when the builder resolves.
     pub fn recovery(mut self, depth: usize) -> Self {
         self.recovery = Some(depth);
-        self
-    }
-
-    /// Publish through this shared-memory pool (overrides the context default).
-    pub fn shm(mut self, context: &ShmContext) -> Self {
-        self.shm.use_pool(context);
-        self
-    }
-
-    /// Use shared memory for messages of at least `bytes` encoded bytes (overrides
-    /// the pool's threshold).
-    pub fn shm_threshold(mut self, bytes: usize) -> Self {
-        self.shm.threshold(bytes);
-        self
-    }
-
-    /// Never use shared memory for this publisher.
-    pub fn without_shm(mut self) -> Self {
-        self.shm.off();
         self
     }
 

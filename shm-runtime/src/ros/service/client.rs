@@ -24,7 +24,6 @@ use crate::ros::type_description::TypeUse;
 use crate::transport::inline_limit::{self, InlineLimit, Unfragmentable};
 use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, ShmPolicy};
-use crate::transport::pool::ShmContext;
 use crate::transport::publisher::{now_ns, ShmSettings};
 use crate::transport::type_check::type_encoding;
 
@@ -121,6 +120,12 @@ pub struct ServiceClientBuilder<'a, S> {
     pub(crate) service: PhantomData<fn() -> S>,
 }
 
+impl<S> crate::transport::shm_options::sealed::Settings for ServiceClientBuilder<'_, S> {
+    fn shm_settings(&mut self) -> &mut ShmSettings {
+        &mut self.shm
+    }
+}
+
 impl<'a, S: RosService> ServiceClientBuilder<'a, S> {
     pub(crate) fn new(session: &'a Session, key_expr: String, token: String) -> Self {
         Self::with_request_encoding(
@@ -161,24 +166,6 @@ impl<'a, S> ServiceClientBuilder<'a, S> {
     /// [`CallBuilder::timeout`] overrides it for one call.
     pub fn timeout(mut self, timeout: Duration) -> Self {
         self.timeout = timeout.min(NO_TIMEOUT);
-        self
-    }
-
-    /// Send requests through this shared-memory pool (overrides the node's).
-    pub fn shm(mut self, context: &ShmContext) -> Self {
-        self.shm.use_pool(context);
-        self
-    }
-
-    /// Use shared memory for requests of at least `bytes` encoded bytes.
-    pub fn shm_threshold(mut self, bytes: usize) -> Self {
-        self.shm.threshold(bytes);
-        self
-    }
-
-    /// Never send requests from shared memory.
-    pub fn without_shm(mut self) -> Self {
-        self.shm.off();
         self
     }
 

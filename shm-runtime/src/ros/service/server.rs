@@ -27,7 +27,6 @@ use crate::transport::executor::{Callback, Dispatch, Executor};
 use crate::transport::inline_limit::{self, InlineLimit};
 use crate::transport::limits::check_key_expr;
 use crate::transport::payload::{encode_payload, ShmPolicy};
-use crate::transport::pool::ShmContext;
 use crate::transport::publisher::{now_ns, PublishError, ShmSettings};
 use crate::transport::queue::History;
 use crate::transport::type_check::type_encoding;
@@ -48,6 +47,12 @@ pub struct ServiceServerBuilder<'a, S> {
     /// A name that failed to resolve: reported by `build`.
     pub(crate) invalid: Option<crate::ros::names::NameError>,
     pub(crate) service: PhantomData<fn() -> S>,
+}
+
+impl<S> crate::transport::shm_options::sealed::Settings for ServiceServerBuilder<'_, S> {
+    fn shm_settings(&mut self) -> &mut ShmSettings {
+        &mut self.shm
+    }
 }
 
 impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
@@ -72,24 +77,6 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
     /// [`ServiceServer::dropped`]); [`History::KeepAll`] never drops.
     pub fn history(mut self, history: History) -> Self {
         self.history = history;
-        self
-    }
-
-    /// Reply through this shared-memory pool (overrides the node's).
-    pub fn shm(mut self, context: &ShmContext) -> Self {
-        self.shm.use_pool(context);
-        self
-    }
-
-    /// Use shared memory for responses of at least `bytes` encoded bytes.
-    pub fn shm_threshold(mut self, bytes: usize) -> Self {
-        self.shm.threshold(bytes);
-        self
-    }
-
-    /// Never reply from shared memory.
-    pub fn without_shm(mut self) -> Self {
-        self.shm.off();
         self
     }
 
