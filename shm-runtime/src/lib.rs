@@ -16,7 +16,7 @@
 //! rcl_action's goal state machine), and the ROS [`graph`].
 //!
 //! ```no_run
-//! use shm_runtime::{SessionExt, ShmConfig, ShmContext};
+//! use shm_runtime::{SessionExt, ShmConfig, ShmContext, ShmOptions};
 //! use zenoh::Wait;
 //! # #[derive(shm_cdr::RosMessage)] #[ros(type_name = "my_pkg/msg/Blob")] struct Blob { data: Vec<u8> }
 //!
