@@ -8,6 +8,7 @@ use crate::error::{EncodeError, EncodeErrorKind};
 use crate::layout::{
     align_up, plain_bytes, uninit_view, write_bytes_into, zeroed_bytes, FixedLayout, PlainLayout,
 };
+use crate::splice::{SpliceSink, SpliceSizing};
 
 /// A value with a CDR encoding and an exact encoded size.
 ///
@@ -32,11 +33,40 @@ pub trait CdrEncode {
     /// their start phase allows. See [`PlainLayout`] for the proof it carries.
     const PLAIN: Option<PlainLayout<Self>> = None;
 
+    /// Set when a value of this type may hold a run a [splicing](crate::splice)
+    /// write leaves out: a type that splices, and every sequence, array and
+    /// struct that holds one. Every other type sizes and writes as it always
+    /// does, whoever asks.
+    const SPLICES: bool = false;
+
     /// The position after this value when it is encoded starting at `start`.
     fn encoded_end(&self, start: usize) -> usize;
 
     /// Write this value at the writer's position, zeroing every padding byte.
     fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError>;
+
+    /// The position after this value when a [splicing](crate::splice) write
+    /// encodes it from `start`: each run left out counts its filler only, and
+    /// is tallied in `sizing`. [`encoded_end`](Self::encoded_end) unless
+    /// [`SPLICES`](Self::SPLICES).
+    #[inline]
+    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
+        let _ = sizing;
+        self.encoded_end(start)
+    }
+
+    /// Write this value as a [splicing](crate::splice) write does: each run
+    /// left out goes to `sink`, with only its filler written.
+    /// [`encode`](Self::encode) unless [`SPLICES`](Self::SPLICES).
+    #[inline]
+    fn encode_spliced<B: ByteOrder>(
+        &self,
+        w: &mut Writer<'_, B>,
+        sink: &mut dyn SpliceSink,
+    ) -> Result<(), EncodeError> {
+        let _ = sink;
+        self.encode(w)
+    }
 
     /// The position after the elements of a sequence or array starting at `start`
     /// (no length prefix). O(1) for fixed-layout types.

@@ -54,6 +54,7 @@ pub mod prelude;
 // that handle them all (shm-codegen/generate-standard-set.sh writes it).
 #[cfg(feature = "all_interfaces")]
 mod registry;
+pub mod splice;
 #[cfg(any(feature = "proptest", feature = "arbitrary"))]
 mod strategies;
 pub mod testing;
@@ -135,17 +136,24 @@ fn with_needed<T: CdrEncode + ?Sized>(
     e
 }
 
+/// The encapsulation header's bytes of `buf`, and the body after them.
+#[inline(always)]
+fn split_header(buf: &mut [u8]) -> Result<(&mut [u8; HEADER_LEN], &mut [u8]), EncodeError> {
+    let available = buf.len();
+    buf.split_first_chunk_mut::<HEADER_LEN>().ok_or_else(|| {
+        EncodeError::new(EncodeErrorKind::BufferTooSmall {
+            needed: HEADER_LEN,
+            available,
+        })
+    })
+}
+
 #[inline(always)]
 fn encode_body<T: CdrEncode + ?Sized, B: ByteOrder>(
     msg: &T,
     buf: &mut [u8],
 ) -> Result<usize, EncodeError> {
-    let Some((header, body)) = buf.split_first_chunk_mut::<HEADER_LEN>() else {
-        return Err(EncodeError::new(EncodeErrorKind::BufferTooSmall {
-            needed: HEADER_LEN,
-            available: buf.len(),
-        }));
-    };
+    let (header, body) = split_header(buf)?;
     *header = B::ENDIANNESS.header();
     let mut w = Writer::<B>::new(body);
     msg.encode(&mut w)?;

@@ -58,6 +58,55 @@ pub fn expand(container: &Container) -> TokenStream {
         }
     };
 
+    // --- splicing (`shm_cdr::splice`) --------------------------------------------
+    let splice_bodies = if empty {
+        None
+    } else {
+        Some((
+            quote! {
+                let pos = start;
+                #( let pos = #krate::CdrEncode::spliced_end(&self.#members, pos, __sizing); )*
+                pos
+            },
+            quote! {
+                #(
+                    #krate::CdrEncode::encode_spliced(&self.#members, __w, __sink)
+                        .map_err(|e| e.in_field(#rust_name, #ros_names))?;
+                )*
+                ::core::result::Result::Ok(())
+            },
+        ))
+    };
+    let splice_methods = splice_bodies.map(|(size, write)| {
+        quote! {
+            const SPLICES: bool = false #( || <#types as #krate::CdrEncode>::SPLICES )*;
+
+            #[inline]
+            fn spliced_end(
+                &self,
+                start: usize,
+                __sizing: &mut #krate::splice::SpliceSizing,
+            ) -> usize {
+                if !<Self as #krate::CdrEncode>::SPLICES {
+                    return #krate::CdrEncode::encoded_end(self, start);
+                }
+                #size
+            }
+
+            #[inline]
+            fn encode_spliced<__B: #krate::ByteOrder>(
+                &self,
+                __w: &mut #krate::Writer<'_, __B>,
+                __sink: &mut dyn #krate::splice::SpliceSink,
+            ) -> ::core::result::Result<(), #krate::EncodeError> {
+                if !<Self as #krate::CdrEncode>::SPLICES {
+                    return #krate::CdrEncode::encode(self, __w);
+                }
+                #write
+            }
+        }
+    });
+
     // --- bulk-copy proof ----------------------------------------------------------
     let plain = |trait_path: TokenStream| {
         if empty {
@@ -241,6 +290,8 @@ pub fn expand(container: &Container) -> TokenStream {
                 ) -> ::core::result::Result<(), #krate::EncodeError> {
                     #encode_body
                 }
+
+                #splice_methods
             }
 
             impl #de_impl_generics #krate::CdrDecode<#de> for #ident #ty_generics #where_clause {

@@ -7,6 +7,7 @@ use crate::endian::ByteOrder;
 use crate::error::{DecodeError, EncodeError};
 use crate::layout::{FixedLayout, PlainLayout};
 use crate::loan::{Carver, InPlace, InPlaceElement, LoanError};
+use crate::splice::{SpliceSink, SpliceSizing};
 
 impl<T: CdrEncode, const N: usize> CdrEncode for [T; N] {
     const FIXED_LAYOUT: Option<FixedLayout> = FixedLayout::of_array(T::FIXED_LAYOUT, N);
@@ -20,9 +21,33 @@ impl<T: CdrEncode, const N: usize> CdrEncode for [T; N] {
         _ => None,
     };
 
+    const SPLICES: bool = T::SPLICES;
+
     #[inline]
     fn encoded_end(&self, start: usize) -> usize {
         T::slice_encoded_end(self, start)
+    }
+
+    #[inline]
+    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
+        if !T::SPLICES {
+            return self.encoded_end(start);
+        }
+        self.iter()
+            .fold(start, |pos, item| item.spliced_end(pos, sizing))
+    }
+
+    #[inline]
+    fn encode_spliced<B: ByteOrder>(
+        &self,
+        w: &mut Writer<'_, B>,
+        sink: &mut dyn SpliceSink,
+    ) -> Result<(), EncodeError> {
+        if !T::SPLICES {
+            return self.encode(w);
+        }
+        self.iter()
+            .try_for_each(|item| item.encode_spliced(w, sink))
     }
 
     #[inline]

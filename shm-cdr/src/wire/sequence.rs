@@ -11,10 +11,44 @@ use crate::endian::ByteOrder;
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
 use crate::layout::{align_up, FixedLayout};
 use crate::loan::{Carver, InPlace, InPlaceElement, LoanError};
+use crate::splice::{SpliceSink, SpliceSizing};
 
 #[inline(always)]
 fn sequence_end<T: CdrEncode>(items: &[T], start: usize) -> usize {
     T::slice_encoded_end(items, align_up(start, 4) + 4)
+}
+
+/// [`sequence_end`] for a splicing write: element by element only when the
+/// elements may splice.
+#[inline]
+fn spliced_sequence_end<T: CdrEncode>(
+    items: &[T],
+    start: usize,
+    sizing: &mut SpliceSizing,
+) -> usize {
+    if !T::SPLICES {
+        return sequence_end(items, start);
+    }
+    let data = align_up(start, 4) + 4;
+    items
+        .iter()
+        .fold(data, |pos, item| item.spliced_end(pos, sizing))
+}
+
+/// [`write_sequence`] for a splicing write.
+#[inline]
+fn write_spliced_sequence<T: CdrEncode, B: ByteOrder>(
+    items: &[T],
+    w: &mut Writer<'_, B>,
+    sink: &mut dyn SpliceSink,
+) -> Result<(), EncodeError> {
+    if !T::SPLICES {
+        return write_sequence(items, w);
+    }
+    w.write_len(items.len())?;
+    items
+        .iter()
+        .try_for_each(|item| item.encode_spliced(w, sink))
 }
 
 /// Replace the contents of `out` with `n` values read from `r`, decoding into the
@@ -49,6 +83,22 @@ fn write_sequence<T: CdrEncode, B: ByteOrder>(
 
 /// A sequence (`T[]`).
 impl<T: CdrEncode> CdrEncode for [T] {
+    const SPLICES: bool = T::SPLICES;
+
+    #[inline]
+    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
+        spliced_sequence_end(self, start, sizing)
+    }
+
+    #[inline]
+    fn encode_spliced<B: ByteOrder>(
+        &self,
+        w: &mut Writer<'_, B>,
+        sink: &mut dyn SpliceSink,
+    ) -> Result<(), EncodeError> {
+        write_spliced_sequence(self, w, sink)
+    }
+
     #[inline]
     fn encoded_end(&self, start: usize) -> usize {
         sequence_end(self, start)
@@ -61,6 +111,22 @@ impl<T: CdrEncode> CdrEncode for [T] {
 }
 
 impl<T: CdrEncode> CdrEncode for Vec<T> {
+    const SPLICES: bool = T::SPLICES;
+
+    #[inline]
+    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
+        spliced_sequence_end(self, start, sizing)
+    }
+
+    #[inline]
+    fn encode_spliced<B: ByteOrder>(
+        &self,
+        w: &mut Writer<'_, B>,
+        sink: &mut dyn SpliceSink,
+    ) -> Result<(), EncodeError> {
+        write_spliced_sequence(self, w, sink)
+    }
+
     #[inline]
     fn encoded_end(&self, start: usize) -> usize {
         sequence_end(self, start)
@@ -89,6 +155,22 @@ impl<'de, T: CdrDecode<'de>> CdrDecode<'de> for Vec<T> {
 }
 
 impl<T: CdrEncode + Clone> CdrEncode for Cow<'_, [T]> {
+    const SPLICES: bool = T::SPLICES;
+
+    #[inline]
+    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
+        spliced_sequence_end(self, start, sizing)
+    }
+
+    #[inline]
+    fn encode_spliced<B: ByteOrder>(
+        &self,
+        w: &mut Writer<'_, B>,
+        sink: &mut dyn SpliceSink,
+    ) -> Result<(), EncodeError> {
+        write_spliced_sequence(self, w, sink)
+    }
+
     #[inline]
     fn encoded_end(&self, start: usize) -> usize {
         sequence_end(self, start)
@@ -112,6 +194,31 @@ impl<'de: 'a, 'a, T: CdrDecode<'de> + Clone + 'de> CdrDecode<'de> for Cow<'a, [T
 }
 
 impl<T: CdrEncode, const N: usize> CdrEncode for BoundedVec<T, N> {
+    const SPLICES: bool = T::SPLICES;
+
+    #[inline]
+    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
+        spliced_sequence_end(self, start, sizing)
+    }
+
+    #[inline]
+    fn encode_spliced<B: ByteOrder>(
+        &self,
+        w: &mut Writer<'_, B>,
+        sink: &mut dyn SpliceSink,
+    ) -> Result<(), EncodeError> {
+        if !T::SPLICES {
+            return self.encode(w);
+        }
+        if self.len() > N {
+            return Err(EncodeError::new(EncodeErrorKind::BoundExceeded {
+                len: self.len(),
+                bound: N,
+            }));
+        }
+        write_spliced_sequence(self, w, sink)
+    }
+
     #[inline]
     fn encoded_end(&self, start: usize) -> usize {
         sequence_end(self, start)
@@ -161,6 +268,21 @@ fn read_bounded_count<'de, T: CdrDecode<'de>, B: ByteOrder, const N: usize>(
 /// A reference encodes as what it points to (`&str`, `&[u8]`, `&Msg`).
 impl<T: CdrEncode + ?Sized> CdrEncode for &T {
     const FIXED_LAYOUT: Option<FixedLayout> = T::FIXED_LAYOUT;
+    const SPLICES: bool = T::SPLICES;
+
+    #[inline(always)]
+    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
+        (**self).spliced_end(start, sizing)
+    }
+
+    #[inline(always)]
+    fn encode_spliced<B: ByteOrder>(
+        &self,
+        w: &mut Writer<'_, B>,
+        sink: &mut dyn SpliceSink,
+    ) -> Result<(), EncodeError> {
+        (**self).encode_spliced(w, sink)
+    }
 
     #[inline(always)]
     fn encoded_end(&self, start: usize) -> usize {

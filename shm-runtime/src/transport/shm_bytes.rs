@@ -7,14 +7,15 @@
 //! filler bytes, and records where its data belongs. Everything after it is thus
 //! shifted by a multiple of 8 bytes, so every later alignment is unchanged. The
 //! payload is then assembled as: metadata before, the application's block, the
-//! metadata after (filler dropped). The scope is a thread-local set only for the
-//! duration of one synchronous encode.
+//! metadata after (filler dropped). Sizing and writing are `shm_cdr::splice`'s:
+//! what they tally and collect is passed to them, nothing is kept per thread.
 
-use std::cell::{Cell, RefCell};
+use std::any::Any;
 use std::ops::Deref;
 
 use shm_cdr::describe::{FieldType, OctetType, TypeId};
 use shm_cdr::loan::{Carver, InPlace, LoanError, Uninit};
+use shm_cdr::splice::{SpliceSink, SpliceSizing};
 use shm_cdr::{ByteOrder, CdrDecode, CdrEncode, DecodeError, EncodeError, Reader, RosType, Writer};
 use zenoh::bytes::ZBytes;
 use zenoh::shm::{zshm, ZShm, ZShmMut};
@@ -140,89 +141,37 @@ impl From<bytes::Bytes> for ShmBytes {
     }
 }
 
-/// What sizing a message met: its shared-memory fields and the bytes they
-/// will not write (`len - len % 8` each).
-#[derive(Clone, Copy, Default)]
-struct Sizing {
-    fields: usize,
-    skipped: usize,
-}
-
-thread_local! {
-    /// The sizing running on this thread, if any: cells, not a `RefCell`, as
-    /// every message published is sized here.
-    static SIZING: Cell<Option<Sizing>> = const { Cell::new(None) };
-    /// `(body position of the data, block)`, in stream order, of the spliced
-    /// write running on this thread, if any.
-    static SPLICES: RefCell<Option<Vec<(usize, ZBytes)>>> = const { RefCell::new(None) };
-}
-
-/// `msg`'s encoded size with each shared-memory field counted as its filler
-/// (the bytes it writes when spliced), and what the sizing met.
-fn sized<T: CdrEncode + ?Sized>(msg: &T) -> (usize, Sizing) {
-    let _sizing = SizingScope::enter();
-    let size = shm_cdr::encoded_size(msg);
-    (size, SIZING.get().unwrap_or_default())
-}
-
-/// A sizing in progress on this thread; the previous state comes back when
-/// dropped, even if sizing panics.
-struct SizingScope(Option<Sizing>);
-
-impl SizingScope {
-    #[inline]
-    fn enter() -> Self {
-        Self(SIZING.replace(Some(Sizing::default())))
-    }
-}
-
-impl Drop for SizingScope {
-    #[inline]
-    fn drop(&mut self) {
-        SIZING.set(self.0);
-    }
-}
-
-/// Run `write` collecting the shared-memory blocks it meets instead of
-/// copying them (sizes seen meanwhile are the spliced ones).
-fn spliced_write<R>(write: impl FnOnce() -> R) -> (R, Vec<(usize, ZBytes)>) {
-    struct Restore(Option<Vec<(usize, ZBytes)>>);
-    impl Drop for Restore {
-        fn drop(&mut self) {
-            let previous = self.0.take();
-            SPLICES.with_borrow_mut(|s| *s = previous);
-        }
-    }
-    let _sizing = SizingScope::enter();
-    let restore = Restore(SPLICES.with_borrow_mut(|s| s.replace(Vec::new())));
-    let result = write();
-    let splices = SPLICES.with_borrow_mut(Option::take).unwrap_or_default();
-    drop(restore);
-    (result, splices)
-}
-
 impl CdrEncode for ShmBytes {
+    const SPLICES: bool = true;
+
     fn encoded_end(&self, start: usize) -> usize {
-        let data_start = shm_cdr::layout::align_up(start, 4) + 4;
-        let len = self.len();
-        if self.is_shm() {
-            if let Some(mut sizing) = SIZING.get() {
-                sizing.fields += 1;
-                sizing.skipped += len - len % 8;
-                SIZING.set(Some(sizing));
-                return data_start + len % 8;
-            }
-        }
-        data_start + len
+        shm_cdr::layout::align_up(start, 4) + 4 + self.len()
     }
 
     fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
         w.write_len(self.len())?;
+        w.write_bytes(self)
+    }
+
+    /// A block in shared memory is left out of the buffer, filler of its
+    /// length modulo 8 in its place.
+    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
+        let data_start = shm_cdr::layout::align_up(start, 4) + 4;
+        if self.is_shm() {
+            data_start + sizing.leave_out(self.len())
+        } else {
+            data_start + self.len()
+        }
+    }
+
+    fn encode_spliced<B: ByteOrder>(
+        &self,
+        w: &mut Writer<'_, B>,
+        sink: &mut dyn SpliceSink,
+    ) -> Result<(), EncodeError> {
+        w.write_len(self.len())?;
         if let Repr::Shm(block) = &self.0 {
-            let at = w.position();
-            let spliced =
-                SPLICES.with_borrow_mut(|s| s.as_mut().map(|s| s.push((at, block.clone()))));
-            if spliced.is_some() {
+            if sink.splice(w.position(), block) {
                 // Filler with the data's length modulo 8 keeps later alignment.
                 return w.write_bytes(&[0u8; 8][..self.len() % 8]);
             }
@@ -278,20 +227,40 @@ pub(crate) enum Splice {
     NotNeeded(usize),
 }
 
+/// The shared-memory blocks a splicing write leaves out, with the body
+/// position each belongs at, in stream order.
+#[derive(Default)]
+struct Splices(Vec<(usize, ZBytes)>);
+
+impl SpliceSink for Splices {
+    fn splice(&mut self, at: usize, run: &dyn Any) -> bool {
+        match run.downcast_ref::<ZBytes>() {
+            Some(block) => {
+                self.0.push((at, block.clone()));
+                true
+            }
+            None => false,
+        }
+    }
+}
+
 /// Encode a message that holds shared-memory [`ShmBytes`] as heap metadata around
 /// the untouched blocks. Sizes the message once either way.
 pub(crate) fn encode_spliced<T: CdrEncode + ?Sized>(msg: &T) -> Result<Splice, EncodeError> {
-    let (reduced, sizing) = sized(msg);
-    if sizing.fields == 0 {
+    if !T::SPLICES {
+        return Ok(Splice::NotNeeded(shm_cdr::encoded_size(msg)));
+    }
+    let (reduced, sizing) = shm_cdr::splice::spliced_size(msg);
+    if sizing.runs == 0 {
         return Ok(Splice::NotNeeded(reduced));
     }
     let mut buffer = vec![0u8; reduced];
-    let (written, splices) = spliced_write(|| shm_cdr::encode_into(msg, &mut buffer));
-    let written = written?;
+    let mut splices = Splices::default();
+    let written = shm_cdr::splice::encode_spliced_into(msg, &mut buffer, &mut splices)?;
     let metadata = bytes::Bytes::from(buffer);
     let mut payload = ZBytes::writer();
     let mut cursor = 0;
-    for (body_pos, block) in splices {
+    for (body_pos, block) in splices.0 {
         let at = shm_cdr::HEADER_LEN + body_pos;
         payload.append(ZBytes::from(metadata.slice(cursor..at)));
         cursor = at + block.len() % 8;
@@ -301,7 +270,7 @@ pub(crate) fn encode_spliced<T: CdrEncode + ?Sized>(msg: &T) -> Result<Splice, E
     Ok(Splice::Done(EncodedPayload {
         bytes: payload.finish(),
         kind: PayloadKind::Spliced,
-        size: reduced + sizing.skipped,
+        size: reduced + sizing.left_out,
         inline: written,
     }))
 }
@@ -399,5 +368,93 @@ mod tests {
         };
         assert_eq!(slices.concat(), shm_cdr::to_vec(&owned).expect("encodes"));
         assert_eq!(payload.size, slices.concat().len());
+    }
+
+    /// One block per field, in a struct, in a sequence of structs, beside
+    /// heap bytes, at every length modulo 8: the spliced payload is byte for
+    /// byte the ordinary encoding, and each block goes in as itself.
+    #[test]
+    fn blocks_anywhere_in_a_message_splice_into_its_encoding() {
+        use crate::{ShmBytes, ShmConfig, ShmContext};
+
+        #[derive(shm_cdr::RosMessage, Clone, Debug, PartialEq, Default)]
+        #[ros(type_name = "test_msgs/msg/SplicedPart")]
+        struct Part {
+            tag: u8,
+            data: ShmBytes,
+        }
+
+        #[derive(shm_cdr::RosMessage, Clone, Debug, PartialEq, Default)]
+        #[ros(type_name = "test_msgs/msg/SplicedWhole")]
+        struct Whole {
+            head: u8,
+            first: ShmBytes,
+            stamp: f64,
+            parts: Vec<Part>,
+            tail: u16,
+        }
+
+        let shm = ShmContext::new(ShmConfig::enabled()).expect("pool");
+        let block = |len: usize, seed: u8| -> ShmBytes {
+            let mut chunk = shm.alloc(len).expect("chunk");
+            for (i, b) in chunk.iter_mut().enumerate() {
+                *b = seed.wrapping_add(i as u8);
+            }
+            ShmBytes::from(chunk)
+        };
+        for first_len in [1, 7, 8, 13] {
+            for part_len in [3, 8, 9, 16] {
+                let msg = Whole {
+                    head: 0xA5,
+                    first: block(first_len, 1),
+                    stamp: 1.5,
+                    parts: vec![
+                        Part {
+                            tag: 1,
+                            data: block(part_len, 2),
+                        },
+                        Part {
+                            tag: 2,
+                            data: ShmBytes::from(vec![9; part_len]),
+                        },
+                        Part {
+                            tag: 3,
+                            data: block(part_len + 5, 3),
+                        },
+                    ],
+                    tail: 0xBEEF,
+                };
+                let expected = shm_cdr::to_vec(&msg).expect("encodes");
+                let Splice::Done(payload) = encode_spliced(&msg).expect("encodes") else {
+                    panic!("shared-memory fields must be spliced");
+                };
+                assert_eq!(payload.kind, crate::PayloadKind::Spliced);
+                let slices: Vec<&[u8]> = payload.bytes.slices().collect();
+                assert_eq!(slices.concat(), expected, "{first_len} {part_len}");
+                assert_eq!(payload.size, expected.len());
+                let blocks = [&msg.first, &msg.parts[0].data, &msg.parts[2].data];
+                for data in blocks {
+                    let range = data.as_slice().as_ptr_range();
+                    assert!(
+                        slices.iter().any(|s| s.as_ptr_range() == range),
+                        "a block was copied ({first_len} {part_len})"
+                    );
+                }
+                assert_eq!(
+                    payload.inline,
+                    expected.len() - blocks.iter().map(|b| b.len() - b.len() % 8).sum::<usize>()
+                );
+            }
+        }
+
+        // Without a block in shared memory, nothing is spliced.
+        let heap = Whole {
+            first: ShmBytes::from(vec![1, 2, 3]),
+            ..Default::default()
+        };
+        assert!(matches!(
+            encode_spliced(&heap).expect("encodes"),
+            Splice::NotNeeded(n) if n == shm_cdr::encoded_size(&heap)
+        ));
     }
 }
