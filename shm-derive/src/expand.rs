@@ -190,7 +190,7 @@ pub fn expand(container: &Container) -> TokenStream {
     let field_descriptions: Vec<TokenStream> = if empty {
         vec![quote! {
             #krate::describe::Field::new(
-                "structure_needs_at_least_one_member",
+                #krate::describe::PLACEHOLDER_MEMBER,
                 #krate::describe::FieldType::scalar(#krate::describe::TypeId::Uint8),
             )
         }]
