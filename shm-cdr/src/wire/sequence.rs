@@ -18,6 +18,28 @@ fn sequence_end<T: CdrEncode>(items: &[T], start: usize) -> usize {
     T::slice_encoded_end(items, align_up(start, 4) + 4)
 }
 
+/// A sequence's splicing methods: element by element when its elements may
+/// splice (see [`CdrEncode::SPLICES`]).
+macro_rules! spliced_as_sequence {
+    () => {
+        const SPLICES: bool = T::SPLICES;
+
+        #[inline]
+        fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
+            spliced_sequence_end(self, start, sizing)
+        }
+
+        #[inline]
+        fn encode_spliced<B: ByteOrder>(
+            &self,
+            w: &mut Writer<'_, B>,
+            sink: &mut dyn SpliceSink,
+        ) -> Result<(), EncodeError> {
+            write_spliced_sequence(self, w, sink)
+        }
+    };
+}
+
 /// [`sequence_end`] for a splicing write: element by element only when the
 /// elements may splice.
 #[inline]
@@ -83,21 +105,7 @@ fn write_sequence<T: CdrEncode, B: ByteOrder>(
 
 /// A sequence (`T[]`).
 impl<T: CdrEncode> CdrEncode for [T] {
-    const SPLICES: bool = T::SPLICES;
-
-    #[inline]
-    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
-        spliced_sequence_end(self, start, sizing)
-    }
-
-    #[inline]
-    fn encode_spliced<B: ByteOrder>(
-        &self,
-        w: &mut Writer<'_, B>,
-        sink: &mut dyn SpliceSink,
-    ) -> Result<(), EncodeError> {
-        write_spliced_sequence(self, w, sink)
-    }
+    spliced_as_sequence!();
 
     #[inline]
     fn encoded_end(&self, start: usize) -> usize {
@@ -111,21 +119,7 @@ impl<T: CdrEncode> CdrEncode for [T] {
 }
 
 impl<T: CdrEncode> CdrEncode for Vec<T> {
-    const SPLICES: bool = T::SPLICES;
-
-    #[inline]
-    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
-        spliced_sequence_end(self, start, sizing)
-    }
-
-    #[inline]
-    fn encode_spliced<B: ByteOrder>(
-        &self,
-        w: &mut Writer<'_, B>,
-        sink: &mut dyn SpliceSink,
-    ) -> Result<(), EncodeError> {
-        write_spliced_sequence(self, w, sink)
-    }
+    spliced_as_sequence!();
 
     #[inline]
     fn encoded_end(&self, start: usize) -> usize {
@@ -155,21 +149,7 @@ impl<'de, T: CdrDecode<'de>> CdrDecode<'de> for Vec<T> {
 }
 
 impl<T: CdrEncode + Clone> CdrEncode for Cow<'_, [T]> {
-    const SPLICES: bool = T::SPLICES;
-
-    #[inline]
-    fn spliced_end(&self, start: usize, sizing: &mut SpliceSizing) -> usize {
-        spliced_sequence_end(self, start, sizing)
-    }
-
-    #[inline]
-    fn encode_spliced<B: ByteOrder>(
-        &self,
-        w: &mut Writer<'_, B>,
-        sink: &mut dyn SpliceSink,
-    ) -> Result<(), EncodeError> {
-        write_spliced_sequence(self, w, sink)
-    }
+    spliced_as_sequence!();
 
     #[inline]
     fn encoded_end(&self, start: usize) -> usize {
