@@ -5,8 +5,9 @@
 //! bytes and, where the distribution has type hashes, the same hash.
 //!
 //! Compared field by field with each distribution's released interface
-//! packages (`ros2-gbp/common_interfaces-release` and
-//! `ros2-gbp/rcl_interfaces-release`, tags `release/<distro>/<package>/<version>`)
+//! packages (`ros2-gbp/common_interfaces-release`,
+//! `ros2-gbp/rcl_interfaces-release` and `ros2-gbp/rosbag2-release`, tags
+//! `release/<distro>/<package>/<version>`)
 //! and, in CI, with rosbags' type store of each distribution
 //! (`tests/ros2/distros.py`):
 //!
@@ -14,6 +15,7 @@
 //! |---|---|---|---|
 //! | `sensor_msgs/msg/Range` | [`humble::sensor_msgs::msg::Range`]: no `variance` | [`msgs`](crate::msgs) | [`msgs`](crate::msgs) |
 //! | `lifecycle_msgs/msg/TransitionEvent` | [`msgs`](crate::msgs) | [`msgs`](crate::msgs) | [`lyrical::lifecycle_msgs::msg::TransitionEvent`]: `builtin_interfaces/Time stamp` in place of `uint64 timestamp` |
+//! | `rosbag2_interfaces/msg/ReadSplitEvent`, `WriteSplitEvent` | [`humble::rosbag2_interfaces::msg`]: no `node_name` | [`msgs`](crate::msgs) | [`msgs`](crate::msgs) |
 //!
 //! Constants and default values changed too (e.g. `sensor_msgs/NavSatStatus`
 //! gained `STATUS_UNKNOWN` and a default of -2 after Humble), but neither is
@@ -98,7 +100,14 @@ impl Variant {
 ///     .filter(|v| v.distros.contains(&"humble"))
 ///     .map(|v| v.type_name)
 ///     .collect();
-/// assert_eq!(humble, ["sensor_msgs/msg/Range"]);
+/// assert_eq!(
+///     humble,
+///     [
+///         "sensor_msgs/msg/Range",
+///         "rosbag2_interfaces/msg/ReadSplitEvent",
+///         "rosbag2_interfaces/msg/WriteSplitEvent",
+///     ]
+/// );
 /// ```
 // Each push is behind features of its own: a `vec![]` cannot say that.
 #[allow(clippy::vec_init_then_push)]
@@ -107,6 +116,12 @@ pub fn variants() -> Vec<Variant> {
     let mut out = Vec::new();
     #[cfg(feature = "sensor_msgs")]
     out.push(Variant::of::<humble::sensor_msgs::msg::Range>(&["humble"]));
+    #[cfg(feature = "rosbag2_interfaces")]
+    out.push(Variant::of::<humble::rosbag2_interfaces::msg::ReadSplitEvent>(&["humble"]));
+    #[cfg(feature = "rosbag2_interfaces")]
+    out.push(Variant::of::<
+        humble::rosbag2_interfaces::msg::WriteSplitEvent,
+    >(&["humble"]));
     #[cfg(all(feature = "lifecycle_msgs", feature = "builtin_interfaces"))]
     out.push(Variant::of::<lyrical::lifecycle_msgs::msg::TransitionEvent>(&["lyrical", "rolling"]));
     out
@@ -161,6 +176,52 @@ pub mod humble {
                 pub const ULTRASOUND: u8 = 0;
                 /// An infrared ranger.
                 pub const INFRARED: u8 = 1;
+            }
+        }
+    }
+
+    /// `rosbag2_interfaces` as Humble defines it: its split events name no
+    /// node.
+    #[cfg(feature = "rosbag2_interfaces")]
+    pub mod rosbag2_interfaces {
+        /// Messages.
+        pub mod msg {
+            /// `rosbag2_interfaces/msg/ReadSplitEvent` as Humble defines it:
+            /// without the `node_name` later distributions added.
+            ///
+            /// ```
+            /// use shm_cdr::distro_msgs::humble::rosbag2_interfaces::msg::ReadSplitEvent;
+            /// use shm_cdr::RosMessage;
+            ///
+            /// let jazzy = shm_cdr::msgs::rosbag2_interfaces::msg::ReadSplitEvent::type_hash();
+            /// assert_ne!(ReadSplitEvent::type_hash(), jazzy);
+            /// ```
+            #[derive(crate::RosMessage, Debug, Clone, Default, PartialEq, Eq, Hash)]
+            #[ros(
+                type_name = "rosbag2_interfaces/msg/ReadSplitEvent",
+                crate = "crate",
+                source = "# A playback moved on to the next file of its recording.\n\n# The full path of the file finished\nstring closed_file\n\n# The full path of the file the playback continues in\nstring opened_file\n"
+            )]
+            pub struct ReadSplitEvent {
+                /// The full path of the file finished.
+                pub closed_file: String,
+                /// The full path of the file the playback continues in.
+                pub opened_file: String,
+            }
+
+            /// `rosbag2_interfaces/msg/WriteSplitEvent` as Humble defines it:
+            /// without the `node_name` later distributions added.
+            #[derive(crate::RosMessage, Debug, Clone, Default, PartialEq, Eq, Hash)]
+            #[ros(
+                type_name = "rosbag2_interfaces/msg/WriteSplitEvent",
+                crate = "crate",
+                source = "# A recording moved on to a new file.\n\n# The full path of the file closed\nstring closed_file\n\n# The full path of the file opened in its place\nstring opened_file\n"
+            )]
+            pub struct WriteSplitEvent {
+                /// The full path of the file closed.
+                pub closed_file: String,
+                /// The full path of the file opened in its place.
+                pub opened_file: String,
             }
         }
     }
