@@ -171,6 +171,28 @@ impl DynamicType {
         self.default_struct(0)
     }
 
+    /// A message of struct `index` of this type ([`structs`](Self::structs))
+    /// with every field at its default, `None` past the last: what a field
+    /// of that struct nested in this type's messages takes
+    /// ([`Message::set`] takes only nested messages of the same type).
+    ///
+    /// ```
+    /// use shm_cdr::dynamic::{DynamicType, Value};
+    /// use shm_cdr::msgs::std_msgs::Header;
+    /// use shm_cdr::RosMessage;
+    ///
+    /// let ty = DynamicType::from_description(&Header::full_description())?;
+    /// let time = ty.structs().iter().position(|s| s.name == "builtin_interfaces/msg/Time").unwrap();
+    /// let mut stamp = ty.default_struct_message(time).unwrap();
+    /// stamp.set("sec", Value::I32(7))?;
+    /// let mut header = ty.default_message();
+    /// header.set("stamp", Value::Message(Box::new(stamp)))?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn default_struct_message(&self, index: usize) -> Option<Message<'static>> {
+        (index < self.inner.structs.len()).then(|| self.default_struct(index))
+    }
+
     pub(crate) fn default_struct(&self, index: usize) -> Message<'static> {
         let block = self.inner.plans.get(index).map_or(0, |p| p.block);
         let mut slots = Vec::with_capacity(block);

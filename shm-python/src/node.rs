@@ -1,0 +1,480 @@
+//! Nodes, publishers and subscriptions, as rclpy names them.
+
+use std::collections::VecDeque;
+use std::sync::{Arc, Condvar, Mutex};
+use std::time::{Duration, Instant};
+
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use shm_cdr::dynamic::DynamicType;
+use shm_runtime::rmw::{Durability, History, Qos, Reliability};
+use shm_runtime::{CallbackSubscriber, RosNode, RosPublisher, RosSubscriber};
+use zenoh::Wait;
+
+use crate::context::{self, Context};
+use crate::convert;
+use crate::errors::middleware;
+use crate::message::{Payload, PyMessage, Root};
+use crate::types::PyMessageType;
+
+/// How often a blocking wait looks for Ctrl-C (`KeyboardInterrupt`).
+const SIGNAL_CHECK: Duration = Duration::from_millis(100);
+
+/// Exceptions raised by subscription callbacks, for `spin` to raise.
+pub(crate) struct CallbackErrors {
+    errors: Mutex<VecDeque<PyErr>>,
+    arrived: Condvar,
+}
+
+pub(crate) static CALLBACK_ERRORS: CallbackErrors = CallbackErrors {
+    errors: Mutex::new(VecDeque::new()),
+    arrived: Condvar::new(),
+};
+
+impl CallbackErrors {
+    fn push(&self, error: PyErr) {
+        self.errors
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push_back(error);
+        self.arrived.notify_all();
+    }
+
+    /// The first exception a callback raised, waiting up to `timeout`.
+    pub(crate) fn wait(&self, timeout: Duration) -> Option<PyErr> {
+        let errors = self.errors.lock().unwrap_or_else(|p| p.into_inner());
+        let (mut errors, _) = self
+            .arrived
+            .wait_timeout_while(errors, timeout, |e| e.is_empty())
+            .unwrap_or_else(|p| p.into_inner());
+        errors.pop_front()
+    }
+}
+
+/// The QoS `qos` gives: a depth (keep last, reliable, volatile), or a
+/// profile with rclpy's attributes (`depth`, `history`, `reliability`,
+/// `durability`, each an int as rclpy's enums are) such as rclpy's own
+/// `QoSProfile` or `shm_cdr.QoSProfile`.
+fn qos_from(qos: &Bound<'_, PyAny>) -> PyResult<Qos> {
+    if let Ok(depth) = qos.extract::<usize>() {
+        return Ok(Qos::with_history(
+            Reliability::Reliable,
+            Durability::Volatile,
+            History::KeepLast(depth),
+        ));
+    }
+    let policy = |name: &str| -> PyResult<i64> {
+        qos.getattr(name)?.extract::<i64>().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "the QoS profile's {name} is not an int or an IntEnum"
+            ))
+        })
+    };
+    let depth = usize::try_from(policy("depth")?)
+        .map_err(|_| PyValueError::new_err("the QoS profile's depth is negative"))?;
+    // rmw's numbering: 0 system default, 1 the first, 2 the second.
+    let history = match policy("history")? {
+        0 | 1 => History::KeepLast(depth),
+        2 => History::KeepAll,
+        n => {
+            return Err(PyValueError::new_err(format!(
+                "history {n}: give 1 (keep last) or 2 (keep all)"
+            )))
+        }
+    };
+    let reliability = match policy("reliability")? {
+        0 | 1 => Reliability::Reliable,
+        2 => Reliability::BestEffort,
+        n => {
+            return Err(PyValueError::new_err(format!(
+                "reliability {n}: give 1 (reliable) or 2 (best effort)"
+            )))
+        }
+    };
+    let durability = match policy("durability")? {
+        1 => Durability::TransientLocal,
+        0 | 2 => Durability::Volatile,
+        n => {
+            return Err(PyValueError::new_err(format!(
+                "durability {n}: give 1 (transient local) or 2 (volatile)"
+            )))
+        }
+    };
+    Ok(Qos::with_history(reliability, durability, history))
+}
+
+/// A ROS 2 node: `Node("talker", namespace="/robot", args=sys.argv)`. The
+/// arguments after `--ros-args` remap names (`-r chatter:=talk`, `-r
+/// __ns:=/robot`) and set parameters (`-p`, `--params-file`), as rclpy's.
+#[pyclass(name = "Node", module = "shm_cdr", frozen)]
+pub(crate) struct PyNode {
+    node: Arc<RosNode>,
+    /// Kept for as long as the node: its session and pool.
+    _context: Arc<Context>,
+}
+
+#[pymethods]
+impl PyNode {
+    #[new]
+    #[pyo3(signature = (name, namespace = None, *, args = None))]
+    fn new(
+        py: Python<'_>,
+        name: &str,
+        namespace: Option<&str>,
+        args: Option<Vec<String>>,
+    ) -> PyResult<Self> {
+        let context = context::get(py)?;
+        let node = py
+            .detach(|| {
+                let mut builder = RosNode::builder(&context.session, name).shm(&context.shm);
+                if let Some(namespace) = namespace {
+                    builder = builder.namespace(namespace);
+                }
+                if let Some(args) = &args {
+                    builder = builder.ros_args(args);
+                }
+                builder.wait()
+            })
+            .map_err(middleware)?;
+        Ok(Self {
+            node: Arc::new(node),
+            _context: context,
+        })
+    }
+
+    /// The node's name.
+    fn get_name(&self) -> String {
+        self.node.info().name.clone()
+    }
+
+    /// The node's namespace (`/` for the root).
+    fn get_namespace(&self) -> String {
+        self.node.info().namespace.clone()
+    }
+
+    /// `/namespace/name`.
+    fn get_fully_qualified_name(&self) -> String {
+        self.node.info().fqn()
+    }
+
+    /// A publisher of `msg_type` (a `MessageType` or its name) on `topic`,
+    /// with `qos` (a depth, or a QoS profile).
+    #[pyo3(signature = (msg_type, topic, qos = None))]
+    fn create_publisher(
+        &self,
+        py: Python<'_>,
+        msg_type: &Bound<'_, PyAny>,
+        topic: &str,
+        qos: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PyPublisher> {
+        let ty = PyMessageType::resolve(msg_type)?;
+        let qos = qos.map(qos_from).transpose()?.unwrap_or_default();
+        let publisher = py
+            .detach(|| self.node.declare_dynamic_publisher(topic, &ty, qos).wait())
+            .map_err(middleware)?;
+        Ok(PyPublisher { publisher, ty })
+    }
+
+    /// A subscription to `msg_type` on `topic`. With a `callback`, each
+    /// message is given to it on a thread of the node's executor (run
+    /// `shm_cdr.spin()` to see the exceptions it raises); without, read the
+    /// messages with `recv()` or by iterating over the subscription.
+    #[pyo3(signature = (msg_type, topic, callback = None, qos = None))]
+    fn create_subscription(
+        &self,
+        py: Python<'_>,
+        msg_type: &Bound<'_, PyAny>,
+        topic: &str,
+        callback: Option<Py<PyAny>>,
+        qos: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PySubscription> {
+        let ty = PyMessageType::resolve(msg_type)?;
+        let qos = qos.map(qos_from).transpose()?.unwrap_or_default();
+        let builder = self.node.declare_dynamic_subscriber(topic, &ty, qos);
+        let receiver = match callback {
+            None => Receiver::Queue(py.detach(|| builder.wait()).map_err(middleware)?),
+            Some(callback) => {
+                let decode_as = ty.clone();
+                let subscriber = py
+                    .detach(|| {
+                        builder
+                            .callback(move |sample| {
+                                Python::attach(|py| {
+                                    let outcome = Root::decode(&decode_as, Payload::of(sample))
+                                        .and_then(|root| {
+                                            callback.call1(py, (PyMessage::new(root),))
+                                        });
+                                    if let Err(error) = outcome {
+                                        CALLBACK_ERRORS.push(error);
+                                    }
+                                });
+                            })
+                            .wait()
+                    })
+                    .map_err(middleware)?;
+                Receiver::Callback(subscriber)
+            }
+        };
+        Ok(PySubscription { receiver, ty })
+    }
+
+    /// Undeclare the node: its publishers and subscriptions stop with it
+    /// once they are dropped too.
+    fn destroy_node(&self) {}
+
+    fn __repr__(&self) -> String {
+        format!("shm_cdr.Node({:?})", self.node.info().fqn())
+    }
+}
+
+/// A publisher: `publish(msg)` with a message of its type or a dict of its
+/// fields. Messages at or above the pool's threshold are written straight
+/// into shared memory.
+#[pyclass(name = "Publisher", module = "shm_cdr", frozen)]
+pub(crate) struct PyPublisher {
+    publisher: RosPublisher<DynamicType>,
+    ty: DynamicType,
+}
+
+#[pymethods]
+impl PyPublisher {
+    /// Publish `msg`; returns where its bytes went, as the runtime's
+    /// `PayloadKind` in snake case: `shm` (written into shared memory),
+    /// `heap` (below the pool's threshold), `receiver_pending` (a new
+    /// subscriber's session is being asked whether it maps the pool: this
+    /// message goes by the network), and the runtime's other kinds.
+    fn publish(&self, py: Python<'_>, msg: &Bound<'_, PyAny>) -> PyResult<String> {
+        if let Ok(message) = msg.cast::<PyMessage>() {
+            let message = message.get();
+            if let Some(root) = message.root() {
+                if root.message.is_of(&self.ty) {
+                    return py
+                        .detach(|| self.publisher.publish_dynamic(&root.message).wait())
+                        .map(|outcome| kind(&outcome))
+                        .map_err(middleware);
+                }
+            }
+            let converted = message.to_message_in(self.ty.default_message())?;
+            return py
+                .detach(|| self.publisher.publish_dynamic(&converted).wait())
+                .map(|outcome| kind(&outcome))
+                .map_err(middleware);
+        }
+        if let Ok(dict) = msg.cast::<PyDict>() {
+            let message = convert::fill(self.ty.default_message(), &self.ty, 0, dict)?;
+            return py
+                .detach(|| self.publisher.publish_dynamic(&message).wait())
+                .map(|outcome| kind(&outcome))
+                .map_err(middleware);
+        }
+        Err(PyTypeError::new_err(format!(
+            "publish takes a {} or a dict of its fields",
+            self.ty.name()
+        )))
+    }
+
+    /// The publisher's message type.
+    #[getter]
+    fn msg_type(&self) -> PyMessageType {
+        PyMessageType {
+            ty: self.ty.clone(),
+        }
+    }
+
+    /// Whether a subscription matches (across processes).
+    fn has_subscribers(&self) -> bool {
+        self.publisher.has_subscribers()
+    }
+
+    /// Each subscribing session (its Zenoh id) and how this publisher's
+    /// messages reach it: `shared_memory` (in place), `checking` (the
+    /// publisher is asking whether the session maps its pool; messages go
+    /// by the network meanwhile), `bytes` (the link carries no shared
+    /// memory, each message is copied into it), and the runtime's other
+    /// reaches, in snake case.
+    fn receivers(&self) -> Vec<(String, String)> {
+        self.publisher
+            .receivers()
+            .into_iter()
+            .map(|r| (r.session.to_string(), snake_case(&format!("{:?}", r.reach))))
+            .collect()
+    }
+
+    /// Wait up to `timeout` seconds for a subscription to match; whether
+    /// one did.
+    fn wait_for_subscribers(&self, py: Python<'_>, timeout: f64) -> PyResult<bool> {
+        let timeout = Duration::try_from_secs_f64(timeout)
+            .map_err(|_| PyValueError::new_err("timeout: give seconds, 0 or more"))?;
+        Ok(py.detach(|| self.publisher.wait_for_subscribers(timeout)))
+    }
+}
+
+enum Receiver {
+    Queue(RosSubscriber<DynamicType>),
+    Callback(CallbackSubscriber<DynamicType>),
+}
+
+/// A subscription. Without a callback it is an iterator of messages:
+/// `for msg in sub:` (or `sub.recv(timeout)`).
+#[pyclass(name = "Subscription", module = "shm_cdr", frozen)]
+pub(crate) struct PySubscription {
+    receiver: Receiver,
+    ty: DynamicType,
+}
+
+impl PySubscription {
+    fn queue(&self) -> PyResult<&RosSubscriber<DynamicType>> {
+        match &self.receiver {
+            Receiver::Queue(queue) => Ok(queue),
+            Receiver::Callback(_) => Err(PyTypeError::new_err(
+                "this subscription gives its messages to its callback; create one without a \
+                 callback to recv() or iterate",
+            )),
+        }
+    }
+}
+
+#[pymethods]
+impl PySubscription {
+    /// The next message, waiting for it up to `timeout` seconds (for ever
+    /// if `None`); `None` if none came in time.
+    #[pyo3(signature = (timeout = None))]
+    fn recv(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Option<PyMessage>> {
+        let queue = self.queue()?;
+        let deadline = match timeout {
+            None => None,
+            Some(t) => Some(
+                Instant::now()
+                    + Duration::try_from_secs_f64(t).map_err(|_| {
+                        PyValueError::new_err(format!("timeout {t}: give seconds, 0 or more"))
+                    })?,
+            ),
+        };
+        loop {
+            let wait = match deadline {
+                None => SIGNAL_CHECK,
+                Some(deadline) => deadline
+                    .saturating_duration_since(Instant::now())
+                    .min(SIGNAL_CHECK),
+            };
+            let sample = py.detach(|| queue.recv_timeout(wait)).map_err(|e| {
+                if context::ok() {
+                    middleware(e)
+                } else {
+                    context::closed()
+                }
+            })?;
+            if let Some(sample) = sample {
+                return Ok(Some(PyMessage::new(Root::decode(
+                    &self.ty,
+                    Payload::of(sample),
+                )?)));
+            }
+            py.check_signals()?;
+            if deadline.is_some_and(|d| Instant::now() >= d) {
+                return Ok(None);
+            }
+        }
+    }
+
+    fn __iter__(slf: Bound<'_, Self>) -> Bound<'_, Self> {
+        slf
+    }
+
+    fn __next__(&self, py: Python<'_>) -> PyResult<Option<PyMessage>> {
+        self.recv(py, None)
+    }
+
+    /// Messages dropped because the subscription's queue was full.
+    #[getter]
+    fn lost(&self) -> u64 {
+        match &self.receiver {
+            Receiver::Queue(q) => q.lost(),
+            Receiver::Callback(c) => c.lost(),
+        }
+    }
+
+    /// Messages publishers sent that never arrived (gaps in their sequence
+    /// numbers).
+    #[getter]
+    fn missed(&self) -> u64 {
+        match &self.receiver {
+            Receiver::Queue(q) => q.missed(),
+            Receiver::Callback(c) => c.missed(),
+        }
+    }
+
+    /// Samples refused because their type was not the subscription's.
+    #[getter]
+    fn wrong_type(&self) -> u64 {
+        match &self.receiver {
+            Receiver::Queue(q) => q.wrong_type(),
+            Receiver::Callback(c) => c.wrong_type(),
+        }
+    }
+
+    /// The subscription's message type.
+    #[getter]
+    fn msg_type(&self) -> PyMessageType {
+        PyMessageType {
+            ty: self.ty.clone(),
+        }
+    }
+
+    /// Wait up to `timeout` seconds for a publisher to match; whether one
+    /// did.
+    fn wait_for_publishers(&self, py: Python<'_>, timeout: f64) -> PyResult<bool> {
+        let timeout = Duration::try_from_secs_f64(timeout)
+            .map_err(|_| PyValueError::new_err("timeout: give seconds, 0 or more"))?;
+        let queue = self.queue()?;
+        Ok(py.detach(|| queue.wait_for_publishers(timeout)))
+    }
+}
+
+fn kind(outcome: &shm_runtime::PublishOutcome) -> String {
+    snake_case(&format!("{:?}", outcome.kind))
+}
+
+/// `SharedMemoryUnprobed` as `shared_memory_unprobed`.
+fn snake_case(name: &str) -> String {
+    let mut out = String::with_capacity(name.len() + 4);
+    for (i, c) in name.chars().enumerate() {
+        if c.is_ascii_uppercase() {
+            if i > 0 {
+                out.push('_');
+            }
+            out.push(c.to_ascii_lowercase());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Wait for callbacks until `timeout` seconds pass (for ever if `None`), a
+/// callback raises (its exception is raised here), or Ctrl-C.
+#[pyfunction]
+#[pyo3(signature = (timeout = None))]
+pub(crate) fn spin(py: Python<'_>, timeout: Option<f64>) -> PyResult<()> {
+    let deadline = timeout
+        .map(|t| {
+            Duration::try_from_secs_f64(t)
+                .map(|t| Instant::now() + t)
+                .map_err(|_| PyValueError::new_err(format!("timeout {t}: give seconds, 0 or more")))
+        })
+        .transpose()?;
+    loop {
+        let wait = deadline.map_or(SIGNAL_CHECK, |d| {
+            d.saturating_duration_since(Instant::now())
+                .min(SIGNAL_CHECK)
+        });
+        if let Some(error) = py.detach(|| CALLBACK_ERRORS.wait(wait)) {
+            return Err(error);
+        }
+        py.check_signals()?;
+        if deadline.is_some_and(|d| Instant::now() >= d) || !context::ok() {
+            return Ok(());
+        }
+    }
+}
