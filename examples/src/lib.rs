@@ -93,6 +93,7 @@ pub mod docs {
         ZenohConfig = "../../docs/src/zenoh-config.md",
         ZenohLines = "../../docs/src/zenoh-lines.md",
         Security = "../../docs/src/security.md",
+        Python = "../../docs/src/python.md",
         Performance = "../../docs/src/performance.md",
         Interop = "../../docs/src/interop.md",
         Reliability = "../../docs/src/reliability.md",

@@ -65,7 +65,16 @@ fn qos_from(qos: &Bound<'_, PyAny>) -> PyResult<Qos> {
         ));
     }
     let policy = |name: &str| -> PyResult<i64> {
-        qos.getattr(name)?.extract::<i64>().map_err(|_| {
+        let value = qos.getattr(name).map_err(|_| {
+            PyTypeError::new_err(format!(
+                "qos is a depth (int) or a QoS profile with depth, history, reliability and \
+                 durability (shm_cdr.QoSProfile, rclpy's QoSProfile), not {}",
+                qos.get_type()
+                    .name()
+                    .map_or_else(|_| "?".to_owned(), |n| n.to_string())
+            ))
+        })?;
+        value.extract::<i64>().map_err(|_| {
             PyTypeError::new_err(format!(
                 "the QoS profile's {name} is not an int or an IntEnum"
             ))

@@ -147,3 +147,41 @@ def test_python_reads_what_our_rust_node_publishes():
         assert msg.type_name == "std_msgs/msg/String"
     finally:
         pub.kill()
+
+
+LATCHED = """
+import sys, time
+import shm_cdr
+
+node = shm_cdr.Node("map_server")
+qos = shm_cdr.QoSProfile(depth=1, durability=shm_cdr.DurabilityPolicy.TRANSIENT_LOCAL)
+pub = node.create_publisher("std_msgs/msg/String", "/latched", qos)
+pub.publish({"data": "the map"})
+print("published", flush=True)
+time.sleep(30)
+"""
+
+
+def latched_publisher():
+    pub = run_python(LATCHED, session_env(connect=HUB))
+    assert pub.stdout.readline().strip() == "published", pub.stderr.read()
+    return pub
+
+
+def test_a_transient_local_subscription_gets_what_was_published_before_it():
+    pub = latched_publisher()
+    try:
+        qos = shm_cdr.QoSProfile(depth=1, durability=shm_cdr.DurabilityPolicy.TRANSIENT_LOCAL)
+        sub = this_node().create_subscription("std_msgs/msg/String", "/latched", qos=qos)
+        msg = sub.recv(timeout=20.0)
+        assert msg is not None and msg.data == "the map"
+    finally:
+        pub.kill()
+
+
+def test_qos_profiles_that_make_no_sense_are_refused():
+    with pytest.raises(ValueError, match="durability 7"):
+        this_node().create_subscription(
+            "std_msgs/msg/String", "/x", qos=shm_cdr.QoSProfile(durability=7))
+    with pytest.raises(TypeError):
+        this_node().create_subscription("std_msgs/msg/String", "/x", qos="reliable")

@@ -82,3 +82,18 @@ def test_random_values_of_many_fields_match_rclpy(seed):
     assert back(mine.serialize(), kind) == theirs
     rebuilt = shm_cdr.message_type("geometry_msgs/msg/PoseWithCovarianceStamped").from_dict(mine.to_dict())
     assert back(rebuilt.serialize(), kind) == theirs
+
+
+def test_rclpy_s_own_qos_profile_is_taken():
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+
+    from test_pubsub import latched_publisher, this_node
+
+    pub = latched_publisher()
+    try:
+        qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        sub = this_node().create_subscription("std_msgs/msg/String", "/latched", qos=qos)
+        msg = sub.recv(timeout=20.0)
+        assert msg is not None and msg.data == "the map"
+    finally:
+        pub.kill()
