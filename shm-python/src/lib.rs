@@ -14,6 +14,7 @@ mod convert;
 mod errors;
 mod message;
 mod node;
+mod parameters;
 mod types;
 
 use pyo3::prelude::*;
@@ -27,6 +28,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<node::PyNode>()?;
     m.add_class::<node::PyPublisher>()?;
     m.add_class::<node::PySubscription>()?;
+    m.add_class::<parameters::PyParameter>()?;
+    m.add_class::<parameters::PySetParametersResult>()?;
     m.add_function(wrap_pyfunction!(types::message_type, m)?)?;
     m.add_function(wrap_pyfunction!(context::shutdown, m)?)?;
     m.add_function(wrap_pyfunction!(context::ok, m)?)?;

@@ -8,6 +8,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use shm_cdr::dynamic::DynamicType;
+use shm_runtime::parameters::ParameterValue;
 use shm_runtime::rmw::{Durability, History, Qos, Reliability};
 use shm_runtime::{CallbackSubscriber, RosNode, RosPublisher, RosSubscriber};
 use zenoh::Wait;
@@ -16,6 +17,7 @@ use crate::context::{self, Context};
 use crate::convert;
 use crate::errors::middleware;
 use crate::message::{Payload, PyMessage, Root};
+use crate::parameters::{self, PyParameter, PySetParametersResult};
 use crate::types::PyMessageType;
 
 /// How often a blocking wait looks for Ctrl-C (`KeyboardInterrupt`).
@@ -116,7 +118,7 @@ fn qos_from(qos: &Bound<'_, PyAny>) -> PyResult<Qos> {
 /// A ROS 2 node: `Node("talker", namespace="/robot", args=sys.argv)`. The
 /// arguments after `--ros-args` remap names (`-r chatter:=talk`, `-r
 /// __ns:=/robot`) and set parameters (`-p`, `--params-file`), as rclpy's.
-#[pyclass(name = "Node", module = "shm_cdr", frozen)]
+#[pyclass(name = "Node", module = "shm_cdr", frozen, subclass)]
 pub(crate) struct PyNode {
     node: Arc<RosNode>,
     /// Kept for as long as the node: its session and pool.
@@ -228,8 +230,56 @@ impl PyNode {
         Ok(PySubscription { receiver, ty })
     }
 
-    /// Undeclare the node: its publishers and subscriptions stop with it
-    /// once they are dropped too.
+    /// Declare parameter `name` with its default `value` (the value
+    /// `--ros-args -p name:=…` gave wins); returns the parameter.
+    #[pyo3(signature = (name, value = None))]
+    fn declare_parameter(
+        &self,
+        py: Python<'_>,
+        name: &str,
+        value: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PyParameter> {
+        let default = match value {
+            Some(value) => parameters::from_py(name, value)?,
+            None => ParameterValue::NotSet,
+        };
+        let declared = py
+            .detach(|| self.node.declare_parameter(name, default))
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        PyParameter::of(py, name, &declared)
+    }
+
+    /// The declared parameter `name`.
+    fn get_parameter(&self, py: Python<'_>, name: &str) -> PyResult<PyParameter> {
+        let value = self
+            .node
+            .parameter(name)
+            .ok_or_else(|| parameters::not_declared(name))?;
+        PyParameter::of(py, name, &value)
+    }
+
+    /// Whether parameter `name` is declared.
+    fn has_parameter(&self, name: &str) -> bool {
+        self.node.parameter(name).is_some()
+    }
+
+    /// Set parameters, all or none (a list of `Parameter`s or a dict of
+    /// names to values); one result per parameter, as rclpy's.
+    fn set_parameters(
+        &self,
+        py: Python<'_>,
+        parameters: &Bound<'_, PyAny>,
+    ) -> PyResult<Vec<PySetParametersResult>> {
+        let set = parameters::set_list(parameters)?;
+        let result = py.detach(|| self.node.set_parameters_atomically(&set));
+        Ok(set
+            .iter()
+            .map(|_| PySetParametersResult::new(result.successful, result.reason.clone()))
+            .collect())
+    }
+
+    /// Nothing to release ahead of the node's own end (its entities end
+    /// when Python frees them): kept for rclpy's API.
     fn destroy_node(&self) {}
 
     fn __repr__(&self) -> String {

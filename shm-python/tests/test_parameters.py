@@ -1,0 +1,51 @@
+"""A Python node's parameters: declared with defaults and --ros-args -p,
+read and set in Python, and read and set by our Rust command line through
+the node's parameter services."""
+
+import subprocess
+
+import pytest
+
+import shm_cdr
+from conftest import HUB, session_env, shm_ros2
+
+
+@pytest.fixture(scope="module")
+def node():
+    return shm_cdr.Node("params", namespace="/py", args=["prog", "--ros-args", "-p", "rate:=5"])
+
+
+def test_declared_values_and_command_line_overrides(node):
+    assert node.declare_parameter("rate", 10).value == 5  # -p rate:=5 wins
+    assert node.declare_parameter("frame", "cam").value == "cam"
+    assert node.declare_parameter("gains", [0.5, 1.5]).value == [0.5, 1.5]
+    assert node.get_parameter("frame").name == "frame"
+    assert node.has_parameter("rate") and not node.has_parameter("nothing")
+    with pytest.raises(LookupError, match="declare_parameter"):
+        node.get_parameter("nothing")
+
+
+def test_set_parameters_all_or_none_with_the_reason(node):
+    node.declare_parameter("limit", 3)
+    results = node.set_parameters({"limit": 4})
+    assert [r.successful for r in results] == [True]
+    assert node.get_parameter("limit").value == 4
+    results = node.set_parameters([shm_cdr.Parameter("limit", "high")])
+    assert not results[0].successful and results[0].reason
+    assert node.get_parameter("limit").value == 4
+    with pytest.raises(TypeError, match="one kind"):
+        node.set_parameters({"limit": [1, "a"]})
+
+
+def test_our_rust_command_line_reads_and_sets_a_python_node_s_parameters(node):
+    cli = shm_ros2()
+    node.declare_parameter("speed", 1.5)
+    env = session_env(connect=HUB)
+    got = subprocess.run([cli, "param", "get", "/py/params", "speed"], env=env,
+                         capture_output=True, text=True, timeout=60)
+    assert got.returncode == 0, got.stderr
+    assert "1.5" in got.stdout
+    done = subprocess.run([cli, "param", "set", "/py/params", "speed", "2.5"], env=env,
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert node.get_parameter("speed").value == 2.5
