@@ -115,10 +115,9 @@ fn qos_from(qos: &Bound<'_, PyAny>) -> PyResult<Qos> {
     Ok(Qos::with_history(reliability, durability, history))
 }
 
-/// A ROS 2 node: `Node("talker", namespace="/robot", args=sys.argv)`. The
-/// arguments after `--ros-args` remap names (`-r chatter:=talk`, `-r
-/// __ns:=/robot`) and set parameters (`-p`, `--params-file`), as rclpy's.
-#[pyclass(name = "Node", module = "shm_cdr", frozen, subclass)]
+/// A ROS 2 node (the package's `shm_cdr.Node` wraps it with rclpy's
+/// signatures, so that it can be subclassed as rclpy's).
+#[pyclass(name = "Node", module = "shm_cdr._native", frozen)]
 pub(crate) struct PyNode {
     node: Arc<RosNode>,
     /// Kept for as long as the node: its session and pool.

@@ -49,3 +49,16 @@ def test_our_rust_command_line_reads_and_sets_a_python_node_s_parameters(node):
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert node.get_parameter("speed").value == 2.5
+
+
+def test_a_node_is_subclassed_as_rclpy_s():
+    class Talker(shm_cdr.Node):
+        def __init__(self):
+            super().__init__("talker", namespace="/sub", cli_args=["--ros-args", "-p", "n:=3"])
+            self.count = self.declare_parameter("n", 1).value
+            self.pub = self.create_publisher("std_msgs/msg/String", "chatter", 10)
+
+    talker = Talker()
+    assert talker.get_fully_qualified_name() == "/sub/talker"
+    assert talker.count == 3
+    assert talker.pub.publish({"data": "hi"}) == "heap"

@@ -172,7 +172,7 @@ def test_a_transient_local_subscription_gets_what_was_published_before_it():
     pub = latched_publisher()
     try:
         qos = shm_cdr.QoSProfile(depth=1, durability=shm_cdr.DurabilityPolicy.TRANSIENT_LOCAL)
-        sub = this_node().create_subscription("std_msgs/msg/String", "/latched", qos=qos)
+        sub = this_node().create_subscription("std_msgs/msg/String", "/latched", qos_profile=qos)
         msg = sub.recv(timeout=20.0)
         assert msg is not None and msg.data == "the map"
     finally:
@@ -182,6 +182,6 @@ def test_a_transient_local_subscription_gets_what_was_published_before_it():
 def test_qos_profiles_that_make_no_sense_are_refused():
     with pytest.raises(ValueError, match="durability 7"):
         this_node().create_subscription(
-            "std_msgs/msg/String", "/x", qos=shm_cdr.QoSProfile(durability=7))
+            "std_msgs/msg/String", "/x", qos_profile=shm_cdr.QoSProfile(durability=7))
     with pytest.raises(TypeError):
-        this_node().create_subscription("std_msgs/msg/String", "/x", qos="reliable")
+        this_node().create_subscription("std_msgs/msg/String", "/x", qos_profile="reliable")

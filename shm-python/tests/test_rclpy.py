@@ -92,7 +92,7 @@ def test_rclpy_s_own_qos_profile_is_taken():
     pub = latched_publisher()
     try:
         qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        sub = this_node().create_subscription("std_msgs/msg/String", "/latched", qos=qos)
+        sub = this_node().create_subscription("std_msgs/msg/String", "/latched", qos_profile=qos)
         msg = sub.recv(timeout=20.0)
         assert msg is not None and msg.data == "the map"
     finally:

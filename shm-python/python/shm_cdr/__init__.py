@@ -15,10 +15,10 @@ shared-memory pool as in Rust (``ZENOH_SHM_ALLOC_SIZE``,
 from dataclasses import dataclass
 from enum import IntEnum
 
+from . import _native
 from ._native import (
     Message,
     MessageType,
-    Node,
     Parameter,
     Publisher,
     SampleMemory,
@@ -87,3 +87,65 @@ class QoSProfile:
     history: HistoryPolicy = HistoryPolicy.KEEP_LAST
     reliability: ReliabilityPolicy = ReliabilityPolicy.RELIABLE
     durability: DurabilityPolicy = DurabilityPolicy.VOLATILE
+
+
+class Node:
+    """A ROS 2 node, as rclpy's ``Node``: ``Node("talker", namespace="/robot",
+    cli_args=sys.argv)``, or a subclass of it (``super().__init__("talker")``).
+
+    The arguments after ``--ros-args`` remap names (``-r chatter:=talk``,
+    ``-r __ns:=/robot``) and set parameters (``-p``, ``--params-file``).
+    """
+
+    def __init__(self, node_name, *, namespace=None, cli_args=None, args=None):
+        self._node = _native.Node(node_name, namespace, args=cli_args if cli_args is not None else args)
+
+    def get_name(self):
+        """The node's name."""
+        return self._node.get_name()
+
+    def get_namespace(self):
+        """The node's namespace (``/`` for the root)."""
+        return self._node.get_namespace()
+
+    def get_fully_qualified_name(self):
+        """``/namespace/name``."""
+        return self._node.get_fully_qualified_name()
+
+    def create_publisher(self, msg_type, topic, qos_profile=10):
+        """A publisher of ``msg_type`` (a ``MessageType`` or its name) on
+        ``topic``; ``qos_profile`` is a depth or a QoS profile."""
+        return self._node.create_publisher(msg_type, topic, qos_profile)
+
+    def create_subscription(self, msg_type, topic, callback=None, qos_profile=10):
+        """A subscription to ``msg_type`` on ``topic``. With a ``callback``,
+        each message goes to it on a thread of the node's executor (run
+        ``shm_cdr.spin()`` to see the exceptions it raises); without, the
+        subscription is an iterator of messages (or ``recv(timeout)``)."""
+        return self._node.create_subscription(msg_type, topic, callback, qos_profile)
+
+    def declare_parameter(self, name, value=None):
+        """Declare parameter ``name`` with its default ``value`` (the value
+        ``--ros-args -p name:=...`` gave wins); returns the ``Parameter``."""
+        return self._node.declare_parameter(name, value)
+
+    def get_parameter(self, name):
+        """The declared parameter ``name`` (``LookupError`` if it is not)."""
+        return self._node.get_parameter(name)
+
+    def has_parameter(self, name):
+        """Whether parameter ``name`` is declared."""
+        return self._node.has_parameter(name)
+
+    def set_parameters(self, parameters):
+        """Set parameters, all or none: a list of ``Parameter`` or a dict of
+        names to values. One ``SetParametersResult`` per parameter."""
+        return self._node.set_parameters(parameters)
+
+    def destroy_node(self):
+        """Kept for rclpy's API: the node's entities end when Python frees
+        them."""
+        self._node.destroy_node()
+
+    def __repr__(self):
+        return f"shm_cdr.Node({self.get_fully_qualified_name()!r})"
