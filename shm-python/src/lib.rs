@@ -15,6 +15,7 @@ mod errors;
 mod message;
 mod node;
 mod parameters;
+mod services;
 mod types;
 
 use pyo3::prelude::*;
@@ -29,8 +30,11 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<node::PyPublisher>()?;
     m.add_class::<node::PySubscription>()?;
     m.add_class::<parameters::PyParameter>()?;
+    m.add_class::<services::PyServiceType>()?;
+    m.add_class::<services::PyClient>()?;
     m.add_class::<parameters::PySetParametersResult>()?;
     m.add_function(wrap_pyfunction!(types::message_type, m)?)?;
+    m.add_function(wrap_pyfunction!(services::service_type, m)?)?;
     m.add_function(wrap_pyfunction!(context::shutdown, m)?)?;
     m.add_function(wrap_pyfunction!(context::ok, m)?)?;
     m.add_function(wrap_pyfunction!(node::spin, m)?)?;

@@ -18,6 +18,7 @@ use crate::convert;
 use crate::errors::middleware;
 use crate::message::{Payload, PyMessage, Root};
 use crate::parameters::{self, PyParameter, PySetParametersResult};
+use crate::services::{PyClient, PyServiceType};
 use crate::types::PyMessageType;
 
 /// How often a blocking wait looks for Ctrl-C (`KeyboardInterrupt`).
@@ -210,7 +211,9 @@ impl PyNode {
                     .detach(|| {
                         builder
                             .callback(move |sample| {
-                                Python::attach(|py| {
+                                // Not while the interpreter shuts down: the
+                                // sample is dropped then, as Python is gone.
+                                Python::try_attach(|py| {
                                     let outcome = Root::decode(&decode_as, Payload::of(sample))
                                         .and_then(|root| {
                                             callback.call1(py, (PyMessage::new(root),))
@@ -227,6 +230,28 @@ impl PyNode {
             }
         };
         Ok(PySubscription { receiver, ty })
+    }
+
+    /// A client of the service `srv_type` (a `ServiceType` or its name) on
+    /// `srv_name`.
+    fn create_client(
+        &self,
+        py: Python<'_>,
+        srv_type: &Bound<'_, PyAny>,
+        srv_name: &str,
+    ) -> PyResult<PyClient> {
+        let service = PyServiceType::resolve(srv_type)?;
+        let client = py
+            .detach(|| {
+                self.node
+                    .declare_serialized_client(srv_name, &service.name, &service.hash)
+                    // As rclpy's `call`: the answer is awaited as long as
+                    // the server is there.
+                    .timeout(Duration::MAX)
+                    .wait()
+            })
+            .map_err(middleware)?;
+        Ok(PyClient { client, service })
     }
 
     /// Declare parameter `name` with its default `value` (the value

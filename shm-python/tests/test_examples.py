@@ -6,6 +6,7 @@ import os
 import re
 import subprocess
 import sys
+import textwrap
 
 from conftest import free_port, session_env, shm_ros2
 
@@ -61,10 +62,11 @@ def test_the_quick_start_between_two_peers():
 def python_blocks(path):
     text = open(path, encoding="utf-8").read()
     lines = text.splitlines()
-    for m in re.finditer(r"^```python\n(.*?)^```$", text, re.S | re.M):
+    # Fences may be indented (a snippet inside a list item).
+    for m in re.finditer(r"^( *)```python\n(.*?)^\1```$", text, re.S | re.M):
         line = text[: m.start()].count("\n")
         note = lines[line - 1].strip() if line > 0 else ""
-        yield path, line + 1, note, m.group(1)
+        yield path, line + 1, note, textwrap.dedent(m.group(2))
 
 
 def test_every_python_snippet_runs_or_is_from_a_file_that_does():
@@ -85,4 +87,4 @@ def test_every_python_snippet_runs_or_is_from_a_file_that_does():
             run = subprocess.run([sys.executable, "-c", body], env=session_env(listen=free_port()),
                                  capture_output=True, text=True, timeout=60)
             assert run.returncode == 0, f"{at}: {run.stderr}"
-    assert seen > 0
+    assert seen >= 6, seen

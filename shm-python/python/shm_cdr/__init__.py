@@ -17,22 +17,26 @@ from enum import IntEnum
 
 from . import _native
 from ._native import (
+    Client,
     Message,
     MessageType,
     Parameter,
     Publisher,
     SampleMemory,
+    ServiceType,
     SessionClosedError,
     SetParametersResult,
     ShmCdrError,
     Subscription,
     message_type,
     ok,
+    service_type,
     shutdown,
     spin,
 )
 
 __all__ = [
+    "Client",
     "DurabilityPolicy",
     "HistoryPolicy",
     "Message",
@@ -43,12 +47,14 @@ __all__ = [
     "QoSProfile",
     "ReliabilityPolicy",
     "SampleMemory",
+    "ServiceType",
     "SessionClosedError",
     "SetParametersResult",
     "ShmCdrError",
     "Subscription",
     "message_type",
     "ok",
+    "service_type",
     "shutdown",
     "spin",
 ]
@@ -123,6 +129,11 @@ class Node:
         ``shm_cdr.spin()`` to see the exceptions it raises); without, the
         subscription is an iterator of messages (or ``recv(timeout)``)."""
         return self._node.create_subscription(msg_type, topic, callback, qos_profile)
+
+    def create_client(self, srv_type, srv_name):
+        """A client of the service ``srv_type`` (a ``ServiceType`` or its
+        name) on ``srv_name``: ``client.call(request)``."""
+        return self._node.create_client(srv_type, srv_name)
 
     def declare_parameter(self, name, value=None):
         """Declare parameter ``name`` with its default ``value`` (the value

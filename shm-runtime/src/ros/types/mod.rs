@@ -340,16 +340,43 @@ pub fn of_service(
         Some(ty) => ty,
         None => ask(node, timeout, &first.node_fqn(), name, hash)?.0,
     };
-    let part = |suffix: &str| {
-        ty.member(&format!("{name}{suffix}"))
-            .ok_or_else(|| format!("the description of {name} has no {name}{suffix}"))
+    ResolvedService::of(&ty, name, hash)
+}
+
+/// A service type by name alone (`pkg/srv/Name` or `pkg/Name`), as a
+/// program is told it rather than reads it from the graph: the standard
+/// service as `distro` defines it. `None` when the standard set has no
+/// service of that name.
+pub fn service_by_name(distro: Distro, name: &str) -> Option<Result<ResolvedService, Error>> {
+    let name = match name.split('/').collect::<Vec<_>>()[..] {
+        [pkg, ty] => format!("{pkg}/srv/{ty}"),
+        _ => name.to_owned(),
     };
-    Ok(ResolvedService {
-        request: part("_Request")?,
-        response: part("_Response")?,
-        name: name.clone(),
-        hash: hash.clone(),
-    })
+    let (Kind::Service, description) = standard_description(&name, distro)? else {
+        return None;
+    };
+    Some(
+        DynamicType::from_description(&description)
+            .map_err(Error::from)
+            .and_then(|ty| ResolvedService::of(&ty, &name, &ty.type_hash())),
+    )
+}
+
+impl ResolvedService {
+    /// The service `name` of hash `hash` from its type, whose members are
+    /// its request and response.
+    fn of(ty: &DynamicType, name: &str, hash: &str) -> Result<Self, Error> {
+        let part = |suffix: &str| {
+            ty.member(&format!("{name}{suffix}"))
+                .ok_or_else(|| format!("the description of {name} has no {name}{suffix}"))
+        };
+        Ok(Self {
+            request: part("_Request")?,
+            response: part("_Response")?,
+            name: name.to_owned(),
+            hash: hash.to_owned(),
+        })
+    }
 }
 
 /// An action type resolved from its server's endpoints: its goal-sending
