@@ -35,13 +35,21 @@ pub(crate) static CALLBACK_ERRORS: CallbackErrors = CallbackErrors {
     arrived: Condvar::new(),
 };
 
+/// How many callback exceptions wait for `spin`; past them, each is printed
+/// with its traceback (as Python prints an exception of a thread) and let
+/// go, so that a program that never spins holds no more.
+const KEPT_CALLBACK_ERRORS: usize = 16;
+
 impl CallbackErrors {
-    fn push(&self, error: PyErr) {
-        self.errors
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .push_back(error);
-        self.arrived.notify_all();
+    fn push(&self, py: Python<'_>, error: PyErr) {
+        let mut errors = self.errors.lock().unwrap_or_else(|p| p.into_inner());
+        if errors.len() < KEPT_CALLBACK_ERRORS {
+            errors.push_back(error);
+            self.arrived.notify_all();
+        } else {
+            drop(errors);
+            error.print(py);
+        }
     }
 
     /// The first exception a callback raised, waiting up to `timeout`.
@@ -219,7 +227,7 @@ impl PyNode {
                                             callback.call1(py, (PyMessage::new(root),))
                                         });
                                     if let Err(error) = outcome {
-                                        CALLBACK_ERRORS.push(error);
+                                        CALLBACK_ERRORS.push(py, error);
                                     }
                                 });
                             })

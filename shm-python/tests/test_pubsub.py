@@ -185,3 +185,33 @@ def test_qos_profiles_that_make_no_sense_are_refused():
             "std_msgs/msg/String", "/x", qos_profile=shm_cdr.QoSProfile(durability=7))
     with pytest.raises(TypeError):
         this_node().create_subscription("std_msgs/msg/String", "/x", qos_profile="reliable")
+
+
+def test_callback_exceptions_past_those_kept_for_spin_are_printed():
+    code = """
+import sys, time
+import shm_cdr
+
+node = shm_cdr.Node("raiser")
+seen = []
+def on_message(msg):
+    seen.append(msg.data)
+    raise ValueError("bad " + msg.data)
+sub = node.create_subscription("std_msgs/msg/String", "/raise", on_message, qos_profile=50)
+pub = node.create_publisher("std_msgs/msg/String", "/raise")
+for i in range(20):
+    pub.publish({"data": str(i)})
+deadline = time.monotonic() + 20
+while len(seen) < 20 and time.monotonic() < deadline:
+    time.sleep(0.05)
+try:
+    shm_cdr.spin(timeout=1.0)
+except ValueError as e:
+    print("raised", e)
+"""
+    proc = run_python(code, session_env())
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert out.strip() == "raised bad 0"
+    # The first 16 wait for spin; the other 4 are printed with their traceback.
+    assert err.count("ValueError: bad ") == 4, err
