@@ -109,7 +109,7 @@ def test_a_callback_s_exception_is_raised_by_spin():
     pub, sub = images("/robot/image", 2, 2, 20, on_image)
     try:
         with pytest.raises(RuntimeError, match="third"):
-            shm_cdr.spin(timeout=30.0)
+            shm_cdr.spin(timeout_sec=30.0)
         assert seen[:3] == [0, 1, 2]
     finally:
         pub.kill()
@@ -205,7 +205,7 @@ deadline = time.monotonic() + 20
 while len(seen) < 20 and time.monotonic() < deadline:
     time.sleep(0.05)
 try:
-    shm_cdr.spin(timeout=1.0)
+    shm_cdr.spin(timeout_sec=1.0)
 except ValueError as e:
     print("raised", e)
 """

@@ -32,7 +32,6 @@ from ._native import (
     ok,
     service_type,
     shutdown,
-    spin,
 )
 
 __all__ = [
@@ -160,3 +159,11 @@ class Node:
 
     def __repr__(self):
         return f"shm_cdr.Node({self.get_fully_qualified_name()!r})"
+
+
+def spin(node=None, timeout_sec=None):
+    """Wait for callbacks, as ``rclpy.spin(node)``: until ``timeout_sec``
+    seconds pass (for ever if ``None``), a callback raises (its exception is
+    raised here) or Ctrl-C. Callbacks run on the executor's threads whether
+    or not anything spins; ``node`` is taken for rclpy's signature."""
+    _native.spin(timeout_sec)
