@@ -456,3 +456,32 @@ pub fn of_action(
         feedback,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shm_cdr::msgs::std_srvs::srv::SetBool;
+    use shm_cdr::RosService;
+
+    #[test]
+    fn a_service_by_name_has_rosidl_s_hash_and_its_two_parts() {
+        for name in ["std_srvs/srv/SetBool", "std_srvs/SetBool"] {
+            let resolved = service_by_name(Distro::Kilted, name).unwrap().unwrap();
+            assert_eq!(resolved.name, "std_srvs/srv/SetBool");
+            assert_eq!(resolved.hash, SetBool::type_hash());
+            assert_eq!(resolved.request.name(), "std_srvs/srv/SetBool_Request");
+            assert_eq!(resolved.response.name(), "std_srvs/srv/SetBool_Response");
+            let fields: Vec<&str> = resolved
+                .response
+                .root()
+                .fields
+                .iter()
+                .map(|f| f.name.as_str())
+                .collect();
+            assert_eq!(fields, ["success", "message"]);
+        }
+        // A message is not a service, and an unknown name is none.
+        assert!(service_by_name(Distro::Kilted, "std_msgs/msg/String").is_none());
+        assert!(service_by_name(Distro::Kilted, "my_srvs/srv/Nothing").is_none());
+    }
+}
