@@ -69,7 +69,7 @@ def receive(height, width, count):
 def test_large_images_arrive_as_views_of_shared_memory():
     got, sub, kinds = receive(480, 640, 5)
     # The first image may go by the network while the publisher asks whether
-    # this session maps its pool; it says so, and every later one is in place.
+    # this process's Zenoh session maps its pool; it says so, and every later one is in place.
     assert kinds[0] in ("shm", "receiver_pending"), kinds
     assert kinds[1:] == ["shm"] * 4, kinds
     for seq, msg in enumerate(got):
