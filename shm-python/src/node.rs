@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use shm_cdr::dynamic::DynamicType;
+use shm_cdr::dynamic::{DynamicType, Message};
 use shm_runtime::parameters::ParameterValue;
 use shm_runtime::rmw::{Durability, History, Qos, Reliability};
 use shm_runtime::{CallbackSubscriber, RosNode, RosPublisher, RosSubscriber};
@@ -340,24 +340,15 @@ impl PyPublisher {
             let message = message.get();
             if let Some(root) = message.root() {
                 if root.message.is_of(&self.ty) {
-                    return py
-                        .detach(|| self.publisher.publish_dynamic(&root.message).wait())
-                        .map(|outcome| kind(&outcome))
-                        .map_err(middleware);
+                    return self.send(py, &root.message);
                 }
             }
             let converted = message.to_message_in(self.ty.default_message())?;
-            return py
-                .detach(|| self.publisher.publish_dynamic(&converted).wait())
-                .map(|outcome| kind(&outcome))
-                .map_err(middleware);
+            return self.send(py, &converted);
         }
         if let Ok(dict) = msg.cast::<PyDict>() {
             let message = convert::fill(self.ty.default_message(), &self.ty, 0, dict)?;
-            return py
-                .detach(|| self.publisher.publish_dynamic(&message).wait())
-                .map(|outcome| kind(&outcome))
-                .map_err(middleware);
+            return self.send(py, &message);
         }
         Err(PyTypeError::new_err(format!(
             "publish takes a {} or a dict of its fields",
@@ -398,6 +389,16 @@ impl PyPublisher {
         let timeout = Duration::try_from_secs_f64(timeout)
             .map_err(|_| PyValueError::new_err("timeout: give seconds, 0 or more"))?;
         Ok(py.detach(|| self.publisher.wait_for_subscribers(timeout)))
+    }
+}
+
+impl PyPublisher {
+    /// Publish `message` (of this publisher's type) without the GIL; where
+    /// its bytes went.
+    fn send(&self, py: Python<'_>, message: &Message<'_>) -> PyResult<String> {
+        py.detach(|| self.publisher.publish_dynamic(message).wait())
+            .map(|outcome| kind(&outcome))
+            .map_err(middleware)
     }
 }
 
