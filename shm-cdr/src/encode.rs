@@ -270,6 +270,26 @@ impl<'a, B: ByteOrder> Writer<'a, B> {
         self.reserve(pad, len)
     }
 
+    /// Align to `align`, zeroing the padding, and step over `len` bytes
+    /// without writing them: they keep what the buffer holds there (an
+    /// array someone fills in place). Returns where they start.
+    ///
+    /// # Safety
+    /// The writer must be over initialized bytes (made by [`new`](Self::new)),
+    /// so that the bytes stepped over are initialized, as the writer's
+    /// invariant requires of every byte before its position.
+    #[allow(unsafe_code)]
+    pub(crate) unsafe fn skip_in_place(
+        &mut self,
+        align: usize,
+        len: usize,
+    ) -> Result<usize, EncodeError> {
+        let pad = align_up(self.pos, align) - self.pos;
+        let start = self.pos + pad;
+        self.reserve_uninit(pad, len)?;
+        Ok(start)
+    }
+
     /// Write a `u32` length prefix, rejecting lengths that do not fit.
     #[inline(always)]
     pub fn write_len(&mut self, len: usize) -> Result<(), EncodeError> {

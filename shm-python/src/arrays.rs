@@ -5,7 +5,7 @@
 use std::ffi::c_void;
 use std::sync::Arc;
 
-use numpy::npyffi::{npy_intp, NpyTypes, PY_ARRAY_API};
+use numpy::npyffi::{npy_intp, NpyTypes, NPY_ARRAY_WRITEABLE, PY_ARRAY_API};
 use numpy::{Element as NumpyElement, PyArray1, PyArrayDescr, PyArrayDescrMethods};
 use pyo3::prelude::*;
 use shm_cdr::dynamic::{Number, Numbers};
@@ -69,18 +69,39 @@ fn view<'py>(
             "an array field's bytes lie outside the received message",
         ));
     }
-    let base = Bound::new(py, SampleMemory::of(payload.clone()))?;
+    let base = Bound::new(py, SampleMemory::of(payload.clone()))?.into_any();
+    // SAFETY: `bytes` lie within `payload` (checked above; the decoder
+    // checked that the `len` elements of `dtype` fill them), whose memory
+    // stays where it is, unwritten, for as long as `payload` lives (see
+    // `Payload`): `base` holds it. The array is read-only.
+    unsafe { memory_view(py, base, bytes.as_ptr() as *mut u8, dtype, len, false) }
+}
+
+/// A 1-D array of `len` elements of `dtype` over the memory at `data`,
+/// writable if `writable`, holding `base` (the owner of that memory) until
+/// it is freed. numpy works out its alignment itself, so numbers that are
+/// not aligned in memory (CDR aligns from the body) are read correctly.
+///
+/// # Safety
+/// `data` must point to `len` elements of `dtype` that stay valid for as
+/// long as `base` lives, and, if `writable`, that nothing else reads or
+/// writes as Rust references while Python may write them.
+pub(crate) unsafe fn memory_view<'py>(
+    py: Python<'py>,
+    base: Bound<'py, PyAny>,
+    data: *mut u8,
+    dtype: Bound<'py, PyArrayDescr>,
+    len: usize,
+    writable: bool,
+) -> PyResult<Bound<'py, PyAny>> {
     let mut dims = [npy_intp::try_from(len)
         .map_err(|_| pyo3::exceptions::PyOverflowError::new_err("array too long for numpy"))?];
+    let flags = if writable { NPY_ARRAY_WRITEABLE } else { 0 };
     // SAFETY: `PyArray_NewFromDescr` takes the reference to `dtype` (given
     // up with `into_dtype_ptr`) and makes a 1-D array of `len` elements over
-    // `bytes`, whose `len * itemsize` bytes were checked by the decoder to
-    // lie within the message and above to lie within `payload`. Flags 0
-    // make it read-only; numpy works out its alignment itself, so unaligned
-    // CDR numbers are read correctly. The bytes stay where they are for as
-    // long as `payload` lives (see `Payload`), which the array's base holds:
-    // `PyArray_SetBaseObject` takes the reference to `base` (given up with
-    // `into_ptr`) and numpy keeps it until the array is freed.
+    // `data`, which the caller promises hold them for as long as `base`
+    // lives; `PyArray_SetBaseObject` takes the reference to `base` (given up
+    // with `into_ptr`) and numpy keeps it until the array is freed.
     unsafe {
         let subtype = PY_ARRAY_API.get_type_object(py, NpyTypes::PyArray_Type);
         let array = PY_ARRAY_API.PyArray_NewFromDescr(
@@ -90,8 +111,8 @@ fn view<'py>(
             1,
             dims.as_mut_ptr(),
             std::ptr::null_mut(),
-            bytes.as_ptr() as *mut c_void,
-            0,
+            data.cast::<c_void>(),
+            flags,
             std::ptr::null_mut(),
         );
         if array.is_null() {
@@ -106,7 +127,7 @@ fn view<'py>(
 }
 
 /// `T`'s dtype in `order`.
-fn dtype<'py, T: NumpyElement>(
+pub(crate) fn dtype<'py, T: NumpyElement>(
     py: Python<'py>,
     order: Endianness,
 ) -> PyResult<Bound<'py, PyArrayDescr>> {

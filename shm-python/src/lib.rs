@@ -12,6 +12,7 @@ mod arrays;
 mod context;
 mod convert;
 mod errors;
+mod loan;
 mod message;
 mod node;
 mod parameters;
@@ -26,6 +27,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<types::PyMessageType>()?;
     m.add_class::<message::PyMessage>()?;
     m.add_class::<arrays::SampleMemory>()?;
+    m.add_class::<loan::PyLoan>()?;
+    m.add_class::<loan::LoanMemory>()?;
     m.add_class::<node::PyNode>()?;
     m.add_class::<node::PyPublisher>()?;
     m.add_class::<node::PySubscription>()?;

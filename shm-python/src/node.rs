@@ -16,6 +16,7 @@ use zenoh::Wait;
 use crate::context::{self, Context};
 use crate::convert;
 use crate::errors::middleware;
+use crate::loan::PyLoan;
 use crate::message::{Payload, PyMessage, Root};
 use crate::parameters::{self, PyParameter, PySetParametersResult};
 use crate::services::{PyClient, PyServiceType};
@@ -335,25 +336,50 @@ impl PyPublisher {
     /// `heap` (below the pool's threshold), `receiver_pending` (a new
     /// subscriber's session is being asked whether it maps the pool: this
     /// message goes by the network), and the runtime's other kinds.
-    fn publish(&self, py: Python<'_>, msg: &Bound<'_, PyAny>) -> PyResult<String> {
-        if let Ok(message) = msg.cast::<PyMessage>() {
-            let message = message.get();
-            if let Some(root) = message.root() {
-                if root.message.is_of(&self.ty) {
-                    return self.send(py, &root.message);
-                }
-            }
-            let converted = message.to_message_in(self.ty.default_message())?;
-            return self.send(py, &converted);
+    fn publish(slf: &Bound<'_, Self>, msg: &Bound<'_, PyAny>) -> PyResult<String> {
+        let py = slf.py();
+        let this = slf.get();
+        if let Ok(loan) = msg.cast::<PyLoan>() {
+            let payload = loan.get().take_for(py, slf.as_any())?;
+            return py
+                .detach(|| this.publisher.publish_loaned(payload))
+                .map(|outcome| kind(&outcome))
+                .map_err(middleware);
         }
-        if let Ok(dict) = msg.cast::<PyDict>() {
-            let message = convert::fill(self.ty.default_message(), &self.ty, 0, dict)?;
-            return self.send(py, &message);
-        }
-        Err(PyTypeError::new_err(format!(
-            "publish takes a {} or a dict of its fields",
-            self.ty.name()
-        )))
+        this.publish_message(py, msg)
+    }
+
+    /// Lend a buffer for one message whose sequences of numbers named in
+    /// `lengths` (`data=640 * 480 * 3`) are filled in place: a `Loan`, whose
+    /// arrays are writable numpy arrays where the message will be sent from
+    /// (shared memory at or above the pool's threshold), its other fields
+    /// taken from `msg` (a message of this type or a dict; defaults if
+    /// `None`) and settable until `publish(loan)`. The arrays are zeroed
+    /// unless `zeroed=False` (then they hold what the buffer held, as
+    /// `numpy.empty`'s do: write every element).
+    #[pyo3(signature = (msg = None, *, zeroed = true, **lengths))]
+    fn loan(
+        slf: &Bound<'_, Self>,
+        msg: Option<&Bound<'_, PyAny>>,
+        zeroed: bool,
+        lengths: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<PyLoan> {
+        let py = slf.py();
+        let this = slf.get();
+        let message = match msg {
+            None => this.ty.default_message(),
+            Some(msg) => this.message_of(msg)?,
+        };
+        let empty = PyDict::new(py);
+        PyLoan::new(
+            py,
+            slf.clone().into_any().unbind(),
+            &this.ty,
+            |size| this.publisher.loan_buffer(size),
+            message,
+            lengths.unwrap_or(&empty),
+            zeroed,
+        )
     }
 
     /// The publisher's message type.
@@ -393,6 +419,48 @@ impl PyPublisher {
 }
 
 impl PyPublisher {
+    /// `msg` (a message of any type describing this publisher's, or a dict
+    /// of its fields) as a message of this publisher's type, owned.
+    fn message_of(&self, msg: &Bound<'_, PyAny>) -> PyResult<Message<'static>> {
+        if let Ok(message) = msg.cast::<PyMessage>() {
+            let message = message.get();
+            if let Some(root) = message.root() {
+                if root.message.is_of(&self.ty) {
+                    return Ok(root.message.clone().into_owned());
+                }
+            }
+            return message.to_message_in(self.ty.default_message());
+        }
+        if let Ok(dict) = msg.cast::<PyDict>() {
+            return convert::fill(self.ty.default_message(), &self.ty, 0, dict);
+        }
+        Err(PyTypeError::new_err(format!(
+            "a {} or a dict of its fields goes here",
+            self.ty.name()
+        )))
+    }
+
+    fn publish_message(&self, py: Python<'_>, msg: &Bound<'_, PyAny>) -> PyResult<String> {
+        if let Ok(message) = msg.cast::<PyMessage>() {
+            let message = message.get();
+            if let Some(root) = message.root() {
+                if root.message.is_of(&self.ty) {
+                    return self.send(py, &root.message);
+                }
+            }
+            let converted = message.to_message_in(self.ty.default_message())?;
+            return self.send(py, &converted);
+        }
+        if let Ok(dict) = msg.cast::<PyDict>() {
+            let message = convert::fill(self.ty.default_message(), &self.ty, 0, dict)?;
+            return self.send(py, &message);
+        }
+        Err(PyTypeError::new_err(format!(
+            "publish takes a {} or a dict of its fields",
+            self.ty.name()
+        )))
+    }
+
     /// Publish `message` (of this publisher's type) without the GIL; where
     /// its bytes went.
     fn send(&self, py: Python<'_>, message: &Message<'_>) -> PyResult<String> {
@@ -525,7 +593,12 @@ impl PySubscription {
 }
 
 fn kind(outcome: &shm_runtime::PublishOutcome) -> String {
-    snake_case(&format!("{:?}", outcome.kind))
+    kind_name(outcome.kind)
+}
+
+/// A `PayloadKind` as Python sees it: `HeapFallback` as `heap_fallback`.
+pub(crate) fn kind_name(kind: shm_runtime::PayloadKind) -> String {
+    snake_case(&format!("{kind:?}"))
 }
 
 /// `SharedMemoryUnprobed` as `shared_memory_unprobed`.

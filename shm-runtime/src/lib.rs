@@ -53,7 +53,7 @@ pub use transport::encoded::{EncodedPayload, PayloadKind};
 pub use transport::executor::Executor;
 pub use transport::inline_limit::Unfragmentable;
 pub use transport::limits::{KeyExprTooLong, MAX_KEY_EXPR_LEN};
-pub use transport::loan::{Loan, LoanPublish};
+pub use transport::loan::{BufferLoan, Loan, LoanPublish, LoanedPayload};
 pub use transport::memlock::{MemlockBudget, ZENOH_METADATA_SEGMENT};
 pub use transport::pool::{CdrBackend, ShmContext, ShmStats};
 pub use transport::publisher::{

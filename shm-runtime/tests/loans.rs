@@ -285,3 +285,79 @@ async fn a_loan_publishes_with_await() {
         .unwrap();
     assert_eq!(sample.decode::<LaserScan>().unwrap(), msg);
 }
+
+/// A run-time typed message laid out around its pixels in a lent buffer:
+/// the pixels written where they lie, the rest around them, sent as the one
+/// chunk, received byte for byte as the whole message encodes; a buffer from
+/// another pool is refused.
+#[test]
+fn a_buffer_loan_laid_out_in_place_arrives_as_the_whole_message_encodes() {
+    use shm_cdr::dynamic::{DynamicType, Value};
+    use shm_cdr::msgs::sensor_msgs::Image;
+    use shm_cdr::RosMessage;
+
+    let _shm = common::shm_serial();
+    let (a, b, _) = loopback_sessions();
+    let shm = ShmContext::new(ShmConfig::enabled().threshold(4096)).unwrap();
+    let publisher = a
+        .declare_ros_publisher::<Image>("loans/image")
+        .shm(&shm)
+        .wait()
+        .unwrap();
+    let subscriber = b
+        .declare_ros_subscriber::<Image>("loans/image")
+        .wait()
+        .unwrap();
+    assert!(publisher.wait_for_subscribers(TIMEOUT));
+
+    let ty = DynamicType::from_description(&Image::full_description()).unwrap();
+    for (pixels, kind) in [(100_000usize, PayloadKind::Shm), (12, PayloadKind::Heap)] {
+        let mut image = ty.default_message();
+        image
+            .set("encoding", Value::String("mono8".into()))
+            .unwrap();
+        image.set("width", Value::U32(pixels as u32)).unwrap();
+        let layout = ty.lay_out_in_place(&image, &[(&["data"], pixels)]).unwrap();
+        let mut loan = publisher.loan_buffer(layout.size());
+        assert_eq!((loan.kind(), loan.size()), (kind, layout.size()));
+        let data: Vec<u8> = (0..pixels).map(|i| (i % 253) as u8).collect();
+        loan.as_mut_slice()[layout.arrays()[0].range()].copy_from_slice(&data);
+        layout.write_around(&image, loan.as_mut_slice()).unwrap();
+        let payload = loan.freeze();
+        let kept = payload.clone();
+        let outcome = publisher.publish_loaned(payload).unwrap();
+        assert_eq!((outcome.kind, outcome.size), (kind, layout.size()));
+        assert_eq!(kept.size(), layout.size());
+
+        let sample = subscriber.recv_timeout(TIMEOUT).unwrap().expect("lost");
+        assert_eq!(sample.is_shm(), kind == PayloadKind::Shm, "{pixels}");
+        image.set("data", Value::U8s(data.into())).unwrap();
+        assert_eq!(
+            &*sample.payload().to_bytes(),
+            shm_cdr::to_vec(&image).unwrap().as_slice(),
+            "{pixels} pixels"
+        );
+    }
+
+    // A chunk of another pool cannot go out on this publisher's.
+    let other = ShmContext::new(ShmConfig::enabled().threshold(4096)).unwrap();
+    let elsewhere = a
+        .declare_ros_publisher::<Image>("loans/elsewhere")
+        .shm(&other)
+        .wait()
+        .unwrap();
+    let mut loan = elsewhere.loan_buffer(8192);
+    assert_eq!(loan.kind(), PayloadKind::Shm);
+    loan.as_mut_slice()[..4].copy_from_slice(&[0, 1, 0, 0]);
+    assert!(matches!(
+        publisher.publish_loaned(loan.freeze()),
+        Err(PublishError::OtherPool)
+    ));
+    // Bytes that are no CDR are refused too.
+    let mut loan = publisher.loan_buffer(16);
+    loan.as_mut_slice().fill(0xff);
+    assert!(matches!(
+        publisher.publish_loaned(loan.freeze()),
+        Err(PublishError::NotCdr { len: 16 })
+    ));
+}

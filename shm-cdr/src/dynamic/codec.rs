@@ -667,11 +667,11 @@ pub(crate) fn decode_string<'de, B: ByteOrder>(
 /// value of its field's kind, so the two always agree.
 impl CdrEncode for Message<'_> {
     fn encoded_end(&self, start: usize) -> usize {
-        struct_end(&self.ty, self.index, &self.slots, 0, start)
+        struct_end(&self.ty, self.index, &self.slots, 0, start, &mut NoHoles)
     }
 
     fn encode<B: ByteOrder>(&self, w: &mut Writer<'_, B>) -> Result<(), EncodeError> {
-        encode_struct(w, &self.ty, self.index, &self.slots, 0)
+        encode_struct(w, &self.ty, self.index, &self.slots, 0, &mut NoHoles)
     }
 }
 
@@ -683,45 +683,101 @@ fn counted(container: Container) -> bool {
 
 /// The position after the message of struct `index` whose values start at
 /// `slots[first]`, written at `start`: a run of fixed-size fields by its
-/// length alone.
-fn struct_end(
+/// length alone. A sequence `holes` holds is sized by the length it gives,
+/// not by its slot's value, and told where its elements lie.
+pub(crate) fn struct_end<H: Holes>(
     ty: &DynamicType,
     index: usize,
     slots: &[Value<'_>],
     first: usize,
     start: usize,
+    holes: &mut H,
 ) -> usize {
     let Some(plan) = ty.inner.plans.get(index) else {
         return start;
     };
     let at = |slot: usize| slots.get(first + slot);
-    plan.steps.iter().fold(start, |pos, step| match *step {
-        Step::Run { align, len, .. } => align_up(pos, align) + len,
-        Step::String { slot, .. } => at(slot).map_or(pos, |v| value_end(v, pos, false)),
-        Step::Numbers {
-            slot, container, ..
-        }
-        | Step::Messages {
-            slot, container, ..
-        } => at(slot).map_or(pos, |v| value_end(v, pos, counted(container))),
-        Step::Value { slot, check, .. } => {
-            at(slot).map_or(pos, |v| value_end(v, pos, counted(check_container(check))))
-        }
-        Step::Nested {
-            first: nested,
-            index,
-        } => struct_end(ty, index, slots, first + nested, pos),
-    })
+    let mut pos = start;
+    for step in &plan.steps {
+        pos = match *step {
+            Step::Run { align, len, .. } => align_up(pos, align) + len,
+            Step::String { slot, .. } => at(slot).map_or(pos, |v| value_end(v, pos, false)),
+            Step::Numbers { slot, size, .. } if H::ANY => match holes.len(first + slot) {
+                Some(n) => {
+                    let elements = hole_start(pos, size, n);
+                    let end = elements + n * size;
+                    holes.lies(first + slot, elements..end);
+                    end
+                }
+                None => at(slot).map_or(pos, |v| value_end(v, pos, true)),
+            },
+            Step::Numbers {
+                slot, container, ..
+            }
+            | Step::Messages {
+                slot, container, ..
+            } => at(slot).map_or(pos, |v| value_end(v, pos, counted(container))),
+            Step::Value { slot, check, .. } => {
+                at(slot).map_or(pos, |v| value_end(v, pos, counted(check_container(check))))
+            }
+            Step::Nested {
+                first: nested,
+                index,
+            } => struct_end(ty, index, slots, first + nested, pos, holes),
+        };
+    }
+    pos
+}
+
+/// Where the elements of a sequence of `n` numbers of `size` bytes each
+/// start when its count is written at `pos`: after the count, aligned to
+/// the element (an empty sequence is not aligned to).
+fn hole_start(pos: usize, size: usize, n: usize) -> usize {
+    let after_count = align_up(pos, 4) + 4;
+    if n == 0 {
+        after_count
+    } else {
+        align_up(after_count, size)
+    }
+}
+
+/// Sequences of numbers left out of a message's encoding, for their
+/// elements to be written where they lie ([`InPlaceLayout`](super::InPlaceLayout)),
+/// by absolute slot. Sizing and encoding are generic over it, so that
+/// [`NoHoles`], every other message's, costs nothing.
+pub(crate) trait Holes {
+    /// Whether any sequence may be a hole (`false`: `len` is never asked).
+    const ANY: bool;
+    /// The number of elements of the sequence at `slot`, if it is a hole.
+    fn len(&self, slot: usize) -> Option<usize>;
+    /// The hole at `slot` has its elements at `range` (body positions).
+    fn lies(&mut self, slot: usize, range: std::ops::Range<usize>);
+}
+
+/// No holes: a message encoded whole.
+pub(crate) struct NoHoles;
+
+impl Holes for NoHoles {
+    const ANY: bool = false;
+    #[inline(always)]
+    fn len(&self, _: usize) -> Option<usize> {
+        None
+    }
+    #[inline(always)]
+    fn lies(&mut self, _: usize, _: std::ops::Range<usize>) {}
 }
 
 /// Write the message of struct `index` whose values start at
 /// `slots[first]`: a run of fixed-size fields into one slot of the output.
-fn encode_struct<B: ByteOrder>(
+/// A sequence `holes` holds gets its count and alignment, and its elements'
+/// bytes are stepped over as they lie (see [`Writer::skip_in_place`]).
+pub(crate) fn encode_struct<B: ByteOrder, H: Holes>(
     w: &mut Writer<'_, B>,
     ty: &DynamicType,
     index: usize,
     slots: &[Value<'_>],
     first: usize,
+    holes: &mut H,
 ) -> Result<(), EncodeError> {
     let Some(plan) = ty.inner.plans.get(index) else {
         return Ok(());
@@ -749,6 +805,27 @@ fn encode_struct<B: ByteOrder>(
                 if let Some(value) = at(slot) {
                     encode_value(w, Element::String(bound), Container::Single, value)?;
                 }
+            }
+            Step::Numbers {
+                slot,
+                container,
+                size,
+                ..
+            } if H::ANY && holes.len(first + slot).is_some() => {
+                let n = holes.len(first + slot).unwrap_or(0);
+                write_count(w, container, n)?;
+                let elements = if n == 0 {
+                    w.position()
+                } else {
+                    // SAFETY: `holes` are only given to the encoding of
+                    // `InPlaceLayout::write_around`, whose writer is over
+                    // a caller's `&mut [u8]`: every byte is initialized.
+                    #[allow(unsafe_code)]
+                    unsafe {
+                        w.skip_in_place(size, n * size)?
+                    }
+                };
+                holes.lies(first + slot, elements..w.position());
             }
             Step::Numbers {
                 slot,
@@ -782,7 +859,7 @@ fn encode_struct<B: ByteOrder>(
             Step::Nested {
                 first: nested,
                 index,
-            } => encode_struct(w, ty, index, slots, first + nested)?,
+            } => encode_struct(w, ty, index, slots, first + nested, holes)?,
         }
     }
     Ok(())
@@ -993,7 +1070,7 @@ fn value_end(value: &Value<'_>, start: usize, counted: bool) -> usize {
         Value::Strings(v) => v.iter().fold(first, |pos, s| string_end(pos, s.len())),
         Value::WStrings(v) => v.iter().fold(first, |pos, s| wstring_end(pos, s)),
         Value::Messages(v) => v.firsts().fold(first, |pos, at| {
-            struct_end(&v.ty, v.index, &v.slots, at, pos)
+            struct_end(&v.ty, v.index, &v.slots, at, pos, &mut NoHoles)
         }),
     }
 }
@@ -1071,6 +1148,6 @@ fn encode_value<B: ByteOrder>(
         Value::WStrings(v) => v.iter().try_for_each(|s| write_wstring(w, s, bound)),
         Value::Messages(v) => v
             .firsts()
-            .try_for_each(|at| encode_struct(w, &v.ty, v.index, &v.slots, at)),
+            .try_for_each(|at| encode_struct(w, &v.ty, v.index, &v.slots, at, &mut NoHoles)),
     }
 }

@@ -27,6 +27,7 @@
 
 mod codec;
 mod defaults;
+mod in_place;
 mod limits;
 mod model;
 mod numbers;
@@ -40,6 +41,7 @@ mod view;
 mod yaml_in;
 mod yaml_out;
 
+pub use in_place::{InPlaceArray, InPlaceError, InPlaceLayout};
 pub use limits::TypeLimits;
 pub use model::{DynamicType, TypeError};
 pub use numbers::{Iter as NumbersIter, Number, Numbers};

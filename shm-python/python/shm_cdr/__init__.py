@@ -3,7 +3,9 @@
 Nodes, publishers and subscriptions of any ROS 2 interface: the standard set
 built in, your own ``.msg`` files (``message_type(name, interfaces=[...])``).
 A received message's arrays of numbers are numpy arrays that view the sample
-where it arrived (in shared memory when it came through it), read-only.
+where it arrived (in shared memory when it came through it), read-only; a
+``Publisher.loan`` lends the buffer a message is sent from, its arrays
+writable numpy arrays there, so that publishing copies none of them.
 
 The process's Zenoh session opens with the first ``Node``, configured as
 rmw_zenoh_cpp configures a ROS 2 process (``ZENOH_SESSION_CONFIG_URI``,
@@ -18,6 +20,8 @@ from enum import IntEnum
 from . import _native
 from ._native import (
     Client,
+    Loan,
+    LoanMemory,
     Message,
     MessageType,
     Parameter,
@@ -38,6 +42,8 @@ __all__ = [
     "Client",
     "DurabilityPolicy",
     "HistoryPolicy",
+    "Loan",
+    "LoanMemory",
     "Message",
     "MessageType",
     "Node",

@@ -215,3 +215,174 @@ impl<'p, T: RosMessage + InPlace> IntoFuture for LoanPublish<'p, T> {
         })
     }
 }
+
+/// A buffer of an exact size lent by a publisher for one message whose bytes
+/// the caller lays out itself: a run-time typed message laid out around the
+/// arrays it fills in place ([`shm_cdr::dynamic::InPlaceLayout`]), say.
+/// Placed as [`RosPublisher::loan`] places a typed loan (the pool at or above
+/// the threshold, else the heap, with the same fallbacks).
+///
+/// A typestate: written through [`as_mut_slice`](Self::as_mut_slice), then
+/// [`freeze`](Self::freeze)n into a [`LoanedPayload`], which
+/// [`RosPublisher::publish_loaned`] sends as it lies. Dropping it returns the
+/// buffer.
+///
+/// ```no_run
+/// use shm_cdr::dynamic::{DynamicType, Value};
+/// use shm_cdr::msgs::sensor_msgs::Image;
+/// use shm_cdr::RosMessage;
+/// use shm_runtime::rmw::Qos;
+/// use shm_runtime::RosNode;
+/// use zenoh::Wait;
+///
+/// let session = zenoh::open(zenoh::Config::default()).wait()?;
+/// let node = RosNode::builder(&session, "camera").wait()?;
+/// let ty = DynamicType::from_description(&Image::full_description())?;
+/// let publisher = node.declare_dynamic_publisher("image", &ty, Qos::default()).wait()?;
+///
+/// let mut image = ty.default_message();
+/// image.set("encoding", Value::String("mono8".into()))?;
+/// image.set("height", Value::U32(480))?;
+/// image.set("width", Value::U32(640))?;
+/// image.set("step", Value::U32(640))?;
+/// let layout = ty.lay_out_in_place(&image, &[(&["data"], 640 * 480)])?;
+///
+/// let mut loan = publisher.loan_buffer(layout.size());
+/// loan.as_mut_slice()[layout.arrays()[0].range()].fill(128); // the pixels, in place
+/// layout.write_around(&image, loan.as_mut_slice())?;
+/// publisher.publish_loaned(loan.freeze())?;
+/// # Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+/// ```
+#[must_use = "a loan does nothing until published; dropping it returns its buffer"]
+pub struct BufferLoan {
+    buffer: Buffer,
+    kind: PayloadKind,
+    size: usize,
+    pool: Option<crate::ShmContext>,
+}
+
+impl fmt::Debug for BufferLoan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("BufferLoan")
+            .field("kind", &self.kind)
+            .field("size", &self.size)
+            .finish_non_exhaustive()
+    }
+}
+
+impl BufferLoan {
+    /// The buffer: exactly [`size`](Self::size) bytes, 8-aligned. A pool
+    /// buffer holds whatever its last message left; write every byte.
+    pub fn as_mut_slice(&mut self) -> &mut [u8] {
+        self.buffer.as_mut_slice()
+    }
+
+    /// Where the buffer lies: [`PayloadKind::Shm`] for a pool chunk, else one
+    /// of the heap kinds.
+    pub fn kind(&self) -> PayloadKind {
+        self.kind
+    }
+
+    /// The buffer's size in bytes.
+    pub fn size(&self) -> usize {
+        self.size
+    }
+
+    /// The buffer as written, no longer writable, ready to publish. No copy.
+    pub fn freeze(self) -> LoanedPayload {
+        LoanedPayload {
+            bytes: self.buffer.into_zbytes(),
+            kind: self.kind,
+            size: self.size,
+            pool: self.pool,
+        }
+    }
+}
+
+/// A [`BufferLoan`] frozen: its bytes as they will be sent. Cloning it is a
+/// reference count, and a clone keeps the memory (a pool chunk stays taken)
+/// for as long as it lives, after publishing too.
+#[derive(Clone)]
+pub struct LoanedPayload {
+    bytes: ZBytes,
+    kind: PayloadKind,
+    size: usize,
+    pool: Option<crate::ShmContext>,
+}
+
+impl fmt::Debug for LoanedPayload {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("LoanedPayload")
+            .field("kind", &self.kind)
+            .field("size", &self.size)
+            .finish_non_exhaustive()
+    }
+}
+
+impl LoanedPayload {
+    /// Where the bytes lie (see [`BufferLoan::kind`]).
+    pub fn kind(&self) -> PayloadKind {
+        self.kind
+    }
+
+    /// Their size in bytes.
+    pub fn size(&self) -> usize {
+        self.size
+    }
+}
+
+impl<T> RosPublisher<T> {
+    /// Lend a buffer of exactly `size` bytes for one message the caller lays
+    /// out itself (see [`BufferLoan`]); placed as [`loan`](Self::loan) places
+    /// a typed one.
+    pub fn loan_buffer(&self, size: usize) -> BufferLoan {
+        let (buffer, kind) = allocate(self.policy(), size);
+        BufferLoan {
+            buffer,
+            kind,
+            size,
+            pool: self.policy().map(|policy| policy.context.clone()),
+        }
+    }
+
+    /// Publish a frozen [`BufferLoan`] as it lies, waiting; its bytes must be
+    /// a message of the publisher's type, encapsulation header first (checked
+    /// no further than the header, as [`publish_serialized`](Self::publish_serialized)).
+    /// A buffer lent from another pool than this publisher's is refused
+    /// ([`PublishError::OtherPool`]); one in the pool goes by the heap while a
+    /// subscribing session has not shown it maps the pool, as every message
+    /// does.
+    pub fn publish_loaned(&self, payload: LoanedPayload) -> Result<PublishOutcome, PublishError> {
+        let mut header = [0u8; shm_cdr::HEADER_LEN];
+        let mut reader = payload.bytes.reader();
+        let read = std::io::Read::read(&mut reader, &mut header).unwrap_or(0);
+        if read < header.len() || shm_cdr::read_header(&header).is_err() {
+            return Err(PublishError::NotCdr { len: payload.size });
+        }
+        let policy = self.policy();
+        if payload.kind == PayloadKind::Shm {
+            let same = match (&payload.pool, policy) {
+                (Some(pool), Some(policy)) => pool.same_pool(&policy.context),
+                _ => false,
+            };
+            if !same {
+                return Err(PublishError::OtherPool);
+            }
+        }
+        let mut encoded = EncodedPayload {
+            bytes: payload.bytes,
+            kind: payload.kind,
+            size: payload.size,
+            inline: if payload.kind == PayloadKind::Shm {
+                0
+            } else {
+                payload.size
+            },
+        };
+        if let Some(policy) = policy {
+            encoded = routed(encoded, policy);
+            policy.context.count(encoded.kind, encoded.size);
+        }
+        self.put_encoded_wait(encoded)
+    }
+}

@@ -62,6 +62,9 @@ pub enum PublishError {
         /// How many bytes were given.
         len: usize,
     },
+    /// A [`LoanedPayload`](crate::LoanedPayload) lent from another pool than
+    /// the publisher's: it was not sent.
+    OtherPool,
 }
 
 impl fmt::Display for PublishError {
@@ -78,6 +81,11 @@ impl fmt::Display for PublishError {
                 f,
                 "publish: {len} bytes that do not start with a CDR encapsulation header \
                  (00 00 or 00 01, then two option bytes)"
+            ),
+            Self::OtherPool => write!(
+                f,
+                "publish: a buffer lent from another pool than this publisher's: loan it from \
+                 the publisher that publishes it (RosPublisher::loan_buffer)"
             ),
         }
     }

@@ -219,6 +219,11 @@ fn size_pool(
 }
 
 impl ShmContext {
+    /// Whether `other` is this pool (a clone of the same context).
+    pub(crate) fn same_pool(&self, other: &ShmContext) -> bool {
+        Arc::ptr_eq(&self.inner, &other.inner)
+    }
+
     /// Create a pool. Its size follows [`ShmConfig::pool_size`]: by default as
     /// large as the memory-lock limit allows, up to 10 MiB (no pool at all,
     /// and publishing from the heap, if the limit has no room for one; a log
