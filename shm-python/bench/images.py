@@ -1,13 +1,16 @@
 """How long a big message takes from a frame in a numpy array in one Python
 process to a numpy array of its data in another: shm_cdr (the frame set on a
-message, or copied into a loan), rclpy (rmw_fastrtps_cpp) and eclipse-zenoh's
-Python put of bytes, one path after the other in one run, medians.
+message, or copied into a loan), rclpy (rmw_fastrtps_cpp), eclipse-zenoh's
+Python put of bytes and iceoryx2's Python publish of a loaned slice of bytes
+(shared memory, no ROS message), one path after the other in one run,
+medians.
 
-    python shm-python/bench/images.py [--rounds 40] [--paths shm_cdr,shm_cdr_loan,rclpy,zenoh]
+    python shm-python/bench/images.py [--rounds 40] [--paths shm_cdr,shm_cdr_loan,rclpy,zenoh,iceoryx2]
 
 Each path sends the same frame at 20 Hz (so nothing queues), as a program
 with a new frame each time would: taken into the message (`msg.data = frame`;
-`numpy.copyto(loan.data, frame)` for a loan; `bytes` for rclpy and Zenoh),
+`numpy.copyto(loan.data, frame)` for a loan and for iceoryx2's slice;
+`bytes` for rclpy and Zenoh),
 then published. The subscriber stamps each message's arrival once it holds
 the numpy array; the latency is that stamp minus the time taken before the
 frame went into the message (both CLOCK_REALTIME, one machine). A path whose
@@ -125,6 +128,45 @@ def child(role, path, payload, rounds, port):
                     out.append((now - int.from_bytes(raw[:8], "little"), False))
                 else:
                     time.sleep(0.0005)
+    elif path == "iceoryx2":
+        import ctypes
+
+        import iceoryx2 as iox2
+
+        iox2.set_log_level_from_env_or(iox2.LogLevel.Warn)
+        node = iox2.NodeBuilder.new().create(iox2.ServiceType.Ipc)
+        service = (
+            node.service_builder(iox2.ServiceName.new(f"shm_cdr_bench_{port}"))
+            .publish_subscribe(iox2.Slice[ctypes.c_uint8])
+            .open_or_create()
+        )
+        if role == "pub":
+            pub = service.publisher_builder().initial_max_slice_len(8 + size).create()
+            time.sleep(1.0)
+            for _ in range(rounds):
+                t = time.time_ns()
+                sample = pub.loan_slice_uninit(8 + size)
+                view = np.frombuffer(sample.payload().as_memory_view(), dtype=np.uint8)
+                view[:8] = np.frombuffer(t.to_bytes(8, "little"), dtype=np.uint8)
+                np.copyto(view[8:], data)
+                sample.assume_init().send()
+                time.sleep(period)
+            time.sleep(0.5)
+        else:
+            sub = service.subscriber_builder().create()
+            print("ready", flush=True)
+            deadline = time.monotonic() + 120
+            while len(out) < rounds and time.monotonic() < deadline:
+                sample = sub.receive()
+                if sample is None:
+                    time.sleep(0.0005)
+                    continue
+                raw = np.frombuffer(sample.payload().as_memory_view(), dtype=np.uint8)
+                array = raw[8:]
+                now = time.time_ns()
+                assert array.size == size
+                out.append((now - int.from_bytes(raw[:8].tobytes(), "little"), True))
+                del raw, array, sample
     if role == "sub":
         print(json.dumps(out), flush=True)
 
@@ -166,7 +208,7 @@ def run(path, payload, rounds):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rounds", type=int, default=40)
-    parser.add_argument("--paths", default="shm_cdr,shm_cdr_loan,rclpy,zenoh")
+    parser.add_argument("--paths", default="shm_cdr,shm_cdr_loan,rclpy,zenoh,iceoryx2")
     args = parser.parse_args()
     paths = args.paths.split(",")
     print(f"{args.rounds} messages per path and payload, 20 Hz; latency frame -> numpy array, medians")
