@@ -157,22 +157,36 @@ impl<'p, T: RosMessage + InPlace> Loan<'p, T> {
     fn encoded(self) -> Result<(EncodedPayload, &'p RosPublisher<T>), PublishError> {
         self.written.check().map_err(PublishError::Loan)?;
         let publisher = self.publisher;
-        let mut encoded = EncodedPayload {
-            bytes: self.buffer.into_zbytes(),
-            kind: self.kind,
-            size: self.size,
-            inline: if self.kind == PayloadKind::Shm {
-                0
-            } else {
-                self.size
-            },
-        };
-        if let Some(policy) = publisher.policy() {
-            encoded = routed(encoded, policy);
-            policy.context.count(encoded.kind, encoded.size);
-        }
+        let encoded = lent_payload(
+            self.buffer.into_zbytes(),
+            self.kind,
+            self.size,
+            publisher.policy(),
+        );
         Ok((encoded, publisher))
     }
+}
+
+/// A lent buffer's bytes as they go out under `policy`: by the heap while a
+/// subscribing session has not shown it maps the pool ([`routed`]), counted
+/// in the pool's statistics.
+fn lent_payload(
+    bytes: ZBytes,
+    kind: PayloadKind,
+    size: usize,
+    policy: Option<&ShmPolicy>,
+) -> EncodedPayload {
+    let mut encoded = EncodedPayload {
+        bytes,
+        kind,
+        size,
+        inline: if kind == PayloadKind::Shm { 0 } else { size },
+    };
+    if let Some(policy) = policy {
+        encoded = routed(encoded, policy);
+        policy.context.count(encoded.kind, encoded.size);
+    }
+    encoded
 }
 
 /// A pending publish of a loan; resolve with `.wait()` or `.await`.
@@ -369,20 +383,11 @@ impl<T> RosPublisher<T> {
                 return Err(PublishError::OtherPool);
             }
         }
-        let mut encoded = EncodedPayload {
-            bytes: payload.bytes,
-            kind: payload.kind,
-            size: payload.size,
-            inline: if payload.kind == PayloadKind::Shm {
-                0
-            } else {
-                payload.size
-            },
-        };
-        if let Some(policy) = policy {
-            encoded = routed(encoded, policy);
-            policy.context.count(encoded.kind, encoded.size);
-        }
-        self.put_encoded_wait(encoded)
+        self.put_encoded_wait(lent_payload(
+            payload.bytes,
+            payload.kind,
+            payload.size,
+            policy,
+        ))
     }
 }
