@@ -1,11 +1,12 @@
 """How long a big message takes from a frame in a numpy array in one Python
 process to a numpy array of its data in another: shm_cdr (the frame set on a
 message, or copied into a loan), rclpy (rmw_fastrtps_cpp), eclipse-zenoh's
-Python put of bytes and iceoryx2's Python publish of a loaned slice of bytes
-(shared memory, no ROS message), one path after the other in one run,
-medians.
+Python put of bytes, iceoryx2's Python publish of a loaned slice of bytes
+(shared memory, no ROS message), and the same between two Rust nodes
+(`examples/examples/image_latency.rs`, a loan), one path after the other in
+one run, medians.
 
-    python shm-python/bench/images.py [--rounds 40] [--paths shm_cdr,shm_cdr_loan,rclpy,zenoh,iceoryx2]
+    python shm-python/bench/images.py [--rounds 40] [--paths shm_cdr,shm_cdr_loan,rust,rclpy,zenoh,iceoryx2]
 
 Each path sends the same frame at 20 Hz (so nothing queues), as a program
 with a new frame each time would: taken into the message (`msg.data = frame`;
@@ -24,6 +25,11 @@ import statistics
 import subprocess
 import sys
 import time
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+# The Rust path: `cargo build --release -p shm-cdr-examples --example image_latency`.
+RUST = os.environ.get("SHM_CDR_IMAGE_LATENCY") or os.path.join(
+    ROOT, "target", "release", "examples", "image_latency")
 
 PAYLOADS = {
     # name: (message type, bytes of data)
@@ -60,6 +66,17 @@ def child(role, path, payload, rounds, port):
                     msg = None  # its buffer goes back to the pool once the subscriber lets go
                 time.sleep(period)
         else:
+            sub = node.create_subscription(ty, "/bench")
+            print("ready", flush=True)
+            for _ in range(rounds + 1):
+                msg = array = None  # let the previous sample go back to the pool
+                msg = sub.recv(timeout=60.0)
+                array = msg.data
+                now = time.time_ns()
+                stamp = msg.header.stamp
+                assert array.size == size and int(array[-1]) == (size - 1) % 256
+                out.append((now - (stamp.sec * 10**9 + stamp.nanosec), msg.memory.is_shm))
+            out = out[1:]
     elif path == "rclpy":
         import rclpy
         from rclpy.node import Node
@@ -178,20 +195,27 @@ def run(path, payload, rounds):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     env = dict(os.environ)
-    if path.startswith("shm_cdr"):
+    if path in ("shm_cdr", "shm_cdr_loan", "rust"):
         # Room for several 8 MiB images in flight (the default pool holds one).
         env["ZENOH_SHM_ALLOC_SIZE"] = str(64 * 1024 * 1024)
         env["ZENOH_ROUTER_CHECK_ATTEMPTS"] = "-1"
         env["ZENOH_CONFIG_OVERRIDE"] = f'listen/endpoints=["tcp/127.0.0.1:{port}"]'
     me = [sys.executable, __file__]
-    sub = subprocess.Popen(me + ["sub", path, payload, str(rounds), str(port)], env=env,
+    args = lambda role: me + [role, path, payload, str(rounds), str(port)]
+    if path == "rust":
+        if not os.path.exists(RUST):
+            return None, (f"no {RUST}: cargo build --release -p shm-cdr-examples "
+                          "--example image_latency (or set SHM_CDR_IMAGE_LATENCY)")
+        ty, size = PAYLOADS[payload]
+        args = lambda role: [RUST, role, ty.rsplit("/", 1)[-1], str(size), str(rounds)]
+    sub = subprocess.Popen(args("sub"), env=env,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if sub.stdout.readline().strip() != "ready":
         sub.kill()
         return None, sub.stderr.read()[-400:]
-    if path.startswith("shm_cdr"):
+    if path in ("shm_cdr", "shm_cdr_loan", "rust"):
         env["ZENOH_CONFIG_OVERRIDE"] = f'connect/endpoints=["tcp/127.0.0.1:{port}"]'
-    pub = subprocess.Popen(me + ["pub", path, payload, str(rounds), str(port)], env=env,
+    pub = subprocess.Popen(args("pub"), env=env,
                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
         out, err = sub.communicate(timeout=180)
@@ -208,7 +232,7 @@ def run(path, payload, rounds):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rounds", type=int, default=40)
-    parser.add_argument("--paths", default="shm_cdr,shm_cdr_loan,rclpy,zenoh,iceoryx2")
+    parser.add_argument("--paths", default="shm_cdr,shm_cdr_loan,rust,rclpy,zenoh,iceoryx2")
     args = parser.parse_args()
     paths = args.paths.split(",")
     print(f"{args.rounds} messages per path and payload, 20 Hz; latency frame -> numpy array, medians")
@@ -226,11 +250,12 @@ def main():
                   f"(p10 {sorted(latencies)[len(latencies) // 10] / 1e6:.3f}, "
                   f"p90 {sorted(latencies)[len(latencies) * 9 // 10] / 1e6:.3f}; "
                   f"{len(got)} received, {shm} in shared memory)")
-        if "shm_cdr" in results:
+        for base in ("shm_cdr", "shm_cdr_loan"):
+            if base not in results:
+                continue
             for other, ms in results.items():
-                if other != "shm_cdr":
-                    print(f"  {payload:18} {other} / shm_cdr: {ms / results['shm_cdr']:.1f}x")
-
+                if other != base and not (base == "shm_cdr_loan" and other == "shm_cdr"):
+                    print(f"  {payload:18} {other} / {base}: {ms / results[base]:.2f}x")
 
 if __name__ == "__main__":
     if len(sys.argv) == 6 and sys.argv[1] in ("pub", "sub"):
