@@ -298,7 +298,10 @@ fn a_buffer_loan_laid_out_in_place_arrives_as_the_whole_message_encodes() {
 
     let _shm = common::shm_serial();
     let (a, b, _) = loopback_sessions();
-    let shm = ShmContext::new(ShmConfig::enabled().threshold(4096)).unwrap();
+    // Two pools of 1 MiB: room for both under an ordinary user's 8 MiB
+    // memory-lock limit.
+    let pool = ShmConfig::enabled().threshold(4096).pool_size_at_most(1 << 20);
+    let shm = ShmContext::new(pool).unwrap();
     let publisher = a
         .declare_ros_publisher::<Image>("loans/image")
         .shm(&shm)
@@ -340,7 +343,7 @@ fn a_buffer_loan_laid_out_in_place_arrives_as_the_whole_message_encodes() {
     }
 
     // A chunk of another pool cannot go out on this publisher's.
-    let other = ShmContext::new(ShmConfig::enabled().threshold(4096)).unwrap();
+    let other = ShmContext::new(pool).unwrap();
     let elsewhere = a
         .declare_ros_publisher::<Image>("loans/elsewhere")
         .shm(&other)
