@@ -300,7 +300,9 @@ fn a_buffer_loan_laid_out_in_place_arrives_as_the_whole_message_encodes() {
     let (a, b, _) = loopback_sessions();
     // Two pools of 1 MiB: room for both under an ordinary user's 8 MiB
     // memory-lock limit.
-    let pool = ShmConfig::enabled().threshold(4096).pool_size_at_most(1 << 20);
+    let pool = ShmConfig::enabled()
+        .threshold(4096)
+        .pool_size_at_most(1 << 20);
     let shm = ShmContext::new(pool).unwrap();
     let publisher = a
         .declare_ros_publisher::<Image>("loans/image")
