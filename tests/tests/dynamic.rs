@@ -695,3 +695,103 @@ fn a_body_in_segments_decodes_as_the_whole_or_says_it_is_fragmented() {
     // values: those splits decode.
     assert!(whole_from_segments > 10, "{whole_from_segments}");
 }
+
+/// The little-endian bytes of a sequence of numbers, from its values.
+fn le_bytes(value: &Value<'_>) -> Option<Vec<u8>> {
+    macro_rules! each {
+        ($numbers:expr) => {
+            $numbers.iter().flat_map(|x| x.to_le_bytes()).collect()
+        };
+    }
+    Some(match value {
+        Value::U8s(v) => v.to_vec(),
+        Value::I8s(v) => v.iter().map(|&x| x as u8).collect(),
+        Value::I16s(v) => each!(v),
+        Value::U16s(v) => each!(v),
+        Value::I32s(v) => each!(v),
+        Value::U32s(v) => each!(v),
+        Value::I64s(v) => each!(v),
+        Value::U64s(v) => each!(v),
+        Value::F32s(v) => each!(v),
+        Value::F64s(v) => each!(v),
+        _ => return None,
+    })
+}
+
+/// Arbitrary values of `T` laid out with every sequence of numbers of the
+/// message filled in place: each sequence's values written at the range the
+/// layout gives, the rest written around them over stale bytes, give the
+/// bytes of the whole message.
+fn filled_in_place_is_the_whole_message<T>(values: usize)
+where
+    T: RosMessage + for<'a> arbitrary::Arbitrary<'a>,
+{
+    use shm_cdr::describe::Container;
+    use shm_cdr::dynamic::Element;
+
+    let ty = dynamic::<T>();
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let noise: Vec<u8> = (0..values * 512 + 512)
+        .map(|_| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed as u8
+        })
+        .collect();
+    let mut laid = 0;
+    for start in (0..values).map(|k| k * 512) {
+        let Ok(value) = T::arbitrary(&mut arbitrary::Unstructured::new(
+            &noise[start..start + 512],
+        )) else {
+            continue;
+        };
+        let bytes = shm_cdr::to_vec(&value).unwrap();
+        let message = ty.decode(&bytes).unwrap();
+        let names: Vec<&str> = ty
+            .root()
+            .fields
+            .iter()
+            .filter(|f| {
+                !matches!(
+                    f.element,
+                    Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
+                ) && matches!(
+                    f.container,
+                    Container::Sequence | Container::BoundedSequence(_)
+                )
+            })
+            .map(|f| f.name.as_str())
+            .collect();
+        let paths: Vec<[&str; 1]> = names.iter().map(|name| [*name]).collect();
+        let arrays: Vec<(&[&str], usize)> = paths
+            .iter()
+            .map(|path| {
+                (
+                    &path[..],
+                    message.value(path[0]).and_then(Value::len).unwrap(),
+                )
+            })
+            .collect();
+        let layout = ty.lay_out_in_place(&message, &arrays).unwrap();
+        assert_eq!(layout.size(), bytes.len(), "{}", T::TYPE_NAME);
+        let mut buffer = vec![0xa5u8; layout.size()];
+        for array in layout.arrays() {
+            let values = le_bytes(message.value(&array.path()[0]).unwrap()).unwrap();
+            buffer[array.range()].copy_from_slice(&values);
+        }
+        layout.write_around(&message, &mut buffer).unwrap();
+        assert_eq!(buffer, bytes, "{}", T::TYPE_NAME);
+        laid += 1;
+    }
+    assert!(laid > 0, "no arbitrary {} was made", T::TYPE_NAME);
+}
+
+#[test]
+fn every_sequence_of_numbers_filled_in_place_gives_the_whole_message() {
+    filled_in_place_is_the_whole_message::<test_msgs::msg::UnboundedSequences>(8);
+    filled_in_place_is_the_whole_message::<test_msgs::msg::BoundedSequences>(8);
+    filled_in_place_is_the_whole_message::<sensor_msgs::msg::PointCloud2>(8);
+    filled_in_place_is_the_whole_message::<sensor_msgs::msg::LaserScan>(8);
+    filled_in_place_is_the_whole_message::<sensor_msgs::msg::Image>(8);
+}
