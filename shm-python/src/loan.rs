@@ -262,17 +262,11 @@ fn element_dtype(py: Python<'_>, element: Element) -> PyResult<Bound<'_, PyArray
 
 /// The top-level fields of a message of `ty` that can be filled in place.
 fn in_place_fields(ty: &DynamicType) -> Vec<String> {
-    let numeric = |element: Element| {
-        !matches!(
-            element,
-            Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
-        )
-    };
     ty.root()
         .fields
         .iter()
         .filter(|f| {
-            numeric(f.element)
+            f.element.is_number()
                 && matches!(
                     f.container,
                     shm_cdr::describe::Container::Sequence

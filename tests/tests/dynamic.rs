@@ -727,7 +727,6 @@ where
     T: RosMessage + for<'a> arbitrary::Arbitrary<'a>,
 {
     use shm_cdr::describe::Container;
-    use shm_cdr::dynamic::Element;
 
     let ty = dynamic::<T>();
     let mut seed = 0x2545_f491_4f6c_dd1du64;
@@ -753,13 +752,11 @@ where
             .fields
             .iter()
             .filter(|f| {
-                !matches!(
-                    f.element,
-                    Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
-                ) && matches!(
-                    f.container,
-                    Container::Sequence | Container::BoundedSequence(_)
-                )
+                f.element.is_number()
+                    && matches!(
+                        f.container,
+                        Container::Sequence | Container::BoundedSequence(_)
+                    )
             })
             .map(|f| f.name.as_str())
             .collect();

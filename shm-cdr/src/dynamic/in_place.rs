@@ -325,23 +325,17 @@ impl DynamicType {
         let Some((check, offset)) = field_of(index, last) else {
             return Err(self.field_error(path, &no_field(index)));
         };
-        let numeric = |element: Element| {
-            !matches!(
-                element,
-                Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
-            )
-        };
         match check {
             Check::Many {
                 element,
                 container: Container::Sequence,
                 ..
-            } if numeric(element) => Ok((base + offset, element)),
+            } if element.is_number() => Ok((base + offset, element)),
             Check::Many {
                 element,
                 container: Container::BoundedSequence(bound),
                 ..
-            } if numeric(element) => {
+            } if element.is_number() => {
                 if len > bound {
                     Err(self
                         .field_error(path, &format!("holds at most {bound} elements, not {len}")))
@@ -353,7 +347,7 @@ impl DynamicType {
                 element,
                 container: Container::Array(n),
                 ..
-            } if numeric(element) => Err(self.field_error(
+            } if element.is_number() => Err(self.field_error(
                 path,
                 &format!(
                     "is a fixed-size array of {n}: set it as a value; sequences are filled in \

@@ -324,10 +324,7 @@ fn steps(fields: &[Entry]) -> Vec<Step> {
                 min,
             } if n > 0
                 // An empty array is not aligned to: it stays out of runs.
-                && !matches!(
-                    element,
-                    Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
-                ) =>
+                && element.is_number() =>
             {
                 n.checked_mul(min).map(|size| (size, min, false))
             }
@@ -377,18 +374,12 @@ fn steps(fields: &[Entry]) -> Vec<Step> {
                 element,
                 container: container @ (Container::Sequence | Container::BoundedSequence(_)),
                 min,
-            } if !matches!(
-                element,
-                Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_)
-            ) =>
-            {
-                Step::Numbers {
-                    slot,
-                    container,
-                    size: min,
-                    check,
-                }
-            }
+            } if element.is_number() => Step::Numbers {
+                slot,
+                container,
+                size: min,
+                check,
+            },
             check => Step::Value {
                 slot,
                 check,

@@ -44,6 +44,16 @@ pub enum Element {
 }
 
 impl Element {
+    /// Whether it is a number or a byte: any element but a bool (whose byte
+    /// must be 0 or 1), a string or a message. An array of these is bytes
+    /// that any bit pattern makes valid.
+    pub fn is_number(self) -> bool {
+        !matches!(
+            self,
+            Self::Bool | Self::String(_) | Self::WString(_) | Self::Message(_)
+        )
+    }
+
     /// The bytes one number or bool takes; `None` for strings and messages.
     pub(crate) fn fixed_size(self) -> Option<usize> {
         match self {
