@@ -225,6 +225,18 @@ fn bad_input_is_an_error_never_a_panic() {
     );
 }
 
+/// `len` bytes of xorshift noise from `seed`: the same each run.
+fn noise(mut seed: u64, len: usize) -> Vec<u8> {
+    (0..len)
+        .map(|_| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed as u8
+        })
+        .collect()
+}
+
 /// Every cut, and every byte of the payload replaced by values that break
 /// bools, counts and strings, of arbitrary values of `T`: the view (which
 /// checks runs of fixed-size fields, and sequences of numbers, at once)
@@ -233,15 +245,7 @@ fn view_agrees_with_decode_on_damaged_payloads<T>(values: usize)
 where
     T: shm_cdr::DecodeOwned + RosMessage + for<'a> arbitrary::Arbitrary<'a>,
 {
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let noise: Vec<u8> = (0..4096)
-        .map(|_| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed as u8
-        })
-        .collect();
+    let noise = noise(0x9e37_79b9_7f4a_7c15, 4096);
     for start in (0..values).map(|k| k * 512) {
         let Ok(value) = T::arbitrary(&mut arbitrary::Unstructured::new(
             &noise[start..start + 400],
@@ -729,15 +733,7 @@ where
     use shm_cdr::describe::Container;
 
     let ty = dynamic::<T>();
-    let mut seed = 0x2545_f491_4f6c_dd1du64;
-    let noise: Vec<u8> = (0..values * 512 + 512)
-        .map(|_| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed as u8
-        })
-        .collect();
+    let noise = noise(0x2545_f491_4f6c_dd1d, values * 512 + 512);
     let mut laid = 0;
     for start in (0..values).map(|k| k * 512) {
         let Ok(value) = T::arbitrary(&mut arbitrary::Unstructured::new(
