@@ -225,6 +225,41 @@ fn bad_input_is_an_error_never_a_panic() {
     );
 }
 
+#[derive(shm_cdr::RosMessage, Debug, Default)]
+#[ros(type_name = "test_msgs/msg/ShortNames")]
+struct ShortNames {
+    names: Vec<shm_cdr::BoundedString<3>>,
+    tail: u16,
+}
+
+#[test]
+fn sequences_of_strings_encode_as_the_generated_code_and_keep_their_bound() {
+    let ty = dynamic::<ShortNames>();
+    let names = ["", "a", "ab", "abc", "b", "cd"];
+    for n in 0..names.len() {
+        let value = ShortNames {
+            names: names[..n]
+                .iter()
+                .map(|s| (*s).try_into().unwrap())
+                .collect(),
+            tail: 0xbeef,
+        };
+        let bytes = shm_cdr::to_vec(&value).unwrap();
+        let message = ty.decode(&bytes).unwrap();
+        assert_eq!(shm_cdr::encoded_size(&message), bytes.len());
+        assert_eq!(shm_cdr::to_vec(&message).unwrap(), bytes, "{n} names");
+    }
+    // A string over its bound is refused, wherever it lies in the sequence.
+    let mut message = ty.default_message();
+    let long = vec!["a".into(), "abcd".into(), "b".into()];
+    let e = message.set("names", Value::Strings(long)).unwrap_err();
+    assert!(
+        e.to_string().contains("longer than the field's bound"),
+        "{e}"
+    );
+    assert_eq!(message, ty.default_message());
+}
+
 /// `len` bytes of xorshift noise from `seed`: the same each run.
 fn noise(mut seed: u64, len: usize) -> Vec<u8> {
     (0..len)

@@ -16,7 +16,7 @@ use crate::encode::{CdrEncode, Writer};
 use crate::endian::{BigEndian, ByteOrder, Endianness, LittleEndian};
 use crate::error::{DecodeError, DecodeErrorKind, EncodeError, EncodeErrorKind};
 use crate::layout::align_up;
-use crate::wire::string::{string_end, write_string};
+use crate::wire::string::{string_end, strings_end, write_string, write_strings};
 use crate::wire::wstring::{read_wstring, write_wstring, wstring_end};
 
 impl DynamicType {
@@ -235,7 +235,7 @@ impl DynamicType {
                 &Step::String { bound, .. } => {
                     let s = decode_string(r, bound)?;
                     *holds |= matches!(s, Cow::Owned(_));
-                    slots.push(Value::String(s))
+                    push_with(slots, || Value::String(s))
                 }
                 &Step::Numbers { check, .. } => {
                     self.decode_check(r, check, None, slots, cut, keep)?;
@@ -315,7 +315,7 @@ impl DynamicType {
         cut: &mut Vec<(usize, usize)>,
         keep: usize,
     ) -> Result<(), DecodeError> {
-        let value = match (check, element) {
+        match (check, element) {
             (
                 Check::Many {
                     element,
@@ -325,20 +325,32 @@ impl DynamicType {
                 _,
             ) => {
                 let n = read_len(r, container, min)?;
-                let value = self.decode_elements_kept(r, element, n, keep)?;
-                if value.len().is_some_and(|kept| kept < n) {
-                    cut.push((slots.len(), n));
+                let at = slots.len();
+                self.put_elements_kept(r, element, n, keep, slots)?;
+                if slots
+                    .get(at)
+                    .and_then(Value::len)
+                    .is_some_and(|kept| kept < n)
+                {
+                    cut.push((at, n));
                 }
-                value
             }
-            (Check::String(bound), _) => Value::String(decode_string(r, bound)?),
-            (Check::WString(bound), _) => Value::WString(read_wstring(r, bound)?),
-            (_, Some(element)) => self.decode_single(r, element)?,
+            (Check::String(bound), _) => {
+                let s = decode_string(r, bound)?;
+                push_with(slots, || Value::String(s))
+            }
+            (Check::WString(bound), _) => {
+                let s = read_wstring(r, bound)?;
+                push_with(slots, || Value::WString(s))
+            }
+            (_, Some(element)) => {
+                let value = self.decode_single(r, element)?;
+                push_with(slots, || value)
+            }
             // A single number or bool always comes with its element; a
             // message nested by value is a plan entry of its own.
-            (Check::Number(_) | Check::Bool | Check::Message { .. }, None) => return Ok(()),
-        };
-        slots.push(value);
+            (Check::Number(_) | Check::Bool | Check::Message { .. }, None) => {}
+        }
         Ok(())
     }
 
@@ -393,61 +405,107 @@ impl DynamicType {
         n: usize,
         keep: usize,
     ) -> Result<Value<'de>, DecodeError> {
+        let mut out = None;
+        self.put_elements_kept(r, element, n, keep, &mut out)?;
+        // Every element kind puts one value.
+        Ok(out.unwrap_or(Value::Bools(Vec::new())))
+    }
+
+    /// [`decode_elements_kept`](Self::decode_elements_kept), the value put
+    /// into `out`: built in a table's own memory (see [`push_with`]).
+    #[inline]
+    fn put_elements_kept<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        element: Element,
+        n: usize,
+        keep: usize,
+        out: &mut impl Put<'de>,
+    ) -> Result<(), DecodeError> {
         let kept = n.min(keep.saturating_add(1));
-        Ok(match element {
-            Element::Bool => Value::Bools(bool::decode_vec(r, n)?),
-            Element::Byte | Element::Char | Element::U8 => Value::U8s(u8::decode_cow_slice(r, n)?),
-            Element::I8 => Value::I8s(i8::decode_cow_slice(r, n)?),
-            Element::I16 => Value::I16s(Numbers::decode(r, n)?),
-            Element::U16 => Value::U16s(Numbers::decode(r, n)?),
-            Element::I32 => Value::I32s(Numbers::decode(r, n)?),
-            Element::U32 => Value::U32s(Numbers::decode(r, n)?),
-            Element::I64 => Value::I64s(Numbers::decode(r, n)?),
-            Element::U64 => Value::U64s(Numbers::decode(r, n)?),
-            Element::F32 => Value::F32s(Numbers::decode(r, n)?),
-            Element::F64 => Value::F64s(Numbers::decode(r, n)?),
+        macro_rules! numbers {
+            ($variant:ident) => {{
+                let numbers = Numbers::decode(r, n)?;
+                out.put(|| Value::$variant(numbers))
+            }};
+        }
+        match element {
+            Element::Bool => {
+                let bools = bool::decode_vec(r, n)?;
+                out.put(|| Value::Bools(bools))
+            }
+            Element::Byte | Element::Char | Element::U8 => {
+                let bytes = u8::decode_cow_slice(r, n)?;
+                out.put(|| Value::U8s(bytes))
+            }
+            Element::I8 => {
+                let bytes = i8::decode_cow_slice(r, n)?;
+                out.put(|| Value::I8s(bytes))
+            }
+            Element::I16 => numbers!(I16s),
+            Element::U16 => numbers!(U16s),
+            Element::I32 => numbers!(I32s),
+            Element::U32 => numbers!(U32s),
+            Element::I64 => numbers!(I64s),
+            Element::U64 => numbers!(U64s),
+            Element::F32 => numbers!(F32s),
+            Element::F64 => numbers!(F64s),
             Element::String(bound) => {
-                let mut out = Vec::with_capacity(kept);
+                let mut strings = Vec::with_capacity(kept);
                 for _ in 0..kept {
-                    out.push(decode_string(r, bound)?);
+                    strings.push(decode_string(r, bound)?);
                 }
                 for _ in kept..n {
                     decode_string(r, bound)?;
                 }
-                Value::Strings(out)
+                out.put(|| Value::Strings(strings))
             }
             Element::WString(bound) => {
-                let mut out = Vec::with_capacity(kept);
+                let mut strings = Vec::with_capacity(kept);
                 for _ in 0..kept {
-                    out.push(read_wstring(r, bound)?);
+                    strings.push(read_wstring(r, bound)?);
                 }
                 for _ in kept..n {
                     read_wstring(r, bound)?;
                 }
-                Value::WStrings(out)
+                out.put(|| Value::WStrings(strings))
             }
             Element::Message(index) => {
-                let block = self.inner.plans.get(index).map_or(0, |p| p.block);
-                // The count was checked against the input, but a message may
-                // take many slots for few bytes: the table grows as they are
-                // read, from a start that a bad count cannot inflate.
-                let mut slots = Vec::with_capacity(kept.saturating_mul(block).min(1 << 12));
-                let mut cut = Vec::new();
-                let mut holds = false;
-                for _ in 0..kept {
-                    self.decode_struct(r, index, &mut slots, &mut cut, keep, &mut holds)?;
-                }
-                let mut skipped = Vec::new();
-                for _ in kept..n {
-                    self.decode_struct(r, index, &mut skipped, &mut Vec::new(), keep, &mut true)?;
-                    skipped.clear();
-                }
-                let slots = Slots::decoded(slots, !holds);
-                let mut messages = Messages::from_slots(self.clone(), index, kept, slots);
-                messages.cut = cut;
-                Value::Messages(Box::new(messages))
+                let messages = self.decode_messages(r, index, n, kept, keep)?;
+                out.put(|| Value::Messages(messages))
             }
-        })
+        }
+        Ok(())
+    }
+
+    /// `n` messages of struct `index`, the first `kept` kept.
+    fn decode_messages<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        index: usize,
+        n: usize,
+        kept: usize,
+        keep: usize,
+    ) -> Result<Box<Messages<'de>>, DecodeError> {
+        let block = self.inner.plans.get(index).map_or(0, |p| p.block);
+        // The count was checked against the input, but a message may
+        // take many slots for few bytes: the table grows as they are
+        // read, from a start that a bad count cannot inflate.
+        let mut slots = Vec::with_capacity(kept.saturating_mul(block).min(1 << 12));
+        let mut cut = Vec::new();
+        let mut holds = false;
+        for _ in 0..kept {
+            self.decode_struct(r, index, &mut slots, &mut cut, keep, &mut holds)?;
+        }
+        let mut skipped = Vec::new();
+        for _ in kept..n {
+            self.decode_struct(r, index, &mut skipped, &mut Vec::new(), keep, &mut true)?;
+            skipped.clear();
+        }
+        let slots = Slots::decoded(slots, !holds);
+        let mut messages = Messages::from_slots(self.clone(), index, kept, slots);
+        messages.cut = cut;
+        Ok(Box::new(messages))
     }
 
     #[inline]
@@ -547,6 +605,36 @@ fn run_values<'de, B: ByteOrder>(
     true
 }
 
+/// Push the value `make` builds, built in the table's own memory. A value
+/// built first and pushed after is stored to the stack in parts (its tag,
+/// then its number) and loaded back whole to be copied: the processor cannot
+/// forward such stores to the load, and that stall of a dozen cycles per
+/// value was most of the time of decoding a small message. Extending by an
+/// iterator of known length reserves first and builds the value in place.
+#[inline(always)]
+fn push_with<'de>(slots: &mut Vec<Value<'de>>, make: impl FnOnce() -> Value<'de>) {
+    slots.extend(std::iter::once_with(make));
+}
+
+/// Where a decoded value goes: the end of a table, or a single place.
+trait Put<'de> {
+    fn put(&mut self, make: impl FnOnce() -> Value<'de>);
+}
+
+impl<'de> Put<'de> for Vec<Value<'de>> {
+    #[inline(always)]
+    fn put(&mut self, make: impl FnOnce() -> Value<'de>) {
+        push_with(self, make)
+    }
+}
+
+impl<'de> Put<'de> for Option<Value<'de>> {
+    #[inline(always)]
+    fn put(&mut self, make: impl FnOnce() -> Value<'de>) {
+        *self = Some(make())
+    }
+}
+
 /// The bytes of `count` numbers (or bools) of kind `element` at
 /// `bytes[offset..]`, if they are all there.
 #[inline(always)]
@@ -583,7 +671,7 @@ fn singles_at<B: ByteOrder>(
                 })
             };
             if count == 1 {
-                slots.push(value(raw))
+                push_with(slots, || value(raw))
             } else {
                 slots.extend(raw.chunks_exact(std::mem::size_of::<$t>()).map(value))
             }
@@ -591,11 +679,11 @@ fn singles_at<B: ByteOrder>(
     }
     match element {
         Element::Bool => match raw {
-            &[b] => slots.push(Value::Bool(b != 0)),
+            &[b] => push_with(slots, || Value::Bool(b != 0)),
             _ => slots.extend(raw.iter().map(|&b| Value::Bool(b != 0))),
         },
         Element::Byte | Element::Char | Element::U8 => match raw {
-            &[b] => slots.push(Value::U8(b)),
+            &[b] => push_with(slots, || Value::U8(b)),
             _ => slots.extend(raw.iter().map(|&b| Value::U8(b))),
         },
         Element::I8 => read!(i8, I8),
@@ -628,16 +716,20 @@ fn array_at<'de, B: ByteOrder>(
     };
     let order = B::ENDIANNESS;
     match element {
-        Element::Byte | Element::Char | Element::U8 => slots.push(Value::U8s(Cow::Borrowed(raw))),
-        Element::I8 => slots.push(Value::I8s(Cow::Borrowed(bytemuck::cast_slice(raw)))),
-        Element::I16 => slots.push(Value::I16s(Numbers::on_wire(raw, order))),
-        Element::U16 => slots.push(Value::U16s(Numbers::on_wire(raw, order))),
-        Element::I32 => slots.push(Value::I32s(Numbers::on_wire(raw, order))),
-        Element::U32 => slots.push(Value::U32s(Numbers::on_wire(raw, order))),
-        Element::I64 => slots.push(Value::I64s(Numbers::on_wire(raw, order))),
-        Element::U64 => slots.push(Value::U64s(Numbers::on_wire(raw, order))),
-        Element::F32 => slots.push(Value::F32s(Numbers::on_wire(raw, order))),
-        Element::F64 => slots.push(Value::F64s(Numbers::on_wire(raw, order))),
+        Element::Byte | Element::Char | Element::U8 => {
+            push_with(slots, || Value::U8s(Cow::Borrowed(raw)))
+        }
+        Element::I8 => push_with(slots, || {
+            Value::I8s(Cow::Borrowed(bytemuck::cast_slice(raw)))
+        }),
+        Element::I16 => push_with(slots, || Value::I16s(Numbers::on_wire(raw, order))),
+        Element::U16 => push_with(slots, || Value::U16s(Numbers::on_wire(raw, order))),
+        Element::I32 => push_with(slots, || Value::I32s(Numbers::on_wire(raw, order))),
+        Element::U32 => push_with(slots, || Value::U32s(Numbers::on_wire(raw, order))),
+        Element::I64 => push_with(slots, || Value::I64s(Numbers::on_wire(raw, order))),
+        Element::U64 => push_with(slots, || Value::U64s(Numbers::on_wire(raw, order))),
+        Element::F32 => push_with(slots, || Value::F32s(Numbers::on_wire(raw, order))),
+        Element::F64 => push_with(slots, || Value::F64s(Numbers::on_wire(raw, order))),
         Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_) => {
             return false
         }
@@ -1067,7 +1159,7 @@ fn value_end(value: &Value<'_>, start: usize, counted: bool) -> usize {
         Value::U64s(v) => v.encoded_end(first),
         Value::F32s(v) => v.encoded_end(first),
         Value::F64s(v) => v.encoded_end(first),
-        Value::Strings(v) => v.iter().fold(first, |pos, s| string_end(pos, s.len())),
+        Value::Strings(v) => strings_end(first, v),
         Value::WStrings(v) => v.iter().fold(first, |pos, s| wstring_end(pos, s)),
         Value::Messages(v) => v.firsts().fold(first, |pos, at| {
             struct_end(&v.ty, v.index, &v.slots, at, pos, &mut NoHoles)
@@ -1141,10 +1233,14 @@ fn encode_value<B: ByteOrder>(
         Value::U64s(v) => v.encode(w),
         Value::F32s(v) => v.encode(w),
         Value::F64s(v) => v.encode(w),
-        Value::Strings(v) => v.iter().try_for_each(|s| {
-            check_str(s.len())?;
-            write_string(w, s)
-        }),
+        Value::Strings(v) => {
+            // Bounds first, then the whole run with one bounds check of the
+            // output, as a generated sequence of strings is written.
+            if bound.is_some() {
+                v.iter().try_for_each(|s| check_str(s.len()))?;
+            }
+            write_strings(w, v)
+        }
         Value::WStrings(v) => v.iter().try_for_each(|s| write_wstring(w, s, bound)),
         Value::Messages(v) => v
             .firsts()

@@ -25,7 +25,7 @@ pub(crate) fn string_end(start: usize, len: usize) -> usize {
 /// then has no dependency from one string to the next (the obvious fold threads
 /// the position through every element) and the compiler vectorizes it.
 #[inline]
-fn strings_end<S: AsRef<str>>(start: usize, items: &[S]) -> usize {
+pub(crate) fn strings_end<S: AsRef<str>>(start: usize, items: &[S]) -> usize {
     let Some((last, init)) = items.split_last() else {
         return start;
     };
@@ -102,7 +102,7 @@ pub(crate) fn write_string<B: ByteOrder>(
 /// A sequence of strings: one bounds check for the whole run, then each string
 /// written in place.
 #[inline]
-fn write_strings<B: ByteOrder, S: AsRef<str>>(
+pub(crate) fn write_strings<B: ByteOrder, S: AsRef<str>>(
     w: &mut Writer<'_, B>,
     items: &[S],
 ) -> Result<(), EncodeError> {
