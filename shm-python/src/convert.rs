@@ -479,3 +479,24 @@ where
         .map(|item| T::from_item(item, what))
         .collect()
 }
+
+/// `msg` (a message of `ty` or of any type describing it, or a dict of its
+/// fields) as a message of `ty`, owned.
+pub(crate) fn message_of(ty: &DynamicType, msg: &Bound<'_, PyAny>) -> PyResult<Message<'static>> {
+    if let Ok(message) = msg.cast::<PyMessage>() {
+        let message = message.get();
+        if let Some(root) = message.root() {
+            if root.message.is_of(ty) {
+                return Ok(root.message.clone().into_owned());
+            }
+        }
+        return message.to_message_in(ty.default_message());
+    }
+    if let Ok(dict) = msg.cast::<PyDict>() {
+        return fill(ty.default_message(), ty, 0, dict);
+    }
+    Err(PyTypeError::new_err(format!(
+        "a {} or a dict of its fields goes here",
+        ty.name()
+    )))
+}

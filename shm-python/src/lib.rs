@@ -35,6 +35,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<parameters::PyParameter>()?;
     m.add_class::<services::PyServiceType>()?;
     m.add_class::<services::PyClient>()?;
+    m.add_class::<services::PyService>()?;
     m.add_class::<parameters::PySetParametersResult>()?;
     m.add_function(wrap_pyfunction!(types::message_type, m)?)?;
     m.add_function(wrap_pyfunction!(services::service_type, m)?)?;

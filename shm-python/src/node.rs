@@ -19,7 +19,7 @@ use crate::errors::middleware;
 use crate::loan::PyLoan;
 use crate::message::{Payload, PyMessage, Root};
 use crate::parameters::{self, PyParameter, PySetParametersResult};
-use crate::services::{PyClient, PyServiceType};
+use crate::services::{self, PyClient, PyService, PyServiceType};
 use crate::types::PyMessageType;
 
 /// How often a blocking wait looks for Ctrl-C (`KeyboardInterrupt`).
@@ -42,7 +42,7 @@ pub(crate) static CALLBACK_ERRORS: CallbackErrors = CallbackErrors {
 const KEPT_CALLBACK_ERRORS: usize = 16;
 
 impl CallbackErrors {
-    fn push(&self, py: Python<'_>, error: PyErr) {
+    pub(crate) fn push(&self, py: Python<'_>, error: PyErr) {
         let mut errors = self.errors.lock().unwrap_or_else(|p| p.into_inner());
         if errors.len() < KEPT_CALLBACK_ERRORS {
             errors.push_back(error);
@@ -263,6 +263,31 @@ impl PyNode {
         Ok(PyClient { client, service })
     }
 
+    /// A server of the service `srv_type` (a `ServiceType` or its name) on
+    /// `srv_name`: each call is answered by `callback(request, response)`,
+    /// which returns the response (as rclpy's servers do), on a thread of the
+    /// node's executor. An exception it raises is the client's error reply,
+    /// and `shm_cdr.spin()` raises it.
+    fn create_service(
+        &self,
+        py: Python<'_>,
+        srv_type: &Bound<'_, PyAny>,
+        srv_name: &str,
+        callback: Py<PyAny>,
+    ) -> PyResult<PyService> {
+        let service = PyServiceType::resolve(srv_type)?;
+        let for_calls = service.clone();
+        let server = py
+            .detach(|| {
+                self.node
+                    .declare_serialized_service(srv_name, &service.name, &service.hash)
+                    .callback(move |request| services::answer(&for_calls, &callback, request))
+                    .wait()
+            })
+            .map_err(middleware)?;
+        Ok(PyService { server, service })
+    }
+
     /// Declare parameter `name` with its default `value` (the value
     /// `--ros-args -p name:=…` gave wins); returns the parameter.
     #[pyo3(signature = (name, value = None))]
@@ -419,25 +444,8 @@ impl PyPublisher {
 }
 
 impl PyPublisher {
-    /// `msg` (a message of any type describing this publisher's, or a dict
-    /// of its fields) as a message of this publisher's type, owned.
     fn message_of(&self, msg: &Bound<'_, PyAny>) -> PyResult<Message<'static>> {
-        if let Ok(message) = msg.cast::<PyMessage>() {
-            let message = message.get();
-            if let Some(root) = message.root() {
-                if root.message.is_of(&self.ty) {
-                    return Ok(root.message.clone().into_owned());
-                }
-            }
-            return message.to_message_in(self.ty.default_message());
-        }
-        if let Ok(dict) = msg.cast::<PyDict>() {
-            return convert::fill(self.ty.default_message(), &self.ty, 0, dict);
-        }
-        Err(PyTypeError::new_err(format!(
-            "a {} or a dict of its fields goes here",
-            self.ty.name()
-        )))
+        convert::message_of(&self.ty, msg)
     }
 
     fn publish_message(&self, py: Python<'_>, msg: &Bound<'_, PyAny>) -> PyResult<String> {

@@ -1,20 +1,22 @@
-//! Service types known at run time and service clients, as rclpy names
-//! them: `client = node.create_client(srv_type, name)`,
-//! `client.wait_for_service(timeout_sec)`, `client.call(request)`.
+//! Service types known at run time, service clients and servers, as rclpy
+//! names them: `client = node.create_client(srv_type, name)`,
+//! `client.wait_for_service(timeout_sec)`, `client.call(request)`, and
+//! `node.create_service(srv_type, name, callback)`.
 
 use std::time::Duration;
 
 use pyo3::exceptions::{PyLookupError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 use shm_runtime::rmw::Distro;
-use shm_runtime::service::ServiceClient;
+use shm_runtime::service::{CallbackServiceServer, ServiceClient, ServiceRequest};
 use shm_runtime::types::ResolvedService;
 use shm_runtime::Serialized;
+use zenoh::Wait;
 
 use crate::convert;
 use crate::errors::middleware;
 use crate::message::{Payload, PyMessage, Root};
+use crate::node::CALLBACK_ERRORS;
 use crate::types::PyMessageType;
 
 /// A ROS 2 service type: its `Request` and `Response` message types.
@@ -109,17 +111,7 @@ impl PyClient {
     /// service's `Response` type). Raises `ShmCdrError` if the server goes
     /// away or answers with an error.
     fn call(&self, py: Python<'_>, request: &Bound<'_, PyAny>) -> PyResult<PyMessage> {
-        let ty = &self.service.request;
-        let message = if let Ok(message) = request.cast::<PyMessage>() {
-            message.get().to_message_in(ty.default_message())?
-        } else if let Ok(dict) = request.cast::<PyDict>() {
-            convert::fill(ty.default_message(), ty, 0, dict)?
-        } else {
-            return Err(PyTypeError::new_err(format!(
-                "call takes a {} or a dict of its fields",
-                ty.name()
-            )));
-        };
+        let message = convert::message_of(&self.service.request, request)?;
         let cdr = shm_cdr::to_vec(&message).map_err(middleware)?;
         let reply = py
             .detach(|| self.client.call_serialized(&cdr))
@@ -155,4 +147,104 @@ impl PyClient {
             service: self.service.clone(),
         }
     }
+}
+
+/// A server of a service: each call is answered by
+/// `callback(request, response)`, on a thread of the node's executor, with
+/// what it returns (the response given, filled, or another message of the
+/// `Response` type, or a dict of its fields). An exception in the callback
+/// is the client's error reply, and `shm_cdr.spin()` raises it.
+#[pyclass(name = "Service", module = "shm_cdr", frozen)]
+pub(crate) struct PyService {
+    pub(crate) server: CallbackServiceServer<Serialized>,
+    pub(crate) service: ResolvedService,
+}
+
+#[pymethods]
+impl PyService {
+    /// The service's type.
+    #[getter]
+    fn srv_type(&self) -> PyServiceType {
+        PyServiceType {
+            service: self.service.clone(),
+        }
+    }
+
+    /// The service's key expression on Zenoh.
+    #[getter]
+    fn key_expr(&self) -> &str {
+        self.server.key_expr()
+    }
+
+    /// How many requests were not valid (an attachment that is not
+    /// rmw_zenoh's); each got an error reply.
+    #[getter]
+    fn malformed(&self) -> u64 {
+        self.server.malformed()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<shm_cdr.Service {} of {}>",
+            self.server.key_expr(),
+            self.service.name
+        )
+    }
+}
+
+/// Answer `request` with `callback(request, response)`: run with the GIL on
+/// an executor's thread; the reply goes out without it.
+pub(crate) fn answer(
+    service: &ResolvedService,
+    callback: &Py<PyAny>,
+    request: ServiceRequest<Serialized>,
+) {
+    // `None` while the interpreter shuts down: the call then ends unanswered,
+    // which its client sees at once.
+    let Some(outcome) = Python::try_attach(|py| {
+        let outcome = respond(py, service, callback, &request);
+        if let Err(error) = &outcome {
+            let why = format!("the service callback raised {error}");
+            CALLBACK_ERRORS.push(py, error.clone_ref(py));
+            return Err(why);
+        }
+        outcome.map_err(|e| e.to_string())
+    }) else {
+        return;
+    };
+    match outcome {
+        Ok(cdr) => {
+            if let Err(e) = request.reply_serialized(&cdr).wait() {
+                // No caller to raise to: `spin` raises it.
+                Python::try_attach(|py| {
+                    let error = middleware(format!("{}: the reply failed: {e}", service.name));
+                    CALLBACK_ERRORS.push(py, error);
+                });
+            }
+        }
+        Err(why) => request.reply_err(why),
+    }
+}
+
+/// The response's bytes: the request decoded, the callback called with it
+/// and a default response, its answer taken as a response.
+fn respond(
+    py: Python<'_>,
+    service: &ResolvedService,
+    callback: &Py<PyAny>,
+    request: &ServiceRequest<Serialized>,
+) -> PyResult<Vec<u8>> {
+    let bytes = request.serialized().to_bytes().into_owned().into_boxed_slice();
+    let request = PyMessage::new(Root::decode(&service.request, Payload::Copied(bytes))?);
+    let response = PyMessage::new(Root::owned(service.response.default_message()));
+    let answer = callback.call1(py, (request, response))?;
+    let answer = answer.bind(py);
+    if answer.is_none() {
+        return Err(PyTypeError::new_err(format!(
+            "the callback of a {} server returned None: return the response",
+            service.name
+        )));
+    }
+    let message = convert::message_of(&service.response, answer)?;
+    shm_cdr::to_vec(&message).map_err(middleware)
 }

@@ -675,3 +675,66 @@ fn lowlatency_refuses_requests_and_responses_it_cannot_carry() {
     let response = client.call(&request(10, 10)).wait().unwrap();
     assert_eq!(response.results[0].reason.len(), 10);
 }
+
+/// A server of a type named at run time (as Python's nodes serve) is keyed
+/// and announced as one of the compiled type: a typed client calls it, its
+/// bytes in and out are the compiled types' encodings, and bytes that are
+/// not CDR are the client's error reply, not a reply it would misread.
+#[test]
+fn a_server_of_bytes_is_keyed_announced_and_called_as_a_typed_one() {
+    let (a, b, _) = session_pair();
+    let server_node = node(&a, "server");
+    let client_node = node(&b, "client");
+    let server = server_node
+        .declare_serialized_service("basic", BasicTypes::TYPE_NAME, &BasicTypes::type_hash())
+        .callback(|request| {
+            let bytes = request.serialized().to_bytes().into_owned();
+            let decoded: BasicTypes_Request = shm_cdr::from_bytes(&bytes).unwrap();
+            if decoded.int64_value < 0 {
+                // Not CDR: refused, and the client is told.
+                request.reply_serialized(b"nonsense").wait().unwrap_err();
+                return;
+            }
+            let response = shm_cdr::to_vec(&echo(decoded)).unwrap();
+            request.reply_serialized(&response).wait().unwrap();
+        })
+        .wait()
+        .unwrap();
+    assert_eq!(
+        server.key_expr(),
+        service_key_expr::<BasicTypes>(server_node.info().distro, 0, "/basic")
+    );
+    let client = client_node
+        .declare_client::<BasicTypes>("/basic")
+        .timeout(TIMEOUT)
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+    for n in [0, 41, i64::MAX - 1] {
+        let request = BasicTypes_Request {
+            int64_value: n,
+            string_value: format!("call {n}"),
+            ..Default::default()
+        };
+        let response = client.call(&request).wait().unwrap();
+        assert_eq!(response, echo(request));
+    }
+    let refused = client
+        .call(&BasicTypes_Request {
+            int64_value: -1,
+            ..Default::default()
+        })
+        .wait()
+        .unwrap_err();
+    assert!(
+        matches!(&refused, CallError::Remote(why) if why.contains("CDR encapsulation header")),
+        "{refused}"
+    );
+    let keys = liveliness_keys(&b);
+    let ss = format!(
+        "/SS/%/%/server/%basic/test_msgs::srv::dds_::BasicTypes_/{}/::,10:,:,:,,",
+        BasicTypes::type_hash()
+    );
+    let token = keys.iter().find(|k| k.ends_with(&ss)).expect("SS token");
+    assert_eq!(server.gid(), Some(Gid::from_token(token)));
+}

@@ -1,7 +1,8 @@
 """ROS 2 messages through Zenoh shared memory, on rmw_zenoh_cpp's wire.
 
-Nodes, publishers and subscriptions of any ROS 2 interface: the standard set
-built in, your own ``.msg`` files (``message_type(name, interfaces=[...])``).
+Nodes, publishers, subscriptions, service servers and clients of any ROS 2
+interface: the standard set built in, your own ``.msg`` files
+(``message_type(name, interfaces=[...])``).
 A received message's arrays of numbers are numpy arrays that view the sample
 where it arrived (in shared memory when it came through it), read-only; a
 ``Publisher.loan`` lends the buffer a message is sent from, its arrays
@@ -27,6 +28,7 @@ from ._native import (
     Parameter,
     Publisher,
     SampleMemory,
+    Service,
     ServiceType,
     SessionClosedError,
     SetParametersResult,
@@ -52,6 +54,7 @@ __all__ = [
     "QoSProfile",
     "ReliabilityPolicy",
     "SampleMemory",
+    "Service",
     "ServiceType",
     "SessionClosedError",
     "SetParametersResult",
@@ -139,6 +142,16 @@ class Node:
         """A client of the service ``srv_type`` (a ``ServiceType`` or its
         name) on ``srv_name``: ``client.call(request)``."""
         return self._node.create_client(srv_type, srv_name)
+
+    def create_service(self, srv_type, srv_name, callback):
+        """A server of the service ``srv_type`` (a ``ServiceType`` or its
+        name) on ``srv_name``, as rclpy's: each call is answered by
+        ``callback(request, response)``, which fills the ``response`` and
+        returns it (or returns another message of the ``Response`` type, or a
+        dict of its fields). It runs on a thread of the node's executor; an
+        exception it raises is the client's error reply, and
+        ``shm_cdr.spin()`` raises it."""
+        return self._node.create_service(srv_type, srv_name, callback)
 
     def declare_parameter(self, name, value=None):
         """Declare parameter ``name`` with its default ``value`` (the value

@@ -374,12 +374,56 @@ impl RosNode {
         builder.type_use = Some(self.types.register(S::type_hash(), S::full_description));
         builder.invalid = invalid;
         builder.shm.inherited = self.shm.clone();
-        builder.history = match qos.history {
-            crate::rmw::History::KeepLast(depth) => {
-                NonZeroUsize::new(depth).map_or(crate::History::KeepAll, crate::History::KeepLast)
-            }
-            crate::rmw::History::KeepAll => crate::History::KeepAll,
+        builder.history = server_history(&qos);
+        builder
+    }
+
+    /// A server of the service type `type_name` (`pkg/srv/Name`) with RIHS01
+    /// hash `type_hash`, for requests taken and responses given serialized:
+    /// announced and keyed exactly as a server of that type, for a program
+    /// that serves types it learns at run time (Python's nodes). Take its
+    /// requests with [`ServiceRequest::serialized`](crate::service::ServiceRequest::serialized)
+    /// and answer with
+    /// [`ServiceRequest::reply_serialized`](crate::service::ServiceRequest::reply_serialized).
+    /// Replies carry plain `application/cdr`, as the requests of
+    /// [`declare_serialized_client`](Self::declare_serialized_client) do.
+    pub fn declare_serialized_service(
+        &self,
+        service: &str,
+        type_name: &str,
+        type_hash: &str,
+    ) -> ServiceServerBuilder<'_, crate::Serialized> {
+        let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
+        let (service, invalid) = self.resolve(service, NameKind::Service);
+        let qos = Qos::services_default();
+        let service_type = TopicType {
+            name: type_name.into(),
+            hash: type_hash.into(),
+            has_buffer_fields: false,
         };
+        let token = self.info.topic_token_of(
+            entity_id,
+            EntityKind::ServiceServer,
+            &service,
+            &service_type,
+            &qos,
+        );
+        let key_expr = topic_key_expr_of(
+            self.info.distro,
+            self.info.domain_id,
+            &service,
+            &service_type,
+        );
+        let mut builder = ServiceServerBuilder::with_response_encoding(
+            &self.session,
+            key_expr,
+            zenoh::bytes::Encoding::APPLICATION_CDR,
+        );
+        builder.gid = Some(Gid::from_token(&token));
+        builder.token = Some(token);
+        builder.invalid = invalid;
+        builder.shm.inherited = self.shm.clone();
+        builder.history = server_history(&qos);
         builder
     }
 
@@ -1137,5 +1181,16 @@ impl IntoFuture for RosNodeBuilder<'_> {
     type IntoFuture = std::future::Ready<Self::Output>;
     fn into_future(self) -> Self::IntoFuture {
         std::future::ready(self.build())
+    }
+}
+
+/// The queue of a service server under `qos`: its depth, as rmw_zenoh_cpp
+/// keeps requests.
+fn server_history(qos: &Qos) -> crate::History {
+    match qos.history {
+        crate::rmw::History::KeepLast(depth) => {
+            NonZeroUsize::new(depth).map_or(crate::History::KeepAll, crate::History::KeepLast)
+        }
+        crate::rmw::History::KeepAll => crate::History::KeepAll,
     }
 }

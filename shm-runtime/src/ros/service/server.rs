@@ -44,6 +44,8 @@ pub struct ServiceServerBuilder<'a, S> {
     pub(crate) type_use: Option<TypeUse>,
     pub(crate) shm: ShmSettings,
     pub(crate) history: History,
+    /// The encoding replies carry.
+    pub(crate) response_encoding: Encoding,
     /// A name that failed to resolve: reported by `build`.
     pub(crate) invalid: Option<crate::ros::names::NameError>,
     pub(crate) service: PhantomData<fn() -> S>,
@@ -57,6 +59,40 @@ impl<S> crate::transport::shm_options::sealed::Settings for ServiceServerBuilder
 
 impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
     pub(crate) fn new(session: &'a Session, key_expr: String) -> Self {
+        Self::with_response_encoding(
+            session,
+            key_expr,
+            type_encoding(
+                <S::Response as RosMessage>::TYPE_NAME,
+                <S::Response as RosMessage>::type_hash(),
+            ),
+        )
+    }
+
+    /// Answer every request with `handler(request)`, on an [`Executor`]'s
+    /// thread (see [`callback`](Self::callback)). A request that is not a
+    /// valid `S::Request` gets an error reply saying where it broke.
+    pub fn handler<H>(self, mut handler: H) -> CallbackServiceServerBuilder<'a, S>
+    where
+        H: FnMut(S::Request) -> S::Response + Send + 'static,
+    {
+        self.callback(move |request: ServiceRequest<S>| {
+            if let Ok(decoded) = request.request() {
+                let response = handler(decoded);
+                if let Err(e) = request.reply(&response).wait() {
+                    tracing::warn!("service reply failed: {e}");
+                }
+            }
+        })
+    }
+}
+
+impl<'a, S: 'static> ServiceServerBuilder<'a, S> {
+    pub(crate) fn with_response_encoding(
+        session: &'a Session,
+        key_expr: String,
+        response_encoding: Encoding,
+    ) -> Self {
         Self {
             session,
             key_expr,
@@ -65,6 +101,7 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
             type_use: None,
             shm: ShmSettings::default(),
             history: History::KeepAll,
+            response_encoding,
             invalid: None,
             service: PhantomData,
         }
@@ -111,23 +148,6 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
         }
     }
 
-    /// Answer every request with `handler(request)`, on an [`Executor`]'s
-    /// thread (see [`callback`](Self::callback)). A request that is not a
-    /// valid `S::Request` gets an error reply saying where it broke.
-    pub fn handler<H>(self, mut handler: H) -> CallbackServiceServerBuilder<'a, S>
-    where
-        H: FnMut(S::Request) -> S::Response + Send + 'static,
-    {
-        self.callback(move |request: ServiceRequest<S>| {
-            if let Ok(decoded) = request.request() {
-                let response = handler(decoded);
-                if let Err(e) = request.reply(&response).wait() {
-                    tracing::warn!("service reply failed: {e}");
-                }
-            }
-        })
-    }
-
     /// Declare the token and everything shared by every request.
     fn shared(&self) -> zenoh::Result<(Arc<Shared>, Option<LivelinessToken>)> {
         if let Some(invalid) = &self.invalid {
@@ -138,10 +158,7 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
             check_key_expr("liveliness token", token)?;
         }
         let policy = self.shm.resolve(self.session, &self.key_expr);
-        let response_encoding = type_encoding(
-            <S::Response as RosMessage>::TYPE_NAME,
-            <S::Response as RosMessage>::type_hash(),
-        );
+        let response_encoding = self.response_encoding.clone();
         let inline_limit = InlineLimit::of(
             self.session,
             &self.key_expr,
@@ -227,17 +244,17 @@ impl<'a, S: RosService> ServiceServerBuilder<'a, S> {
     }
 }
 
-impl<S: RosService> Resolvable for ServiceServerBuilder<'_, S> {
+impl<S: 'static> Resolvable for ServiceServerBuilder<'_, S> {
     type To = zenoh::Result<ServiceServer<S>>;
 }
 
-impl<S: RosService> Wait for ServiceServerBuilder<'_, S> {
+impl<S: 'static> Wait for ServiceServerBuilder<'_, S> {
     fn wait(self) -> Self::To {
         self.build()
     }
 }
 
-impl<S: RosService> IntoFuture for ServiceServerBuilder<'_, S> {
+impl<S: 'static> IntoFuture for ServiceServerBuilder<'_, S> {
     type Output = zenoh::Result<ServiceServer<S>>;
     type IntoFuture = std::future::Ready<Self::Output>;
     fn into_future(self) -> Self::IntoFuture {
@@ -280,7 +297,7 @@ impl<S> fmt::Debug for ServiceServer<S> {
     }
 }
 
-impl<S: RosService> ServiceServer<S> {
+impl<S> ServiceServer<S> {
     /// Wait for the next request.
     pub fn recv(&self) -> zenoh::Result<ServiceRequest<S>> {
         Ok(self.receiver.recv()?)
@@ -308,28 +325,6 @@ impl<S: RosService> ServiceServer<S> {
     /// the future before it completes loses no request.
     pub async fn recv_async(&self) -> zenoh::Result<ServiceRequest<S>> {
         Ok(self.receiver.recv_async().await?)
-    }
-
-    /// Answer requests one after the other with `handler(request).await`, until
-    /// the server is undeclared; a request that is not a valid `S::Request` gets
-    /// an error reply. Runs on whatever executor polls it (no runtime of its
-    /// own); to answer several at once, take requests with
-    /// [`recv_async`](Self::recv_async) and spawn.
-    pub async fn serve<H, F>(&self, mut handler: H) -> zenoh::Result<()>
-    where
-        H: FnMut(S::Request) -> F,
-        F: Future<Output = S::Response>,
-    {
-        while let Ok(request) = self.receiver.recv_async().await {
-            let Ok(decoded) = request.request() else {
-                continue;
-            };
-            let response = handler(decoded).await;
-            if let Err(e) = request.reply(&response).await {
-                tracing::warn!("service reply failed: {e}");
-            }
-        }
-        Ok(())
     }
 
     /// How many requests wait to be taken.
@@ -361,6 +356,30 @@ impl<S: RosService> ServiceServer<S> {
     }
 }
 
+impl<S: RosService> ServiceServer<S> {
+    /// Answer requests one after the other with `handler(request).await`, until
+    /// the server is undeclared; a request that is not a valid `S::Request` gets
+    /// an error reply. Runs on whatever executor polls it (no runtime of its
+    /// own); to answer several at once, take requests with
+    /// [`recv_async`](Self::recv_async) and spawn.
+    pub async fn serve<H, F>(&self, mut handler: H) -> zenoh::Result<()>
+    where
+        H: FnMut(S::Request) -> F,
+        F: Future<Output = S::Response>,
+    {
+        while let Ok(request) = self.receiver.recv_async().await {
+            let Ok(decoded) = request.request() else {
+                continue;
+            };
+            let response = handler(decoded).await;
+            if let Err(e) = request.reply(&response).await {
+                tracing::warn!("service reply failed: {e}");
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Builder of a [`CallbackServiceServer`]; resolve with `.wait()` or `.await`.
 #[must_use = "resolve the builder with .wait() or .await"]
 pub struct CallbackServiceServerBuilder<'a, S> {
@@ -368,7 +387,7 @@ pub struct CallbackServiceServerBuilder<'a, S> {
     callback: Callback<ServiceRequest<S>>,
 }
 
-impl<S: RosService> CallbackServiceServerBuilder<'_, S> {
+impl<S> CallbackServiceServerBuilder<'_, S> {
     /// Run the callback on `executor`'s threads instead of the global ones
     /// (no effect on an inline callback).
     pub fn executor(mut self, executor: &Executor) -> Self {
@@ -397,7 +416,7 @@ impl<S> fmt::Debug for CallbackServiceServer<S> {
     }
 }
 
-impl<S: RosService> CallbackServiceServer<S> {
+impl<S> CallbackServiceServer<S> {
     /// How many requests were not valid; each got an error reply.
     pub fn malformed(&self) -> u64 {
         self.shared.malformed.load(Ordering::Relaxed)
@@ -414,7 +433,7 @@ impl<S: RosService> CallbackServiceServer<S> {
     }
 }
 
-impl<S: RosService> CallbackServiceServerBuilder<'_, S> {
+impl<S: 'static> CallbackServiceServerBuilder<'_, S> {
     fn build(self) -> zenoh::Result<CallbackServiceServer<S>> {
         let (shared, token) = self.inner.shared()?;
         let declare = |callback: Box<dyn Fn(Query) + Send + Sync>| {
@@ -471,17 +490,17 @@ impl<S> Drop for CallbackServiceServer<S> {
     }
 }
 
-impl<S: RosService> Resolvable for CallbackServiceServerBuilder<'_, S> {
+impl<S: 'static> Resolvable for CallbackServiceServerBuilder<'_, S> {
     type To = zenoh::Result<CallbackServiceServer<S>>;
 }
 
-impl<S: RosService> Wait for CallbackServiceServerBuilder<'_, S> {
+impl<S: 'static> Wait for CallbackServiceServerBuilder<'_, S> {
     fn wait(self) -> Self::To {
         self.build()
     }
 }
 
-impl<S: RosService> IntoFuture for CallbackServiceServerBuilder<'_, S> {
+impl<S: 'static> IntoFuture for CallbackServiceServerBuilder<'_, S> {
     type Output = zenoh::Result<CallbackServiceServer<S>>;
     type IntoFuture = std::future::Ready<Self::Output>;
     fn into_future(self) -> Self::IntoFuture {
@@ -512,7 +531,7 @@ impl<S> fmt::Debug for ServiceRequest<S> {
     }
 }
 
-impl<S: RosService> ServiceRequest<S> {
+impl<S> ServiceRequest<S> {
     /// Accept `query` as a request, or refuse it (error reply, counted) if its
     /// attachment is present but not rmw_zenoh's.
     fn take(query: Query, shared: &Arc<Shared>) -> Option<Self> {
@@ -542,14 +561,6 @@ impl<S: RosService> ServiceRequest<S> {
             .unwrap_or_else(|| EMPTY.get_or_init(ZBytes::new))
     }
 
-    /// The request, decoded as an owned `S::Request`. If it is not valid, the
-    /// client gets an error reply with the decoder's message (offset included),
-    /// the server counts it in `malformed()`, and this request can no longer be
-    /// answered.
-    pub fn request(&self) -> Result<S::Request, DecodeError> {
-        self.decode::<S::Request>()
-    }
-
     /// The request decoded as `M` (`S::Request` or a form of it borrowing from
     /// the payload, e.g. the generated `…Ref<'a>`). On error, like
     /// [`request`](Self::request).
@@ -572,15 +583,6 @@ impl<S: RosService> ServiceRequest<S> {
         crate::transport::payload::shm_len(self.payload()) > 0
     }
 
-    /// Answer with `response`; resolve with `.wait()` or `.await`. It goes out
-    /// in shared memory at or above the server's threshold.
-    pub fn reply(self, response: &S::Response) -> ReplyBuilder<S> {
-        ReplyBuilder {
-            encoded: encode_payload(response, self.shared.policy.as_ref()),
-            request: self,
-        }
-    }
-
     /// Answer with an error: the client's call fails with
     /// [`CallError::Remote`](super::CallError::Remote) carrying `why`.
     pub fn reply_err(self, why: impl fmt::Display) {
@@ -591,6 +593,48 @@ impl<S: RosService> ServiceRequest<S> {
     fn refuse(self, why: impl fmt::Display) {
         tracing::debug!(key_expr = %self.shared.key_expr, "{why}");
         reply_error(&self.query, why);
+    }
+}
+
+impl<S: RosService> ServiceRequest<S> {
+    /// The request, decoded as an owned `S::Request`. If it is not valid, the
+    /// client gets an error reply with the decoder's message (offset included),
+    /// the server counts it in `malformed()`, and this request can no longer be
+    /// answered.
+    pub fn request(&self) -> Result<S::Request, DecodeError> {
+        self.decode::<S::Request>()
+    }
+
+    /// Answer with `response`; resolve with `.wait()` or `.await`. It goes out
+    /// in shared memory at or above the server's threshold.
+    pub fn reply(self, response: &S::Response) -> ReplyBuilder<S> {
+        ReplyBuilder {
+            encoded: encode_payload(response, self.shared.policy.as_ref()).map_err(Into::into),
+            request: self,
+        }
+    }
+}
+
+impl ServiceRequest<crate::Serialized> {
+    /// The request's serialized bytes (its CDR encapsulation header first),
+    /// in shared memory if it arrived there.
+    pub fn serialized(&self) -> &ZBytes {
+        self.payload()
+    }
+
+    /// Answer with a response already serialized (its CDR encapsulation
+    /// header first); resolve with `.wait()` or `.await`. It is copied once,
+    /// into an exact-size shared-memory buffer at or above the server's
+    /// threshold, else the heap. Bytes that are not CDR are refused
+    /// ([`PublishError::NotCdr`]) and the client gets an error reply.
+    pub fn reply_serialized(self, cdr: &[u8]) -> ReplyBuilder<crate::Serialized> {
+        let encoded =
+            crate::transport::payload::serialized_payload(cdr, self.shared.policy.as_ref())
+                .map_err(|_| PublishError::NotCdr { len: cdr.len() });
+        ReplyBuilder {
+            encoded,
+            request: self,
+        }
     }
 }
 
@@ -607,10 +651,10 @@ fn reply_error(query: &Query, why: impl fmt::Display) {
 #[must_use = "resolve the reply with .wait() or .await"]
 pub struct ReplyBuilder<S> {
     request: ServiceRequest<S>,
-    encoded: Result<crate::EncodedPayload, shm_cdr::EncodeError>,
+    encoded: Result<crate::EncodedPayload, PublishError>,
 }
 
-impl<S: RosService> ReplyBuilder<S> {
+impl<S> ReplyBuilder<S> {
     fn send(self) -> Result<PayloadKind, PublishError> {
         let Self { request, encoded } = self;
         let encoded = match encoded {
@@ -620,7 +664,7 @@ impl<S: RosService> ReplyBuilder<S> {
                 request.reply_err(format_args!(
                     "the server could not encode its response: {e}"
                 ));
-                return Err(e.into());
+                return Err(e);
             }
         };
         if let Err(e) = inline_limit::check(request.shared.inline_limit, encoded.inline) {
@@ -647,17 +691,17 @@ impl<S: RosService> ReplyBuilder<S> {
     }
 }
 
-impl<S: RosService> Resolvable for ReplyBuilder<S> {
+impl<S> Resolvable for ReplyBuilder<S> {
     type To = Result<PayloadKind, PublishError>;
 }
 
-impl<S: RosService> Wait for ReplyBuilder<S> {
+impl<S> Wait for ReplyBuilder<S> {
     fn wait(self) -> Self::To {
         self.send()
     }
 }
 
-impl<S: RosService> IntoFuture for ReplyBuilder<S> {
+impl<S> IntoFuture for ReplyBuilder<S> {
     type Output = Result<PayloadKind, PublishError>;
     type IntoFuture = Pin<Box<dyn Future<Output = Self::Output> + Send>>;
     fn into_future(self) -> Self::IntoFuture {
