@@ -234,14 +234,18 @@ fn respond(
     callback: &Py<PyAny>,
     request: &ServiceRequest<Serialized>,
 ) -> PyResult<Vec<u8>> {
-    let bytes = request.serialized().to_bytes().into_owned().into_boxed_slice();
+    let bytes = request
+        .serialized()
+        .to_bytes()
+        .into_owned()
+        .into_boxed_slice();
     let request = PyMessage::new(Root::decode(&service.request, Payload::Copied(bytes))?);
     let response = PyMessage::new(Root::owned(service.response.default_message()));
     let answer = callback.call1(py, (request, response))?;
     let answer = answer.bind(py);
     if answer.is_none() {
         return Err(PyTypeError::new_err(format!(
-            "the callback of a {} server returned None: return the response",
+            "the callback of a server of {} returned None: return the response",
             service.name
         )));
     }

@@ -686,7 +686,7 @@ fn a_server_of_bytes_is_keyed_announced_and_called_as_a_typed_one() {
     let server_node = node(&a, "server");
     let client_node = node(&b, "client");
     let server = server_node
-        .declare_serialized_service("basic", BasicTypes::TYPE_NAME, &BasicTypes::type_hash())
+        .declare_serialized_service("basic", BasicTypes::TYPE_NAME, BasicTypes::type_hash())
         .callback(|request| {
             let bytes = request.serialized().to_bytes().into_owned();
             let decoded: BasicTypes_Request = shm_cdr::from_bytes(&bytes).unwrap();
