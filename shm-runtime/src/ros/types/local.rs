@@ -7,10 +7,11 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use shm_cdr::dynamic::{DynamicType, TypeLimits};
-use shm_interface::ast::{BaseType, Message};
-use shm_interface::{DescribedField, DescribedFieldBuf};
+use shm_interface::ast::{BaseType, Message, Service};
+use shm_interface::{DescribedField, DescribedFieldBuf, TypeId};
 
 use super::definition;
+use super::ResolvedService;
 use super::standard::{full_name, standard, Kind, ResolvedType};
 use zenoh::Error;
 
@@ -20,6 +21,10 @@ use zenoh::Error;
 #[derive(Debug, Clone, Default)]
 pub struct LocalInterfaces {
     messages: BTreeMap<String, Message>,
+    /// The `.srv` files by `pkg/srv/Name`, and the services rosidl derives
+    /// from `.action` files (`pkg/action/Name_SendGoal`, …); their parts
+    /// are in `messages`.
+    services: BTreeMap<String, Service>,
 }
 
 impl LocalInterfaces {
@@ -52,6 +57,13 @@ impl LocalInterfaces {
                     .map_err(|e| format!("interface files: {e}"))?;
                 for message in package.all_messages() {
                     out.messages.insert(message.ty.full_name(), message.clone());
+                }
+                let action_services = package
+                    .actions
+                    .iter()
+                    .flat_map(|a| [&a.send_goal, &a.get_result]);
+                for service in package.services.iter().chain(action_services) {
+                    out.services.insert(service.ty.full_name(), service.clone());
                 }
             }
         }
@@ -97,13 +109,61 @@ impl LocalInterfaces {
     /// comes from the files too, else from the standard set.
     pub fn resolve(&self, name: &str) -> Option<Result<ResolvedType, Error>> {
         self.messages.get(name)?;
-        Some(self.build(name))
+        Some(self.build(name, BTreeMap::new(), BTreeMap::new()))
     }
 
-    fn build(&self, name: &str) -> Result<ResolvedType, Error> {
-        let mut described: BTreeMap<String, Vec<DescribedFieldBuf>> = BTreeMap::new();
-        let mut sources: BTreeMap<String, String> = BTreeMap::new();
-        let mut todo = vec![name.to_owned()];
+    /// The service type `name` (`pkg/srv/Name`, or an action's
+    /// `pkg/action/Name_SendGoal` or `…_GetResult`), if the files define it: its request and response as run-time types, and the service's
+    /// RIHS01 hash as rosidl computes it (over the request, the response
+    /// and the event message rosidl derives).
+    pub fn resolve_service(&self, name: &str) -> Option<Result<ResolvedService, Error>> {
+        let service = self.services.get(name)?;
+        // The service's own description, as rosidl states it: one nested
+        // field for each message of a call.
+        let own = [
+            ("request_message", &service.request),
+            ("response_message", &service.response),
+            ("event_message", &service.event),
+        ]
+        .map(|(field, message)| DescribedFieldBuf {
+            name: field.to_owned(),
+            type_id: TypeId::Nested as u8,
+            capacity: 0,
+            string_capacity: 0,
+            nested_type_name: message.ty.full_name(),
+            default_value: String::new(),
+        })
+        .to_vec();
+        let sources = service
+            .source
+            .iter()
+            .map(|text| (name.to_owned(), text.clone()))
+            .collect();
+        let built = self
+            .build(name, BTreeMap::from([(name.to_owned(), own)]), sources)
+            .and_then(|resolved| {
+                let hash = resolved.ty.type_hash();
+                ResolvedService::of(&resolved.ty, name, &hash)
+            });
+        Some(built)
+    }
+
+    /// The run-time type `name` of the files (or of `described`, given
+    /// already), with every type it uses.
+    fn build(
+        &self,
+        name: &str,
+        mut described: BTreeMap<String, Vec<DescribedFieldBuf>>,
+        mut sources: BTreeMap<String, String>,
+    ) -> Result<ResolvedType, Error> {
+        let mut todo: Vec<String> = match described.get(name) {
+            Some(own) => own
+                .iter()
+                .filter(|f| !f.nested_type_name.is_empty())
+                .map(|f| f.nested_type_name.clone())
+                .collect(),
+            None => vec![name.to_owned()],
+        };
         while let Some(next) = todo.pop() {
             if described.contains_key(&next) {
                 continue;
@@ -214,6 +274,25 @@ mod tests {
             }
         }
         assert!(checked > 500, "{checked}");
+        // Each service read from its `.srv` file has the service's compiled
+        // hash, which covers its request, response and event.
+        let mut services = 0;
+        for (name, known) in standard().iter().filter(|(_, k)| k.kind == Kind::Service) {
+            let description = (known.describe)();
+            let Some(from_file) = local.resolve_service(name) else {
+                panic!("{name}: not read from its file");
+            };
+            let from_file = from_file.unwrap();
+            assert_eq!(from_file.hash, description.type_hash(), "{name}");
+            assert_eq!(from_file.name, *name);
+            assert_eq!(from_file.request.name(), format!("{name}_Request"));
+            let compiled = DynamicType::from_description(&description).unwrap();
+            let request = compiled.member(&format!("{name}_Request")).unwrap();
+            assert_eq!(from_file.request.type_hash(), request.type_hash(), "{name}");
+            services += 1;
+        }
+        assert!(services > 40, "{services}");
+        assert!(local.resolve_service("std_msgs/msg/String").is_none());
         let _ = std::fs::remove_dir_all(&root);
     }
 
