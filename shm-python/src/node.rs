@@ -1,6 +1,7 @@
 //! Nodes, publishers and subscriptions, as rclpy names them.
 
 use std::collections::VecDeque;
+use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
@@ -10,6 +11,8 @@ use pyo3::types::PyDict;
 use shm_cdr::dynamic::{DynamicType, Message};
 use shm_runtime::parameters::ParameterValue;
 use shm_runtime::rmw::{Durability, History, Qos, Reliability};
+use shm_runtime::graph::Graph;
+use shm_runtime::types::{self, local::LocalInterfaces};
 use shm_runtime::{CallbackSubscriber, RosNode, RosPublisher, RosSubscriber};
 use zenoh::Wait;
 
@@ -275,17 +278,87 @@ impl PyNode {
         srv_name: &str,
         callback: Py<PyAny>,
     ) -> PyResult<PyService> {
-        let service = PyServiceType::resolve(srv_type)?;
+        let (service, described) = PyServiceType::resolve_described(srv_type)?;
         let for_calls = service.clone();
         let server = py
             .detach(|| {
-                self.node
-                    .declare_serialized_service(srv_name, &service.name, &service.hash)
+                // Described to other nodes where the type is known whole.
+                let builder = match &described {
+                    Some(ty) => self.node.declare_dynamic_service(srv_name, ty),
+                    None => {
+                        self.node
+                            .declare_serialized_service(srv_name, &service.name, &service.hash)
+                    }
+                };
+                builder
                     .callback(move |request| services::answer(&for_calls, &callback, request))
                     .wait()
             })
             .map_err(middleware)?;
-        Ok(PyService { server, service })
+        Ok(PyService {
+            server,
+            service,
+            described,
+        })
+    }
+
+    /// The message type of `topic` as its publishers (else its subscribers)
+    /// announce it: the standard type of that hash, else the type of the
+    /// `.msg` files of `interfaces`, else the description the announcing
+    /// node gives through its type-description service (Jazzy and later).
+    /// Waits up to `timeout_sec` seconds for the topic and the node's answer.
+    #[pyo3(signature = (topic, timeout_sec = 5.0, interfaces = None))]
+    fn get_topic_type(
+        &self,
+        py: Python<'_>,
+        topic: &str,
+        timeout_sec: f64,
+        interfaces: Option<Vec<PathBuf>>,
+    ) -> PyResult<PyMessageType> {
+        let timeout = seconds("timeout_sec", timeout_sec)?;
+        let local = LocalInterfaces::load(interfaces.as_deref().unwrap_or_default())
+            .map_err(middleware)?;
+        let topic = self
+            .node
+            .resolve_topic_name(topic)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let resolved = py
+            .detach(|| {
+                let (graph, left) = self.graph_with(timeout, |graph| {
+                    !graph.publishers(&topic).is_empty() || !graph.subscribers(&topic).is_empty()
+                })?;
+                types::of_topic(&self.node, left, &graph, &topic, &local)
+            })
+            .map_err(middleware)?;
+        Ok(PyMessageType { ty: resolved.ty })
+    }
+
+    /// The type of service `srv_name` as its servers announce it: the
+    /// standard type of that hash, else the description the server's node
+    /// gives. Waits up to `timeout_sec` seconds for a server and the answer.
+    #[pyo3(signature = (srv_name, timeout_sec = 5.0))]
+    fn get_service_type(
+        &self,
+        py: Python<'_>,
+        srv_name: &str,
+        timeout_sec: f64,
+    ) -> PyResult<PyServiceType> {
+        let timeout = seconds("timeout_sec", timeout_sec)?;
+        let service = self
+            .node
+            .resolve_service_name(srv_name)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let resolved = py
+            .detach(|| {
+                let (graph, left) =
+                    self.graph_with(timeout, |graph| !graph.servers(&service).is_empty())?;
+                types::of_service(&self.node, left, &graph, &service, None)
+            })
+            .map_err(middleware)?;
+        Ok(PyServiceType {
+            service: resolved,
+            described: None,
+        })
     }
 
     /// Declare parameter `name` with its default `value` (the value
@@ -352,6 +425,34 @@ impl PyNode {
 pub(crate) struct PyPublisher {
     publisher: RosPublisher<DynamicType>,
     ty: DynamicType,
+}
+
+impl PyNode {
+    /// A snapshot of the graph once `ready` holds of it, or once `timeout`
+    /// passed; with the time left of `timeout` (at least a little, for a
+    /// node's answer).
+    fn graph_with(
+        &self,
+        timeout: Duration,
+        ready: impl Fn(&Graph) -> bool,
+    ) -> zenoh::Result<(Graph, Duration)> {
+        const POLL: Duration = Duration::from_millis(20);
+        let deadline = Instant::now() + timeout;
+        loop {
+            let graph = self.node.graph(timeout)?;
+            let left = deadline.saturating_duration_since(Instant::now());
+            if ready(&graph) || left.is_zero() {
+                return Ok((graph, left.max(POLL * 10)));
+            }
+            std::thread::sleep(POLL.min(left));
+        }
+    }
+}
+
+/// `value` seconds as a duration, or a `ValueError` naming `name`.
+fn seconds(name: &str, value: f64) -> PyResult<Duration> {
+    Duration::try_from_secs_f64(value)
+        .map_err(|_| PyValueError::new_err(format!("{name}: give seconds, 0 or more")))
 }
 
 #[pymethods]

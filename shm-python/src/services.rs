@@ -3,13 +3,15 @@
 //! `client.wait_for_service(timeout_sec)`, `client.call(request)`, and
 //! `node.create_service(srv_type, name, callback)`.
 
+use std::path::PathBuf;
 use std::time::Duration;
 
 use pyo3::exceptions::{PyLookupError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use shm_cdr::dynamic::DynamicType;
 use shm_runtime::rmw::Distro;
 use shm_runtime::service::{CallbackServiceServer, ServiceClient, ServiceRequest};
-use shm_runtime::types::ResolvedService;
+use shm_runtime::types::{local::LocalInterfaces, ResolvedService};
 use shm_runtime::Serialized;
 use zenoh::Wait;
 
@@ -23,17 +25,30 @@ use crate::types::PyMessageType;
 #[pyclass(name = "ServiceType", module = "shm_cdr", frozen)]
 pub(crate) struct PyServiceType {
     pub(crate) service: ResolvedService,
+    /// The service as one run-time type, where it is known whole (by name,
+    /// from files): what a server of it describes to other nodes.
+    pub(crate) described: Option<DynamicType>,
 }
 
 impl PyServiceType {
     /// The service type `obj` names: a `ServiceType`, or a name resolved as
     /// [`service_type`] resolves it.
     pub(crate) fn resolve(obj: &Bound<'_, PyAny>) -> PyResult<ResolvedService> {
+        Ok(Self::resolve_described(obj)?.0)
+    }
+
+    /// [`resolve`](Self::resolve), with the service as one run-time type
+    /// where it is known whole.
+    pub(crate) fn resolve_described(
+        obj: &Bound<'_, PyAny>,
+    ) -> PyResult<(ResolvedService, Option<DynamicType>)> {
         if let Ok(ty) = obj.cast::<PyServiceType>() {
-            return Ok(ty.get().service.clone());
+            let ty = ty.get();
+            return Ok((ty.service.clone(), ty.described.clone()));
         }
         if let Ok(name) = obj.extract::<String>() {
-            return by_name(&name);
+            let ty = by_name(&name, &[])?;
+            return Ok((ty.service, ty.described));
         }
         Err(PyTypeError::new_err(
             "a service type is a shm_cdr.ServiceType or its name (\"pkg/srv/Name\")",
@@ -41,25 +56,46 @@ impl PyServiceType {
     }
 }
 
-fn by_name(name: &str) -> PyResult<ResolvedService> {
+fn by_name(name: &str, interfaces: &[PathBuf]) -> PyResult<PyServiceType> {
     let distro = Distro::from_env().map_err(|e| PyValueError::new_err(e.to_string()))?;
-    match shm_runtime::types::service_by_name(distro, name) {
-        Some(Ok(service)) => Ok(service),
-        Some(Err(e)) => Err(middleware(e)),
-        None => Err(PyLookupError::new_err(format!(
-            "no service type {name} in the standard set of {}",
-            distro.name()
-        ))),
-    }
+    let ty = match shm_runtime::types::service_type_by_name(distro, name) {
+        Some(ty) => ty.map_err(middleware)?,
+        None => {
+            let local = LocalInterfaces::load(interfaces).map_err(middleware)?;
+            let full = match name.split('/').collect::<Vec<_>>()[..] {
+                [package, short] => format!("{package}/srv/{short}"),
+                _ => name.to_owned(),
+            };
+            match local.resolve_service_type(&full) {
+                Some(ty) => ty.map_err(middleware)?,
+                None => {
+                    return Err(PyLookupError::new_err(format!(
+                        "no service type {name}: it is not in the standard set of {} and no \
+                         interface file given defines it (pass interfaces=[\"path/to/pkg\"] for \
+                         your own .srv files)",
+                        distro.name()
+                    )))
+                }
+            }
+        }
+    };
+    Ok(PyServiceType {
+        service: ResolvedService::of_type(&ty).map_err(middleware)?,
+        described: Some(ty),
+    })
 }
 
-/// The service type `name` (`pkg/srv/Name` or `pkg/Name`) from the standard
-/// set built in, as the distribution `ROS_DISTRO` names defines it.
+/// The service type `name` (`pkg/srv/Name` or `pkg/Name`): from the standard
+/// set built in, as the distribution `ROS_DISTRO` names defines it (Kilted
+/// if unset), else from the `.srv` files of `interfaces` (package
+/// directories, or directories holding packages).
 #[pyfunction]
-pub(crate) fn service_type(name: &str) -> PyResult<PyServiceType> {
-    Ok(PyServiceType {
-        service: by_name(name)?,
-    })
+#[pyo3(signature = (name, interfaces = None))]
+pub(crate) fn service_type(
+    name: &str,
+    interfaces: Option<Vec<PathBuf>>,
+) -> PyResult<PyServiceType> {
+    by_name(name, interfaces.as_deref().unwrap_or_default())
 }
 
 #[pymethods]
@@ -145,6 +181,7 @@ impl PyClient {
     fn srv_type(&self) -> PyServiceType {
         PyServiceType {
             service: self.service.clone(),
+            described: None,
         }
     }
 }
@@ -158,6 +195,7 @@ impl PyClient {
 pub(crate) struct PyService {
     pub(crate) server: CallbackServiceServer<Serialized>,
     pub(crate) service: ResolvedService,
+    pub(crate) described: Option<DynamicType>,
 }
 
 #[pymethods]
@@ -167,6 +205,7 @@ impl PyService {
     fn srv_type(&self) -> PyServiceType {
         PyServiceType {
             service: self.service.clone(),
+            described: self.described.clone(),
         }
     }
 

@@ -3,6 +3,8 @@ another process (served by our Rust runtime), and servers answered by a
 Python callback, called from Python and from our Rust command line."""
 
 import subprocess
+import sys
+import textwrap
 
 import pytest
 
@@ -159,3 +161,97 @@ def test_a_server_of_an_unknown_type_is_refused():
         this_node().create_service("my_srvs/srv/Nothing", "/x", lambda req, resp: resp)
     with pytest.raises(TypeError, match="ServiceType"):
         this_node().create_service(5, "/x", lambda req, resp: resp)
+
+
+def robot_interfaces(root):
+    """A package of our own with a message and a service, as a user writes
+    them (the service uses the message)."""
+    pkg = root / "robot_interfaces"
+    (pkg / "msg").mkdir(parents=True)
+    (pkg / "srv").mkdir()
+    (pkg / "msg" / "Joint.msg").write_text("string name\nfloat64 position\n")
+    (pkg / "srv" / "MoveArm.srv").write_text(
+        "# Move every joint named.\nrobot_interfaces/Joint[] joints\nfloat32 speed 0.5\n---\n"
+        "bool reached\nstring message\n"
+    )
+    return str(root)
+
+
+OWN_SERVER = """
+import sys, time
+import shm_cdr
+
+interfaces = [sys.argv[1]]
+node = shm_cdr.Node("arm")
+MoveArm = shm_cdr.service_type("robot_interfaces/srv/MoveArm", interfaces=interfaces)
+Joint = shm_cdr.message_type("robot_interfaces/msg/Joint", interfaces=interfaces)
+
+def move(request, response):
+    response.reached = all(j.position < 3.0 for j in request.joints)
+    response.message = ",".join(j.name for j in request.joints) + f" at {request.speed}"
+    return response
+
+server = node.create_service(MoveArm, "/arm/move", move)
+pub = node.create_publisher(Joint, "/arm/joint")
+print("ready", MoveArm.hash, flush=True)
+deadline = time.monotonic() + 60
+while time.monotonic() < deadline:
+    pub.publish({"name": "elbow", "position": 1.5})
+    time.sleep(0.05)
+"""
+
+
+def test_services_of_our_own_srv_files(tmp_path):
+    from test_pubsub import this_node
+
+    interfaces = robot_interfaces(tmp_path)
+    MoveArm = shm_cdr.service_type("robot_interfaces/MoveArm", interfaces=[interfaces])
+    assert MoveArm.name == "robot_interfaces/srv/MoveArm"
+    assert MoveArm.hash.startswith("RIHS01_")
+    assert MoveArm.Request.get_fields_and_field_types() == {
+        "joints": "sequence<robot_interfaces/Joint>", "speed": "float",
+    }
+    assert MoveArm.Request().speed == 0.5
+    with pytest.raises(LookupError, match="interfaces="):
+        shm_cdr.service_type("robot_interfaces/srv/Nothing", interfaces=[interfaces])
+
+    server = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(OWN_SERVER), interfaces],
+        env=session_env(connect=HUB), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        line = server.stdout.readline().split()
+        assert line[:1] == ["ready"], server.stderr.read()
+        assert line[1] == MoveArm.hash
+        client = this_node().create_client(MoveArm, "/arm/move")
+        assert client.wait_for_service(timeout_sec=20.0)
+        response = client.call({"joints": [{"name": "shoulder", "position": 0.5},
+                                           {"name": "wrist", "position": 2.0}]})
+        assert response.reached
+        assert response.message == "shoulder,wrist at 0.5"
+
+        # A node that knows neither type by name learns both from the graph
+        # and the serving node's type-description service.
+        Joint = this_node().get_topic_type("/arm/joint", timeout_sec=20.0)
+        assert Joint.name == "robot_interfaces/msg/Joint"
+        assert Joint.hash == shm_cdr.message_type(
+            "robot_interfaces/msg/Joint", interfaces=[interfaces]).hash
+        sub = this_node().create_subscription(Joint, "/arm/joint")
+        msg = sub.recv(timeout=20.0)
+        assert (msg.name, msg.position) == ("elbow", 1.5)
+        served = this_node().get_service_type("/arm/move", timeout_sec=20.0)
+        assert served.name == "robot_interfaces/srv/MoveArm"
+        assert served.hash == MoveArm.hash
+    finally:
+        server.kill()
+
+
+def test_types_of_what_is_not_there_say_so():
+    from test_pubsub import this_node
+
+    with pytest.raises(shm_cdr.ShmCdrError, match="no publishers or subscribers"):
+        this_node().get_topic_type("/nobody/publishes", timeout_sec=0.2)
+    with pytest.raises(shm_cdr.ShmCdrError, match="has no server"):
+        this_node().get_service_type("/nobody/serves", timeout_sec=0.2)
+    with pytest.raises(ValueError, match="timeout_sec"):
+        this_node().get_topic_type("/x", timeout_sec=-1.0)

@@ -249,3 +249,43 @@ fn run_time_typed_endpoints_are_described_by_their_node() {
     assert!(!ask(&imu).successful);
     assert!(!ask(&header).successful);
 }
+
+/// A server of a service typed at run time describes the service as a
+/// server of the compiled type does (its request, response and event
+/// included), for as long as it serves.
+#[test]
+fn a_run_time_typed_service_server_is_described_by_its_node() {
+    use shm_cdr::interface::RosService;
+    use shm_cdr::msgs::test_msgs::srv::BasicTypes;
+
+    let (a, b, _) = loopback_sessions();
+    let owner = common::node(&a, "dynamic_server");
+    let tool = common::node(&b, "tool");
+    let service = DynamicType::from_description(&BasicTypes::full_description()).unwrap();
+    assert_eq!(service.type_hash(), BasicTypes::type_hash());
+    let server = owner
+        .declare_dynamic_service("/basic", &service)
+        .callback(|request| request.reply_err("not this time"))
+        .wait()
+        .unwrap();
+    let client = tool
+        .declare_client::<GetTypeDescription>("/dynamic_server/get_type_description")
+        .wait()
+        .unwrap();
+    assert!(client.wait_for_service(TIMEOUT));
+    let ask = || {
+        client
+            .call(&GetTypeDescription_Request {
+                type_name: BasicTypes::TYPE_NAME.to_owned(),
+                type_hash: BasicTypes::type_hash().to_owned(),
+                include_type_sources: false,
+            })
+            .wait()
+            .unwrap()
+    };
+    let reply = ask();
+    assert!(reply.successful, "{}", reply.failure_reason);
+    assert_eq!(reply.type_description, (&BasicTypes::full_description()).into());
+    drop(server);
+    assert!(!ask().successful);
+}

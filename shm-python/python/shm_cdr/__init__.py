@@ -153,6 +153,20 @@ class Node:
         ``shm_cdr.spin()`` raises it."""
         return self._node.create_service(srv_type, srv_name, callback)
 
+    def get_topic_type(self, topic, timeout_sec=5.0, interfaces=None):
+        """The ``MessageType`` of ``topic`` as its publishers (else
+        subscribers) announce it: the standard type of that hash, else the
+        ``.msg`` files of ``interfaces``, else the description the announcing
+        node gives through its type-description service. Waits up to
+        ``timeout_sec`` for the topic and the node's answer."""
+        return self._node.get_topic_type(topic, timeout_sec, interfaces)
+
+    def get_service_type(self, srv_name, timeout_sec=5.0):
+        """The ``ServiceType`` of ``srv_name`` as its servers announce it:
+        the standard type of that hash, else the description the server's
+        node gives. Waits up to ``timeout_sec`` for a server and the answer."""
+        return self._node.get_service_type(srv_name, timeout_sec)
+
     def declare_parameter(self, name, value=None):
         """Declare parameter ``name`` with its default ``value`` (the value
         ``--ros-args -p name:=...`` gave wins); returns the ``Parameter``."""

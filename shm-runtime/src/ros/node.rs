@@ -381,17 +381,42 @@ impl RosNode {
     /// A server of the service type `type_name` (`pkg/srv/Name`) with RIHS01
     /// hash `type_hash`, for requests taken and responses given serialized:
     /// announced and keyed exactly as a server of that type, for a program
-    /// that serves types it learns at run time (Python's nodes). Take its
-    /// requests with [`ServiceRequest::serialized`](crate::service::ServiceRequest::serialized)
+    /// that serves types it learns at run time. Take its requests with
+    /// [`ServiceRequest::serialized`](crate::service::ServiceRequest::serialized)
     /// and answer with
     /// [`ServiceRequest::reply_serialized`](crate::service::ServiceRequest::reply_serialized).
     /// Replies carry plain `application/cdr`, as the requests of
     /// [`declare_serialized_client`](Self::declare_serialized_client) do.
+    /// The node does not describe the type to others; a server of a
+    /// [`DynamicType`] does ([`declare_dynamic_service`](Self::declare_dynamic_service)).
     pub fn declare_serialized_service(
         &self,
         service: &str,
         type_name: &str,
         type_hash: &str,
+    ) -> ServiceServerBuilder<'_, crate::Serialized> {
+        self.serialized_service(service, type_name, type_hash, None)
+    }
+
+    /// [`declare_serialized_service`](Self::declare_serialized_service) of
+    /// the service type `ty` (a service as one run-time type, as
+    /// `types::service_type_by_name` gives one), which the node describes to others through its type-description
+    /// service, as it describes the types of its other endpoints.
+    pub fn declare_dynamic_service(
+        &self,
+        service: &str,
+        ty: &DynamicType,
+    ) -> ServiceServerBuilder<'_, crate::Serialized> {
+        let type_use = self.types.register_dynamic(ty);
+        self.serialized_service(service, ty.name(), &ty.type_hash(), Some(type_use))
+    }
+
+    fn serialized_service(
+        &self,
+        service: &str,
+        type_name: &str,
+        type_hash: &str,
+        type_use: Option<TypeUse>,
     ) -> ServiceServerBuilder<'_, crate::Serialized> {
         let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
         let (service, invalid) = self.resolve(service, NameKind::Service);
@@ -421,6 +446,7 @@ impl RosNode {
         );
         builder.gid = Some(Gid::from_token(&token));
         builder.token = Some(token);
+        builder.type_use = type_use;
         builder.invalid = invalid;
         builder.shm.inherited = self.shm.clone();
         builder.history = server_history(&qos);

@@ -117,6 +117,13 @@ impl LocalInterfaces {
     /// RIHS01 hash as rosidl computes it (over the request, the response
     /// and the event message rosidl derives).
     pub fn resolve_service(&self, name: &str) -> Option<Result<ResolvedService, Error>> {
+        Some(self.resolve_service_type(name)?.and_then(|ty| ResolvedService::of_type(&ty)))
+    }
+
+    /// [`resolve_service`](Self::resolve_service), the service as one
+    /// run-time type: its own description with its request, response and
+    /// event, as a server of it describes it to other nodes.
+    pub fn resolve_service_type(&self, name: &str) -> Option<Result<DynamicType, Error>> {
         let service = self.services.get(name)?;
         // The service's own description, as rosidl states it: one nested
         // field for each message of a call.
@@ -139,13 +146,8 @@ impl LocalInterfaces {
             .iter()
             .map(|text| (name.to_owned(), text.clone()))
             .collect();
-        let built = self
-            .build(name, BTreeMap::from([(name.to_owned(), own)]), sources)
-            .and_then(|resolved| {
-                let hash = resolved.ty.type_hash();
-                ResolvedService::of(&resolved.ty, name, &hash)
-            });
-        Some(built)
+        let built = self.build(name, BTreeMap::from([(name.to_owned(), own)]), sources);
+        Some(built.map(|resolved| resolved.ty))
     }
 
     /// The run-time type `name` of the files (or of `described`, given

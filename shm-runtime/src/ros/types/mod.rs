@@ -348,6 +348,13 @@ pub fn of_service(
 /// service as `distro` defines it. `None` when the standard set has no
 /// service of that name.
 pub fn service_by_name(distro: Distro, name: &str) -> Option<Result<ResolvedService, Error>> {
+    Some(service_type_by_name(distro, name)?.and_then(|ty| ResolvedService::of_type(&ty)))
+}
+
+/// [`service_by_name`], the service as one run-time type: its own
+/// description with its request, response and event, as a server of it
+/// describes it to other nodes.
+pub fn service_type_by_name(distro: Distro, name: &str) -> Option<Result<DynamicType, Error>> {
     let name = match name.split('/').collect::<Vec<_>>()[..] {
         [pkg, ty] => format!("{pkg}/srv/{ty}"),
         _ => name.to_owned(),
@@ -355,14 +362,16 @@ pub fn service_by_name(distro: Distro, name: &str) -> Option<Result<ResolvedServ
     let (Kind::Service, description) = standard_description(&name, distro)? else {
         return None;
     };
-    Some(
-        DynamicType::from_description(&description)
-            .map_err(Error::from)
-            .and_then(|ty| ResolvedService::of(&ty, &name, &ty.type_hash())),
-    )
+    Some(DynamicType::from_description(&description).map_err(Error::from))
 }
 
 impl ResolvedService {
+    /// The service a run-time type describes (its name, its RIHS01 hash,
+    /// and its members `<name>_Request` and `<name>_Response`).
+    pub fn of_type(ty: &DynamicType) -> Result<Self, Error> {
+        Self::of(ty, ty.name(), &ty.type_hash())
+    }
+
     /// The service `name` of hash `hash` from its type, whose members are
     /// its request and response.
     fn of(ty: &DynamicType, name: &str, hash: &str) -> Result<Self, Error> {
