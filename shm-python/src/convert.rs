@@ -72,7 +72,7 @@ pub(crate) fn to_dict<'py>(
     payload: Option<&Arc<Payload>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let dict = PyDict::new(py);
-    for (name, field) in message.fields() {
+    for (name, field) in message.fields().filter(|(name, _)| shown(name)) {
         match field {
             Field::Message(nested) => dict.set_item(name, to_dict(py, &nested, payload)?)?,
             Field::Value(value) => dict.set_item(name, to_py(py, value, payload)?)?,
@@ -90,7 +90,7 @@ pub(crate) fn repr(
 ) -> PyResult<String> {
     let mut out = message.type_name().replace('/', ".");
     out.push('(');
-    for (i, (name, field)) in message.fields().enumerate() {
+    for (i, (name, field)) in message.fields().filter(|(name, _)| shown(name)).enumerate() {
         if i > 0 {
             out.push_str(", ");
         }
@@ -499,4 +499,10 @@ pub(crate) fn message_of(ty: &DynamicType, msg: &Bound<'_, PyAny>) -> PyResult<M
         "a {} or a dict of its fields goes here",
         ty.name()
     )))
+}
+
+/// Whether Python sees a field: all but rosidl's placeholder member of an
+/// empty message, which rclpy's messages do not list either.
+pub(crate) fn shown(name: &str) -> bool {
+    name != shm_cdr::describe::PLACEHOLDER_MEMBER
 }

@@ -337,7 +337,11 @@ impl PyMessage {
             .map(str::to_owned)
             .collect();
         self.with(|m, _| {
-            names.extend(m.fields().map(|(n, _)| n.to_owned()));
+            names.extend(
+                m.fields()
+                    .filter(|(n, _)| convert::shown(n))
+                    .map(|(n, _)| n.to_owned()),
+            );
             Ok(())
         })?;
         Ok(names)
@@ -433,7 +437,11 @@ impl PyMessage {
 }
 
 fn no_field(message: &MessageRef<'_, '_>, name: &str) -> PyErr {
-    let fields: Vec<&str> = message.fields().map(|(n, _)| n).collect();
+    let fields: Vec<&str> = message
+        .fields()
+        .map(|(n, _)| n)
+        .filter(|n| convert::shown(n))
+        .collect();
     PyAttributeError::new_err(format!(
         "{} has no field '{name}'; its fields are: {}",
         message.type_name(),

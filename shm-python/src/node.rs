@@ -9,9 +9,9 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use shm_cdr::dynamic::{DynamicType, Message};
+use shm_runtime::graph::Graph;
 use shm_runtime::parameters::ParameterValue;
 use shm_runtime::rmw::{Durability, History, Qos, Reliability};
-use shm_runtime::graph::Graph;
 use shm_runtime::types::{self, local::LocalInterfaces};
 use shm_runtime::{CallbackSubscriber, RosNode, RosPublisher, RosSubscriber};
 use zenoh::Wait;
@@ -316,8 +316,8 @@ impl PyNode {
         interfaces: Option<Vec<PathBuf>>,
     ) -> PyResult<PyMessageType> {
         let timeout = seconds("timeout_sec", timeout_sec)?;
-        let local = LocalInterfaces::load(interfaces.as_deref().unwrap_or_default())
-            .map_err(middleware)?;
+        let local =
+            LocalInterfaces::load(interfaces.as_deref().unwrap_or_default()).map_err(middleware)?;
         let topic = self
             .node
             .resolve_topic_name(topic)

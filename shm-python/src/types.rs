@@ -67,37 +67,40 @@ pub(crate) fn message_type(
     })
 }
 
-/// A field's type as a .msg file writes it (`float64[9]`, `string<=10`,
-/// `geometry_msgs/Point[]`).
+/// A field's type as rclpy's `get_fields_and_field_types()` writes it (the
+/// IDL names rosidl_generator_py gives: `double[9]`, `string<10>`,
+/// `sequence<octet>`, `sequence<geometry_msgs/Point, 5>`).
 fn field_type(ty: &DynamicType, field: &FieldDef) -> String {
     let element = match field.element {
-        Element::Bool => "bool".to_owned(),
-        Element::Byte => "byte".to_owned(),
-        Element::Char => "char".to_owned(),
+        Element::Bool => "boolean".to_owned(),
+        Element::Byte => "octet".to_owned(),
+        Element::Char | Element::U8 => "uint8".to_owned(),
         Element::I8 => "int8".to_owned(),
-        Element::U8 => "uint8".to_owned(),
         Element::I16 => "int16".to_owned(),
         Element::U16 => "uint16".to_owned(),
         Element::I32 => "int32".to_owned(),
         Element::U32 => "uint32".to_owned(),
         Element::I64 => "int64".to_owned(),
         Element::U64 => "uint64".to_owned(),
-        Element::F32 => "float32".to_owned(),
-        Element::F64 => "float64".to_owned(),
+        Element::F32 => "float".to_owned(),
+        Element::F64 => "double".to_owned(),
         Element::String(None) => "string".to_owned(),
-        Element::String(Some(n)) => format!("string<={n}"),
+        Element::String(Some(n)) => format!("string<{n}>"),
         Element::WString(None) => "wstring".to_owned(),
-        Element::WString(Some(n)) => format!("wstring<={n}"),
-        Element::Message(i) => ty
-            .structs()
-            .get(i)
-            .map_or_else(String::new, |s| s.name.replacen("/msg/", "/", 1)),
+        Element::WString(Some(n)) => format!("wstring<{n}>"),
+        Element::Message(i) => ty.structs().get(i).map_or_else(String::new, |s| {
+            // `pkg/msg/Name` (or a service's or action's part) as `pkg/Name`.
+            match s.name.split('/').collect::<Vec<_>>()[..] {
+                [package, _, name] => format!("{package}/{name}"),
+                _ => s.name.clone(),
+            }
+        }),
     };
     match field.container {
         Container::Single => element,
         Container::Array(n) => format!("{element}[{n}]"),
-        Container::BoundedSequence(n) => format!("{element}[<={n}]"),
-        Container::Sequence => format!("{element}[]"),
+        Container::BoundedSequence(n) => format!("sequence<{element}, {n}>"),
+        Container::Sequence => format!("sequence<{element}>"),
     }
 }
 
@@ -147,11 +150,18 @@ impl PyMessageType {
         self.ty.type_hash()
     }
 
-    /// Each field's name and type as a .msg file writes it, in order (as
-    /// rclpy's `get_fields_and_field_types()`).
+    /// Each field's name and type, in order, as rclpy's
+    /// `get_fields_and_field_types()` gives them (`double[9]`,
+    /// `sequence<uint8>`).
     fn get_fields_and_field_types<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let dict = PyDict::new(py);
-        for field in &self.ty.root().fields {
+        for field in self
+            .ty
+            .root()
+            .fields
+            .iter()
+            .filter(|f| convert::shown(&f.name))
+        {
             dict.set_item(&field.name, field_type(&self.ty, field))?;
         }
         Ok(dict)

@@ -14,7 +14,7 @@ def test_a_standard_type_resolves_with_rosidl_s_hash_and_fields():
     assert list(fields) == [
         "header", "height", "width", "encoding", "is_bigendian", "step", "data",
     ]
-    assert fields["data"] == "uint8[]"
+    assert fields["data"] == "sequence<uint8>"
     assert fields["header"] == "std_msgs/Header"
     assert shm_cdr.message_type("sensor_msgs/Image") == image
 

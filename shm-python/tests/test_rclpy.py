@@ -97,3 +97,61 @@ def test_rclpy_s_own_qos_profile_is_taken():
         assert msg is not None and msg.data == "the map"
     finally:
         pub.kill()
+
+
+def rclpy_interfaces(kind):
+    """Every message class (`kind` "msg") or service class ("srv") of the
+    interface packages installed beside rclpy, by `pkg/kind/Name`."""
+    import importlib
+    import pkgutil
+    import sys
+
+    found = {}
+    for module in pkgutil.iter_modules():
+        try:
+            spec = importlib.util.find_spec(f"{module.name}.{kind}")
+        except (ImportError, ValueError):
+            continue
+        if spec is None or not module.name.endswith(("_msgs", "_interfaces")):
+            continue
+        package = importlib.import_module(f"{module.name}.{kind}")
+        for name, cls in vars(package).items():
+            if isinstance(cls, type) and cls.__module__.startswith(f"{module.name}.{kind}."):
+                found[f"{module.name}/{kind}/{name}"] = cls
+    return found
+
+
+def test_fields_and_their_types_are_named_as_rclpy_names_them():
+    compared = 0
+    for name, cls in rclpy_interfaces("msg").items():
+        try:
+            ty = shm_cdr.message_type(name)
+        except LookupError:
+            continue  # not in the standard set built in
+        assert ty.get_fields_and_field_types() == cls.get_fields_and_field_types(), name
+        compared += 1
+    for name, cls in rclpy_interfaces("srv").items():
+        try:
+            srv = shm_cdr.service_type(name)
+        except LookupError:
+            continue
+        assert srv.Request.get_fields_and_field_types() == cls.Request.get_fields_and_field_types(), name
+        assert srv.Response.get_fields_and_field_types() == cls.Response.get_fields_and_field_types(), name
+        compared += 1
+    assert compared > 100, compared
+
+
+def test_an_empty_message_shows_no_member_as_rclpy_shows_none():
+    from rcl_interfaces.msg import ParameterType
+
+    ParameterTypeOurs = shm_cdr.message_type("rcl_interfaces/msg/ParameterType")
+    empty = ParameterTypeOurs()
+    assert repr(empty) == repr(ParameterType()) == "rcl_interfaces.msg.ParameterType()"
+    assert empty.to_dict() == {}
+    # On the wire it keeps rosidl's one placeholder byte, which each reads
+    # from the other (rclpy pads its bytes to a multiple of four).
+    ours = empty.serialize()
+    assert ours == b"\x00\x01\x00\x00\x00"
+    assert rclpy_serialization.deserialize_message(ours, ParameterType) == ParameterType()
+    theirs = rclpy_serialization.serialize_message(ParameterType())
+    assert ParameterTypeOurs.deserialize(theirs) == empty

@@ -285,7 +285,10 @@ fn a_run_time_typed_service_server_is_described_by_its_node() {
     };
     let reply = ask();
     assert!(reply.successful, "{}", reply.failure_reason);
-    assert_eq!(reply.type_description, (&BasicTypes::full_description()).into());
+    assert_eq!(
+        reply.type_description,
+        (&BasicTypes::full_description()).into()
+    );
     drop(server);
     assert!(!ask().successful);
 }

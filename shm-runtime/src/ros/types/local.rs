@@ -11,8 +11,8 @@ use shm_interface::ast::{BaseType, Message, Service};
 use shm_interface::{DescribedField, DescribedFieldBuf, TypeId};
 
 use super::definition;
-use super::ResolvedService;
 use super::standard::{full_name, standard, Kind, ResolvedType};
+use super::ResolvedService;
 use zenoh::Error;
 
 /// The message types of interface packages on disk, by `pkg/msg/Name` (and
@@ -117,7 +117,10 @@ impl LocalInterfaces {
     /// RIHS01 hash as rosidl computes it (over the request, the response
     /// and the event message rosidl derives).
     pub fn resolve_service(&self, name: &str) -> Option<Result<ResolvedService, Error>> {
-        Some(self.resolve_service_type(name)?.and_then(|ty| ResolvedService::of_type(&ty)))
+        Some(
+            self.resolve_service_type(name)?
+                .and_then(|ty| ResolvedService::of_type(&ty)),
+        )
     }
 
     /// [`resolve_service`](Self::resolve_service), the service as one
