@@ -103,16 +103,19 @@ def rclpy_interfaces(kind):
     """Every message class (`kind` "msg") or service class ("srv") of the
     interface packages installed beside rclpy, by `pkg/kind/Name`."""
     import importlib
+    import importlib.util
     import pkgutil
-    import sys
 
     found = {}
     for module in pkgutil.iter_modules():
+        # Interface packages by rosidl's naming, never importing others.
+        if not module.name.endswith(("_msgs", "_interfaces")):
+            continue
         try:
             spec = importlib.util.find_spec(f"{module.name}.{kind}")
         except (ImportError, ValueError):
             continue
-        if spec is None or not module.name.endswith(("_msgs", "_interfaces")):
+        if spec is None:
             continue
         package = importlib.import_module(f"{module.name}.{kind}")
         for name, cls in vars(package).items():
