@@ -13,6 +13,7 @@ mod context;
 mod convert;
 mod errors;
 mod loan;
+mod logging;
 mod message;
 mod node;
 mod parameters;
@@ -30,6 +31,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<loan::PyLoan>()?;
     m.add_class::<loan::LoanMemory>()?;
     m.add_class::<node::PyNode>()?;
+    m.add_class::<logging::PyLogger>()?;
     m.add_class::<node::PyPublisher>()?;
     m.add_class::<node::PySubscription>()?;
     m.add_class::<parameters::PyParameter>()?;

@@ -2,7 +2,7 @@
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
-use std::sync::{Arc, Condvar, Mutex};
+use std::sync::{Arc, Condvar, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -13,13 +13,14 @@ use shm_runtime::graph::Graph;
 use shm_runtime::parameters::ParameterValue;
 use shm_runtime::rmw::{Durability, History, Qos, Reliability};
 use shm_runtime::types::{self, local::LocalInterfaces};
-use shm_runtime::{CallbackSubscriber, RosNode, RosPublisher, RosSubscriber};
+use shm_runtime::{CallbackSubscriber, RosNode, RosPublisher, RosSubscriber, RosoutLayer};
 use zenoh::Wait;
 
 use crate::context::{self, Context};
 use crate::convert;
 use crate::errors::middleware;
 use crate::loan::PyLoan;
+use crate::logging::PyLogger;
 use crate::message::{Payload, PyMessage, Root};
 use crate::parameters::{self, PyParameter, PySetParametersResult};
 use crate::services::{self, PyClient, PyService, PyServiceType};
@@ -133,6 +134,8 @@ fn qos_from(qos: &Bound<'_, PyAny>) -> PyResult<Qos> {
 #[pyclass(name = "Node", module = "shm_cdr._native", frozen)]
 pub(crate) struct PyNode {
     node: Arc<RosNode>,
+    /// Its `/rosout` publisher, made by the first `get_logger`.
+    rosout: OnceLock<Arc<RosoutLayer>>,
     /// Kept for as long as the node: its session and pool.
     _context: Arc<Context>,
 }
@@ -162,6 +165,7 @@ impl PyNode {
             .map_err(middleware)?;
         Ok(Self {
             node: Arc::new(node),
+            rosout: OnceLock::new(),
             _context: context,
         })
     }
@@ -359,6 +363,21 @@ impl PyNode {
             service: resolved,
             described: None,
         })
+    }
+
+    /// The node's logger (`demo.talker` for `/demo/talker`), as rclpy's:
+    /// what it logs goes to stderr and to `/rosout`.
+    fn get_logger(&self, py: Python<'_>) -> PyResult<PyLogger> {
+        let rosout = match self.rosout.get() {
+            Some(rosout) => rosout.clone(),
+            None => {
+                let made = Arc::new(py.detach(|| self.node.rosout_layer()).map_err(middleware)?);
+                // Another thread may have made one meanwhile: keep the first.
+                self.rosout.get_or_init(|| made).clone()
+            }
+        };
+        let name = rosout.logger_name().to_owned();
+        Ok(PyLogger { rosout, name })
     }
 
     /// Declare parameter `name` with its default `value` (the value

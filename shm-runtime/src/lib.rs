@@ -46,7 +46,7 @@ pub use ros::{action, graph, lifecycle, log_levels, names, parameters, service, 
 
 pub use logging::{init_logging, DEFAULT_LOG_FILTER, QUIET_BY_DEFAULT};
 pub use ros::node::{RosNode, RosNodeBuilder};
-pub use ros::rosout::RosoutLayer;
+pub use ros::rosout::{LogSite, RosoutLayer};
 pub use ros::topic_types::TypeConflict;
 pub use transport::config::{ConfigError, PoolSize, ShmConfig};
 pub use transport::encoded::{EncodedPayload, PayloadKind};

@@ -23,6 +23,7 @@ from ._native import (
     Client,
     Loan,
     LoanMemory,
+    Logger,
     Message,
     MessageType,
     Parameter,
@@ -46,6 +47,8 @@ __all__ = [
     "HistoryPolicy",
     "Loan",
     "LoanMemory",
+    "Logger",
+    "LoggingSeverity",
     "Message",
     "MessageType",
     "Node",
@@ -103,6 +106,17 @@ class QoSProfile:
     durability: DurabilityPolicy = DurabilityPolicy.VOLATILE
 
 
+class LoggingSeverity(IntEnum):
+    """Logger levels, numbered as rclpy's ``LoggingSeverity``."""
+
+    UNSET = 0
+    DEBUG = 10
+    INFO = 20
+    WARN = 30
+    ERROR = 40
+    FATAL = 50
+
+
 class Node:
     """A ROS 2 node, as rclpy's ``Node``: ``Node("talker", namespace="/robot",
     cli_args=sys.argv)``, or a subclass of it (``super().__init__("talker")``).
@@ -125,6 +139,12 @@ class Node:
     def get_fully_qualified_name(self):
         """``/namespace/name``."""
         return self._node.get_fully_qualified_name()
+
+    def get_logger(self):
+        """The node's ``Logger`` (``robot.talker`` for ``/robot/talker``), as
+        rclpy's: ``info``, ``warning``, ``error``, … print to stderr and
+        publish on ``/rosout``."""
+        return self._node.get_logger()
 
     def create_publisher(self, msg_type, topic, qos_profile=10):
         """A publisher of ``msg_type`` (a ``MessageType`` or its name) on

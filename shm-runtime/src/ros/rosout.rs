@@ -102,6 +102,55 @@ impl RosoutLayer {
     pub fn dropped(&self) -> u64 {
         self.dropped.load(Ordering::Relaxed)
     }
+
+    /// Publish one record that did not come through `tracing` (a logger of
+    /// another language, such as Python's): `message` at `severity` (an
+    /// `rcl_interfaces/msg/Log` level, `Log::INFO`, …) from the logger
+    /// `name` (this node's logger or one of its children,
+    /// `demo.talker.planner`), logged at `site`, if that logger's effective
+    /// level admits it. Returns whether it did; what the queue had no room
+    /// for is counted in [`dropped`](Self::dropped).
+    pub fn log(&self, name: &str, severity: u8, message: &str, site: LogSite<'_>) -> bool {
+        if !effective_logger_level(name).admits(severity) {
+            return false;
+        }
+        let log = Log {
+            stamp: now_stamp(),
+            level: severity,
+            name: name.to_owned(),
+            msg: message.to_owned(),
+            file: site.file.to_owned(),
+            function: site.function.to_owned(),
+            line: site.line,
+        };
+        if self.sender.try_send(log).is_err() {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        true
+    }
+}
+
+/// Where a record was logged: the file, function and line an
+/// `rcl_interfaces/msg/Log` carries.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LogSite<'a> {
+    /// The source file.
+    pub file: &'a str,
+    /// The function (or module) it was logged from.
+    pub function: &'a str,
+    /// The line in `file`.
+    pub line: u32,
+}
+
+/// The wall clock as a `/rosout` stamp.
+fn now_stamp() -> Time {
+    let now = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .unwrap_or_default();
+    Time {
+        sec: i32::try_from(now.as_secs()).unwrap_or(i32::MAX),
+        nanosec: now.subsec_nanos(),
+    }
 }
 
 /// rcl's logger name of a node: its fully qualified name with `.` for `/`
@@ -160,14 +209,8 @@ impl<S: Subscriber> Layer<S> for RosoutLayer {
         }
         let mut text = Text::default();
         event.record(&mut text);
-        let now = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .unwrap_or_default();
         let log = Log {
-            stamp: Time {
-                sec: i32::try_from(now.as_secs()).unwrap_or(i32::MAX),
-                nanosec: now.subsec_nanos(),
-            },
+            stamp: now_stamp(),
             level,
             name: self.name.clone(),
             msg: text.message + &text.fields,
