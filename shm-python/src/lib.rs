@@ -18,6 +18,7 @@ mod message;
 mod node;
 mod parameters;
 mod services;
+mod timers;
 mod types;
 
 use pyo3::prelude::*;
@@ -32,6 +33,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<loan::LoanMemory>()?;
     m.add_class::<node::PyNode>()?;
     m.add_class::<logging::PyLogger>()?;
+    m.add_class::<timers::PyTimer>()?;
+    m.add_class::<timers::PyClock>()?;
+    m.add_class::<timers::PyTime>()?;
     m.add_class::<node::PyPublisher>()?;
     m.add_class::<node::PySubscription>()?;
     m.add_class::<parameters::PyParameter>()?;

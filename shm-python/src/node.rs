@@ -24,6 +24,7 @@ use crate::logging::PyLogger;
 use crate::message::{Payload, PyMessage, Root};
 use crate::parameters::{self, PyParameter, PySetParametersResult};
 use crate::services::{self, PyClient, PyService, PyServiceType};
+use crate::timers::{PyClock, PyTimer};
 use crate::types::PyMessageType;
 
 /// How often a blocking wait looks for Ctrl-C (`KeyboardInterrupt`).
@@ -136,6 +137,8 @@ pub(crate) struct PyNode {
     node: Arc<RosNode>,
     /// Its `/rosout` publisher, made by the first `get_logger`.
     rosout: OnceLock<Arc<RosoutLayer>>,
+    /// Its timers, kept as rclpy's node keeps them, until `destroy_timer`.
+    timers: Mutex<Vec<Py<PyTimer>>>,
     /// Kept for as long as the node: its session and pool.
     _context: Arc<Context>,
 }
@@ -166,6 +169,7 @@ impl PyNode {
         Ok(Self {
             node: Arc::new(node),
             rosout: OnceLock::new(),
+            timers: Mutex::new(Vec::new()),
             _context: context,
         })
     }
@@ -363,6 +367,46 @@ impl PyNode {
             service: resolved,
             described: None,
         })
+    }
+
+    /// Call `callback()` every `timer_period_sec` seconds of the node's ROS
+    /// time, on a thread of the timer's own, as rclpy's `create_timer`; an
+    /// exception it raises is raised by `shm_cdr.spin()`. The node keeps the
+    /// timer until `destroy_timer`.
+    fn create_timer(
+        &self,
+        py: Python<'_>,
+        timer_period_sec: f64,
+        callback: Py<PyAny>,
+    ) -> PyResult<Py<PyTimer>> {
+        let period = seconds("timer_period_sec", timer_period_sec)?;
+        if period.is_zero() {
+            return Err(PyValueError::new_err(
+                "timer_period_sec: give a period above 0 seconds",
+            ));
+        }
+        let timer = Py::new(py, PyTimer::start(&self.node, period, callback)?)?;
+        self.timers
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push(timer.clone_ref(py));
+        Ok(timer)
+    }
+
+    /// Stop `timer` and let the node forget it; whether the node had it.
+    fn destroy_timer(&self, py: Python<'_>, timer: &Bound<'_, PyTimer>) -> bool {
+        timer.get().stop(py);
+        let mut timers = self.timers.lock().unwrap_or_else(|p| p.into_inner());
+        let before = timers.len();
+        timers.retain(|t| !t.is(timer));
+        timers.len() < before
+    }
+
+    /// The node's clock (ROS time, simulated while the node uses it).
+    fn get_clock(&self) -> PyClock {
+        PyClock {
+            clock: self.node.clock().clone(),
+        }
     }
 
     /// The node's logger (`demo.talker` for `/demo/talker`), as rclpy's:

@@ -38,7 +38,7 @@ impl PyMessageType {
     }
 }
 
-fn by_name(name: &str, interfaces: &[PathBuf]) -> PyResult<DynamicType> {
+pub(crate) fn by_name(name: &str, interfaces: &[PathBuf]) -> PyResult<DynamicType> {
     let distro = Distro::from_env().map_err(|e| PyValueError::new_err(e.to_string()))?;
     let local = LocalInterfaces::load(interfaces).map_err(middleware)?;
     match shm_runtime::types::message_by_name(distro, name, &local) {

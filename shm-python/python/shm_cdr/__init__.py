@@ -21,6 +21,7 @@ from enum import IntEnum
 from . import _native
 from ._native import (
     Client,
+    Clock,
     Loan,
     LoanMemory,
     Logger,
@@ -35,6 +36,8 @@ from ._native import (
     SetParametersResult,
     ShmCdrError,
     Subscription,
+    Time,
+    Timer,
     message_type,
     ok,
     service_type,
@@ -43,6 +46,7 @@ from ._native import (
 
 __all__ = [
     "Client",
+    "Clock",
     "DurabilityPolicy",
     "HistoryPolicy",
     "Loan",
@@ -63,6 +67,8 @@ __all__ = [
     "SetParametersResult",
     "ShmCdrError",
     "Subscription",
+    "Time",
+    "Timer",
     "message_type",
     "ok",
     "service_type",
@@ -139,6 +145,21 @@ class Node:
     def get_fully_qualified_name(self):
         """``/namespace/name``."""
         return self._node.get_fully_qualified_name()
+
+    def create_timer(self, timer_period_sec, callback):
+        """Call ``callback()`` every ``timer_period_sec`` seconds of the
+        node's ROS time, on a thread of the timer's own; the node keeps the
+        ``Timer`` until ``destroy_timer``. Run ``shm_cdr.spin()`` to see the
+        exceptions it raises."""
+        return self._node.create_timer(timer_period_sec, callback)
+
+    def destroy_timer(self, timer):
+        """Stop ``timer``; whether the node had it."""
+        return self._node.destroy_timer(timer)
+
+    def get_clock(self):
+        """The node's ``Clock``: ``get_clock().now().to_msg()`` is a stamp."""
+        return self._node.get_clock()
 
     def get_logger(self):
         """The node's ``Logger`` (``robot.talker`` for ``/robot/talker``), as
