@@ -957,6 +957,26 @@ pub(crate) fn encode_struct<B: ByteOrder, H: Holes>(
     Ok(())
 }
 
+/// The bytes of an array of numbers borrowed from a payload in `order`, as
+/// they are written in that order.
+#[inline]
+fn wire_bytes<'v>(value: &'v Value<'_>, order: Endianness) -> Option<&'v [u8]> {
+    let (bytes, from) = match value {
+        Value::U8s(v) => return Some(v),
+        Value::I8s(v) => return Some(bytemuck::cast_slice(v)),
+        Value::I16s(v) => v.wire()?,
+        Value::U16s(v) => v.wire()?,
+        Value::I32s(v) => v.wire()?,
+        Value::U32s(v) => v.wire()?,
+        Value::I64s(v) => v.wire()?,
+        Value::U64s(v) => v.wire()?,
+        Value::F32s(v) => v.wire()?,
+        Value::F64s(v) => v.wire()?,
+        _ => return None,
+    };
+    (from == order).then_some(bytes)
+}
+
 /// The container of a field as its check states it (single unless many).
 fn check_container(check: Check) -> Container {
     match check {
@@ -989,6 +1009,15 @@ fn write_reads<B: ByteOrder>(
                 else {
                     return false;
                 };
+                // Borrowed from a payload in this byte order (a decoded
+                // message re-encoded): one copy, no writer.
+                if let Some(wire) = wire_bytes(value, B::ENDIANNESS) {
+                    let Some(out) = place.get_mut(..wire.len()) else {
+                        return false;
+                    };
+                    out.copy_from_slice(wire);
+                    continue;
+                }
                 // From the array's own aligned start: no padding.
                 let mut w = Writer::<B>::new(place);
                 let written = match value {
