@@ -139,6 +139,10 @@ pub(crate) struct PyNode {
     rosout: OnceLock<Arc<RosoutLayer>>,
     /// Its timers, kept as rclpy's node keeps them, until `destroy_timer`.
     timers: Mutex<Vec<Py<PyTimer>>>,
+    /// Its callbacks' subscriptions and its services, kept as rclpy's node
+    /// keeps them (they work without a reference of the caller's), until
+    /// `destroy_subscription`, `destroy_service` or `destroy_node`.
+    kept: Mutex<Vec<Py<PyAny>>>,
     /// Kept for as long as the node: its session and pool.
     _context: Arc<Context>,
 }
@@ -170,6 +174,7 @@ impl PyNode {
             node: Arc::new(node),
             rosout: OnceLock::new(),
             timers: Mutex::new(Vec::new()),
+            kept: Mutex::new(Vec::new()),
             _context: context,
         })
     }
@@ -219,12 +224,23 @@ impl PyNode {
         topic: &str,
         callback: Option<Py<PyAny>>,
         qos: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<PySubscription> {
+    ) -> PyResult<Py<PySubscription>> {
         let ty = PyMessageType::resolve(msg_type)?;
         let qos = qos.map(qos_from).transpose()?.unwrap_or_default();
         let builder = self.node.declare_dynamic_subscriber(topic, &ty, qos);
         let receiver = match callback {
-            None => Receiver::Queue(py.detach(|| builder.wait()).map_err(middleware)?),
+            // Read through the caller's reference, so not kept: samples it
+            // no longer reads would hold their shared memory.
+            None => {
+                let queue = py.detach(|| builder.wait()).map_err(middleware)?;
+                return Py::new(
+                    py,
+                    PySubscription {
+                        receiver: Receiver::Queue(queue),
+                        ty,
+                    },
+                );
+            }
             Some(callback) => {
                 let decode_as = ty.clone();
                 let subscriber = py
@@ -249,7 +265,7 @@ impl PyNode {
                 Receiver::Callback(subscriber)
             }
         };
-        Ok(PySubscription { receiver, ty })
+        self.keep(py, PySubscription { receiver, ty })
     }
 
     /// A client of the service `srv_type` (a `ServiceType` or its name) on
@@ -285,7 +301,7 @@ impl PyNode {
         srv_type: &Bound<'_, PyAny>,
         srv_name: &str,
         callback: Py<PyAny>,
-    ) -> PyResult<PyService> {
+    ) -> PyResult<Py<PyService>> {
         let (service, described) = PyServiceType::resolve_described(srv_type)?;
         let for_calls = service.clone();
         let server = py
@@ -303,11 +319,14 @@ impl PyNode {
                     .wait()
             })
             .map_err(middleware)?;
-        Ok(PyService {
-            server,
-            service,
-            described,
-        })
+        self.keep(
+            py,
+            PyService {
+                server,
+                service,
+                described,
+            },
+        )
     }
 
     /// The message type of `topic` as its publishers (else its subscribers)
@@ -472,9 +491,29 @@ impl PyNode {
             .collect())
     }
 
-    /// Nothing to release ahead of the node's own end (its entities end
-    /// when Python frees them): kept for rclpy's API.
-    fn destroy_node(&self) {}
+    /// Let the node forget `subscription` (it ends when Python frees it);
+    /// whether the node had it.
+    fn destroy_subscription(&self, subscription: &Bound<'_, PySubscription>) -> bool {
+        self.forget(subscription.as_any())
+    }
+
+    /// Let the node forget `service` (it ends when Python frees it);
+    /// whether the node had it.
+    fn destroy_service(&self, service: &Bound<'_, PyService>) -> bool {
+        self.forget(service.as_any())
+    }
+
+    /// Stop the node's timers and let it forget its subscriptions and
+    /// services (each ends when Python frees it), as rclpy's
+    /// `destroy_node`.
+    fn destroy_node(&self, py: Python<'_>) {
+        let timers = std::mem::take(&mut *self.timers.lock().unwrap_or_else(|p| p.into_inner()));
+        for timer in &timers {
+            timer.get().stop(py);
+        }
+        let kept = std::mem::take(&mut *self.kept.lock().unwrap_or_else(|p| p.into_inner()));
+        drop((timers, kept));
+    }
 
     fn __repr__(&self) -> String {
         format!("shm_cdr.Node({:?})", self.node.info().fqn())
@@ -491,6 +530,27 @@ pub(crate) struct PyPublisher {
 }
 
 impl PyNode {
+    /// `entity` as Python holds it, kept by the node too.
+    fn keep<T>(&self, py: Python<'_>, entity: T) -> PyResult<Py<T>>
+    where
+        T: pyo3::PyClass + Into<pyo3::PyClassInitializer<T>>,
+    {
+        let entity = Py::new(py, entity)?;
+        self.kept
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push(entity.clone_ref(py).into_any());
+        Ok(entity)
+    }
+
+    /// Let go of a kept entity; whether the node had it.
+    fn forget(&self, entity: &Bound<'_, PyAny>) -> bool {
+        let mut kept = self.kept.lock().unwrap_or_else(|p| p.into_inner());
+        let before = kept.len();
+        kept.retain(|e| !e.is(entity));
+        kept.len() < before
+    }
+
     /// A snapshot of the graph once `ready` holds of it, or once `timeout`
     /// passed; with the time left of `timeout` (at least a little, for a
     /// node's answer).

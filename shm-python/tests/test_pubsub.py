@@ -2,6 +2,7 @@
 memory and the network; and each against our Rust node (shm-ros2)."""
 
 import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -113,7 +114,19 @@ def test_a_callback_s_exception_is_raised_by_spin():
         assert seen[:3] == [0, 1, 2]
     finally:
         pub.kill()
-        del sub
+        assert this_node().destroy_subscription(sub)
+
+
+def test_the_node_keeps_a_callback_s_subscription_until_destroyed():
+    got = []
+    # Not held here: the node keeps it, as rclpy's does.
+    this_node().create_subscription("std_msgs/msg/String", "/kept", lambda m: got.append(m.data))
+    pub = this_node().create_publisher("std_msgs/msg/String", "/kept")
+    deadline = time.monotonic() + 20.0
+    while not got and time.monotonic() < deadline:
+        pub.publish({"data": "still here"})
+        time.sleep(0.05)
+    assert got and got[0] == "still here"
 
 
 def test_our_rust_node_reads_what_python_publishes():

@@ -176,7 +176,9 @@ class Node:
         """A subscription to ``msg_type`` on ``topic``. With a ``callback``,
         each message goes to it on a thread of the node's executor (run
         ``shm_cdr.spin()`` to see the exceptions it raises); without, the
-        subscription is an iterator of messages (or ``recv(timeout)``)."""
+        subscription is an iterator of messages (or ``recv(timeout)``). The
+        node keeps a callback's subscription, as rclpy's does, until
+        ``destroy_subscription``."""
         return self._node.create_subscription(msg_type, topic, callback, qos_profile)
 
     def create_client(self, srv_type, srv_name):
@@ -226,9 +228,18 @@ class Node:
         names to values. One ``SetParametersResult`` per parameter."""
         return self._node.set_parameters(parameters)
 
+    def destroy_subscription(self, subscription):
+        """Let the node forget ``subscription``; whether it had it."""
+        return self._node.destroy_subscription(subscription)
+
+    def destroy_service(self, service):
+        """Let the node forget ``service``; whether it had it."""
+        return self._node.destroy_service(service)
+
     def destroy_node(self):
-        """Kept for rclpy's API: the node's entities end when Python frees
-        them."""
+        """Stop the node's timers and let it forget its subscriptions and
+        services, as rclpy's ``destroy_node``: each ends when Python frees
+        it."""
         self._node.destroy_node()
 
     def __repr__(self):
