@@ -418,27 +418,9 @@ impl RosNode {
         type_hash: &str,
         type_use: Option<TypeUse>,
     ) -> ServiceServerBuilder<'_, crate::Serialized> {
-        let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
-        let (service, invalid) = self.resolve(service, NameKind::Service);
         let qos = Qos::services_default();
-        let service_type = TopicType {
-            name: type_name.into(),
-            hash: type_hash.into(),
-            has_buffer_fields: false,
-        };
-        let token = self.info.topic_token_of(
-            entity_id,
-            EntityKind::ServiceServer,
-            &service,
-            &service_type,
-            &qos,
-        );
-        let key_expr = topic_key_expr_of(
-            self.info.distro,
-            self.info.domain_id,
-            &service,
-            &service_type,
-        );
+        let (key_expr, token, invalid) =
+            self.named_service_endpoint(service, type_name, type_hash, EntityKind::ServiceServer);
         let mut builder = ServiceServerBuilder::with_response_encoding(
             &self.session,
             key_expr,
@@ -451,6 +433,40 @@ impl RosNode {
         builder.shm.inherited = self.shm.clone();
         builder.history = server_history(&qos);
         builder
+    }
+
+    /// The key expression and liveliness token of a service server or
+    /// client (`kind`) on `service` of the type named `type_name` with hash
+    /// `type_hash`, with services' default QoS; and the name's error, if it
+    /// did not resolve.
+    fn named_service_endpoint(
+        &self,
+        service: &str,
+        type_name: &str,
+        type_hash: &str,
+        kind: EntityKind,
+    ) -> (String, String, Option<NameError>) {
+        let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
+        let (service, invalid) = self.resolve(service, NameKind::Service);
+        let service_type = TopicType {
+            name: type_name.into(),
+            hash: type_hash.into(),
+            has_buffer_fields: false,
+        };
+        let token = self.info.topic_token_of(
+            entity_id,
+            kind,
+            &service,
+            &service_type,
+            &Qos::services_default(),
+        );
+        let key_expr = topic_key_expr_of(
+            self.info.distro,
+            self.info.domain_id,
+            &service,
+            &service_type,
+        );
+        (key_expr, token, invalid)
     }
 
     /// A client of service `S` on `service`, with an `SC` liveliness token; its
@@ -486,26 +502,8 @@ impl RosNode {
         type_name: &str,
         type_hash: &str,
     ) -> ServiceClientBuilder<'_, crate::Serialized> {
-        let entity_id = NEXT_ENTITY_ID.fetch_add(1, Ordering::Relaxed) + 1;
-        let (service, invalid) = self.resolve(service, NameKind::Service);
-        let service_type = TopicType {
-            name: type_name.into(),
-            hash: type_hash.into(),
-            has_buffer_fields: false,
-        };
-        let token = self.info.topic_token_of(
-            entity_id,
-            EntityKind::ServiceClient,
-            &service,
-            &service_type,
-            &Qos::services_default(),
-        );
-        let key_expr = topic_key_expr_of(
-            self.info.distro,
-            self.info.domain_id,
-            &service,
-            &service_type,
-        );
+        let (key_expr, token, invalid) =
+            self.named_service_endpoint(service, type_name, type_hash, EntityKind::ServiceClient);
         // The request's own type is not known here: requests carry plain CDR.
         let mut builder = ServiceClientBuilder::with_request_encoding(
             &self.session,
