@@ -7,7 +7,7 @@ import subprocess
 import pytest
 
 import shm_cdr
-from conftest import HUB, session_env, shm_ros2
+from conftest import HUB, run_python, session_env, shm_ros2
 
 
 @pytest.fixture(scope="module")
@@ -62,3 +62,21 @@ def test_a_node_is_subclassed_as_rclpy_s():
     assert talker.get_fully_qualified_name() == "/sub/talker"
     assert talker.count == 3
     assert talker.pub.publish({"data": "hi"}) == "heap"
+
+
+INIT = """
+import shm_cdr
+
+shm_cdr.init(args=["prog", "--ros-args", "-r", "__ns:=/globally", "-p", "rate:=7"])
+node = shm_cdr.Node("first")
+print(node.get_fully_qualified_name(), node.declare_parameter("rate", 1).value)
+own = shm_cdr.Node("second", cli_args=["--ros-args", "-r", "__node:=renamed", "-p", "rate:=9"])
+print(own.get_fully_qualified_name(), own.declare_parameter("rate", 1).value)
+"""
+
+
+def test_init_s_arguments_apply_to_every_node_before_its_own():
+    proc = run_python(INIT, session_env(connect=HUB))
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert out.split("\n")[:2] == ["/globally/first 7", "/globally/renamed 9"], out

@@ -69,6 +69,7 @@ __all__ = [
     "Subscription",
     "Time",
     "Timer",
+    "init",
     "message_type",
     "ok",
     "service_type",
@@ -132,7 +133,11 @@ class Node:
     """
 
     def __init__(self, node_name, *, namespace=None, cli_args=None, args=None):
-        self._node = _native.Node(node_name, namespace, args=cli_args if cli_args is not None else args)
+        own = cli_args if cli_args is not None else args
+        if _init_args is not None:
+            # The process's arguments first, the node's own after (and winning).
+            own = _init_args + list(own or [])
+        self._node = _native.Node(node_name, namespace, args=own)
 
     def get_name(self):
         """The node's name."""
@@ -244,6 +249,21 @@ class Node:
 
     def __repr__(self):
         return f"shm_cdr.Node({self.get_fully_qualified_name()!r})"
+
+
+_init_args = None
+
+
+def init(args=None):
+    """As ``rclpy.init(args=args)``: the ROS arguments of ``args``
+    (``sys.argv`` if ``None``; those after ``--ros-args``: remaps,
+    parameters, log levels) apply to every node made after, before each
+    node's own ``cli_args``. Nodes work without it; called again, it
+    replaces the arguments."""
+    import sys
+
+    global _init_args
+    _init_args = list(sys.argv if args is None else args)
 
 
 def spin(node=None, timeout_sec=None):
