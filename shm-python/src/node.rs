@@ -12,7 +12,7 @@ use shm_cdr::dynamic::{DynamicType, Message};
 use shm_runtime::graph::Graph;
 use shm_runtime::parameters::ParameterValue;
 use shm_runtime::rmw::{Durability, History, Qos, Reliability};
-use shm_runtime::types::{self, local::LocalInterfaces};
+use shm_runtime::types::{self, local::LocalInterfaces, ResolvedService};
 use shm_runtime::{CallbackSubscriber, RosNode, RosPublisher, RosSubscriber, RosoutLayer};
 use zenoh::Wait;
 
@@ -379,12 +379,12 @@ impl PyNode {
             .detach(|| {
                 let (graph, left) =
                     self.graph_with(timeout, |graph| !graph.servers(&service).is_empty())?;
-                types::of_service(&self.node, left, &graph, &service, None)
+                types::service_type_of(&self.node, left, &graph, &service, None)
             })
             .map_err(middleware)?;
         Ok(PyServiceType {
-            service: resolved,
-            described: None,
+            service: ResolvedService::of_type(&resolved).map_err(middleware)?,
+            described: Some(resolved),
         })
     }
 

@@ -242,6 +242,11 @@ def test_services_of_our_own_srv_files(tmp_path):
         served = this_node().get_service_type("/arm/move", timeout_sec=20.0)
         assert served.name == "robot_interfaces/srv/MoveArm"
         assert served.hash == MoveArm.hash
+        # Served again with the type learned: this node describes it in turn.
+        relay = this_node().create_service(served, "/relay/move", lambda req, resp: resp)
+        again = this_node().get_service_type("/relay/move", timeout_sec=20.0)
+        assert again.hash == MoveArm.hash
+        assert this_node().destroy_service(relay)
     finally:
         server.kill()
 

@@ -315,6 +315,19 @@ pub fn of_service(
     service: &str,
     expected: Option<&str>,
 ) -> Result<ResolvedService, Error> {
+    ResolvedService::of_type(&service_type_of(node, timeout, graph, service, expected)?)
+}
+
+/// [`of_service`], the service as one run-time type: its own description
+/// with its request, response and event, as a server of it describes it to
+/// other nodes.
+pub fn service_type_of(
+    node: &RosNode,
+    timeout: Duration,
+    graph: &Graph,
+    service: &str,
+    expected: Option<&str>,
+) -> Result<DynamicType, Error> {
     let servers = graph.servers(service);
     let announced: std::collections::BTreeSet<(String, String)> = servers
         .iter()
@@ -336,11 +349,10 @@ pub fn of_service(
             return Err(format!("service {service} is of type {name}, not {expected}").into());
         }
     }
-    let ty = match standard_type(name, hash) {
+    Ok(match standard_type(name, hash) {
         Some(ty) => ty,
         None => ask(node, timeout, &first.node_fqn(), name, hash)?.0,
-    };
-    ResolvedService::of(&ty, name, hash)
+    })
 }
 
 /// A service type by name alone (`pkg/srv/Name` or `pkg/Name`), as a
