@@ -166,9 +166,16 @@ impl Context {
         )
     }
 
-    /// The graph, once the first answers are in.
+    /// The graph, once the first answers are in; what is known after the
+    /// timeout otherwise, with a word on stderr that it may be incomplete.
     pub(crate) fn graph(&self) -> Graph {
-        self.graph.wait_synced(self.timeout);
+        if !self.graph.wait_synced(self.timeout) {
+            eprintln!(
+                "The ROS graph's first answers did not all arrive within {:?}: what is shown \
+                 may be incomplete. Give it longer with --timeout.",
+                self.timeout
+            );
+        }
         self.graph.snapshot()
     }
 

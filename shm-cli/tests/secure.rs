@@ -188,9 +188,14 @@ impl Deployment {
     /// `shm-ros2 <args>` with the session configuration `config`, as a
     /// user runs it with `ZENOH_SESSION_CONFIG_URI`.
     fn cli(&self, config: &Path, args: &[&str]) -> Command {
+        self.cli_waiting(config, 5, args)
+    }
+
+    /// [`cli`](Self::cli), waiting up to `seconds` for the graph and answers.
+    fn cli_waiting(&self, config: &Path, seconds: u32, args: &[&str]) -> Command {
         let mut command = Command::new(env!("CARGO_BIN_EXE_shm-ros2"));
         command
-            .args(["--domain-id", "0", "--timeout", "5"])
+            .args(["--domain-id", "0", "--timeout", &seconds.to_string()])
             .args(args)
             .env("ZENOH_SESSION_CONFIG_URI", config)
             .env_remove("ZENOH_CONFIG_OVERRIDE")
@@ -279,8 +284,10 @@ fn tools_join_a_router_with_tls_authentication_and_access_control() {
         );
     }
     let config = deployment.client_config(&deployment.tls, "alice", "wonderland");
+    // The graph's first answers come through the router over TLS: on a
+    // loaded machine they may take longer than the other commands' 5 s.
     let (status, out, err) = run_for(
-        deployment.cli(&config, &["node", "list", "-a"]),
+        deployment.cli_waiting(&config, 25, &["node", "list", "-a"]),
         Duration::from_secs(30),
     );
     assert_eq!(status, Some(0), "{err}");
