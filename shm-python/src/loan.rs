@@ -8,13 +8,13 @@ use std::sync::{Mutex, MutexGuard};
 use numpy::PyArrayDescr;
 use pyo3::exceptions::{PyAttributeError, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyString};
 use shm_cdr::dynamic::{DynamicType, Element, InPlaceLayout, Message};
 use shm_cdr::Endianness;
 use shm_runtime::{BufferLoan, LoanedPayload, PayloadKind};
 
 use crate::arrays::{dtype, memory_view};
-use crate::message::{PyMessage, Root};
+use crate::message::{generic_getattr, PyMessage, Root};
 
 /// Where a loan's bytes are.
 enum LoanState {
@@ -279,12 +279,35 @@ fn in_place_fields(ty: &DynamicType) -> Vec<String> {
 
 #[pymethods]
 impl PyLoan {
+    /// The message's fields first, then the loan's own attributes (as
+    /// [`PyMessage`]'s, without an `AttributeError` raised per field read).
+    fn __getattribute__<'py>(
+        slf: &Bound<'py, Self>,
+        name: &Bound<'py, PyString>,
+    ) -> PyResult<Py<PyAny>> {
+        let this = slf.get();
+        let py = slf.py();
+        let key = name.to_str()?;
+        if let Some((_, view)) = this.arrays.iter().find(|(n, _)| n == key) {
+            if this.memory.get().published() {
+                return Err(spent());
+            }
+            return Ok(view.clone_ref(py));
+        }
+        if this.message.get().has_field(key)? {
+            if this.memory.get().published() {
+                return Err(spent());
+            }
+            return Ok(this.message.bind(py).getattr(name)?.unbind());
+        }
+        Ok(generic_getattr(slf.as_any(), name)?.unbind())
+    }
+
+    /// Only after the lookup above failed: the message's error, naming its
+    /// fields.
     fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
         if self.memory.get().published() {
             return Err(spent());
-        }
-        if let Some((_, view)) = self.arrays.iter().find(|(n, _)| n == name) {
-            return Ok(view.clone_ref(py));
         }
         Ok(self.message.bind(py).getattr(name)?.unbind())
     }

@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use pyo3::exceptions::{PyAttributeError, PyTypeError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict, PyList};
+use pyo3::types::{PyBytes, PyDict, PyList, PyString};
 use shm_cdr::dynamic::{DynamicType, Field, Message, MessageRef, Value};
 use shm_runtime::RosSample;
 
@@ -132,6 +132,22 @@ fn set_at(
     let Some((step, rest)) = path.split_first() else {
         return message.set(field, value).map_err(|e| e.to_string());
     };
+    if path.iter().all(|step| matches!(step, Step::Nested(_))) {
+        // Messages nested by value: set in place, none of them copied.
+        let mut names = Vec::with_capacity(path.len() + 1);
+        let mut at = message.as_message_ref();
+        for step in path {
+            let Step::Nested(i) = *step else { break };
+            let Some((name, Field::Message(nested))) = at.fields().nth(i) else {
+                return Err("the message changed under this handle".to_owned());
+            };
+            names.push(name.to_owned());
+            at = nested;
+        }
+        let mut names: Vec<&str> = names.iter().map(String::as_str).collect();
+        names.push(field);
+        return message.set_path(&names, value).map_err(|e| e.to_string());
+    }
     let name_of = |i: usize| {
         message
             .fields()
@@ -221,6 +237,24 @@ pub(crate) fn transfer(
     Ok(into)
 }
 
+/// `obj.name` as for any object, without the object's own
+/// `__getattribute__`: its methods and other attributes.
+pub(crate) fn generic_getattr<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &Bound<'py, PyString>,
+) -> PyResult<Bound<'py, PyAny>> {
+    // SAFETY: both pointers are of live objects, held by the `Bound`s for
+    // the call, with the GIL held (`'py`). `PyObject_GenericGetAttr` returns
+    // a new reference, or NULL with an exception set: what
+    // `from_owned_ptr_or_err` takes over.
+    unsafe {
+        Bound::from_owned_ptr_or_err(
+            obj.py(),
+            pyo3::ffi::PyObject_GenericGetAttr(obj.as_ptr(), name.as_ptr()),
+        )
+    }
+}
+
 /// A ROS 2 message. Its fields are attributes: numbers as `int`, `float`
 /// and `bool`, strings as `str`, arrays of numbers as numpy arrays (views of
 /// the received sample, read-only, where it came from), arrays of strings
@@ -276,28 +310,54 @@ impl PyMessage {
     }
 }
 
-#[pymethods]
 impl PyMessage {
-    fn __getattr__(&self, py: Python<'_>, name: &str) -> PyResult<Py<PyAny>> {
+    /// Whether the message has a field `name`.
+    pub(crate) fn has_field(&self, name: &str) -> PyResult<bool> {
+        self.with(|message, _| Ok(message.fields().any(|(n, _)| n == name)))
+    }
+
+    /// The field `name` as Python reads it; `None` if the message has no
+    /// such field.
+    fn field(&self, py: Python<'_>, name: &str) -> PyResult<Option<Py<PyAny>>> {
         self.with(|message, payload| {
             let Some(index) = message.fields().position(|(n, _)| n == name) else {
-                return Err(no_field(message, name));
+                return Ok(None);
             };
-            match message.get(name) {
-                Some(Field::Message(_)) => {
-                    Ok(Py::new(py, self.child(Step::Nested(index)))?.into_any())
-                }
+            Ok(Some(match message.get(name) {
+                Some(Field::Message(_)) => Py::new(py, self.child(Step::Nested(index)))?.into_any(),
                 Some(Field::Value(Value::Messages(messages))) => {
                     let list = PyList::empty(py);
                     for k in 0..messages.len() {
                         list.append(Py::new(py, self.child(Step::Element(index, k)))?)?;
                     }
-                    Ok(list.into_any().unbind())
+                    list.into_any().unbind()
                 }
-                Some(Field::Value(value)) => Ok(convert::to_py(py, value, payload)?.unbind()),
-                None => Err(no_field(message, name)),
-            }
+                Some(Field::Value(value)) => convert::to_py(py, value, payload)?.unbind(),
+                None => return Ok(None),
+            }))
         })
+    }
+}
+
+#[pymethods]
+impl PyMessage {
+    /// Fields first, as rclpy's messages read them; anything else (the
+    /// methods) as any object's. A field read through `__getattr__` alone
+    /// would first fail the generic lookup, raising and formatting an
+    /// `AttributeError` each time: most of the cost of reading a field.
+    fn __getattribute__<'py>(
+        slf: &Bound<'py, Self>,
+        name: &Bound<'py, PyString>,
+    ) -> PyResult<Py<PyAny>> {
+        if let Some(value) = slf.get().field(slf.py(), name.to_str()?)? {
+            return Ok(value);
+        }
+        Ok(generic_getattr(slf.as_any(), name)?.unbind())
+    }
+
+    /// Only after the lookup above failed: the error names the fields.
+    fn __getattr__(&self, name: &str) -> PyResult<Py<PyAny>> {
+        Err(self.with(|message, _| Ok(no_field(message, name)))?)
     }
 
     fn __setattr__(&self, name: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
@@ -312,14 +372,12 @@ impl PyMessage {
                 .position(|s| s.name == message.type_name())
                 .ok_or_else(|| no_field(message, name))?;
             let field = ty.structs()[parent]
-                .fields
-                .iter()
-                .find(|f| f.name == name)
-                .cloned()
+                .field_index(name)
                 .ok_or_else(|| no_field(message, name))?;
             Ok((ty, parent, field))
         })?;
-        let converted = convert::from_py(value, &ty, parent, &field)?;
+        let field = &ty.structs()[parent].fields[field];
+        let converted = convert::from_py(value, &ty, parent, field)?;
         let mut root = self.lock();
         set_at(&mut root.message, &self.path, name, converted)
             .map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("{name}: {e}")))

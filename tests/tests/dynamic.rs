@@ -820,3 +820,53 @@ fn every_sequence_of_numbers_filled_in_place_gives_the_whole_message() {
     filled_in_place_is_the_whole_message::<sensor_msgs::msg::LaserScan>(8);
     filled_in_place_is_the_whole_message::<sensor_msgs::msg::Image>(8);
 }
+
+#[test]
+fn a_field_set_by_its_path_is_set_in_place_as_the_generated_message_holds_it() {
+    use shm_cdr::msgs::geometry_msgs::PoseWithCovarianceStamped;
+    let ty = dynamic::<PoseWithCovarianceStamped>();
+    let mut ours = ty.default_message();
+    ours.set_path(&["header", "stamp", "nanosec"], Value::U32(17))
+        .unwrap();
+    ours.set_path(&["header", "frame_id"], Value::String("map".into()))
+        .unwrap();
+    ours.set_path(&["pose", "pose", "orientation", "w"], Value::F64(0.5))
+        .unwrap();
+    ours.set_path(&["pose", "covariance"], Value::F64s(vec![2.0; 36].into()))
+        .unwrap();
+    let mut expected = PoseWithCovarianceStamped::default();
+    expected.header.stamp.nanosec = 17;
+    expected.header.frame_id = "map".into();
+    expected.pose.pose.orientation.w = 0.5;
+    expected.pose.covariance = [2.0; 36];
+    assert_eq!(
+        shm_cdr::to_vec(&ours).unwrap(),
+        shm_cdr::to_vec(&expected).unwrap()
+    );
+
+    // Refused, the message left as it was: a wrong kind, a field that is
+    // not there, a step through a number, an empty path, an array too short.
+    let before = ours.clone();
+    for (path, value) in [
+        (&["header", "stamp", "nanosec"][..], Value::I32(1)),
+        (&["header", "stamp", "minutes"][..], Value::U32(1)),
+        (&["header", "stamp", "sec", "x"][..], Value::U32(1)),
+        (&[][..], Value::U32(1)),
+        (
+            &["pose", "covariance"][..],
+            Value::F64s(vec![1.0; 35].into()),
+        ),
+    ] {
+        let error = ours.set_path(path, value).unwrap_err();
+        assert!(!error.to_string().is_empty());
+        assert_eq!(ours, before, "{path:?}");
+    }
+
+    // A step through an array of messages names the array.
+    let cloud = dynamic::<sensor_msgs::PointCloud2>();
+    let mut message = cloud.default_message();
+    let error = message
+        .set_path(&["fields", "name"], Value::String("x".into()))
+        .unwrap_err();
+    assert!(error.to_string().contains("fields"), "{error}");
+}

@@ -612,12 +612,100 @@ impl<'a> Message<'a> {
         Ok(())
     }
 
+    /// Set the field at `path`, the names of messages nested by value and
+    /// then the field's own (`["header", "stamp", "sec"]`), as
+    /// [`set`](Self::set) sets one of this message's: in its place, without
+    /// copying the messages on the way.
+    ///
+    /// ```
+    /// use shm_cdr::dynamic::{DynamicType, Value};
+    /// use shm_cdr::msgs::geometry_msgs::PoseStamped;
+    /// use shm_cdr::RosMessage;
+    ///
+    /// let ty = DynamicType::from_description(&PoseStamped::full_description())?;
+    /// let mut pose = ty.default_message();
+    /// pose.set_path(&["header", "stamp", "sec"], Value::I32(7))?;
+    /// pose.set_path(&["pose", "position", "x"], Value::F64(1.5))?;
+    /// let stamp = pose.message("header").and_then(|h| h.message("stamp"));
+    /// assert_eq!(stamp.and_then(|s| s.value("sec")), Some(&Value::I32(7)));
+    /// assert!(pose.set_path(&["header", "stamp", "sec"], Value::F64(1.0)).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn set_path(&mut self, path: &[&str], value: Value<'a>) -> Result<(), ValueError> {
+        let Some((name, nested)) = path.split_last() else {
+            return Err(ValueError {
+                type_name: self.type_name().to_owned(),
+                field: String::new(),
+                reason: "no field named: give the path's names".into(),
+            });
+        };
+        let structs = &self.ty.inner.structs;
+        let (mut index, mut first) = (self.index, 0);
+        for (depth, step) in nested.iter().enumerate() {
+            let def = &structs[index];
+            let field = def.field_index(step).map(|i| (i, &def.fields[i]));
+            match field {
+                Some((i, f)) if matches!(f.container, Container::Single) => match f.element {
+                    Element::Message(inner) => {
+                        first += self.ty.inner.plans[index]
+                            .offsets
+                            .get(i)
+                            .copied()
+                            .unwrap_or(0);
+                        index = inner;
+                    }
+                    _ => {
+                        return Err(ValueError {
+                            type_name: def.name.clone(),
+                            field: path[..=depth].join("."),
+                            reason: "not a message nested by value".into(),
+                        })
+                    }
+                },
+                Some(_) => {
+                    return Err(ValueError {
+                        type_name: def.name.clone(),
+                        field: path[..=depth].join("."),
+                        reason: "not a message nested by value (an array: set it whole)".into(),
+                    })
+                }
+                None => {
+                    return Err(ValueError {
+                        type_name: def.name.clone(),
+                        field: path[..=depth].join("."),
+                        reason: "no such field".into(),
+                    })
+                }
+            }
+        }
+        let def = &structs[index];
+        let error = |reason: String| ValueError {
+            type_name: def.name.clone(),
+            field: path.join("."),
+            reason,
+        };
+        let i = def
+            .field_index(name)
+            .ok_or_else(|| error("no such field".into()))?;
+        let field = &def.fields[i];
+        check(&self.ty, field.element, field.container, &value).map_err(error)?;
+        self.store_in(index, first, i, value);
+        Ok(())
+    }
+
     /// Put `value`, of field `i`'s kind, in field `i`: a nested message's
     /// values in its place.
     pub(crate) fn store(&mut self, i: usize, value: Value<'a>) {
-        let Some(&at) = self.ty.inner.plans[self.index].offsets.get(i) else {
+        self.store_in(self.index, 0, i, value)
+    }
+
+    /// [`store`](Self::store) into field `i` of the message of struct
+    /// `index` nested by value whose values start at slot `first`.
+    fn store_in(&mut self, index: usize, first: usize, i: usize, value: Value<'a>) {
+        let Some(&at) = self.ty.inner.plans[index].offsets.get(i) else {
             return;
         };
+        let at = first + at;
         match value {
             Value::Message(mut nested) => {
                 let width = nested.slots.len();
