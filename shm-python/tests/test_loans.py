@@ -168,3 +168,20 @@ def test_what_cannot_be_lent_is_named_with_what_to_do():
     assert loan.data.shape == (32,)
     with pytest.raises(AttributeError):
         del loan.data
+
+
+def test_a_loan_reads_its_fields_first_and_its_own_attributes_after_publishing():
+    node = this_node()
+    pub = node.create_publisher("sensor_msgs/msg/PointCloud2", "/loans/attributes")
+    loan = pub.loan(data=8, zeroed=True)
+    loan.header.stamp.sec = 3
+    assert loan.header.stamp.sec == 3 and loan.data.shape == (8,)
+    with pytest.raises(AttributeError, match="has no field 'pixels'"):
+        loan.pixels
+    pub.publish(loan)
+    # The fields are spent; the loan's memory is still there to read.
+    with pytest.raises(RuntimeError, match="published already"):
+        loan.header
+    with pytest.raises(RuntimeError, match="published already"):
+        loan.data
+    assert loan.memory.published

@@ -123,3 +123,28 @@ def test_own_interface_files(tmp_path):
     again = Battery.deserialize(msg.serialize())
     assert again.voltage == 12.5 and again.name == "main"
     np.testing.assert_allclose(again.cells, [3.1, 3.2], rtol=1e-6)
+
+
+def test_attributes_are_fields_first_then_methods_and_misses_name_the_fields():
+    Pose = shm_cdr.message_type("geometry_msgs/msg/PoseStamped")
+    msg = Pose()
+    # Fields, nested fields and methods all read as before.
+    assert msg.pose.position.x == 0.0
+    assert msg.to_dict()["header"]["frame_id"] == ""
+    assert callable(msg.serialize) and msg.type_name == "geometry_msgs/msg/PoseStamped"
+    # A miss is an AttributeError naming the fields, and Python's helpers
+    # that rely on it behave.
+    with pytest.raises(AttributeError, match="has no field 'posture'; its fields are: header, pose"):
+        msg.posture
+    assert not hasattr(msg, "posture")
+    assert getattr(msg.pose, "posture", 5) == 5
+    # Setting a field of a message nested two deep changes the whole, as
+    # its bytes show, and nothing else.
+    msg.header.stamp.nanosec = 17
+    msg.pose.orientation.w = 0.5
+    back = Pose.deserialize(msg.serialize())
+    assert back.header.stamp.nanosec == 17 and back.pose.orientation.w == 0.5
+    assert back.header.stamp.sec == 0 and back.pose.orientation.z == 0.0
+    with pytest.raises(TypeError):
+        msg.header.stamp.nanosec = "x"
+    assert msg.header.stamp.nanosec == 17
