@@ -597,19 +597,7 @@ impl<'a> Message<'a> {
     /// bounds (an array's length, a sequence's or string's bound); nested
     /// messages must be of the field's type.
     pub fn set(&mut self, name: &str, value: Value<'a>) -> Result<(), ValueError> {
-        let def = &self.ty.inner.structs[self.index];
-        let error = |reason: String| ValueError {
-            type_name: def.name.clone(),
-            field: name.to_owned(),
-            reason,
-        };
-        let i = def
-            .field_index(name)
-            .ok_or_else(|| error("no such field".into()))?;
-        let field = &def.fields[i];
-        check(&self.ty, field.element, field.container, &value).map_err(error)?;
-        self.store(i, value);
-        Ok(())
+        self.set_path(&[name], value)
     }
 
     /// Set the field at `path`, the names of messages nested by value and
