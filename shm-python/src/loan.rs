@@ -294,11 +294,11 @@ impl PyLoan {
             }
             return Ok(view.clone_ref(py));
         }
-        if this.message.get().has_field(key)? {
+        if let Some(value) = this.message.get().field(py, key)? {
             if this.memory.get().published() {
                 return Err(spent());
             }
-            return Ok(this.message.bind(py).getattr(name)?.unbind());
+            return Ok(value);
         }
         Ok(generic_getattr(slf.as_any(), name)?.unbind())
     }

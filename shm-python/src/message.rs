@@ -311,29 +311,25 @@ impl PyMessage {
 }
 
 impl PyMessage {
-    /// Whether the message has a field `name`.
-    pub(crate) fn has_field(&self, name: &str) -> PyResult<bool> {
-        self.with(|message, _| Ok(message.fields().any(|(n, _)| n == name)))
-    }
-
     /// The field `name` as Python reads it; `None` if the message has no
     /// such field.
-    fn field(&self, py: Python<'_>, name: &str) -> PyResult<Option<Py<PyAny>>> {
+    pub(crate) fn field(&self, py: Python<'_>, name: &str) -> PyResult<Option<Py<PyAny>>> {
         self.with(|message, payload| {
-            let Some(index) = message.fields().position(|(n, _)| n == name) else {
+            let Some((index, (_, field))) =
+                message.fields().enumerate().find(|(_, (n, _))| *n == name)
+            else {
                 return Ok(None);
             };
-            Ok(Some(match message.get(name) {
-                Some(Field::Message(_)) => Py::new(py, self.child(Step::Nested(index)))?.into_any(),
-                Some(Field::Value(Value::Messages(messages))) => {
+            Ok(Some(match field {
+                Field::Message(_) => Py::new(py, self.child(Step::Nested(index)))?.into_any(),
+                Field::Value(Value::Messages(messages)) => {
                     let list = PyList::empty(py);
                     for k in 0..messages.len() {
                         list.append(Py::new(py, self.child(Step::Element(index, k)))?)?;
                     }
                     list.into_any().unbind()
                 }
-                Some(Field::Value(value)) => convert::to_py(py, value, payload)?.unbind(),
-                None => return Ok(None),
+                Field::Value(value) => convert::to_py(py, value, payload)?.unbind(),
             }))
         })
     }

@@ -683,6 +683,7 @@ impl<'a> Message<'a> {
 
     /// Put `value`, of field `i`'s kind, in field `i`: a nested message's
     /// values in its place.
+    #[cfg(feature = "yaml")]
     pub(crate) fn store(&mut self, i: usize, value: Value<'a>) {
         self.store_in(self.index, 0, i, value)
     }
