@@ -7,7 +7,7 @@ use std::borrow::Cow;
 
 use super::model::DynamicType;
 use super::numbers::Numbers;
-use super::plan::{bools_valid, Entry, Member, RunRead, Step};
+use super::plan::{Entry, Load, Member, RunRead, Step};
 use super::structs::{Check, Element, FieldDef};
 use super::value::{Message, Messages, Slots, Value};
 use crate::decode::{CdrDecode, Reader};
@@ -199,25 +199,39 @@ impl DynamicType {
             *holds = true;
             return self.decode_entries(r, &plan.entries, slots, cut, keep);
         }
-        for step in &plan.steps {
+        self.decode_steps(r, &plan.steps, slots, cut, keep, holds)
+    }
+
+    /// [`decode_struct`](Self::decode_struct) of a contiguous input, by
+    /// its plan's `steps`: inlined where messages are read one after
+    /// another, so that an array of small messages costs no call per
+    /// element.
+    #[inline(always)]
+    fn decode_steps<'de, B: ByteOrder>(
+        &self,
+        r: &mut Reader<'de, B>,
+        steps: &[Step],
+        slots: &mut Vec<Value<'de>>,
+        cut: &mut Vec<(usize, usize)>,
+        keep: usize,
+        holds: &mut bool,
+    ) -> Result<(), DecodeError> {
+        for step in steps {
             match step {
                 Step::Run {
                     align,
                     len,
                     members,
                     checks,
-                    bools,
-                    reads,
+                    loads,
+                    ..
                 } => {
                     let at = r.position();
                     let filled = slots.len();
-                    let read = r
-                        .read_aligned_bytes(*align, *len)
-                        .ok()
-                        .is_some_and(|bytes| {
-                            (!*bools || bools_valid(members, bytes))
-                                && run_values::<B>(bytes, reads, slots)
-                        });
+                    let read = match r.read_aligned_bytes(*align, *len) {
+                        Ok(bytes) => load_run::<B>(bytes, loads, slots),
+                        Err(_) => false,
+                    };
                     if !read {
                         *holds = true;
                         r.rewind(at);
@@ -237,9 +251,32 @@ impl DynamicType {
                     *holds |= matches!(s, Cow::Owned(_));
                     push_with(slots, || Value::String(s))
                 }
-                &Step::Numbers { check, .. } => {
-                    self.decode_check(r, check, None, slots, cut, keep)?;
-                    *holds |= slots.last().is_some_and(|v| !v.holds_nothing());
+                &Step::Numbers {
+                    container,
+                    size,
+                    check,
+                    ..
+                } => {
+                    // Borrowed in bulk, as `Numbers::decode` reads it; an empty
+                    // one (not aligned to) as any other field.
+                    let at = r.position();
+                    let n = read_len(r, container, size)?;
+                    let element = match check {
+                        Check::Many { element, .. } if n > 0 => Some(element),
+                        _ => None,
+                    };
+                    let borrowed = match element {
+                        Some(element) => match r.read_aligned_bytes(size, n.saturating_mul(size)) {
+                            Ok(raw) => array_at::<B>(raw, 0, element, n, slots),
+                            Err(_) => false,
+                        },
+                        None => false,
+                    };
+                    if !borrowed {
+                        r.rewind(at);
+                        self.decode_check(r, check, None, slots, cut, keep)?;
+                        *holds |= slots.last().is_some_and(|v| !v.holds_nothing());
+                    }
                 }
                 &Step::Value { check, element, .. } => {
                     self.decode_check(r, check, Some(element), slots, cut, keep)?;
@@ -255,18 +292,13 @@ impl DynamicType {
                     ..
                 } => {
                     *holds = true;
-                    self.decode_check(
-                        r,
-                        Check::Many {
-                            element: Element::Message(index),
-                            container,
-                            min,
-                        },
-                        None,
-                        slots,
-                        cut,
-                        keep,
-                    )?
+                    let n = read_len(r, container, min)?;
+                    let kept = n.min(keep.saturating_add(1));
+                    let messages = self.decode_messages(r, index, n, kept, keep)?;
+                    if kept < n {
+                        cut.push((slots.len(), n));
+                    }
+                    push_with(slots, || Value::Messages(messages))
                 }
             }
         }
@@ -494,8 +526,17 @@ impl DynamicType {
         let mut slots = Vec::with_capacity(kept.saturating_mul(block).min(1 << 12));
         let mut cut = Vec::new();
         let mut holds = false;
-        for _ in 0..kept {
-            self.decode_struct(r, index, &mut slots, &mut cut, keep, &mut holds)?;
+        match self.inner.plans.get(index) {
+            Some(plan) if r.is_contiguous() => {
+                for _ in 0..kept {
+                    self.decode_steps(r, &plan.steps, &mut slots, &mut cut, keep, &mut holds)?;
+                }
+            }
+            _ => {
+                for _ in 0..kept {
+                    self.decode_struct(r, index, &mut slots, &mut cut, keep, &mut holds)?;
+                }
+            }
         }
         let mut skipped = Vec::new();
         for _ in kept..n {
@@ -572,34 +613,61 @@ pub(crate) fn read_len<B: ByteOrder>(
 
 /// The values of a run of fixed-size fields from its bytes, pushed onto
 /// `slots`; `false` (some pushed) if a value cannot be read from where the
-/// run says it lies: then the run is read again field by field, for the
-/// exact error. Its bools were checked to be 0 or 1.
-#[inline]
-fn run_values<'de, B: ByteOrder>(
+/// run says it lies or a bool is neither 0 nor 1: then the run is read
+/// again field by field, for the exact error.
+#[inline(always)]
+fn load_run<'de, B: ByteOrder>(
     bytes: &'de [u8],
-    reads: &[RunRead],
+    loads: &[Load],
     slots: &mut Vec<Value<'de>>,
 ) -> bool {
-    for read in reads {
-        match *read {
-            RunRead::Singles {
+    macro_rules! number {
+        ($t:ty, $variant:ident, $at:expr) => {{
+            let Some(wire) = bytes
+                .get($at..)
+                .and_then(|rest| rest.first_chunk::<{ std::mem::size_of::<$t>() }>())
+            else {
+                return false;
+            };
+            let number = if B::LITTLE {
+                <$t>::from_le_bytes(*wire)
+            } else {
+                <$t>::from_be_bytes(*wire)
+            };
+            push_with(slots, || Value::$variant(number))
+        }};
+    }
+    for load in loads {
+        match *load {
+            Load::Bool(at) => match bytes.get(at) {
+                Some(&b) if b <= 1 => push_with(slots, || Value::Bool(b != 0)),
+                _ => return false,
+            },
+            Load::U8(at) => number!(u8, U8, at),
+            Load::I8(at) => number!(i8, I8, at),
+            Load::I16(at) => number!(i16, I16, at),
+            Load::U16(at) => number!(u16, U16, at),
+            Load::I32(at) => number!(i32, I32, at),
+            Load::U32(at) => number!(u32, U32, at),
+            Load::I64(at) => number!(i64, I64, at),
+            Load::U64(at) => number!(u64, U64, at),
+            Load::F32(at) => number!(f32, F32, at),
+            Load::F64(at) => number!(f64, F64, at),
+            Load::Singles {
                 element,
                 offset,
                 count,
-                ..
             } => {
                 if !singles_at::<B>(bytes, offset, element, count, slots) {
                     return false;
                 }
             }
-            RunRead::Array {
-                element, offset, n, ..
-            } => {
+            Load::Array { element, offset, n } => {
                 if !array_at::<B>(bytes, offset, element, n, slots) {
                     return false;
                 }
             }
-            RunRead::Placeholder => slots.push(Value::U8(0)),
+            Load::Placeholder => push_with(slots, || Value::U8(0)),
         }
     }
     true
@@ -643,9 +711,9 @@ fn numbers_at(bytes: &[u8], offset: usize, element: Element, count: usize) -> Op
     bytes.get(offset..offset.checked_add(len)?)
 }
 
-/// The `count` numbers (or bools) of kind `element` back to back from
+/// The `count` numbers of kind `element` back to back from
 /// `bytes[offset..]`, one value each pushed onto `slots`; `false` (none
-/// pushed) if they are not all there.
+/// pushed) if they are not all there or not numbers.
 #[inline(always)]
 fn singles_at<B: ByteOrder>(
     bytes: &[u8],
@@ -657,11 +725,11 @@ fn singles_at<B: ByteOrder>(
     let Some(raw) = numbers_at(bytes, offset, element, count) else {
         return false;
     };
-    // Most runs read their singles one at a time (a field, then one of
-    // another kind): a lone value is pushed without the loop's set-up.
     macro_rules! read {
         ($t:ty, $variant:ident) => {{
-            let value = |chunk: &[u8]| {
+            // Extending by an iterator of known length reserves once and
+            // builds each value in the table's memory (see `push_with`).
+            slots.extend(raw.chunks_exact(std::mem::size_of::<$t>()).map(|chunk| {
                 let mut wire = [0u8; std::mem::size_of::<$t>()];
                 wire.copy_from_slice(chunk);
                 Value::$variant(if B::LITTLE {
@@ -669,23 +737,13 @@ fn singles_at<B: ByteOrder>(
                 } else {
                     <$t>::from_be_bytes(wire)
                 })
-            };
-            if count == 1 {
-                push_with(slots, || value(raw))
-            } else {
-                slots.extend(raw.chunks_exact(std::mem::size_of::<$t>()).map(value))
-            }
+            }))
         }};
     }
     match element {
-        Element::Bool => match raw {
-            &[b] => push_with(slots, || Value::Bool(b != 0)),
-            _ => slots.extend(raw.iter().map(|&b| Value::Bool(b != 0))),
-        },
-        Element::Byte | Element::Char | Element::U8 => match raw {
-            &[b] => push_with(slots, || Value::U8(b)),
-            _ => slots.extend(raw.iter().map(|&b| Value::U8(b))),
-        },
+        Element::Byte | Element::Char | Element::U8 => {
+            slots.extend(raw.iter().map(|&b| Value::U8(b)))
+        }
         Element::I8 => read!(i8, I8),
         Element::I16 => read!(i16, I16),
         Element::U16 => read!(u16, U16),
@@ -695,7 +753,9 @@ fn singles_at<B: ByteOrder>(
         Element::U64 => read!(u64, U64),
         Element::F32 => read!(f32, F32),
         Element::F64 => read!(f64, F64),
-        Element::String(_) | Element::WString(_) | Element::Message(_) => return false,
+        Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_) => {
+            return false
+        }
     }
     true
 }
@@ -703,7 +763,7 @@ fn singles_at<B: ByteOrder>(
 /// The array of `n` numbers of kind `element` at `bytes[offset..]`,
 /// borrowed, pushed onto `slots`; `false` (nothing pushed) if it is not all
 /// there or not of numbers.
-#[inline]
+#[inline(always)]
 fn array_at<'de, B: ByteOrder>(
     bytes: &'de [u8],
     offset: usize,
@@ -737,6 +797,7 @@ fn array_at<'de, B: ByteOrder>(
     true
 }
 
+#[inline(always)]
 pub(crate) fn decode_string<'de, B: ByteOrder>(
     r: &mut Reader<'de, B>,
     bound: Option<usize>,

@@ -39,9 +39,12 @@ pub(crate) enum Step {
         checks: Box<[Check]>,
         /// Whether a member is a bool, whose byte must be 0 or 1.
         bools: bool,
-        /// The members as `decode` reads them: consecutive single values of
-        /// one kind folded into one read.
+        /// The members as `encode` writes them: consecutive single values
+        /// of one kind folded into one loop.
         reads: Box<[RunRead]>,
+        /// The members as `decode` reads them: one load per value, its kind
+        /// in the load's own tag.
+        loads: Box<[Load]>,
     },
     /// A string.
     String { slot: usize, bound: Option<usize> },
@@ -86,7 +89,112 @@ pub(crate) struct Member {
     pub(crate) placeholder: bool,
 }
 
-/// How `decode` reads the members of a [`Step::Run`], in slot order.
+/// Up to this many single numbers of one kind back to back are loaded one
+/// by one: a loop's set-up costs more than a few dispatches.
+const SINGLE_LOADS: usize = 4;
+
+/// How `decode` reads one member of a [`Step::Run`] from the run's bytes:
+/// a single value's kind is the load's tag, so each value costs one
+/// dispatch; offsets count from the run's aligned start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Load {
+    /// A bool, whose byte must be 0 or 1.
+    Bool(usize),
+    /// A `byte`, `char` or `uint8`.
+    U8(usize),
+    I8(usize),
+    I16(usize),
+    U16(usize),
+    I32(usize),
+    U32(usize),
+    I64(usize),
+    U64(usize),
+    F32(usize),
+    F64(usize),
+    /// `count` (more than [`SINGLE_LOADS`]) single numbers of kind
+    /// `element` back to back
+    /// from `offset`, one value each: read in one loop.
+    Singles {
+        element: Element,
+        offset: usize,
+        count: usize,
+    },
+    /// An array of `n` numbers of kind `element`, borrowed.
+    Array {
+        element: Element,
+        offset: usize,
+        n: usize,
+    },
+    /// rosidl's placeholder member of an empty message: reads as 0.
+    Placeholder,
+}
+
+impl Load {
+    /// The members of a run as loads, in slot order: more than
+    /// [`SINGLE_LOADS`] single numbers of one kind back to back are one
+    /// load, as [`RunRead::of`] folds them; bools are one load each, each
+    /// checked.
+    fn of(members: &[Member]) -> Box<[Load]> {
+        let mut loads = Vec::with_capacity(members.len());
+        for read in RunRead::of(members).iter() {
+            match *read {
+                RunRead::Singles {
+                    element,
+                    offset,
+                    count,
+                    ..
+                } if count > SINGLE_LOADS && element != Element::Bool => {
+                    loads.push(Load::Singles {
+                        element,
+                        offset,
+                        count,
+                    })
+                }
+                RunRead::Singles {
+                    element,
+                    offset,
+                    count,
+                    ..
+                } => {
+                    let size = element.fixed_size().unwrap_or(1);
+                    loads.extend((0..count).map(|i| Load::single(element, offset + i * size)));
+                }
+                RunRead::Array {
+                    element, offset, n, ..
+                } => loads.push(Load::Array { element, offset, n }),
+                RunRead::Placeholder => loads.push(Load::Placeholder),
+            }
+        }
+        loads.into()
+    }
+
+    /// One single value of kind `element` at `at`.
+    fn single(element: Element, at: usize) -> Load {
+        match element {
+            Element::Bool => Load::Bool(at),
+            Element::Byte | Element::Char | Element::U8 => Load::U8(at),
+            Element::I8 => Load::I8(at),
+            Element::I16 => Load::I16(at),
+            Element::U16 => Load::U16(at),
+            Element::I32 => Load::I32(at),
+            Element::U32 => Load::U32(at),
+            Element::I64 => Load::I64(at),
+            Element::U64 => Load::U64(at),
+            Element::F32 => Load::F32(at),
+            Element::F64 => Load::F64(at),
+            // Never a member of a run (`steps` puts only numbers, bools and
+            // arrays of numbers in one): a load that cannot be read sends
+            // the run field by field.
+            Element::String(_) | Element::WString(_) | Element::Message(_) => Load::Singles {
+                element,
+                offset: at,
+                count: 1,
+            },
+        }
+    }
+}
+
+/// How `encode` writes the members of a [`Step::Run`], in slot order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum RunRead {
     /// `count` single numbers or bools of kind `element`, back to back from
@@ -183,6 +291,7 @@ impl OpenRun {
             len: self.len,
             bools: self.members.iter().any(|m| m.bool),
             reads: RunRead::of(&self.members),
+            loads: Load::of(&self.members),
             members: self.members.into(),
             checks: self.checks.into(),
         }
