@@ -7,7 +7,7 @@ use std::borrow::Cow;
 
 use super::model::DynamicType;
 use super::numbers::Numbers;
-use super::plan::{Entry, Load, Member, RunRead, Step};
+use super::plan::{Entry, Load, Member, Step};
 use super::structs::{Check, Element, FieldDef};
 use super::value::{Message, Messages, Slots, Value};
 use crate::decode::{CdrDecode, Reader};
@@ -941,12 +941,14 @@ pub(crate) fn encode_struct<B: ByteOrder, H: Holes>(
             Step::Run {
                 align,
                 len,
+                first: run_first,
                 ref members,
-                ref reads,
+                ref loads,
                 ..
             } => {
                 let run = w.aligned_slot(align, len)?;
-                if !write_reads::<B>(run, reads, slots, first) {
+                let values = slots.get(first + run_first..).unwrap_or_default();
+                if !store_run::<B>(run, loads, values) {
                     for m in members.iter() {
                         if let Some(value) = at(m.slot) {
                             write_member::<B>(run, m, value)?;
@@ -1046,112 +1048,157 @@ fn check_container(check: Check) -> Container {
     }
 }
 
-/// Write a run's values into its zeroed bytes `run` as its `reads` lay
-/// them out: the single values of one kind in one loop, an array in bulk.
-/// `false` if a value is missing or not of its field's kind (which
-/// `Message::set` rules out): then the run is written member by member.
+/// Write a run's values, its slots' from the first on, into its zeroed
+/// bytes `run` as its `loads` lay them out: a store per single value, an
+/// array in bulk. `false` if a value is missing or not of its field's kind
+/// (which `Message::set` rules out): then the run is written member by
+/// member.
 #[inline]
-fn write_reads<B: ByteOrder>(
-    run: &mut [u8],
-    reads: &[RunRead],
-    slots: &[Value<'_>],
-    first: usize,
-) -> bool {
-    for read in reads {
-        let (slot, element, offset, count) = match *read {
-            RunRead::Singles {
-                slot,
+fn store_run<B: ByteOrder>(run: &mut [u8], loads: &[Load], values: &[Value<'_>]) -> bool {
+    let mut values = values.iter();
+    macro_rules! number {
+        ($t:ty, $variant:ident, $at:expr) => {{
+            let (Some(Value::$variant(v)), Some(out)) = (
+                values.next(),
+                run.get_mut($at..)
+                    .and_then(|rest| rest.first_chunk_mut::<{ std::mem::size_of::<$t>() }>()),
+            ) else {
+                return false;
+            };
+            *out = if B::LITTLE {
+                v.to_le_bytes()
+            } else {
+                v.to_be_bytes()
+            };
+        }};
+    }
+    for load in loads {
+        match *load {
+            Load::Bool(at) => {
+                let (Some(Value::Bool(v)), Some(out)) = (values.next(), run.get_mut(at)) else {
+                    return false;
+                };
+                *out = u8::from(*v);
+            }
+            Load::U8(at) => number!(u8, U8, at),
+            Load::I8(at) => number!(i8, I8, at),
+            Load::I16(at) => number!(i16, I16, at),
+            Load::U16(at) => number!(u16, U16, at),
+            Load::I32(at) => number!(i32, I32, at),
+            Load::U32(at) => number!(u32, U32, at),
+            Load::I64(at) => number!(i64, I64, at),
+            Load::U64(at) => number!(u64, U64, at),
+            Load::F32(at) => number!(f32, F32, at),
+            Load::F64(at) => number!(f64, F64, at),
+            Load::Singles {
                 element,
                 offset,
                 count,
-            } => (slot, element, offset, count),
-            RunRead::Array { slot, offset, .. } => {
-                let (Some(value), Some(place)) = (slots.get(first + slot), run.get_mut(offset..))
-                else {
+            } => {
+                let taken = values.as_slice().get(..count);
+                let Some(taken) = taken else {
                     return false;
                 };
-                // Borrowed from a payload in this byte order (a decoded
-                // message re-encoded): one copy, no writer.
-                if let Some(wire) = wire_bytes(value, B::ENDIANNESS) {
-                    let Some(out) = place.get_mut(..wire.len()) else {
-                        return false;
-                    };
-                    out.copy_from_slice(wire);
-                    continue;
-                }
-                // From the array's own aligned start: no padding.
-                let mut w = Writer::<B>::new(place);
-                let written = match value {
-                    Value::U8s(v) => u8::encode_slice(v, &mut w),
-                    Value::I8s(v) => i8::encode_slice(v, &mut w),
-                    Value::I16s(v) => v.encode(&mut w),
-                    Value::U16s(v) => v.encode(&mut w),
-                    Value::I32s(v) => v.encode(&mut w),
-                    Value::U32s(v) => v.encode(&mut w),
-                    Value::I64s(v) => v.encode(&mut w),
-                    Value::U64s(v) => v.encode(&mut w),
-                    Value::F32s(v) => v.encode(&mut w),
-                    Value::F64s(v) => v.encode(&mut w),
-                    _ => return false,
-                };
-                if written.is_err() {
+                if !store_singles::<B>(run, element, offset, taken) {
                     return false;
                 }
-                continue;
+                values = values.as_slice().get(count..).unwrap_or_default().iter();
+            }
+            Load::Array { offset, .. } => {
+                let (Some(value), Some(place)) = (values.next(), run.get_mut(offset..)) else {
+                    return false;
+                };
+                if !store_array::<B>(place, value) {
+                    return false;
+                }
             }
             // Its byte is the run's zero.
-            RunRead::Placeholder => continue,
-        };
-        let Some(size) = element.fixed_size() else {
-            return false;
-        };
-        let values = slots
-            .get(first + slot..)
-            .and_then(|values| values.get(..count));
-        let out = count
-            .checked_mul(size)
-            .and_then(|len| run.get_mut(offset..offset.checked_add(len)?));
-        let (Some(values), Some(out)) = (values, out) else {
-            return false;
-        };
-        macro_rules! put {
-            ($t:ty, $variant:ident) => {
-                // The element's size as a constant: each copy is a store.
-                for (place, value) in out.chunks_exact_mut(std::mem::size_of::<$t>()).zip(values) {
-                    let Value::$variant(v) = value else {
-                        return false;
-                    };
-                    place.copy_from_slice(&if B::LITTLE {
-                        v.to_le_bytes()
-                    } else {
-                        v.to_be_bytes()
-                    });
-                }
-            };
-        }
-        match element {
-            Element::Bool => {
-                for (place, value) in out.iter_mut().zip(values) {
-                    let Value::Bool(v) = value else {
-                        return false;
-                    };
-                    *place = u8::from(*v);
-                }
+            Load::Placeholder => {
+                values.next();
             }
-            Element::Byte | Element::Char | Element::U8 => put!(u8, U8),
-            Element::I8 => put!(i8, I8),
-            Element::I16 => put!(i16, I16),
-            Element::U16 => put!(u16, U16),
-            Element::I32 => put!(i32, I32),
-            Element::U32 => put!(u32, U32),
-            Element::I64 => put!(i64, I64),
-            Element::U64 => put!(u64, U64),
-            Element::F32 => put!(f32, F32),
-            Element::F64 => put!(f64, F64),
-            Element::String(_) | Element::WString(_) | Element::Message(_) => return false,
         }
     }
     true
+}
+
+/// Write single numbers of kind `element` back to back from
+/// `run[offset..]`; `false` if one is not of that kind or does not fit.
+#[inline]
+fn store_singles<B: ByteOrder>(
+    run: &mut [u8],
+    element: Element,
+    offset: usize,
+    values: &[Value<'_>],
+) -> bool {
+    let Some(out) = element
+        .fixed_size()
+        .and_then(|size| size.checked_mul(values.len()))
+        .and_then(|len| run.get_mut(offset..offset.checked_add(len)?))
+    else {
+        return false;
+    };
+    macro_rules! put {
+        ($t:ty, $variant:ident) => {
+            // The element's size as a constant: each copy is a store.
+            for (place, value) in out.chunks_exact_mut(std::mem::size_of::<$t>()).zip(values) {
+                let Value::$variant(v) = value else {
+                    return false;
+                };
+                place.copy_from_slice(&if B::LITTLE {
+                    v.to_le_bytes()
+                } else {
+                    v.to_be_bytes()
+                });
+            }
+        };
+    }
+    match element {
+        Element::Byte | Element::Char | Element::U8 => put!(u8, U8),
+        Element::I8 => put!(i8, I8),
+        Element::I16 => put!(i16, I16),
+        Element::U16 => put!(u16, U16),
+        Element::I32 => put!(i32, I32),
+        Element::U32 => put!(u32, U32),
+        Element::I64 => put!(i64, I64),
+        Element::U64 => put!(u64, U64),
+        Element::F32 => put!(f32, F32),
+        Element::F64 => put!(f64, F64),
+        Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_) => {
+            return false
+        }
+    }
+    true
+}
+
+/// Write an array of numbers from the start of `place` (its own aligned
+/// start: no padding); `false` if it is not an array of numbers or does
+/// not fit.
+#[inline]
+fn store_array<B: ByteOrder>(place: &mut [u8], value: &Value<'_>) -> bool {
+    // Borrowed from a payload in this byte order (a decoded message
+    // re-encoded): one copy, no writer.
+    if let Some(wire) = wire_bytes(value, B::ENDIANNESS) {
+        let Some(out) = place.get_mut(..wire.len()) else {
+            return false;
+        };
+        out.copy_from_slice(wire);
+        return true;
+    }
+    let mut w = Writer::<B>::new(place);
+    let written = match value {
+        Value::U8s(v) => u8::encode_slice(v, &mut w),
+        Value::I8s(v) => i8::encode_slice(v, &mut w),
+        Value::I16s(v) => v.encode(&mut w),
+        Value::U16s(v) => v.encode(&mut w),
+        Value::I32s(v) => v.encode(&mut w),
+        Value::U32s(v) => v.encode(&mut w),
+        Value::I64s(v) => v.encode(&mut w),
+        Value::U64s(v) => v.encode(&mut w),
+        Value::F32s(v) => v.encode(&mut w),
+        Value::F64s(v) => v.encode(&mut w),
+        _ => return false,
+    };
+    written.is_ok()
 }
 
 /// Write a member of a run into the run's zeroed bytes `run`, where the

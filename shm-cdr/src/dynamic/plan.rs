@@ -39,11 +39,9 @@ pub(crate) enum Step {
         checks: Box<[Check]>,
         /// Whether a member is a bool, whose byte must be 0 or 1.
         bools: bool,
-        /// The members as `encode` writes them: consecutive single values
-        /// of one kind folded into one loop.
-        reads: Box<[RunRead]>,
-        /// The members as `decode` reads them: one load per value, its kind
-        /// in the load's own tag.
+        /// The slot of its first member; the others follow, one each.
+        first: usize,
+        /// The members as `decode` reads them and `encode` writes them.
         loads: Box<[Load]>,
     },
     /// A string.
@@ -93,9 +91,11 @@ pub(crate) struct Member {
 /// by one: a loop's set-up costs more than a few dispatches.
 const SINGLE_LOADS: usize = 4;
 
-/// How `decode` reads one member of a [`Step::Run`] from the run's bytes:
-/// a single value's kind is the load's tag, so each value costs one
-/// dispatch; offsets count from the run's aligned start.
+/// How `decode` reads, and `encode` writes, one member of a [`Step::Run`]
+/// in its bytes: a single value's kind is the load's tag, so each value
+/// costs one dispatch. Offsets count from the run's aligned start; the
+/// loads of a run take its slots in order, one each (`count` for
+/// [`Load::Singles`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Load {
     /// A bool, whose byte must be 0 or 1.
@@ -112,8 +112,7 @@ pub(crate) enum Load {
     F32(usize),
     F64(usize),
     /// `count` (more than [`SINGLE_LOADS`]) single numbers of kind
-    /// `element` back to back
-    /// from `offset`, one value each: read in one loop.
+    /// `element` back to back from `offset`: read in one loop.
     Singles {
         element: Element,
         offset: usize,
@@ -125,46 +124,70 @@ pub(crate) enum Load {
         offset: usize,
         n: usize,
     },
-    /// rosidl's placeholder member of an empty message: reads as 0.
+    /// rosidl's placeholder member of an empty message: reads as 0, and is
+    /// written as 0.
     Placeholder,
 }
 
 impl Load {
     /// The members of a run as loads, in slot order: more than
-    /// [`SINGLE_LOADS`] single numbers of one kind back to back are one
-    /// load, as [`RunRead::of`] folds them; bools are one load each, each
-    /// checked.
+    /// [`SINGLE_LOADS`] single numbers of one kind, each starting where
+    /// the one before ends, are one load.
     fn of(members: &[Member]) -> Box<[Load]> {
         let mut loads = Vec::with_capacity(members.len());
-        for read in RunRead::of(members).iter() {
-            match *read {
-                RunRead::Singles {
+        // The single numbers of one kind gathered: kind, offset, count.
+        let mut open: Option<(Element, usize, usize)> = None;
+        let close = |loads: &mut Vec<Load>, open: Option<(Element, usize, usize)>| {
+            let Some((element, offset, count)) = open else {
+                return;
+            };
+            let size = element.fixed_size().unwrap_or(1);
+            if count > SINGLE_LOADS {
+                loads.push(Load::Singles {
                     element,
                     offset,
                     count,
-                    ..
-                } if count > SINGLE_LOADS && element != Element::Bool => {
-                    loads.push(Load::Singles {
-                        element,
-                        offset,
-                        count,
-                    })
+                });
+            } else {
+                loads.extend((0..count).map(|i| Load::single(element, offset + i * size)));
+            }
+        };
+        for m in members {
+            match m.container {
+                _ if m.placeholder => {
+                    close(&mut loads, open.take());
+                    loads.push(Load::Placeholder);
                 }
-                RunRead::Singles {
-                    element,
-                    offset,
-                    count,
-                    ..
-                } => {
-                    let size = element.fixed_size().unwrap_or(1);
-                    loads.extend((0..count).map(|i| Load::single(element, offset + i * size)));
+                Container::Array(n) => {
+                    close(&mut loads, open.take());
+                    loads.push(Load::Array {
+                        element: m.element,
+                        offset: m.offset,
+                        n,
+                    });
                 }
-                RunRead::Array {
-                    element, offset, n, ..
-                } => loads.push(Load::Array { element, offset, n }),
-                RunRead::Placeholder => loads.push(Load::Placeholder),
+                _ => {
+                    if let Some((element, offset, count)) = open.as_mut() {
+                        let end = m
+                            .element
+                            .fixed_size()
+                            .and_then(|size| size.checked_mul(*count))
+                            .and_then(|len| offset.checked_add(len));
+                        // Bools are checked one by one.
+                        if *element == m.element
+                            && m.element != Element::Bool
+                            && end == Some(m.offset)
+                        {
+                            *count += 1;
+                            continue;
+                        }
+                    }
+                    close(&mut loads, open.take());
+                    open = Some((m.element, m.offset, 1));
+                }
             }
         }
+        close(&mut loads, open);
         loads.into()
     }
 
@@ -183,8 +206,8 @@ impl Load {
             Element::F32 => Load::F32(at),
             Element::F64 => Load::F64(at),
             // Never a member of a run (`steps` puts only numbers, bools and
-            // arrays of numbers in one): a load that cannot be read sends
-            // the run field by field.
+            // arrays of numbers in one): a load that cannot be read or
+            // written sends the run field by field.
             Element::String(_) | Element::WString(_) | Element::Message(_) => Load::Singles {
                 element,
                 offset: at,
@@ -192,79 +215,13 @@ impl Load {
             },
         }
     }
-}
 
-/// How `encode` writes the members of a [`Step::Run`], in slot order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum RunRead {
-    /// `count` single numbers or bools of kind `element`, back to back from
-    /// `offset`: one value each, in the slots from `slot` on.
-    Singles {
-        slot: usize,
-        element: Element,
-        offset: usize,
-        count: usize,
-    },
-    /// An array of `n` numbers of kind `element` at `offset`: one value, in
-    /// `slot`.
-    Array {
-        slot: usize,
-        element: Element,
-        offset: usize,
-        n: usize,
-    },
-    /// rosidl's placeholder member of an empty message: reads as 0, and is
-    /// written as 0.
-    Placeholder,
-}
-
-impl RunRead {
-    /// The members of a run as reads: a single value whose kind is the
-    /// previous one's and which starts where that one ends joins it.
-    fn of(members: &[Member]) -> Box<[RunRead]> {
-        let mut reads: Vec<RunRead> = Vec::with_capacity(members.len());
-        for m in members {
-            let read = match m.container {
-                _ if m.placeholder => RunRead::Placeholder,
-                Container::Array(n) => RunRead::Array {
-                    slot: m.slot,
-                    element: m.element,
-                    offset: m.offset,
-                    n,
-                },
-                _ => {
-                    if let Some(RunRead::Singles {
-                        slot,
-                        element,
-                        offset,
-                        count,
-                    }) = reads.last_mut()
-                    {
-                        let end = m
-                            .element
-                            .fixed_size()
-                            .and_then(|size| size.checked_mul(*count))
-                            .and_then(|len| offset.checked_add(len));
-                        // A run's members take consecutive slots.
-                        if *element == m.element
-                            && end == Some(m.offset)
-                            && slot.checked_add(*count) == Some(m.slot)
-                        {
-                            *count += 1;
-                            continue;
-                        }
-                    }
-                    RunRead::Singles {
-                        slot: m.slot,
-                        element: m.element,
-                        offset: m.offset,
-                        count: 1,
-                    }
-                }
-            };
-            reads.push(read);
+    /// How many slots the load takes.
+    pub(crate) fn slots(&self) -> usize {
+        match *self {
+            Load::Singles { count, .. } => count,
+            _ => 1,
         }
-        reads.into()
     }
 }
 
@@ -286,12 +243,20 @@ struct OpenRun {
 
 impl OpenRun {
     fn close(self) -> Step {
+        let loads = Load::of(&self.members);
+        // Fields take one slot each in field order, and a run is of fields
+        // next to each other: its loads take its slots in order.
+        debug_assert!(self.members.windows(2).all(|w| w[0].slot + 1 == w[1].slot));
+        debug_assert_eq!(
+            loads.iter().map(Load::slots).sum::<usize>(),
+            self.members.len()
+        );
         Step::Run {
             align: self.align,
             len: self.len,
             bools: self.members.iter().any(|m| m.bool),
-            reads: RunRead::of(&self.members),
-            loads: Load::of(&self.members),
+            first: self.members.first().map_or(0, |m| m.slot),
+            loads,
             members: self.members.into(),
             checks: self.checks.into(),
         }
@@ -502,65 +467,75 @@ fn steps(fields: &[Entry]) -> Vec<Step> {
 
 #[cfg(all(test, feature = "sensor_msgs"))]
 mod tests {
-    use super::{RunRead, Step};
+    use super::{Load, Step};
     use crate::dynamic::{DynamicType, Element};
+    use crate::msgs::geometry_msgs::msg::Pose;
     use crate::msgs::sensor_msgs::msg::Imu;
     use crate::RosMessage;
 
-    /// An Imu's orientation, velocities and their covariances are one run;
-    /// `decode` reads it as three runs of single numbers and three arrays,
-    /// not as fifteen values one by one.
-    #[test]
-    fn single_numbers_of_one_kind_back_to_back_are_read_at_once() {
-        let ty = DynamicType::from_description(&Imu::full_description()).unwrap();
-        let runs: Vec<&[RunRead]> = ty.inner.plans[0]
+    /// Each run of a message's plan: its first slot and its loads.
+    fn runs(ty: &DynamicType) -> Vec<(usize, Vec<Load>)> {
+        ty.inner.plans[0]
             .steps
             .iter()
             .filter_map(|step| match step {
-                Step::Run { reads, .. } => Some(&reads[..]),
+                Step::Run { first, loads, .. } => Some((*first, loads.to_vec())),
                 _ => None,
             })
-            .collect();
-        let singles = |slot, offset, count| RunRead::Singles {
-            slot,
-            element: Element::F64,
-            offset,
-            count,
-        };
-        let covariance = |slot, offset| RunRead::Array {
-            slot,
+            .collect()
+    }
+
+    /// An Imu's orientation, velocities and their covariances are one run
+    /// of single loads and three arrays each read at once; the stamp is a
+    /// run of its own (the frame_id, slot 2, lies between).
+    #[test]
+    fn a_run_loads_each_value_by_its_kind_and_each_array_at_once() {
+        let ty = DynamicType::from_description(&Imu::full_description()).unwrap();
+        let covariance = |offset| Load::Array {
             element: Element::F64,
             offset,
             n: 9,
         };
-        // The stamp's seconds and nanoseconds differ in kind: two reads.
         assert_eq!(
-            runs,
+            runs(&ty),
             [
-                &[
-                    RunRead::Singles {
-                        slot: 0,
-                        element: Element::I32,
-                        offset: 0,
-                        count: 1
-                    },
-                    RunRead::Singles {
-                        slot: 1,
-                        element: Element::U32,
-                        offset: 4,
-                        count: 1
-                    },
-                ][..],
-                // Slot 2 is the frame_id.
-                &[
-                    singles(3, 0, 4),
-                    covariance(7, 32),
-                    singles(8, 104, 3),
-                    covariance(11, 128),
-                    singles(12, 200, 3),
-                    covariance(15, 224),
-                ][..],
+                (0, vec![Load::I32(0), Load::U32(4)]),
+                (
+                    3,
+                    vec![
+                        Load::F64(0),
+                        Load::F64(8),
+                        Load::F64(16),
+                        Load::F64(24),
+                        covariance(32),
+                        Load::F64(104),
+                        Load::F64(112),
+                        Load::F64(120),
+                        covariance(128),
+                        Load::F64(200),
+                        Load::F64(208),
+                        Load::F64(216),
+                        covariance(224),
+                    ]
+                ),
             ]
+        );
+    }
+
+    /// A Pose's seven `float64`s back to back are one load, read in a loop.
+    #[test]
+    fn many_single_numbers_of_one_kind_back_to_back_are_one_load() {
+        let ty = DynamicType::from_description(&Pose::full_description()).unwrap();
+        assert_eq!(
+            runs(&ty),
+            [(
+                0,
+                vec![Load::Singles {
+                    element: Element::F64,
+                    offset: 0,
+                    count: 7
+                }]
+            )]
         );
     }
 }
