@@ -727,17 +727,17 @@ fn singles_at<B: ByteOrder>(
     };
     macro_rules! read {
         ($t:ty, $variant:ident) => {{
-            // Extending by an iterator of known length reserves once and
-            // builds each value in the table's memory (see `push_with`).
-            slots.extend(raw.chunks_exact(std::mem::size_of::<$t>()).map(|chunk| {
+            for chunk in raw.chunks_exact(std::mem::size_of::<$t>()) {
                 let mut wire = [0u8; std::mem::size_of::<$t>()];
                 wire.copy_from_slice(chunk);
-                Value::$variant(if B::LITTLE {
-                    <$t>::from_le_bytes(wire)
-                } else {
-                    <$t>::from_be_bytes(wire)
+                push_with(slots, || {
+                    Value::$variant(if B::LITTLE {
+                        <$t>::from_le_bytes(wire)
+                    } else {
+                        <$t>::from_be_bytes(wire)
+                    })
                 })
-            }))
+            }
         }};
     }
     match element {
@@ -763,7 +763,7 @@ fn singles_at<B: ByteOrder>(
 /// The array of `n` numbers of kind `element` at `bytes[offset..]`,
 /// borrowed, pushed onto `slots`; `false` (nothing pushed) if it is not all
 /// there or not of numbers.
-#[inline(always)]
+#[inline]
 fn array_at<'de, B: ByteOrder>(
     bytes: &'de [u8],
     offset: usize,

@@ -88,8 +88,8 @@ pub(crate) struct Member {
 }
 
 /// Up to this many single numbers of one kind back to back are loaded one
-/// by one: a loop's set-up costs more than a few dispatches.
-const SINGLE_LOADS: usize = 4;
+/// by one: a loop's set-up costs more than two dispatches.
+const SINGLE_LOADS: usize = 2;
 
 /// How `decode` reads, and `encode` writes, one member of a [`Step::Run`]
 /// in its bytes: a single value's kind is the load's tag, so each value
@@ -470,7 +470,7 @@ mod tests {
     use super::{Load, Step};
     use crate::dynamic::{DynamicType, Element};
     use crate::msgs::geometry_msgs::msg::Pose;
-    use crate::msgs::sensor_msgs::msg::Imu;
+    use crate::msgs::sensor_msgs::msg::{Imu, PointCloud2};
     use crate::RosMessage;
 
     /// Each run of a message's plan: its first slot and its loads.
@@ -485,12 +485,18 @@ mod tests {
             .collect()
     }
 
-    /// An Imu's orientation, velocities and their covariances are one run
-    /// of single loads and three arrays each read at once; the stamp is a
-    /// run of its own (the frame_id, slot 2, lies between).
+    /// An Imu's orientation, velocities and their covariances are one run:
+    /// three loops of single numbers and three arrays each read at once.
+    /// The stamp is a run of its own (the frame_id, slot 2, lies between)
+    /// of two loads, one by kind each.
     #[test]
     fn a_run_loads_each_value_by_its_kind_and_each_array_at_once() {
         let ty = DynamicType::from_description(&Imu::full_description()).unwrap();
+        let singles = |offset, count| Load::Singles {
+            element: Element::F64,
+            offset,
+            count,
+        };
         let covariance = |offset| Load::Array {
             element: Element::F64,
             offset,
@@ -503,18 +509,11 @@ mod tests {
                 (
                     3,
                     vec![
-                        Load::F64(0),
-                        Load::F64(8),
-                        Load::F64(16),
-                        Load::F64(24),
+                        singles(0, 4),
                         covariance(32),
-                        Load::F64(104),
-                        Load::F64(112),
-                        Load::F64(120),
+                        singles(104, 3),
                         covariance(128),
-                        Load::F64(200),
-                        Load::F64(208),
-                        Load::F64(216),
+                        singles(200, 3),
                         covariance(224),
                     ]
                 ),
@@ -522,7 +521,8 @@ mod tests {
         );
     }
 
-    /// A Pose's seven `float64`s back to back are one load, read in a loop.
+    /// A Pose's seven `float64`s back to back are one load, read in a loop;
+    /// a PointCloud2's `height` and `width` are two loads.
     #[test]
     fn many_single_numbers_of_one_kind_back_to_back_are_one_load() {
         let ty = DynamicType::from_description(&Pose::full_description()).unwrap();
@@ -537,5 +537,7 @@ mod tests {
                 }]
             )]
         );
+        let cloud = DynamicType::from_description(&PointCloud2::full_description()).unwrap();
+        assert_eq!(runs(&cloud)[1], (3, vec![Load::U32(0), Load::U32(4)]));
     }
 }
