@@ -1095,14 +1095,14 @@ fn store_run<B: ByteOrder>(run: &mut [u8], loads: &[Load], values: &[Value<'_>])
                 offset,
                 count,
             } => {
-                let taken = values.as_slice().get(..count);
-                let Some(taken) = taken else {
+                let rest = values.as_slice();
+                let (Some(taken), Some(after)) = (rest.get(..count), rest.get(count..)) else {
                     return false;
                 };
                 if !store_singles::<B>(run, element, offset, taken) {
                     return false;
                 }
-                values = values.as_slice().get(count..).unwrap_or_default().iter();
+                values = after.iter();
             }
             Load::Array { offset, .. } => {
                 let (Some(value), Some(place)) = (values.next(), run.get_mut(offset..)) else {
