@@ -611,6 +611,28 @@ pub(crate) fn read_len<B: ByteOrder>(
     }
 }
 
+/// A match on one of a run's loads whose arms for single numbers are
+/// `$number!(type, Value variant, offset)`, followed by `$arms` for the
+/// other loads: the one list of which Rust type and [`Value`] variant each
+/// number's load reads and writes, for decode and encode alike.
+macro_rules! match_load {
+    ($load:expr, $number:ident, { $($arms:tt)* }) => {
+        match $load {
+            Load::U8(at) => $number!(u8, U8, at),
+            Load::I8(at) => $number!(i8, I8, at),
+            Load::I16(at) => $number!(i16, I16, at),
+            Load::U16(at) => $number!(u16, U16, at),
+            Load::I32(at) => $number!(i32, I32, at),
+            Load::U32(at) => $number!(u32, U32, at),
+            Load::I64(at) => $number!(i64, I64, at),
+            Load::U64(at) => $number!(u64, U64, at),
+            Load::F32(at) => $number!(f32, F32, at),
+            Load::F64(at) => $number!(f64, F64, at),
+            $($arms)*
+        }
+    };
+}
+
 /// The values of a run of fixed-size fields from its bytes, pushed onto
 /// `slots`; `false` (some pushed) if a value cannot be read from where the
 /// run says it lies or a bool is neither 0 nor 1: then the run is read
@@ -638,21 +660,11 @@ fn load_run<'de, B: ByteOrder>(
         }};
     }
     for load in loads {
-        match *load {
+        match_load!(*load, number, {
             Load::Bool(at) => match bytes.get(at) {
                 Some(&b) if b <= 1 => push_with(slots, || Value::Bool(b != 0)),
                 _ => return false,
             },
-            Load::U8(at) => number!(u8, U8, at),
-            Load::I8(at) => number!(i8, I8, at),
-            Load::I16(at) => number!(i16, I16, at),
-            Load::U16(at) => number!(u16, U16, at),
-            Load::I32(at) => number!(i32, I32, at),
-            Load::U32(at) => number!(u32, U32, at),
-            Load::I64(at) => number!(i64, I64, at),
-            Load::U64(at) => number!(u64, U64, at),
-            Load::F32(at) => number!(f32, F32, at),
-            Load::F64(at) => number!(f64, F64, at),
             Load::Singles {
                 element,
                 offset,
@@ -668,7 +680,7 @@ fn load_run<'de, B: ByteOrder>(
                 }
             }
             Load::Placeholder => push_with(slots, || Value::U8(0)),
-        }
+        })
     }
     true
 }
@@ -1073,23 +1085,13 @@ fn store_run<B: ByteOrder>(run: &mut [u8], loads: &[Load], values: &[Value<'_>])
         }};
     }
     for load in loads {
-        match *load {
+        match_load!(*load, number, {
             Load::Bool(at) => {
                 let (Some(Value::Bool(v)), Some(out)) = (values.next(), run.get_mut(at)) else {
                     return false;
                 };
                 *out = u8::from(*v);
             }
-            Load::U8(at) => number!(u8, U8, at),
-            Load::I8(at) => number!(i8, I8, at),
-            Load::I16(at) => number!(i16, I16, at),
-            Load::U16(at) => number!(u16, U16, at),
-            Load::I32(at) => number!(i32, I32, at),
-            Load::U32(at) => number!(u32, U32, at),
-            Load::I64(at) => number!(i64, I64, at),
-            Load::U64(at) => number!(u64, U64, at),
-            Load::F32(at) => number!(f32, F32, at),
-            Load::F64(at) => number!(f64, F64, at),
             Load::Singles {
                 element,
                 offset,
@@ -1116,7 +1118,7 @@ fn store_run<B: ByteOrder>(run: &mut [u8], loads: &[Load], values: &[Value<'_>])
             Load::Placeholder => {
                 values.next();
             }
-        }
+        })
     }
     true
 }
