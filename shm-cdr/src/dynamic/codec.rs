@@ -786,26 +786,25 @@ fn array_at<'de, B: ByteOrder>(
     let Some(raw) = numbers_at(bytes, offset, element, n) else {
         return false;
     };
-    let order = B::ENDIANNESS;
-    match element {
-        Element::Byte | Element::Char | Element::U8 => {
-            push_with(slots, || Value::U8s(Cow::Borrowed(raw)))
-        }
-        Element::I8 => push_with(slots, || {
-            Value::I8s(Cow::Borrowed(bytemuck::cast_slice(raw)))
-        }),
-        Element::I16 => push_with(slots, || Value::I16s(Numbers::on_wire(raw, order))),
-        Element::U16 => push_with(slots, || Value::U16s(Numbers::on_wire(raw, order))),
-        Element::I32 => push_with(slots, || Value::I32s(Numbers::on_wire(raw, order))),
-        Element::U32 => push_with(slots, || Value::U32s(Numbers::on_wire(raw, order))),
-        Element::I64 => push_with(slots, || Value::I64s(Numbers::on_wire(raw, order))),
-        Element::U64 => push_with(slots, || Value::U64s(Numbers::on_wire(raw, order))),
-        Element::F32 => push_with(slots, || Value::F32s(Numbers::on_wire(raw, order))),
-        Element::F64 => push_with(slots, || Value::F64s(Numbers::on_wire(raw, order))),
-        Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_) => {
-            return false
-        }
+    if !element.is_number() {
+        return false;
     }
+    let order = B::ENDIANNESS;
+    // One place that builds the value in the table: ten would each inline
+    // a push, and together be called out of line.
+    push_with(slots, || match element {
+        Element::I8 => Value::I8s(Cow::Borrowed(bytemuck::cast_slice(raw))),
+        Element::I16 => Value::I16s(Numbers::on_wire(raw, order)),
+        Element::U16 => Value::U16s(Numbers::on_wire(raw, order)),
+        Element::I32 => Value::I32s(Numbers::on_wire(raw, order)),
+        Element::U32 => Value::U32s(Numbers::on_wire(raw, order)),
+        Element::I64 => Value::I64s(Numbers::on_wire(raw, order)),
+        Element::U64 => Value::U64s(Numbers::on_wire(raw, order)),
+        Element::F32 => Value::F32s(Numbers::on_wire(raw, order)),
+        Element::F64 => Value::F64s(Numbers::on_wire(raw, order)),
+        // `byte`, `char` and `uint8` (the others are not numbers).
+        _ => Value::U8s(Cow::Borrowed(raw)),
+    });
     true
 }
 
