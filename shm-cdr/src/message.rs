@@ -87,7 +87,7 @@ pub trait BorrowedForm: RosMessage {
 #[diagnostic::on_unimplemented(
     message = "`{Self}` is not a ROS 2 field type",
     label = "not a ROS 2 field type",
-    note = "use bool, u8..u64, i8..i64, f32, f64, String, BoundedString<N>, WString, Vec<T>, BoundedVec<T, N>, [T; N], bytes::Bytes, &str, &[u8], Cow<str>, Cow<[T]>, or a struct with #[derive(RosMessage)]"
+    note = "use bool, u8..u64, i8..i64, f32, f64, String, BoundedString<N>, WString, Vec<T>, BoundedVec<T, N>, [T; N], bytes::Bytes, compact_str::CompactString, &str, &[u8], Cow<str>, Cow<[T]>, or a struct with #[derive(RosMessage)]"
 )]
 pub trait RosType {
     /// How the field appears in the type description.

@@ -37,7 +37,7 @@ use syn::{parse_macro_input, DeriveInput};
 /// | Rust | ROS 2 |
 /// |---|---|
 /// | `bool`, `u8`…`u64`, `i8`…`i64`, `f32`, `f64` | the same primitives (`#[ros(byte)]` / `#[ros(char)]` on `u8`/`i8` for `byte` / `char`) |
-/// | `String`, `&'a str`, `Cow<'a, str>` | `string` |
+/// | `String`, `&'a str`, `Cow<'a, str>`, `compact_str::CompactString` (shm-cdr's feature `compact_str`: up to 24 bytes inline, no allocation to decode) | `string` |
 /// | `BoundedString<N>` | `string<=N` |
 /// | `WString`, `BoundedWString<N>` | `wstring`, `wstring<=N` |
 /// | `Vec<T>`, `&'a [u8]`, `Cow<'a, [T]>`, `bytes::Bytes` | `T[]` (`&[u8]` and `Cow<[u8]>` borrow) |

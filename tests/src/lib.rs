@@ -14,12 +14,23 @@ pub mod msgs {
 
     /// A string-heavy message: a header and many short strings.
     #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
-    #[ros(type_name = "bench_msgs/msg/StringList")]
+    #[ros(type_name = "bench_msgs/msg/StringList", loan)]
     pub struct StringList {
         /// Header.
         pub header: Header,
         /// The strings.
         pub names: Vec<String>,
+    }
+
+    /// [`StringList`] with its strings kept inline (`compact_str`): an owned
+    /// decode allocates once, for the sequence.
+    #[derive(RosMessage, Debug, Clone, Default, PartialEq)]
+    #[ros(type_name = "bench_msgs/msg/StringList", loan)]
+    pub struct StringListCompact {
+        /// Header.
+        pub header: Header,
+        /// The strings.
+        pub names: Vec<compact_str::CompactString>,
     }
 
     /// [`StringList`] borrowing every string from the input.

@@ -446,3 +446,67 @@ fn carve_string<'a>(
 text_in_place!([] String, slot: StrSlot, len: |s: &Self| s.len(), end: string_end_in_place, carve: carve_string, min: 5, bound: None);
 text_in_place!(['c] Cow<'c, str>, slot: StrSlot, len: |s: &Self| s.len(), end: string_end_in_place, carve: carve_string, min: 5, bound: None);
 text_in_place!([const N: usize] BoundedString<N>, slot: StrSlot, len: |s: &Self| s.len(), end: string_end_in_place, carve: carve_string, min: 5, bound: Some(N));
+
+/// `compact_str::CompactString`: a `string` whose text of up to
+/// [`MAX_INLINE`](compact::MAX_INLINE) bytes lives in the value itself, so an
+/// owned decode of a short string allocates nothing.
+#[cfg(feature = "compact_str")]
+mod compact {
+    use compact_str::CompactString;
+
+    use super::*;
+
+    /// The longest text a `CompactString` holds without allocating.
+    pub(super) const MAX_INLINE: usize = std::mem::size_of::<CompactString>();
+
+    unbounded_string_encode!(CompactString, runs);
+    string_type!(CompactString);
+    text_in_place!([] CompactString, slot: StrSlot, len: |s: &Self| s.len(), end: string_end_in_place, carve: carve_string, min: 5, bound: None);
+
+    /// Read a string into `out`, reusing its memory. Input that another
+    /// process may rewrite ([shared](Reader::shared)) is copied before it is
+    /// checked as UTF-8, so what is checked is what is kept.
+    #[inline]
+    fn read_compact<B: ByteOrder>(
+        r: &mut Reader<'_, B>,
+        out: &mut CompactString,
+    ) -> Result<(), DecodeError> {
+        let (contents, at) = read_str_bytes(r)?;
+        if !r.is_shared() {
+            let text = utf8(contents).map_err(|e| invalid_utf8(r, at, e))?;
+            out.clear();
+            out.push_str(text);
+            return Ok(());
+        }
+        let mut inline = [0u8; MAX_INLINE];
+        match inline.get_mut(..contents.len()) {
+            Some(copy) => {
+                copy.copy_from_slice(contents);
+                let text = utf8(copy).map_err(|e| invalid_utf8(r, at, e))?;
+                out.clear();
+                out.push_str(text);
+            }
+            None => match String::from_utf8(contents.to_vec()) {
+                Ok(text) => *out = CompactString::from(text),
+                Err(e) => return Err(invalid_utf8(r, at, e.utf8_error())),
+            },
+        }
+        Ok(())
+    }
+
+    impl<'de> CdrDecode<'de> for CompactString {
+        const MIN_WIRE_SIZE: usize = 4;
+
+        #[inline]
+        fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
+            let mut out = CompactString::const_new("");
+            read_compact(r, &mut out)?;
+            Ok(out)
+        }
+
+        #[inline]
+        fn decode_into<B: ByteOrder>(&mut self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
+            read_compact(r, self)
+        }
+    }
+}
