@@ -15,6 +15,7 @@ use std::time::Duration;
 use criterion::{BenchmarkId, Criterion, Throughput};
 use shm_cdr::{encode_into, encoded_size, from_bytes, from_bytes_into, to_vec};
 use shm_cdr_peer_bench::check::{self, Verdict, CDR, CDR_ENCODING, FAST_CDR, HIROZ};
+use shm_cdr_peer_bench::messages::{StringList, StringListCompact};
 use shm_cdr_peer_bench::peers::{cdr_crate, cdr_encoding, hiroz};
 use shm_cdr_peer_bench::{samples, Message, Sample};
 
@@ -23,11 +24,12 @@ const MEMCPY: &str = "memcpy";
 /// Libraries in table order.
 const LIBRARIES: [&str; 6] = [MEMCPY, OURS, HIROZ, CDR, CDR_ENCODING, FAST_CDR];
 /// Operations in table order.
-const OPS: [&str; 6] = [
+const OPS: [&str; 7] = [
     "encode",
     "to_vec",
     "size",
     "decode",
+    "decode_compact",
     "decode_into",
     "decode_borrowed",
 ];
@@ -134,10 +136,29 @@ fn bench_message<M: Message>(c: &mut Criterion, sample: &Sample<M>, verdicts: &[
         group.bench_function(BenchmarkId::new("size", FAST_CDR), |b| {
             b.iter(|| black_box(&fast).size())
         });
+        // A new object each message, as an rclcpp subscription takes one.
         group.bench_function(BenchmarkId::new("decode", FAST_CDR), |b| {
+            b.iter(|| FastMsg::load(M::fast_cdr(), black_box(&bytes)).expect("checked"))
+        });
+        // Into the object kept from the previous message.
+        group.bench_function(BenchmarkId::new("decode_into", FAST_CDR), |b| {
             b.iter(|| assert!(target.decode(black_box(&bytes))))
         });
     }
+    group.finish();
+}
+
+/// The owned decode of a message whose strings are `CompactString`s (up to 24
+/// bytes held inline), beside the same message's other rows.
+fn bench_compact(c: &mut Criterion, sample: &Sample<StringList>) {
+    let bytes = to_vec(&sample.msg).expect("sample encodes");
+    let compact: StringListCompact = from_bytes(&bytes).expect("decodes");
+    assert_eq!(to_vec(&compact).expect("encodes"), bytes);
+    let mut group = c.benchmark_group(sample.name);
+    group.throughput(Throughput::Bytes(bytes.len() as u64));
+    group.bench_function(BenchmarkId::new("decode_compact", OURS), |b| {
+        b.iter(|| from_bytes::<StringListCompact>(black_box(&bytes)).expect("decodes"))
+    });
     group.finish();
 }
 
@@ -198,7 +219,7 @@ fn fmt_ns(ns: f64) -> String {
 /// byte (a size computation or a borrowed decode does not).
 fn fmt_cell(m: &Median, op: &str) -> String {
     match op {
-        "encode" | "to_vec" | "decode" | "decode_into" => {
+        "encode" | "to_vec" | "decode" | "decode_compact" | "decode_into" => {
             format!("{} ({:.1} GB/s)", fmt_ns(m.ns), m.bytes as f64 / m.ns)
         }
         _ => fmt_ns(m.ns),
@@ -229,16 +250,18 @@ fn write_report(
             if get(OURS, op).is_none() {
                 continue;
             }
-            let peer_op = if op == "decode_borrowed" || op == "decode_into" {
-                "decode"
-            } else {
-                op
+            // A borrowed decode, or one into strings held inline, stands
+            // against the peers' decode; a decode into a kept value against
+            // Fast-CDR's into its kept object.
+            let peer_op = match op {
+                "decode_borrowed" | "decode_compact" => "decode",
+                _ => op,
             };
             let mut row = format!("| {message} | {op} |");
             for lib in LIBRARIES {
                 let cell = match lib {
                     MEMCPY | OURS => get(lib, if lib == MEMCPY { "encode" } else { op }),
-                    _ if op == "decode_borrowed" || op == "decode_into" => None,
+                    _ if op == "decode_borrowed" || op == "decode_compact" => None,
                     _ => get(lib, op),
                 };
                 let text = match cell {
@@ -249,6 +272,7 @@ fn write_report(
                     None if lib == MEMCPY
                         || lib == OURS
                         || op == "decode_borrowed"
+                        || op == "decode_compact"
                         || op == "decode_into" =>
                     {
                         "–".into()
@@ -433,6 +457,7 @@ fn main() {
     bench_message(&mut c, &joints, &verdicts);
     bench_message(&mut c, &poses, &verdicts);
     bench_message(&mut c, &strings, &verdicts);
+    bench_compact(&mut c, &strings);
     bench_message(&mut c, &stamped, &verdicts);
     c.final_summary();
 

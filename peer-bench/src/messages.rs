@@ -11,7 +11,7 @@ use shm_cdr_tests::samples as shared;
 
 use crate::mirror;
 
-pub use shm_cdr_tests::msgs::{StringList, StringListRef};
+pub use shm_cdr_tests::msgs::{StringList, StringListCompact, StringListRef};
 
 /// A struct whose CDR layout differs from its memory layout inside a sequence:
 /// after the u32 count the first `stamp` starts at offset 4 and `value` needs

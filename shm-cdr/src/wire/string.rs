@@ -463,35 +463,52 @@ mod compact {
     string_type!(CompactString);
     text_in_place!([] CompactString, slot: StrSlot, len: |s: &Self| s.len(), end: string_end_in_place, carve: carve_string, min: 5, bound: None);
 
-    /// Read a string into `out`, reusing its memory. Input that another
+    /// A string's checked text: where it was checked, or a copy too long to
+    /// make on the stack.
+    enum Text<'t> {
+        Checked(&'t str),
+        Copied(String),
+    }
+
+    impl Text<'_> {
+        #[inline(always)]
+        fn into_compact(self) -> CompactString {
+            match self {
+                Text::Checked(text) => CompactString::new(text),
+                Text::Copied(text) => CompactString::from(text),
+            }
+        }
+    }
+
+    /// Read a string and hand its checked text to `keep`. Input that another
     /// process may rewrite ([shared](Reader::shared)) is copied before it is
     /// checked as UTF-8, so what is checked is what is kept.
-    #[inline]
-    fn read_compact<B: ByteOrder>(
+    #[inline(always)]
+    fn read_text<B: ByteOrder, T>(
         r: &mut Reader<'_, B>,
-        out: &mut CompactString,
-    ) -> Result<(), DecodeError> {
+        keep: impl FnOnce(Text<'_>) -> T,
+    ) -> Result<T, DecodeError> {
         let (contents, at) = read_str_bytes(r)?;
         if !r.is_shared() {
-            let text = utf8(contents).map_err(|e| invalid_utf8(r, at, e))?;
-            out.clear();
-            out.push_str(text);
-            return Ok(());
+            return match utf8(contents) {
+                Ok(text) => Ok(keep(Text::Checked(text))),
+                Err(e) => Err(invalid_utf8(r, at, e)),
+            };
         }
         let mut inline = [0u8; MAX_INLINE];
         match inline.get_mut(..contents.len()) {
             Some(copy) => {
                 copy.copy_from_slice(contents);
-                let text = utf8(copy).map_err(|e| invalid_utf8(r, at, e))?;
-                out.clear();
-                out.push_str(text);
+                match utf8(copy) {
+                    Ok(text) => Ok(keep(Text::Checked(text))),
+                    Err(e) => Err(invalid_utf8(r, at, e)),
+                }
             }
             None => match String::from_utf8(contents.to_vec()) {
-                Ok(text) => *out = CompactString::from(text),
-                Err(e) => return Err(invalid_utf8(r, at, e.utf8_error())),
+                Ok(text) => Ok(keep(Text::Copied(text))),
+                Err(e) => Err(invalid_utf8(r, at, e.utf8_error())),
             },
         }
-        Ok(())
     }
 
     impl<'de> CdrDecode<'de> for CompactString {
@@ -499,14 +516,23 @@ mod compact {
 
         #[inline]
         fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
-            let mut out = CompactString::const_new("");
-            read_compact(r, &mut out)?;
-            Ok(out)
+            read_text(r, |text| text.into_compact())
         }
 
         #[inline]
         fn decode_into<B: ByteOrder>(&mut self, r: &mut Reader<'de, B>) -> Result<(), DecodeError> {
-            read_compact(r, self)
+            // Into the memory this value already has, when it has any.
+            read_text(r, |text| match text {
+                // Inline: nothing to reuse, and building it anew is cheapest.
+                Text::Checked(text) if text.len() <= MAX_INLINE => {
+                    *self = CompactString::new(text);
+                }
+                Text::Checked(text) => {
+                    self.clear();
+                    self.push_str(text);
+                }
+                Text::Copied(text) => *self = CompactString::from(text),
+            })
         }
     }
 }
