@@ -190,9 +190,10 @@ fn read_str<'de, B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<&'de str, Decod
     utf8(contents).map_err(|e| invalid_utf8(r, at, e))
 }
 
-/// Read a string into `out`, reusing its memory: the bytes are copied first
-/// and checked as UTF-8 in the copy, so what is checked is what is kept, even
-/// when another process rewrites the input meanwhile.
+/// Read a string into `out`, reusing its memory. From [shared](Reader::shared)
+/// input the bytes are copied first and checked as UTF-8 in the copy, so what
+/// is checked is what is kept, even when another process rewrites the input
+/// meanwhile.
 #[inline]
 #[allow(unsafe_code)]
 fn read_string_into<B: ByteOrder>(
@@ -210,6 +211,13 @@ fn read_string_into<B: ByteOrder>(
                 bound,
             },
         ));
+    }
+    if !r.is_shared() {
+        // Input nobody else writes: checked where it lies, then copied.
+        let text = utf8(contents).map_err(|e| invalid_utf8(r, at, e))?;
+        out.clear();
+        out.push_str(text);
+        return Ok(());
     }
     let mut bytes = std::mem::take(out).into_bytes();
     bytes.clear();
