@@ -190,17 +190,12 @@ fn read_str<'de, B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<&'de str, Decod
     utf8(contents).map_err(|e| invalid_utf8(r, at, e))
 }
 
-/// Read a string into `out`, reusing its memory. From [shared](Reader::shared)
-/// input the bytes are copied first and checked as UTF-8 in the copy, so what
-/// is checked is what is kept, even when another process rewrites the input
-/// meanwhile.
+/// A string's bytes (see [`read_str_bytes`]), refused if longer than `bound`.
 #[inline]
-#[allow(unsafe_code)]
-fn read_string_into<B: ByteOrder>(
-    r: &mut Reader<'_, B>,
+fn read_bounded_bytes<'de, B: ByteOrder>(
+    r: &mut Reader<'de, B>,
     bound: Option<usize>,
-    out: &mut String,
-) -> Result<(), DecodeError> {
+) -> Result<(&'de [u8], usize), DecodeError> {
     let start = r.position();
     let (contents, at) = read_str_bytes(r)?;
     if let Some(bound) = bound.filter(|&bound| contents.len() > bound) {
@@ -212,8 +207,47 @@ fn read_string_into<B: ByteOrder>(
             },
         ));
     }
+    Ok((contents, at))
+}
+
+/// Read a string into a new `String` of exactly its length. From
+/// [shared](Reader::shared) input the bytes are copied first and checked as
+/// UTF-8 in the copy, so what is checked is what is kept, even when another
+/// process rewrites the input meanwhile.
+#[inline]
+#[allow(unsafe_code)]
+fn read_string<B: ByteOrder>(
+    r: &mut Reader<'_, B>,
+    bound: Option<usize>,
+) -> Result<String, DecodeError> {
+    let (contents, at) = read_bounded_bytes(r, bound)?;
     if !r.is_shared() {
         // Input nobody else writes: checked where it lies, then copied.
+        return match utf8(contents) {
+            Ok(text) => Ok(text.to_owned()),
+            Err(e) => Err(invalid_utf8(r, at, e)),
+        };
+    }
+    let bytes = contents.to_vec();
+    match utf8(&bytes) {
+        // SAFETY: `bytes` was just checked as UTF-8, and nothing else can
+        // write it: it is this function's own allocation.
+        Ok(_) => Ok(unsafe { String::from_utf8_unchecked(bytes) }),
+        Err(e) => Err(invalid_utf8(r, at, e)),
+    }
+}
+
+/// Read a string into `out`, reusing its memory; from shared input, copied
+/// before it is checked, as [`read_string`] does.
+#[inline]
+#[allow(unsafe_code)]
+fn read_string_into<B: ByteOrder>(
+    r: &mut Reader<'_, B>,
+    bound: Option<usize>,
+    out: &mut String,
+) -> Result<(), DecodeError> {
+    let (contents, at) = read_bounded_bytes(r, bound)?;
+    if !r.is_shared() {
         let text = utf8(contents).map_err(|e| invalid_utf8(r, at, e))?;
         out.clear();
         out.push_str(text);
@@ -293,9 +327,7 @@ impl<'de> CdrDecode<'de> for String {
 
     #[inline]
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
-        let mut out = String::new();
-        read_string_into(r, None, &mut out)?;
-        Ok(out)
+        read_string(r, None)
     }
 
     #[inline]
@@ -321,9 +353,7 @@ impl<'de: 'a, 'a> CdrDecode<'de> for Cow<'a, str> {
     #[inline]
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
         if r.is_shared() {
-            let mut out = String::new();
-            read_string_into(r, None, &mut out)?;
-            return Ok(Cow::Owned(out));
+            return read_string(r, None).map(Cow::Owned);
         }
         read_str(r).map(Cow::Borrowed)
     }
@@ -352,9 +382,7 @@ impl<'de, const N: usize> CdrDecode<'de> for BoundedString<N> {
 
     #[inline]
     fn decode<B: ByteOrder>(r: &mut Reader<'de, B>) -> Result<Self, DecodeError> {
-        let mut out = String::new();
-        read_string_into(r, Some(N), &mut out)?;
-        Ok(Self(out))
+        read_string(r, Some(N)).map(Self)
     }
 
     #[inline]
