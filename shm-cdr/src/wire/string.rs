@@ -215,7 +215,6 @@ fn read_bounded_bytes<'de, B: ByteOrder>(
 /// UTF-8 in the copy, so what is checked is what is kept, even when another
 /// process rewrites the input meanwhile.
 #[inline]
-#[allow(unsafe_code)]
 fn read_string<B: ByteOrder>(
     r: &mut Reader<'_, B>,
     bound: Option<usize>,
@@ -228,7 +227,18 @@ fn read_string<B: ByteOrder>(
             Err(e) => Err(invalid_utf8(r, at, e)),
         };
     }
-    let bytes = contents.to_vec();
+    checked_copy(r, at, contents.to_vec())
+}
+
+/// `bytes`, a copy of the contents of the string read at `at`, checked as
+/// UTF-8: what is checked is what is kept.
+#[inline]
+#[allow(unsafe_code)]
+fn checked_copy<B: ByteOrder>(
+    r: &Reader<'_, B>,
+    at: usize,
+    bytes: Vec<u8>,
+) -> Result<String, DecodeError> {
     match utf8(&bytes) {
         // SAFETY: `bytes` was just checked as UTF-8, and nothing else can
         // write it: it is this function's own allocation.
@@ -240,7 +250,6 @@ fn read_string<B: ByteOrder>(
 /// Read a string into `out`, reusing its memory; from shared input, copied
 /// before it is checked, as [`read_string`] does.
 #[inline]
-#[allow(unsafe_code)]
 fn read_string_into<B: ByteOrder>(
     r: &mut Reader<'_, B>,
     bound: Option<usize>,
@@ -256,12 +265,7 @@ fn read_string_into<B: ByteOrder>(
     let mut bytes = std::mem::take(out).into_bytes();
     bytes.clear();
     bytes.extend_from_slice(contents);
-    match utf8(&bytes) {
-        // SAFETY: `bytes` was just checked as UTF-8, and nothing else can
-        // write it: it is this function's own allocation.
-        Ok(_) => *out = unsafe { String::from_utf8_unchecked(bytes) },
-        Err(e) => return Err(invalid_utf8(r, at, e)),
-    }
+    *out = checked_copy(r, at, bytes)?;
     Ok(())
 }
 
@@ -540,10 +544,7 @@ mod compact {
                     Err(e) => Err(invalid_utf8(r, at, e)),
                 }
             }
-            None => match String::from_utf8(contents.to_vec()) {
-                Ok(text) => Ok(keep(Text::Copied(text))),
-                Err(e) => Err(invalid_utf8(r, at, e.utf8_error())),
-            },
+            None => checked_copy(r, at, contents.to_vec()).map(|text| keep(Text::Copied(text))),
         }
     }
 
