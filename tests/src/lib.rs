@@ -201,7 +201,8 @@ pub mod fuzzing {
     /// Decode `data` as `T`, as the run-time type built from `T`'s
     /// description and through a view of it: all must fail (the dynamic two
     /// with the same error), or all succeed and give the same message, encoded
-    /// to the same bytes, the dynamic message sized exactly.
+    /// to the same bytes (also over a buffer full of another byte: every byte
+    /// written, padding too), the dynamic message sized exactly.
     pub fn decode_dynamic_as<T>(data: &[u8])
     where
         T: shm_cdr::DecodeOwned + RosMessage,
@@ -217,6 +218,13 @@ pub mod fuzzing {
                     shm_cdr::to_vec(&message).expect("a decoded dynamic message re-encodes");
                 assert_eq!(bytes, expected, "{}: dynamic bytes differ", T::TYPE_NAME);
                 assert_eq!(bytes.len(), shm_cdr::encoded_size(&message));
+                for fill in [0x00, 0xa5, 0xff] {
+                    let mut over = vec![fill; bytes.len()];
+                    let written = shm_cdr::encode_into(&message, &mut over)
+                        .expect("a decoded dynamic message encodes into its exact size");
+                    assert_eq!(written, bytes.len());
+                    assert_eq!(over, expected, "{}: over {fill:#04x}", T::TYPE_NAME);
+                }
             }
             (Err(_), Err(_)) | (Ok(Err(_)), _) => {}
             (Ok(_), Err(e)) => panic!("{}: only the dynamic decoder refused: {e}", T::TYPE_NAME),
