@@ -313,6 +313,10 @@ struct Shared {
     skipped: Mutex<BTreeMap<String, String>>,
     failure: Mutex<Option<String>>,
     channels: Mutex<Vec<Arc<Channel>>>,
+    /// Held while a sample is stamped and queued: samples of different
+    /// publishers arrive on different threads, and the writer writes them
+    /// in queue order, so the queue must be in log-time order too.
+    arrival: Mutex<()>,
 }
 
 impl Shared {
@@ -1118,12 +1122,15 @@ fn subscribe(
                 }
                 return;
             }
-            let event = Event::Sample {
-                index,
-                sample,
-                log_time: now_ns(),
+            let queued = {
+                let _arrival = shared.arrival.lock().unwrap_or_else(|e| e.into_inner());
+                events_cb.send(Event::Sample {
+                    index,
+                    sample,
+                    log_time: now_ns(),
+                })
             };
-            if events_cb.send(event).is_err() {
+            if queued.is_err() {
                 shared.queued_bytes.fetch_sub(len, Ordering::Relaxed);
                 shared.dropped.fetch_add(1, Ordering::Relaxed);
                 channel.dropped.fetch_add(1, Ordering::Relaxed);

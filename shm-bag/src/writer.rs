@@ -245,11 +245,13 @@ impl BagWriter {
                 data,
             )
             .map_err(|e| format!("writing {}: {}", current.path, mcap_error(e)))?;
-        current.first.get_or_insert(log_time);
+        // Not necessarily the first written: a message held while its type
+        // was learned is written after later ones.
+        current.first = Some(current.first.map_or(log_time, |t| t.min(log_time)));
         current.last = current.last.max(log_time);
         current.count += 1;
         current.bytes += data.len() as u64;
-        self.first.get_or_insert(log_time);
+        self.first = Some(self.first.map_or(log_time, |t| t.min(log_time)));
         self.last = self.last.max(log_time);
         self.count += 1;
         self.topics[topic.0].count += 1;
@@ -771,6 +773,35 @@ pub(crate) mod tests {
             assert_eq!(BagMetadata::read(&dir).unwrap(), metadata);
         }
         let _ = std::fs::remove_dir_all(&root);
+    }
+
+    #[test]
+    fn a_message_written_after_later_ones_starts_the_recording_and_its_file() {
+        let dir = std::env::temp_dir().join(format!("shm_bag_late_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut writer = BagWriter::create(&dir, WriteOptions::default()).unwrap();
+        let a = writer.add_topic(topic("/a"), "string data".into()).unwrap();
+        let b = writer.add_topic(topic("/b"), "string data".into()).unwrap();
+        // /b's first message was held while its type was learned: written
+        // after /a's, though received before them.
+        for (topic, time) in [(a, 2_000), (a, 3_000), (b, 1_500), (a, 4_000)] {
+            writer.write(topic, time, 0, 0, &message(time)).unwrap();
+        }
+        let metadata = writer.finish().unwrap();
+        assert_eq!(metadata.starting_time.nanoseconds_since_epoch, 1_500);
+        assert_eq!(metadata.duration.nanoseconds, 2_500);
+        let file = &metadata.files[0];
+        assert_eq!(file.starting_time.nanoseconds_since_epoch, 1_500);
+        assert_eq!(file.duration.nanoseconds, 2_500);
+        assert_eq!(BagMetadata::read(&dir).unwrap(), metadata);
+        let bytes = std::fs::read(dir.join(&metadata.relative_file_paths[0])).unwrap();
+        let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+        let stats = summary.stats.unwrap();
+        assert_eq!(
+            (stats.message_start_time, stats.message_end_time),
+            (1_500, 4_000)
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -199,7 +199,11 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
     // The MCAP file, through the mcap crate's reader.
     let bytes = std::fs::read(dir.join("bag").join("bag_0.mcap")).unwrap();
     let mut seen: BTreeMap<String, Vec<Vec<u8>>> = BTreeMap::new();
-    let mut last_log_time = 0;
+    // The file is in receiving order: log-time order, but for /battery's
+    // first messages, held while its type was asked of the camera node and
+    // written once it answered.
+    let mut last_log_time: BTreeMap<String, u64> = BTreeMap::new();
+    let (mut earliest, mut latest) = (u64::MAX, 0);
     for message in mcap::MessageStream::new(&bytes).unwrap() {
         let message = message.unwrap();
         let channel = &message.channel;
@@ -223,9 +227,17 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
                 "{definition}"
             );
         }
-        assert!(message.log_time >= last_log_time);
+        let order = if channel.topic == "/battery" {
+            "/battery"
+        } else {
+            "never held"
+        };
+        let last = last_log_time.entry(order.to_owned()).or_default();
+        assert!(message.log_time >= *last, "{}", channel.topic);
+        *last = message.log_time;
         assert!(message.publish_time <= message.log_time);
-        last_log_time = message.log_time;
+        earliest = earliest.min(message.log_time);
+        latest = latest.max(message.log_time);
         seen.entry(channel.topic.clone())
             .or_default()
             .push(message.data.into_owned());
@@ -238,6 +250,22 @@ fn a_recording_holds_every_message_byte_for_byte_and_plays_back() {
     }
     let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
     assert_eq!(summary.stats.unwrap().message_count, total);
+    assert_eq!(meta.starting_time.nanoseconds_since_epoch, earliest);
+    assert_eq!(meta.duration.nanoseconds, latest - earliest);
+    // Read back in log-time order, whatever order the file holds.
+    let bag = Bag::open(&dir.join("bag")).unwrap();
+    let mut read = Vec::new();
+    bag.read(
+        0,
+        |_| {},
+        |m| {
+            read.push(m.log_time);
+            std::ops::ControlFlow::<()>::Continue(())
+        },
+    )
+    .unwrap();
+    assert_eq!(read.len() as u64, total);
+    assert!(read.is_sorted());
 
     // Played back: the same bytes, in order, the images through shared memory.
     let listener = RosNode::builder(&a, "listener")
@@ -810,6 +838,68 @@ fn a_message_over_the_budget_is_counted_as_dropped_and_not_as_missed() {
         (2, 2, 0),
         "{stats:?}"
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn messages_arriving_over_two_links_at_once_are_written_in_log_time_order() {
+    // Two publishing sessions, each with its own link to the recorder's:
+    // their samples reach it on two threads at once.
+    let port = shm_runtime::testing::free_port().unwrap();
+    let open = |listen| {
+        zenoh::open(shm_runtime::testing::peer_config(port, listen).unwrap())
+            .wait()
+            .unwrap()
+    };
+    let recording_session = open(true);
+    let (dir, options) = recording("shm_bag_links", vec!["/left".into(), "/right".into()]);
+    let recorder = Recorder::start(&recording_session, options).unwrap();
+    let keep_all = Qos::with_history(
+        shm_runtime::rmw::Reliability::Reliable,
+        shm_runtime::rmw::Durability::Volatile,
+        shm_runtime::rmw::History::KeepAll,
+    );
+    let talkers = ["/left", "/right"].map(|topic| {
+        let session = open(false);
+        let node = RosNode::builder(&session, "talker")
+            .domain_id(0)
+            .wait()
+            .unwrap();
+        let publisher = node
+            .declare_publisher_with_qos::<RosString>(topic, keep_all)
+            .wait()
+            .unwrap();
+        assert!(publisher.wait_for_subscribers(TIMEOUT), "{topic}");
+        (session, node, publisher)
+    });
+    const EACH: u64 = 5_000;
+    std::thread::scope(|scope| {
+        for (_, _, publisher) in &talkers {
+            scope.spawn(move || {
+                for i in 0..EACH {
+                    let text = RosString {
+                        data: i.to_string(),
+                    };
+                    publisher.publish(&text).wait().unwrap();
+                }
+            });
+        }
+    });
+    wait_until("every message written", || {
+        recorder.stats().written == 2 * EACH
+    });
+    let stats = recorder.stats();
+    assert_eq!((stats.dropped, stats.missed), (0, 0), "{stats:?}");
+    let written = recorder.stop().unwrap();
+
+    let bytes = std::fs::read(dir.join("bag").join(&written.relative_file_paths[0])).unwrap();
+    let mut times = Vec::new();
+    for message in mcap::MessageStream::new(&bytes).unwrap() {
+        times.push(message.unwrap().log_time);
+    }
+    assert_eq!(times.len() as u64, 2 * EACH);
+    let behind = times.windows(2).filter(|w| w[1] < w[0]).count();
+    assert_eq!(behind, 0, "messages written after a later one");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
