@@ -56,7 +56,9 @@ pub trait CdrDecode<'de>: Sized {
         r: &mut Reader<'de, B>,
         n: usize,
     ) -> Result<Vec<Self>, DecodeError> {
-        let mut out = Vec::new();
+        // Allocated at its size at once (`n` is bounded by the input): an
+        // empty vector reserved for `n` takes the growth path.
+        let mut out = Vec::with_capacity(n);
         extend_decoded(r, n, &mut out)?;
         Ok(out)
     }
