@@ -2,8 +2,8 @@
 //! merged across chunks into log-time order, as a chunk's time range says
 //! when it is needed. A chunk is decompressed only when its first message
 //! is due, and a file written in order (as rosbag2 writes) has one chunk
-//! open at a time; messages in an uncompressed chunk are
-//! given from the map itself.
+//! open at a time; messages in an uncompressed chunk are given from the
+//! map itself.
 
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap, HashMap};
