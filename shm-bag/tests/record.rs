@@ -18,7 +18,7 @@ use shm_runtime::{RosNode, ShmConfig, ShmContext};
 use zenoh::{Session, Wait};
 
 mod common;
-use common::{recording, sessions, wait_until, TIMEOUT};
+use common::{peer, recording, sessions, wait_until, TIMEOUT};
 
 /// A type the recorder was not built with: described by its publisher's
 /// `~/get_type_description`.
@@ -846,12 +846,7 @@ fn messages_arriving_over_two_links_at_once_are_written_in_log_time_order() {
     // Two publishing sessions, each with its own link to the recorder's:
     // their samples reach it on two threads at once.
     let port = shm_runtime::testing::free_port().unwrap();
-    let open = |listen| {
-        zenoh::open(shm_runtime::testing::peer_config(port, listen).unwrap())
-            .wait()
-            .unwrap()
-    };
-    let recording_session = open(true);
+    let recording_session = peer(port, true);
     let (dir, options) = recording("shm_bag_links", vec!["/left".into(), "/right".into()]);
     let recorder = Recorder::start(&recording_session, options).unwrap();
     let keep_all = Qos::with_history(
@@ -860,7 +855,7 @@ fn messages_arriving_over_two_links_at_once_are_written_in_log_time_order() {
         shm_runtime::rmw::History::KeepAll,
     );
     let talkers = ["/left", "/right"].map(|topic| {
-        let session = open(false);
+        let session = peer(port, false);
         let node = RosNode::builder(&session, "talker")
             .domain_id(0)
             .wait()

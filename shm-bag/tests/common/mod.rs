@@ -13,13 +13,15 @@ pub const TIMEOUT: Duration = Duration::from_secs(30);
 /// Two peer sessions on a local port, as two processes would be.
 pub fn sessions() -> (Session, Session) {
     let port = testing::free_port().unwrap();
-    let open = |listen| {
-        zenoh::open(testing::peer_config(port, listen).unwrap())
-            .wait()
-            .unwrap()
-    };
-    let a = open(true);
-    (a, open(false))
+    let a = peer(port, true);
+    (a, peer(port, false))
+}
+
+/// A peer session listening on `port`, or connecting to it.
+pub fn peer(port: u16, listen: bool) -> Session {
+    zenoh::open(testing::peer_config(port, listen).unwrap())
+        .wait()
+        .unwrap()
 }
 
 /// Wait until `condition` holds; fail naming `what` after [`TIMEOUT`].
