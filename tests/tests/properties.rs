@@ -290,19 +290,47 @@ fn fixed_layouts_are_known_at_compile_time() {
 /// Every message type generated into `shm_cdr::msgs` (the registry shm-codegen
 /// writes): arbitrary values round-trip exactly in both byte orders, decode over
 /// a different earlier value, and the borrowing form (`BorrowedForm::Ref`)
-/// decodes the same bytes and re-encodes them unchanged. Values come from
-/// `arbitrary` over proptest's bytes, so failures shrink.
+/// decodes the same bytes and re-encodes them unchanged; the type built at
+/// run time from its description decodes both byte orders and encodes the
+/// same bytes into a buffer holding an earlier message's, none of which
+/// survive (every byte of padding written). Values come from `arbitrary`
+/// over proptest's bytes, so failures shrink.
 mod generated {
     use arbitrary::{Arbitrary, Unstructured};
     use proptest::test_runner::{Config, TestCaseError, TestRunner};
+    use shm_cdr::dynamic::DynamicType;
     use shm_cdr::loan::InPlace;
     use shm_cdr::testing::{check_decode_into, check_in_place, check_roundtrip};
-    use shm_cdr::{BorrowedForm, DecodeOwned};
+    use shm_cdr::{BorrowedForm, DecodeOwned, Endianness};
+
+    /// `encoded` (little-endian) decoded run-time typed from itself and from
+    /// `big` (the same message big-endian: its arrays are copied, not
+    /// borrowed), each encoded over stale bytes: `encoded` again.
+    fn check_dynamic(ty: &DynamicType, encoded: &[u8], big: &[u8]) -> Result<(), TestCaseError> {
+        for (order, bytes) in [("little", encoded), ("big", big)] {
+            let message = ty
+                .decode(bytes)
+                .map_err(|e| TestCaseError::fail(format!("run-time typed, {order}-endian: {e}")))?;
+            let mut stale = vec![0xA5; encoded.len()];
+            let n = shm_cdr::encode_into(&message, &mut stale)
+                .map_err(|e| TestCaseError::fail(format!("run-time typed encode: {e}")))?;
+            if stale[..n] != *encoded {
+                return Err(TestCaseError::fail(format!(
+                    "run-time typed, decoded {order}-endian, encodes other bytes"
+                )));
+            }
+        }
+        Ok(())
+    }
 
     fn check<T>() -> usize
     where
         T: BorrowedForm + DecodeOwned + InPlace + for<'a> Arbitrary<'a> + std::fmt::Debug,
     {
+        let ty = match DynamicType::from_description(&T::full_description()) {
+            Ok(ty) => ty,
+            Err(e) => panic!("{}: {e}", <T as shm_cdr::RosMessage>::TYPE_NAME),
+        };
         let mut runner = TestRunner::new(Config {
             cases: 32,
             failure_persistence: None,
@@ -326,7 +354,9 @@ mod generated {
             if again != encoded {
                 return Err(TestCaseError::fail("the Ref form re-encodes differently"));
             }
-            Ok(())
+            let big = shm_cdr::to_vec_with(&msg, Endianness::Big)
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+            check_dynamic(&ty, &encoded, &big)
         });
         if let Err(e) = result {
             panic!("{}: {e}", <T as shm_cdr::RosMessage>::TYPE_NAME);
