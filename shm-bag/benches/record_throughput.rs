@@ -19,12 +19,11 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use shm_bag::{RecordOptions, Recorder, Selection};
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
-
 use shm_cdr::msgs::sensor_msgs::msg::Image;
 use shm_cdr::msgs::std_msgs::msg::String as Text;
 use shm_runtime::rmw::Qos;
@@ -38,7 +37,7 @@ const ROLE: &str = "SHM_BAG_BENCH_ROLE";
 const TEXT_CHARS: usize = 64;
 
 /// What the publisher processes send.
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy)]
 enum Traffic {
     Images,
     Texts,
