@@ -7,7 +7,7 @@ use std::borrow::Cow;
 
 use super::model::DynamicType;
 use super::numbers::Numbers;
-use super::plan::{Entry, Load, Member, Step};
+use super::plan::{Bits, Copies, Entry, Load, Member, Step};
 use super::structs::{Check, Element, FieldDef};
 use super::value::{Message, Messages, Slots, Value};
 use crate::decode::{CdrDecode, Reader};
@@ -611,28 +611,6 @@ pub(crate) fn read_len<B: ByteOrder>(
     }
 }
 
-/// A match on one of a run's loads whose arms for single numbers are
-/// `$number!(type, Value variant, offset)`, followed by `$arms` for the
-/// other loads: the one list of which Rust type and [`Value`] variant each
-/// number's load reads and writes, for decode and encode alike.
-macro_rules! match_load {
-    ($load:expr, $number:ident, { $($arms:tt)* }) => {
-        match $load {
-            Load::U8(at) => $number!(u8, U8, at),
-            Load::I8(at) => $number!(i8, I8, at),
-            Load::I16(at) => $number!(i16, I16, at),
-            Load::U16(at) => $number!(u16, U16, at),
-            Load::I32(at) => $number!(i32, I32, at),
-            Load::U32(at) => $number!(u32, U32, at),
-            Load::I64(at) => $number!(i64, I64, at),
-            Load::U64(at) => $number!(u64, U64, at),
-            Load::F32(at) => $number!(f32, F32, at),
-            Load::F64(at) => $number!(f64, F64, at),
-            $($arms)*
-        }
-    };
-}
-
 /// The values of a run of fixed-size fields from its bytes, pushed onto
 /// `slots`; `false` (some pushed) if a value cannot be read from where the
 /// run says it lies or a bool is neither 0 nor 1: then the run is read
@@ -660,7 +638,17 @@ fn load_run<'de, B: ByteOrder>(
         }};
     }
     for load in loads {
-        match_load!(*load, number, {
+        match *load {
+            Load::U8(at) => number!(u8, U8, at),
+            Load::I8(at) => number!(i8, I8, at),
+            Load::I16(at) => number!(i16, I16, at),
+            Load::U16(at) => number!(u16, U16, at),
+            Load::I32(at) => number!(i32, I32, at),
+            Load::U32(at) => number!(u32, U32, at),
+            Load::I64(at) => number!(i64, I64, at),
+            Load::U64(at) => number!(u64, U64, at),
+            Load::F32(at) => number!(f32, F32, at),
+            Load::F64(at) => number!(f64, F64, at),
             Load::Bool(at) => match bytes.get(at) {
                 Some(&b) if b <= 1 => push_with(slots, || Value::Bool(b != 0)),
                 _ => return false,
@@ -680,7 +668,7 @@ fn load_run<'de, B: ByteOrder>(
                 }
             }
             Load::Placeholder => push_with(slots, || Value::U8(0)),
-        })
+        }
     }
     true
 }
@@ -959,12 +947,15 @@ pub(crate) fn encode_struct<B: ByteOrder, H: Holes>(
                 len,
                 first: run_first,
                 ref members,
-                ref loads,
+                ref copies,
                 ..
             } => {
                 let run = w.aligned_slot(align, len)?;
                 let values = slots.get(first + run_first..).unwrap_or_default();
-                if !store_run::<B>(run, loads, values) {
+                let stored = copies
+                    .as_ref()
+                    .is_some_and(|copies| store_copies::<B>(run, copies, values));
+                if !stored {
                     for m in members.iter() {
                         if let Some(value) = at(m.slot) {
                             write_member::<B>(run, m, value)?;
@@ -1065,112 +1056,40 @@ fn check_container(check: Check) -> Container {
 }
 
 /// Write a run's values, its slots' from the first on, into its zeroed
-/// bytes `run` as its `loads` lay them out: a store per single value, an
-/// array in bulk. `false` if a value is missing or not of its field's kind
-/// (which `Message::set` rules out): then the run is written member by
-/// member.
+/// bytes `run` as its plan's [`Copies`] lay them: each group of one size in
+/// a loop, an array in bulk. `false` if a value is missing or not of its
+/// field's kind (which `Message::set` rules out): then the run is written
+/// member by member.
 #[inline]
-fn store_run<B: ByteOrder>(run: &mut [u8], loads: &[Load], values: &[Value<'_>]) -> bool {
-    let mut values = values.iter();
-    macro_rules! number {
-        ($t:ty, $variant:ident, $at:expr) => {{
-            let (Some(Value::$variant(v)), Some(out)) = (
-                values.next(),
-                run.get_mut($at..)
-                    .and_then(|rest| rest.first_chunk_mut::<{ std::mem::size_of::<$t>() }>()),
-            ) else {
-                return false;
-            };
-            *out = if B::LITTLE {
-                v.to_le_bytes()
-            } else {
-                v.to_be_bytes()
-            };
-        }};
-    }
-    for load in loads {
-        match_load!(*load, number, {
-            Load::Bool(at) => {
-                let (Some(Value::Bool(v)), Some(out)) = (values.next(), run.get_mut(at)) else {
-                    return false;
-                };
-                *out = u8::from(*v);
-            }
-            Load::Singles {
-                element,
-                offset,
-                count,
-            } => {
-                let rest = values.as_slice();
-                let (Some(taken), Some(after)) = (rest.get(..count), rest.get(count..)) else {
-                    return false;
-                };
-                if !store_singles::<B>(run, element, offset, taken) {
-                    return false;
-                }
-                values = after.iter();
-            }
-            Load::Array { offset, .. } => {
-                let (Some(value), Some(place)) = (values.next(), run.get_mut(offset..)) else {
-                    return false;
-                };
-                if !store_array::<B>(place, value) {
-                    return false;
-                }
-            }
-            // Its byte is the run's zero.
-            Load::Placeholder => {
-                values.next();
-            }
-        })
-    }
-    true
-}
-
-/// Write single numbers of kind `element` back to back from
-/// `run[offset..]`; `false` if one is not of that kind or does not fit.
-#[inline]
-fn store_singles<B: ByteOrder>(
-    run: &mut [u8],
-    element: Element,
-    offset: usize,
-    values: &[Value<'_>],
-) -> bool {
-    let Some(out) = element
-        .fixed_size()
-        .and_then(|size| size.checked_mul(values.len()))
-        .and_then(|len| run.get_mut(offset..offset.checked_add(len)?))
-    else {
+fn store_copies<B: ByteOrder>(run: &mut [u8], copies: &Copies, values: &[Value<'_>]) -> bool {
+    let Some(values) = values.get(..copies.count) else {
         return false;
     };
-    macro_rules! put {
-        ($t:ty, $variant:ident) => {
-            // The element's size as a constant: each copy is a store.
-            for (place, value) in out.chunks_exact_mut(std::mem::size_of::<$t>()).zip(values) {
-                let Value::$variant(v) = value else {
+    macro_rules! copy {
+        ($group:expr) => {
+            for c in $group.iter() {
+                let (Some(bits), Some(out)) = (
+                    values.get(c.slot).and_then(|v| c.bits(v)),
+                    run.get_mut(c.at..),
+                ) else {
                     return false;
                 };
-                place.copy_from_slice(&if B::LITTLE {
-                    v.to_le_bytes()
-                } else {
-                    v.to_be_bytes()
-                });
+                if !bits.write(out, B::LITTLE) {
+                    return false;
+                }
             }
         };
     }
-    match element {
-        Element::Byte | Element::Char | Element::U8 => put!(u8, U8),
-        Element::I8 => put!(i8, I8),
-        Element::I16 => put!(i16, I16),
-        Element::U16 => put!(u16, U16),
-        Element::I32 => put!(i32, I32),
-        Element::U32 => put!(u32, U32),
-        Element::I64 => put!(i64, I64),
-        Element::U64 => put!(u64, U64),
-        Element::F32 => put!(f32, F32),
-        Element::F64 => put!(f64, F64),
-        Element::Bool | Element::String(_) | Element::WString(_) | Element::Message(_) => {
-            return false
+    copy!(copies.ones);
+    copy!(copies.twos);
+    copy!(copies.fours);
+    copy!(copies.eights);
+    for &(slot, offset) in copies.arrays.iter() {
+        let (Some(value), Some(place)) = (values.get(slot), run.get_mut(offset..)) else {
+            return false;
+        };
+        if !store_array::<B>(place, value) {
+            return false;
         }
     }
     true

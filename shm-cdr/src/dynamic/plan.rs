@@ -7,6 +7,7 @@
 //! agree on one layout.
 
 use super::structs::{Check, Element, StructDef};
+use super::value::Value;
 use crate::describe::Container;
 
 /// How one message of a struct is laid out and checked: its fields, and
@@ -41,8 +42,10 @@ pub(crate) enum Step {
         bools: bool,
         /// The slot of its first member; the others follow, one each.
         first: usize,
-        /// The members as `decode` reads them and `encode` writes them.
+        /// The members as `decode` reads them.
         loads: Box<[Load]>,
+        /// The members as `encode` writes them (`None`: member by member).
+        copies: Option<Box<Copies>>,
     },
     /// A string.
     String { slot: usize, bound: Option<usize> },
@@ -91,7 +94,7 @@ pub(crate) struct Member {
 /// by one: a loop's set-up costs more than two dispatches.
 const SINGLE_LOADS: usize = 2;
 
-/// How `decode` reads, and `encode` writes, one member of a [`Step::Run`]
+/// How `decode` reads one member of a [`Step::Run`]
 /// in its bytes: a single value's kind is the load's tag, so each value
 /// costs one dispatch. Offsets count from the run's aligned start; the
 /// loads of a run take its slots in order, one each (`count` for
@@ -225,6 +228,141 @@ impl Load {
     }
 }
 
+/// A run's members as copies between its bytes and its values, grouped by
+/// size: each group is a loop with no branch on a value's kind, and the
+/// arrays are borrowed (decode) or copied (encode) whole. Every slot of the
+/// run is in exactly one of them.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct Copies {
+    /// The slots the run takes.
+    pub(crate) count: usize,
+    pub(crate) ones: Box<[Copy<u8>]>,
+    pub(crate) twos: Box<[Copy<u16>]>,
+    pub(crate) fours: Box<[Copy<u32>]>,
+    pub(crate) eights: Box<[Copy<u64>]>,
+    /// `(slot, offset)`: an array of numbers.
+    pub(crate) arrays: Box<[(usize, usize)]>,
+}
+
+/// One single number or bool of a run: its offset in the run's bytes and
+/// its slot from the run's first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Copy<B> {
+    pub(crate) at: usize,
+    pub(crate) slot: usize,
+    /// What of its bits it keeps: all, or none for rosidl's placeholder
+    /// member of an empty message, which is written as 0.
+    pub(crate) keep: B,
+}
+
+/// The bits of a single number or bool as a run copies them: `u8`, `u16`,
+/// `u32` or `u64`, one type per size.
+pub(crate) trait Bits: std::marker::Copy + std::ops::BitAnd<Output = Self> {
+    const ALL: Self;
+    const NONE: Self;
+    /// The bits of a number or bool of this size; `None` for another value.
+    fn of(value: &Value<'_>) -> Option<Self>;
+    /// Write them at the start of `out` in the byte order `little` says;
+    /// `false` if they do not fit.
+    fn write(self, out: &mut [u8], little: bool) -> bool;
+}
+
+macro_rules! bits {
+    ($t:ty: $($variant:ident => $to_bits:expr),*) => {
+        impl Bits for $t {
+            const ALL: Self = <$t>::MAX;
+            const NONE: Self = 0;
+            #[inline(always)]
+            fn of(value: &Value<'_>) -> Option<Self> {
+                match *value {
+                    $(Value::$variant(v) => Some($to_bits(v)),)*
+                    _ => None,
+                }
+            }
+            #[inline(always)]
+            fn write(self, out: &mut [u8], little: bool) -> bool {
+                let Some(out) = out.first_chunk_mut::<{ size_of::<$t>() }>() else {
+                    return false;
+                };
+                *out = if little { self.to_le_bytes() } else { self.to_be_bytes() };
+                true
+            }
+        }
+    };
+}
+bits!(u8: Bool => u8::from, U8 => |v| v, I8 => |v: i8| v as u8);
+bits!(u16: I16 => |v: i16| v as u16, U16 => |v| v);
+bits!(u32: I32 => |v: i32| v as u32, U32 => |v| v, F32 => f32::to_bits);
+bits!(u64: I64 => |v: i64| v as u64, U64 => |v| v, F64 => f64::to_bits);
+
+impl<B: Bits> Copy<B> {
+    /// The bits `value` is written as, if it is a number or bool of this size.
+    #[inline(always)]
+    pub(crate) fn bits(&self, value: &Value<'_>) -> Option<B> {
+        B::of(value).map(|bits| bits & self.keep)
+    }
+}
+
+impl Copies {
+    /// The copies of a run's members, slots counted from the first; `None`
+    /// if a member is not a number, a bool or an array of numbers.
+    fn of(members: &[Member]) -> Option<Box<Copies>> {
+        let first = members.first().map_or(0, |m| m.slot);
+        let mut copies = Copies {
+            count: members.len(),
+            ones: Box::default(),
+            twos: Box::default(),
+            fours: Box::default(),
+            eights: Box::default(),
+            arrays: Box::default(),
+        };
+        let (mut ones, mut twos, mut fours, mut eights, mut arrays) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        fn copy<B: Bits>(m: &Member, slot: usize) -> Copy<B> {
+            Copy {
+                at: m.offset,
+                slot,
+                keep: if m.placeholder { B::NONE } else { B::ALL },
+            }
+        }
+        for m in members {
+            let slot = m.slot.checked_sub(first)?;
+            match (m.container, m.element.fixed_size()?) {
+                (Container::Array(_), _) if m.element.is_number() => arrays.push((slot, m.offset)),
+                (Container::Single, 1) => ones.push(copy(m, slot)),
+                (Container::Single, 2) => twos.push(copy(m, slot)),
+                (Container::Single, 4) => fours.push(copy(m, slot)),
+                (Container::Single, 8) => eights.push(copy(m, slot)),
+                _ => return None,
+            }
+        }
+        // Each member one slot, the run's slots one after another: every
+        // slot is written once.
+        let mut seen = vec![false; copies.count];
+        let slots = ones
+            .iter()
+            .map(|c| c.slot)
+            .chain(twos.iter().map(|c| c.slot))
+            .chain(fours.iter().map(|c| c.slot))
+            .chain(eights.iter().map(|c| c.slot))
+            .chain(arrays.iter().map(|a| a.0));
+        for slot in slots {
+            if std::mem::replace(seen.get_mut(slot)?, true) {
+                return None;
+            }
+        }
+        if seen.contains(&false) {
+            return None;
+        }
+        copies.ones = ones.into();
+        copies.twos = twos.into();
+        copies.fours = fours.into();
+        copies.eights = eights.into();
+        copies.arrays = arrays.into();
+        Some(Box::new(copies))
+    }
+}
+
 /// Whether every bool among a run's `members` is 0 or 1 in the run's `bytes`.
 #[inline]
 pub(crate) fn bools_valid(members: &[Member], bytes: &[u8]) -> bool {
@@ -257,6 +395,7 @@ impl OpenRun {
             bools: self.members.iter().any(|m| m.bool),
             first: self.members.first().map_or(0, |m| m.slot),
             loads,
+            copies: Copies::of(&self.members),
             members: self.members.into(),
             checks: self.checks.into(),
         }
@@ -519,6 +658,77 @@ mod tests {
                 ),
             ]
         );
+    }
+
+    /// An Imu's run is written as ten `float64`s in one loop and three
+    /// arrays; a PointField's as its `uint8` and two `uint32`s, one loop
+    /// per size.
+    #[test]
+    fn a_run_is_encoded_by_one_loop_per_size() {
+        let ty = DynamicType::from_description(&Imu::full_description()).unwrap();
+        let copies = |ty: &DynamicType, index: usize, run: usize| {
+            ty.inner.plans[index]
+                .steps
+                .iter()
+                .filter_map(|step| match step {
+                    Step::Run { copies, .. } => copies.clone(),
+                    _ => None,
+                })
+                .nth(run)
+                .unwrap()
+        };
+        let imu = copies(&ty, 0, 1);
+        let eights: Vec<_> = imu.eights.iter().map(|c| (c.slot, c.at)).collect();
+        assert_eq!(
+            eights,
+            [
+                (0, 0),
+                (1, 8),
+                (2, 16),
+                (3, 24),
+                (5, 104),
+                (6, 112),
+                (7, 120),
+                (9, 200),
+                (10, 208),
+                (11, 216)
+            ]
+        );
+        assert_eq!(*imu.arrays, [(4, 32), (8, 128), (12, 224)]);
+        assert!(imu.ones.is_empty() && imu.twos.is_empty() && imu.fours.is_empty());
+        assert_eq!(imu.count, 13);
+
+        let cloud = DynamicType::from_description(&PointCloud2::full_description()).unwrap();
+        let field = cloud
+            .inner
+            .structs
+            .iter()
+            .position(|s| s.name == "sensor_msgs/msg/PointField");
+        let point_field = copies(&cloud, field.unwrap(), 0);
+        let ones: Vec<_> = point_field
+            .ones
+            .iter()
+            .map(|c| (c.slot, c.at, c.keep))
+            .collect();
+        let fours: Vec<_> = point_field.fours.iter().map(|c| (c.slot, c.at)).collect();
+        assert_eq!((ones, fours), (vec![(1, 4, u8::MAX)], vec![(0, 0), (2, 8)]));
+    }
+
+    /// rosidl's placeholder member of an empty message keeps none of its
+    /// bits: it is written as 0.
+    #[test]
+    fn a_placeholder_is_written_as_zero() {
+        let ty =
+            DynamicType::from_description(&crate::msgs::std_msgs::msg::Empty::full_description())
+                .unwrap();
+        let Some(Step::Run {
+            copies: Some(copies),
+            ..
+        }) = ty.inner.plans[0].steps.first()
+        else {
+            panic!("an empty message is one run");
+        };
+        assert_eq!(copies.ones.iter().map(|c| c.keep).collect::<Vec<_>>(), [0]);
     }
 
     /// A Pose's seven `float64`s back to back are one load, read in a loop;
