@@ -18,6 +18,7 @@
 //! | `zenoh-rmw-queue` | Zenoh `put` with the rmw attachment | Zenoh's default channel, `recv()` in a thread |
 //! | `node-queue` | `RosPublisher::publish` | a `RosSubscriber`, `recv()` in a thread |
 //! | `node-callback` | `RosPublisher::publish` | `callback` (queue, then an executor thread) |
+//! | `node-zenoh` | `RosPublisher::publish` | Zenoh callback on the topic's key, as a Zenoh-only program subscribes |
 //!
 //! A node's path is compared with raw Zenoh sending the same wire message:
 //! the bytes and the 33-byte attachment (sequence number, time, GID) that
@@ -53,7 +54,7 @@ use std::time::Duration;
 use common::{cpu_ns, list_arg, median, now_ns, spawn_ready, Publishing};
 use shm_cdr::msgs::std_msgs::String as RosString;
 use shm_cdr_examples::peer_session;
-use shm_runtime::rmw::{Attachment, Gid};
+use shm_runtime::rmw::{topic_key_expr, Attachment, Distro, Gid};
 use shm_runtime::{History, RosNode, ShmContext};
 use zenoh::bytes::ZBytes;
 use zenoh::qos::{CongestionControl, Reliability};
@@ -85,16 +86,18 @@ enum Path {
     ZenohRmwQueue,
     NodeQueue,
     NodeCallback,
+    NodeZenoh,
 }
 
 impl Path {
-    const ALL: [Path; 6] = [
+    const ALL: [Path; 7] = [
         Path::ZenohBare,
         Path::ZenohRmwCallback,
         Path::NodeInline,
         Path::ZenohRmwQueue,
         Path::NodeQueue,
         Path::NodeCallback,
+        Path::NodeZenoh,
     ];
 
     fn label(self) -> &'static str {
@@ -105,6 +108,7 @@ impl Path {
             Path::ZenohRmwQueue => "zenoh put + rmw attachment → channel, recv()",
             Path::NodeQueue => "node publish → RosSubscriber, recv()",
             Path::NodeCallback => "node publish → callback (executor)",
+            Path::NodeZenoh => "node publish → zenoh callback",
         }
     }
 
@@ -117,6 +121,7 @@ impl Path {
             Path::ZenohRmwQueue => "zenoh-rmw-queue",
             Path::NodeQueue => "node-queue",
             Path::NodeCallback => "node-callback",
+            Path::NodeZenoh => "node-zenoh",
         }
     }
 
@@ -131,6 +136,14 @@ impl Path {
     fn is_node(self) -> bool {
         matches!(
             self,
+            Path::NodeInline | Path::NodeQueue | Path::NodeCallback | Path::NodeZenoh
+        )
+    }
+
+    /// Whether a node's subscriber receives it (and counts what it lost).
+    fn node_subscribes(self) -> bool {
+        matches!(
+            self,
             Path::NodeInline | Path::NodeQueue | Path::NodeCallback
         )
     }
@@ -141,7 +154,7 @@ impl Path {
         match self {
             Path::ZenohBare | Path::ZenohRmwQueue => None,
             Path::ZenohRmwCallback => Some(Path::ZenohBare),
-            Path::NodeInline => Some(Path::ZenohRmwCallback),
+            Path::NodeInline | Path::NodeZenoh => Some(Path::ZenohRmwCallback),
             Path::NodeQueue | Path::NodeCallback => Some(Path::ZenohRmwQueue),
         }
     }
@@ -262,6 +275,19 @@ fn subscriber_side() -> zenoh::Result<()> {
                 .wait()?,
         );
     }
+    // A Zenoh-only subscriber of a node's topic, on the key rmw_zenoh_cpp
+    // publishes it on.
+    let c = counter(Path::NodeZenoh);
+    keep.push(
+        session
+            .declare_subscriber(topic_key_expr::<RosString>(
+                Distro::default(),
+                0,
+                &Path::NodeZenoh.topic(),
+            ))
+            .callback(move |s: Sample| c.count(s.payload()))
+            .wait()?,
+    );
     let zenoh_queue = session
         .declare_subscriber(Path::ZenohRmwQueue.topic())
         .wait()?;
@@ -574,7 +600,7 @@ fn print_table(rates: &BTreeMap<(usize, Path), Vec<Round>>) {
             let hi = values.iter().copied().fold(0.0, f64::max);
             let lost: u64 = rounds.iter().map(|r| r.lost).sum();
             let counted: u64 = rounds.iter().map(|r| r.counted).sum();
-            let lost = match path.is_node() {
+            let lost = match path.node_subscribes() {
                 true => format!("{lost} ({counted} counted)"),
                 false => lost.to_string(),
             };

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use shm_cdr::msgs::sensor_msgs::Image;
 use shm_cdr::msgs::std_msgs::Header;
 use shm_runtime::ShmOptions;
-use shm_runtime::{History, PayloadKind, SessionExt, ShmConfig, ShmContext};
+use shm_runtime::{History, PayloadKind, ReceiveFailureCause, SessionExt, ShmConfig, ShmContext};
 use zenoh::Wait;
 
 mod common;
@@ -278,10 +278,14 @@ struct StopReport {
     /// `missed()` of a plain subscriber beside the tested one in the same
     /// session: what the connection itself lost.
     witness_missed: u64,
+    /// Messages Zenoh could not take from shared memory in the subscriber
+    /// process because their buffer had been invalidated
+    /// (`shm_receive_failures`).
+    invalidated: u64,
 }
 
 impl StopReport {
-    const FIELDS: [&'static str; 7] = [
+    const FIELDS: [&'static str; 8] = [
         "received",
         "skipped",
         "missed",
@@ -289,6 +293,7 @@ impl StopReport {
         "corrupted",
         "undecodable",
         "witness_missed",
+        "invalidated",
     ];
 
     fn line(&self) -> String {
@@ -300,6 +305,7 @@ impl StopReport {
             self.corrupted,
             self.undecodable,
             self.witness_missed,
+            self.invalidated,
         ];
         let fields: Vec<String> = Self::FIELDS
             .iter()
@@ -314,7 +320,8 @@ impl StopReport {
             .split_whitespace()
             .filter_map(|w| w.parse().ok())
             .collect();
-        let [received, skipped, missed, last, corrupted, undecodable, witness_missed] = numbers[..]
+        let [received, skipped, missed, last, corrupted, undecodable, witness_missed, invalidated] =
+            numbers[..]
         else {
             panic!("bad report {line}");
         };
@@ -326,6 +333,7 @@ impl StopReport {
             corrupted,
             undecodable,
             witness_missed,
+            invalidated,
         }
     }
 }
@@ -336,6 +344,8 @@ impl StopReport {
 /// into its own pool, whose unsafe garbage collection reclaims chunks the stopped
 /// process still holds (2 of 8 runs under load delivered wrong bytes).
 fn stop_child(port: u16, recovery: bool) -> ! {
+    // Counts what Zenoh drops because it cannot take it from shared memory.
+    shm_runtime::init_logging();
     let session = common::open(without_implicit_shm_copy(peer_config(port, false)))
         .wait()
         .unwrap();
@@ -396,6 +406,8 @@ fn stop_child(port: u16, recovery: bool) -> ! {
     report.missed = subscriber.missed();
     report.last = u64::from(next.saturating_sub(1));
     report.witness_missed = witness.missed();
+    report.invalidated =
+        shm_runtime::shm_receive_failures().count(ReceiveFailureCause::Invalidated);
     writeln!(out, "{TAG}{}", report.line()).unwrap();
     out.flush().unwrap();
     loop {
@@ -416,12 +428,32 @@ fn stop_subscriber_process(
     stopped: Duration,
     recovery: Option<usize>,
 ) -> StopReport {
+    stop_subscriber_process_with(test, env, stopped, recovery, None)
+}
+
+/// [`stop_subscriber_process`], the messages in `shm`'s pool if given.
+fn stop_subscriber_process_with(
+    test: &str,
+    env: &str,
+    stopped: Duration,
+    recovery: Option<usize>,
+    shm: Option<&ShmContext>,
+) -> StopReport {
     let _one_at_a_time = STOPS.lock().unwrap_or_else(|e| e.into_inner());
     let port = free_port();
     let session = common::open(without_implicit_shm_copy(peer_config(port, true)))
         .wait()
         .unwrap();
     let builder = session.declare_ros_publisher::<Image>("crash/stopped");
+    let builder = match shm {
+        Some(shm) => builder.shm(shm),
+        None => builder,
+    };
+    // Through the pool while it has room; a full pool falls back to the heap.
+    let kinds: &[PayloadKind] = match shm {
+        Some(_) => &[PayloadKind::Shm, PayloadKind::HeapFallback],
+        None => &[PayloadKind::Heap],
+    };
     let publisher = match recovery {
         Some(depth) => builder.recovery(depth),
         None => builder,
@@ -433,27 +465,35 @@ fn stop_subscriber_process(
     assert!(publisher.wait_for_subscribers(TIMEOUT));
     std::thread::sleep(Duration::from_millis(500));
     // The shell's own `kill`: no procps needed on a minimal machine.
-    let signal = |name: &str| {
+    let pid = process.0.id();
+    let signal = move |name: &str| {
         let status = Command::new("sh")
-            .args(["-c", &format!("kill {name} {}", process.0.id())])
+            .args(["-c", &format!("kill {name} {pid}")])
             .status()
             .unwrap();
         assert!(status.success(), "kill {name}");
     };
     let publish = |i| {
         let outcome = publisher.publish(&stop_image(i)).wait().unwrap();
-        assert_eq!(outcome.kind, PayloadKind::Heap, "message {i}");
+        assert!(
+            kinds.contains(&outcome.kind),
+            "message {i}: {:?}",
+            outcome.kind
+        );
     };
     for i in 0..100 {
         publish(i);
     }
     signal("-STOP");
-    let stopped_at = Instant::now();
+    // Woken after `stopped` whether or not a blocked publish has returned.
+    let wake = std::thread::spawn(move || {
+        std::thread::sleep(stopped);
+        signal("-CONT");
+    });
     for i in 100..DURING_STOP {
         publish(i);
     }
-    std::thread::sleep(stopped.saturating_sub(stopped_at.elapsed()));
-    signal("-CONT");
+    wake.join().unwrap();
     // Keep publishing until the child has what it waits for (without
     // recovery, what goes out before it has reconnected is missed too, and
     // counted).
@@ -582,5 +622,91 @@ fn subscriber_process_stopped_past_the_lease_with_recovery() {
         report.skipped,
         report.missed,
         report.witness_missed
+    );
+}
+
+const SHM_STOP_ENV: &str = "SHM_STOP_CHILD_PORT";
+const SHM_STOP_TEST: &str =
+    "briefly_stopped_subscriber_process_loses_shared_memory_in_flight_and_is_told";
+const SHM_RECOVERY_ENV: &str = "SHM_RECOVERY_CHILD_PORT";
+const SHM_RECOVERY_TEST: &str =
+    "briefly_stopped_subscriber_process_with_recovery_gets_every_shared_memory_message";
+
+/// `stop_subscriber_process` for 1 s, far below Zenoh's close timeout, with
+/// the 32 KiB messages in a pool (the heap once it is full); `None` when no
+/// pool can be made under this process's memory-lock limit.
+fn briefly_stop_shm_subscriber(test: &str, env: &str, recovery: bool) -> Option<StopReport> {
+    let shm = ShmContext::new(ShmConfig::enabled().threshold(1024)).unwrap();
+    if shm.pool_size().is_none() {
+        eprintln!(
+            "no pool under this memory-lock limit ({}): nothing to test",
+            shm.memlock()
+        );
+        return None;
+    }
+    let report = stop_subscriber_process_with(
+        test,
+        env,
+        Duration::from_secs(1),
+        recovery.then_some(RECOVERY_DEPTH),
+        Some(&shm),
+    );
+    println!(
+        "shm stop{}: subscriber process SIGSTOPped 1s while 1000 × 32 KiB went through shared \
+         memory, then SIGCONTed: {} received in order ({} with wrong bytes), {} never arrived, \
+         missed() = {}, {} invalidated buffers",
+        if recovery { " with recovery" } else { "" },
+        report.received,
+        report.corrupted,
+        report.skipped,
+        report.missed,
+        report.invalidated
+    );
+    assert_eq!(report.corrupted, 0, "{report:?}");
+    Some(report)
+}
+
+/// A subscriber process stopped for 1 s while messages go to it through the
+/// publisher's shared memory. The stop alone loses nothing on the heap
+/// (Zenoh blocks the publisher until the process runs again), but a pool
+/// that needs room takes back a buffer no process has confirmed within
+/// Zenoh's watchdog period (about 100 ms), and the stopped process drops
+/// such a message when it arrives. Every lost message is one of those, is
+/// counted in `missed()` and names its cause; none arrives with wrong bytes.
+#[test]
+fn briefly_stopped_subscriber_process_loses_shared_memory_in_flight_and_is_told() {
+    if let Ok(port) = std::env::var(SHM_STOP_ENV) {
+        stop_child(port.parse().unwrap(), false);
+    }
+    let Some(report) = briefly_stop_shm_subscriber(SHM_STOP_TEST, SHM_STOP_ENV, false) else {
+        return;
+    };
+    assert!(
+        report.skipped > 0,
+        "nothing was lost: no buffer was taken back while the process was stopped ({report:?})"
+    );
+    assert_eq!(report.invalidated, report.skipped, "{report:?}");
+    assert_eq!(
+        report.missed, report.skipped,
+        "every lost message is counted ({report:?})"
+    );
+}
+
+/// The same stop with recovery on both sides: the publisher's cache holds its
+/// buffers, so none is taken back, and every message arrives in order and
+/// intact.
+#[test]
+fn briefly_stopped_subscriber_process_with_recovery_gets_every_shared_memory_message() {
+    if let Ok(port) = std::env::var(SHM_RECOVERY_ENV) {
+        stop_child(port.parse().unwrap(), true);
+    }
+    let Some(report) = briefly_stop_shm_subscriber(SHM_RECOVERY_TEST, SHM_RECOVERY_ENV, true)
+    else {
+        return;
+    };
+    assert_eq!(
+        (report.skipped, report.missed, report.invalidated),
+        (0, 0, 0),
+        "{report:?}"
     );
 }

@@ -35,16 +35,22 @@ pub enum ReceiveFailureCause {
     OpenFiles,
     /// The segment no longer exists (its process exited) or was invalidated.
     Vanished,
+    /// The buffer was taken back before this process could take the
+    /// message: Zenoh's watchdog reclaims a buffer whose receivers stop
+    /// confirming it for about 100 ms, as a stopped or starved process does.
+    /// The message is lost, whoever sent it.
+    Invalidated,
     /// Anything else; the warning quotes Zenoh's message.
     Other,
 }
 
 impl ReceiveFailureCause {
-    const ALL: [Self; 5] = [
+    const ALL: [Self; 6] = [
         Self::MemoryLock,
         Self::Permission,
         Self::OpenFiles,
         Self::Vanished,
+        Self::Invalidated,
         Self::Other,
     ];
 
@@ -60,13 +66,34 @@ impl ReceiveFailureCause {
             Some(Errno::EACCES | Errno::EPERM) => Self::Permission,
             Some(Errno::EMFILE | Errno::ENFILE) => Self::OpenFiles,
             Some(Errno::ENOENT) => Self::Vanished,
+            // `Buffer is invalidated`: the buffer's watchdog lapsed; the
+            // segment itself may well be there.
+            None if error.contains("invalidated") => Self::Invalidated,
             None if error.contains("invalid") => Self::Vanished,
             _ => Self::Other,
         }
     }
 
+    /// What became of the message.
+    fn outcome(self) -> &'static str {
+        match self {
+            Self::Invalidated => {
+                "It was a message, lost, from whichever publisher sent it (a node subscriber \
+                 counts it in missed())."
+            }
+            _ => {
+                "From an shm-runtime publisher this was its probe: it sends to this process \
+                 from the heap and nothing is lost; from another sender (rmw_zenoh_cpp) it was \
+                 a message, lost."
+            }
+        }
+    }
+
     fn index(self) -> usize {
-        Self::ALL.iter().position(|c| *c == self).unwrap_or(4)
+        Self::ALL
+            .iter()
+            .position(|c| *c == self)
+            .unwrap_or(Self::ALL.len() - 1)
     }
 
     /// What to change.
@@ -87,6 +114,12 @@ impl ReceiveFailureCause {
                  raise it (`ulimit -n`, LimitNOFILE=)"
             }
             Self::Vanished => "the publisher's segment is gone (its process exited)",
+            Self::Invalidated => {
+                "Zenoh's watchdog took the buffer back before this process read it, as it does \
+                 when a buffer's receivers stop confirming it for about 100 ms: this process was \
+                 stopped or starved (a debugger, SIGSTOP, swapping, a CPU quota) while messages \
+                 were in flight to it"
+            }
             Self::Other => "see Zenoh's message",
         }
     }
@@ -99,24 +132,28 @@ impl fmt::Display for ReceiveFailureCause {
             Self::Permission => "another user's segment",
             Self::OpenFiles => "open-files limit",
             Self::Vanished => "segment gone",
+            Self::Invalidated => "buffer invalidated",
             Self::Other => "other",
         })
     }
 }
 
-static COUNTS: [AtomicU64; 5] = [const { AtomicU64::new(0) }; 5];
+static COUNTS: [AtomicU64; ReceiveFailureCause::ALL.len()] =
+    [const { AtomicU64::new(0) }; ReceiveFailureCause::ALL.len()];
 
-/// How many messages this process could not take from shared memory because
-/// it could not map it, by cause, since it started. This project's
-/// publishers check each subscribing session with one probe message first
-/// and send to a session that cannot map their pool from the heap, so for
-/// them this counts the probe, and nothing is lost; the messages of other
-/// senders (rmw_zenoh_cpp's) counted here were lost. Counted only while a
+/// How many messages this process could not take from shared memory, by
+/// cause, since it started. This project's publishers check each
+/// subscribing session with one probe message first and send to a session
+/// that cannot map their pool from the heap, so for them a failure to map
+/// counts the probe, and nothing is lost; the messages of other senders
+/// (rmw_zenoh_cpp's) counted here were lost. A buffer
+/// [invalidated](ReceiveFailureCause::Invalidated) while this process was
+/// stopped is a message lost, whoever sent it. Counted only while a
 /// [`receive_failure_layer`] is installed ([`init_logging`](crate::init_logging)
 /// installs one).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ShmReceiveFailures {
-    counts: [u64; 5],
+    counts: [u64; ReceiveFailureCause::ALL.len()],
 }
 
 impl ShmReceiveFailures {
@@ -209,7 +246,7 @@ fn warner() -> &'static Warner {
         let spawned = std::thread::Builder::new()
             .name("shm-receive-failures".into())
             .spawn(move || {
-                let mut last: [Option<Instant>; 5] = [None; 5];
+                let mut last = [None::<Instant>; ReceiveFailureCause::ALL.len()];
                 while let Ok((cause, error)) = receiver.recv() {
                     let due = last[cause.index()].is_none_or(|at| at.elapsed() >= WARN_EVERY);
                     if due {
@@ -223,11 +260,10 @@ fn warner() -> &'static Warner {
                             _ => String::new(),
                         };
                         tracing::warn!(
-                            "this process could not map a sender's shared memory ({cause}: {error}); \
-                             {} so far for this cause. From an shm-runtime publisher this was its probe: it sends to \
-                             this process from the heap and nothing is lost; from another sender (rmw_zenoh_cpp) \
-                             it was a message, lost. Cause: {}{budget}",
+                            "this process could not take a message from a sender's shared memory \
+                             ({cause}: {error}); {} so far for this cause. {} Cause: {}{budget}",
                             COUNTS[cause.index()].load(Ordering::Relaxed),
+                            cause.outcome(),
                             cause.advice()
                         );
                     }
@@ -262,6 +298,7 @@ mod tests {
                 ReceiveFailureCause::Vanished,
             ),
             (": Unsupported SHM protocol: 3", ReceiveFailureCause::Other),
+            (": Buffer is invalidated", ReceiveFailureCause::Invalidated),
         ] {
             assert_eq!(ReceiveFailureCause::of(text), cause, "{text}");
         }
