@@ -33,25 +33,27 @@ pub enum ReceiveFailureCause {
     /// The open-files limit (`RLIMIT_NOFILE`): each mapped segment holds a
     /// file descriptor.
     OpenFiles,
-    /// The segment no longer exists (its process exited) or was invalidated.
+    /// The segment no longer exists, or Zenoh found it invalid: its process
+    /// exited.
     Vanished,
-    /// The buffer was taken back before this process could take the
-    /// message: Zenoh's watchdog reclaims a buffer whose receivers stop
-    /// confirming it for about 100 ms, as a stopped or starved process does.
-    /// The message is lost, whoever sent it.
-    Invalidated,
     /// Anything else; the warning quotes Zenoh's message.
     Other,
+    /// Zenoh's watchdog marked the buffer invalid before this process took
+    /// the message, as it does with a buffer no process confirms for about
+    /// 100 ms: one in flight to a process that is stopped or starved. The
+    /// message is lost, whoever sent it.
+    Invalidated,
 }
 
 impl ReceiveFailureCause {
+    /// In declaration order: a cause's index is its discriminant.
     const ALL: [Self; 6] = [
         Self::MemoryLock,
         Self::Permission,
         Self::OpenFiles,
         Self::Vanished,
-        Self::Invalidated,
         Self::Other,
+        Self::Invalidated,
     ];
 
     /// Read Zenoh's error text (`… OS error 12`).
@@ -90,10 +92,7 @@ impl ReceiveFailureCause {
     }
 
     fn index(self) -> usize {
-        Self::ALL
-            .iter()
-            .position(|c| *c == self)
-            .unwrap_or(Self::ALL.len() - 1)
+        self as usize
     }
 
     /// What to change.
@@ -279,6 +278,13 @@ fn warner() -> &'static Warner {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_cause_has_its_own_count() {
+        for (i, cause) in ReceiveFailureCause::ALL.into_iter().enumerate() {
+            assert_eq!(cause.index(), i, "{cause}");
+        }
+    }
 
     #[test]
     fn zenohs_error_text_names_the_cause() {
