@@ -1057,9 +1057,9 @@ fn check_container(check: Check) -> Container {
 
 /// Write a run's values, its slots' from the first on, into its zeroed
 /// bytes `run` as its plan's [`Copies`] lay them: each group of one size in
-/// a loop, an array in bulk. `false` if a value is missing or not of its
-/// field's kind (which `Message::set` rules out): then the run is written
-/// member by member.
+/// a loop, an array in bulk. `false` if a value is missing, or is not a
+/// number of its field's size or an array of numbers (which `Message::set`
+/// rules out): then the run is written member by member.
 #[inline]
 fn store_copies<B: ByteOrder>(run: &mut [u8], copies: &Copies, values: &[Value<'_>]) -> bool {
     let Some(values) = values.get(..copies.count) else {

@@ -228,10 +228,9 @@ impl Load {
     }
 }
 
-/// A run's members as copies between its bytes and its values, grouped by
-/// size: each group is a loop with no branch on a value's kind, and the
-/// arrays are borrowed (decode) or copied (encode) whole. Every slot of the
-/// run is in exactly one of them.
+/// A run's members as `encode` writes them: its single numbers and bools
+/// grouped by size, each group a loop with no branch on a value's kind, and
+/// its arrays copied whole. Every slot of the run is in exactly one of them.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct Copies {
     /// The slots the run takes.
@@ -307,17 +306,6 @@ impl Copies {
     /// The copies of a run's members, slots counted from the first; `None`
     /// if a member is not a number, a bool or an array of numbers.
     fn of(members: &[Member]) -> Option<Box<Copies>> {
-        let first = members.first().map_or(0, |m| m.slot);
-        let mut copies = Copies {
-            count: members.len(),
-            ones: Box::default(),
-            twos: Box::default(),
-            fours: Box::default(),
-            eights: Box::default(),
-            arrays: Box::default(),
-        };
-        let (mut ones, mut twos, mut fours, mut eights, mut arrays) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
         fn copy<B: Bits>(m: &Member, slot: usize) -> Copy<B> {
             Copy {
                 at: m.offset,
@@ -325,6 +313,9 @@ impl Copies {
                 keep: if m.placeholder { B::NONE } else { B::ALL },
             }
         }
+        let first = members.first().map_or(0, |m| m.slot);
+        let (mut ones, mut twos, mut fours, mut eights, mut arrays) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for m in members {
             let slot = m.slot.checked_sub(first)?;
             match (m.container, m.element.fixed_size()?) {
@@ -336,30 +327,31 @@ impl Copies {
                 _ => return None,
             }
         }
-        // Each member one slot, the run's slots one after another: every
-        // slot is written once.
+        let copies = Copies {
+            count: members.len(),
+            ones: ones.into(),
+            twos: twos.into(),
+            fours: fours.into(),
+            eights: eights.into(),
+            arrays: arrays.into(),
+        };
+        // Each member takes one slot, the run's slots one after another:
+        // every value of the run is written, once.
         let mut seen = vec![false; copies.count];
-        let slots = ones
+        let slots = copies
+            .ones
             .iter()
             .map(|c| c.slot)
-            .chain(twos.iter().map(|c| c.slot))
-            .chain(fours.iter().map(|c| c.slot))
-            .chain(eights.iter().map(|c| c.slot))
-            .chain(arrays.iter().map(|a| a.0));
+            .chain(copies.twos.iter().map(|c| c.slot))
+            .chain(copies.fours.iter().map(|c| c.slot))
+            .chain(copies.eights.iter().map(|c| c.slot))
+            .chain(copies.arrays.iter().map(|a| a.0));
         for slot in slots {
             if std::mem::replace(seen.get_mut(slot)?, true) {
                 return None;
             }
         }
-        if seen.contains(&false) {
-            return None;
-        }
-        copies.ones = ones.into();
-        copies.twos = twos.into();
-        copies.fours = fours.into();
-        copies.eights = eights.into();
-        copies.arrays = arrays.into();
-        Some(Box::new(copies))
+        (!seen.contains(&false)).then(|| Box::new(copies))
     }
 }
 
