@@ -243,7 +243,9 @@ const STOP_TEST: &str = "stopped_subscriber_process_is_told_of_every_lost_messag
 const RECOVERY_ENV: &str = "RECOVERY_CHILD_PORT";
 const RECOVERY_TEST: &str = "stopped_subscriber_process_with_recovery_gets_every_message";
 const PAST_LEASE_TEST: &str = "subscriber_process_stopped_past_the_lease_with_recovery";
-/// Published while the subscriber process is stopped.
+/// Published and received before the subscriber process is stopped.
+const BEFORE_STOP: u32 = 100;
+/// Published up to, from the stop on (while the process is stopped).
 const DURING_STOP: u32 = 1000;
 /// The child is done once it has this message (or a later one): well past the
 /// stop, over the re-established connection.
@@ -372,6 +374,7 @@ fn stop_child(port: u16, recovery: bool) -> ! {
     out.flush().unwrap();
     let mut report = StopReport::default();
     let mut next = 0u32;
+    let mut caught_up = false;
     while next <= DONE_AT {
         let Some(sample) = subscriber.recv_timeout(TIMEOUT).unwrap() else {
             break;
@@ -402,6 +405,11 @@ fn stop_child(port: u16, recovery: bool) -> ! {
         report.skipped += u64::from(i - next);
         report.received += 1;
         next = i + 1;
+        if !caught_up && next >= BEFORE_STOP {
+            caught_up = true;
+            writeln!(out, "\n{TAG}caught up").unwrap();
+            out.flush().unwrap();
+        }
     }
     report.missed = subscriber.missed();
     report.last = u64::from(next.saturating_sub(1));
@@ -415,8 +423,8 @@ fn stop_child(port: u16, recovery: bool) -> ! {
     }
 }
 
-/// Publish 100 × 32 KiB, SIGSTOP the subscriber process (this binary
-/// re-executed as `test` through `env`), publish up to `DURING_STOP`, SIGCONT
+/// Publish `BEFORE_STOP` × 32 KiB and wait until the subscriber process (this
+/// binary re-executed as `test` through `env`) has them, SIGSTOP it, publish up to `DURING_STOP`, SIGCONT
 /// it after `stopped`, and keep publishing until it reports.
 /// One stop at a time: each congests a link on purpose, and two at once on
 /// two cores starve each other's recovery queries and replies.
@@ -481,9 +489,17 @@ fn stop_subscriber_process_with(
             outcome.kind
         );
     };
-    for i in 0..100 {
+    for i in 0..BEFORE_STOP {
         publish(i);
     }
+    // A subscriber counts gaps from the first message it sees of a publisher
+    // (what went before was not sent to it): stopped before it has seen one,
+    // it could not know what it lost.
+    assert_eq!(
+        lines.recv_timeout(TIMEOUT).as_deref(),
+        Ok("caught up"),
+        "the subscriber process never received the messages before the stop"
+    );
     signal("-STOP");
     // Woken after `stopped` whether or not a blocked publish has returned.
     let wake = std::thread::spawn(move || {
