@@ -182,4 +182,16 @@ mod tests {
         assert_eq!(others.few.len(), FEW);
         assert_eq!(others.many.len(), publishers - 1 - FEW);
     }
+
+    /// A publisher is followed from the first message received of it, whatever
+    /// its number: one joined late has no gap before it.
+    #[test]
+    fn a_publisher_is_followed_from_its_first_message_received() {
+        let publishers = 1 + FEW + 4;
+        let seen = Gaps::new("test");
+        for i in 0..publishers {
+            assert_eq!(seen.record(source(i), 500), 0, "publisher {i}");
+            assert_eq!(seen.record(source(i), 503), 2, "publisher {i}");
+        }
+    }
 }

@@ -638,7 +638,10 @@ impl<T> RosSubscriber<T> {
     /// publishers, or the Zenoh `SourceInfo` of publishers on a plain key). Zenoh loses messages when it
     /// closes a transport that stayed congested past its `wait_before_close`
     /// (e.g. this process was stopped); a loss at the very end of a stream shows
-    /// only once that publisher sends again.
+    /// only once that publisher sends again. Each publisher is followed from
+    /// the first of its messages this subscriber receives: what it sent before
+    /// (to a subscriber that had not yet joined, or lost before that first
+    /// message) is not counted.
     pub fn missed(&self) -> u64 {
         self.missed.load(Ordering::Relaxed)
     }
