@@ -423,13 +423,14 @@ fn stop_child(port: u16, recovery: bool) -> ! {
     }
 }
 
-/// Publish `BEFORE_STOP` × 32 KiB and wait until the subscriber process (this
-/// binary re-executed as `test` through `env`) has them, SIGSTOP it, publish up to `DURING_STOP`, SIGCONT
-/// it after `stopped`, and keep publishing until it reports.
 /// One stop at a time: each congests a link on purpose, and two at once on
 /// two cores starve each other's recovery queries and replies.
 static STOPS: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
+/// Publish `BEFORE_STOP` × 32 KiB and wait until the subscriber process (this
+/// binary re-executed as `test` through `env`) has them, SIGSTOP it, publish
+/// up to `DURING_STOP`, SIGCONT it after `stopped`, and keep publishing until
+/// it reports.
 fn stop_subscriber_process(
     test: &str,
     env: &str,
